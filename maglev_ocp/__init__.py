@@ -7,5 +7,5 @@ are :class:`maglev_ocp.params.Params`.
 from .model import MaglevModel, get_model
 from .params import NOMINAL, Params, load_params
 
-__all__ = ["MaglevModel", "get_model", "Params", "NOMINAL", "load_params"]
+__all__ = ["NOMINAL", "MaglevModel", "Params", "get_model", "load_params"]
 __version__ = "0.1.0"

@@ -155,7 +155,7 @@ class MaglevModel:
         )
 
     # ------------------------------------------------------------------ builders
-    @functools.lru_cache(maxsize=None)  # noqa: B019 - the model is a long-lived singleton
+    @functools.cache  # noqa: B019 - the model is a long-lived singleton
     def step(self, dt: float = k.Ts, n_sub: int = 1) -> ca.Function:
         """Explicit discrete step: RK4 with ``n_sub`` sub-steps over ``dt``, ZOH on u.
 
@@ -183,7 +183,7 @@ class MaglevModel:
         name = f"step_{int(round(dt * 1e6))}us_{n_sub}"
         return ca.Function(name, [x, u, p], [xk], ["x", "u", "p"], ["x_next"])
 
-    @functools.lru_cache(maxsize=None)  # noqa: B019
+    @functools.cache  # noqa: B019
     def linear_split(self, names: Sequence[str] = ("C1", "C2", "C3", "C4")) -> ca.Function:
         """Linear-in-parameters split ``x_dot = A(x, u) theta + b(x, u)``.
 
@@ -242,4 +242,4 @@ def get_model() -> MaglevModel:
     return MaglevModel()
 
 
-__all__ = ["MaglevModel", "get_model", "shape_expressions", "LINEAR_PARAMS", "STATE_NAMES", "INPUT_NAMES"]
+__all__ = ["INPUT_NAMES", "LINEAR_PARAMS", "STATE_NAMES", "MaglevModel", "get_model", "shape_expressions"]
