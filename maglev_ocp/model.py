@@ -180,7 +180,7 @@ class MaglevModel:
             k3 = self.f(xk + h / 2 * k2, u, p)
             k4 = self.f(xk + h * k3, u, p)
             xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        name = f"step_{int(round(dt * 1e6))}us_{n_sub}"
+        name = f"step_{round(dt * 1e6)}us_{n_sub}"
         return ca.Function(name, [x, u, p], [xk], ["x", "u", "p"], ["x_next"])
 
     @functools.cache  # noqa: B019

@@ -40,7 +40,10 @@ def table(gaps_mm, params) -> list[dict[str, float]]:
 
 def format_table(rows: list[dict[str, float]]) -> str:
     """Fixed-width text table with units."""
-    head = f"{'g [mm]':>7} {'lam':>7} {'Kc':>7} {'B [T]':>7} {'i_d,eq [A]':>11} {'L1 [m/s^2/A]':>13} {'pole [rad/s]':>13}"
+    head = (
+        f"{'g [mm]':>7} {'lam':>7} {'Kc':>7} {'B [T]':>7} {'i_d,eq [A]':>11} "
+        f"{'L1 [m/s^2/A]':>13} {'pole [rad/s]':>13}"
+    )
     lines = [head, "-" * len(head)]
     for r in rows:
         lines.append(
