@@ -1,0 +1,318 @@
+"""Summary of a campaign: one row per run, tables per case, figures.
+
+Row columns:
+
+* identity: ``index, run_id, controller, case, draw, seed, status, error, success``;
+* ``grid.<key>``: the case's grid point; ``dev.plant.<P>`` / ``dev.belief.<P>``:
+  drawn parameter deviations [%];
+* ``ov.<key>``: every override applied to the base scenario (nested values
+  flattened with dots, lists as JSON);
+* ``m.<key>``: every metric of the run, flattened (per-target metrics as
+  ``m.targets.<i>.<key>``), plus ``settle_time_max_s`` (slowest target, NaN
+  if one never settled) and ``rms_error_max_m`` (worst steady RMS error of
+  both axes over the targets);
+* ``wall_s``: the run's wall time.
+
+``success`` is the issue's criterion: the run finished, every target settled
+within the tolerance, and no stop was hit.
+
+Columns that measure time (``step_time``, ``wall_s``) differ from one execution to
+the next; :func:`deterministic_columns` names the others, which are equal
+for the same campaign whatever executed it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..config import atomic_write_bytes, atomic_write_text
+from .execute import read_run_record, run_dir
+from .expand import RunSpec
+
+#: Metric names (in the runner's ``metrics.json``) the summary relies on.
+TARGETS_KEY = "targets"
+ALL_SETTLED = "all_settled"
+STOP_HITS = "stop_hits"
+SETTLE_TIME = "settle_time_s"
+RMS_KEYS = ("rms_error_g_m", "rms_error_d_m")
+
+
+def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
+    """Flatten nested dicts (and lists of dicts) into dotted scalar columns."""
+    if isinstance(value, dict):
+        for k_, v in value.items():
+            _flatten(f"{prefix}.{k_}" if prefix else str(k_), v, out)
+    elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+        for i, v in enumerate(value):
+            _flatten(f"{prefix}.{i}", v, out)
+    elif isinstance(value, (list, tuple)):
+        out[prefix] = json.dumps(value)
+    elif value is None:
+        out[prefix] = np.nan
+    else:
+        out[prefix] = value
+
+
+def _target_list(metrics: dict[str, Any]) -> list[dict[str, Any]]:
+    t = metrics.get(TARGETS_KEY)
+    if isinstance(t, list):
+        return [x for x in t if isinstance(x, dict)]
+    if isinstance(t, dict):  # keyed by index
+        return [t[k_] for k_ in sorted(t, key=lambda s: int(s) if str(s).isdigit() else str(s))]
+    return []
+
+
+def _num(v: Any) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def run_row(spec: RunSpec, record: dict[str, Any] | None, metrics: dict[str, Any] | None) -> dict[str, Any]:
+    """One summary row for a run (``record`` None: not finished yet)."""
+    row: dict[str, Any] = {
+        "index": spec.index, "run_id": spec.run_id, "controller": spec.controller, "case": spec.case,
+        "draw": spec.draw, "seed": spec.seed,
+        "status": "pending" if record is None else record.get("status", "failed"),
+        "error": (record or {}).get("error") or "",
+    }
+    for key, v in spec.grid.items():
+        row[f"grid.{key}"] = json.dumps(v) if isinstance(v, (dict, list)) else v
+    for key, v in spec.deviations.items():
+        row[f"dev.{key}"] = float(v)
+    ov: dict[str, Any] = {}
+    for key, v in spec.overrides.items():
+        _flatten(key, v, ov)
+    row.update({f"ov.{k_}": v for k_, v in ov.items()})
+    m = metrics or {}
+    flat: dict[str, Any] = {}
+    _flatten("", m, flat)
+    row.update({f"m.{k_}": v for k_, v in flat.items()})
+    targets = _target_list(m)
+    st = [_num(t.get(SETTLE_TIME)) if t.get("settled", True) else float("nan") for t in targets]
+    row["n_targets"] = len(targets)
+    row["settle_time_max_s"] = max(st) if st and not any(math.isnan(x) for x in st) else float("nan")
+    rms = [_num(t.get(k_)) for t in targets for k_ in RMS_KEYS]
+    rms = [x for x in rms if not math.isnan(x)]
+    row["rms_error_max_m"] = max(rms) if rms else float("nan")
+    row["success"] = bool(
+        row["status"] == "ok" and bool(m.get(ALL_SETTLED, False)) and int(_num(m.get(STOP_HITS, 1)) or 0) == 0
+    )
+    row["wall_s"] = _num((record or {}).get("wall_s"))
+    return row
+
+
+def is_timing_column(name: str) -> bool:
+    """True for columns that measure time and change between executions."""
+    return name == "wall_s" or "step_time" in name or name.endswith("_us") or "wall" in name
+
+
+def deterministic_columns(columns: list[str]) -> list[str]:
+    """Columns that depend only on the campaign (not on which machine ran it, nor when)."""
+    return [c for c in columns if not is_timing_column(c)]
+
+
+def wilson(k_: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval of a success rate ``k_/n`` (95 % by default)."""
+    if n == 0:
+        return (float("nan"), float("nan"))
+    p = k_ / n
+    den = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / den
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return (max(0.0, c - h), min(1.0, c + h))
+
+
+@dataclass
+class CampaignSummary:
+    """The summary table of a campaign and its figures.
+
+    Attributes
+    ----------
+    name : str
+        Campaign name.
+    table : pandas.DataFrame
+        One row per run (finished or not), in expansion order.
+    """
+
+    name: str
+    table: Any
+
+    @property
+    def finished(self) -> Any:
+        """Rows of finished runs (ok or failed)."""
+        return self.table[self.table["status"] != "pending"]
+
+    def case_label(self, row: Any) -> str:
+        """Label of a case: controller and its grid point."""
+        g = [f"{c.split('.')[-1]}={row[c]}" for c in self.table.columns if c.startswith("grid.")]
+        return f"c{int(row['case'])} {row['controller']}" + (f" ({', '.join(g)})" if g else "")
+
+    def by_case(self) -> Any:
+        """Per-case table: runs, failures, success rate (95 % Wilson interval), settle and step times."""
+        import pandas as pd
+
+        t = self.finished
+        rows = []
+        for case, grp in t.groupby("case", sort=True):
+            n = len(grp)
+            ok = int(grp["success"].sum())
+            lo, hi = wilson(ok, n)
+            st = grp["settle_time_max_s"].dropna()
+            step = grp["m.step_time_us.median"] if "m.step_time_us.median" in grp else pd.Series(dtype=float)
+            p99 = grp["m.step_time_us.p99"] if "m.step_time_us.p99" in grp else pd.Series(dtype=float)
+            rows.append({
+                "case": int(case), "label": self.case_label(grp.iloc[0]), "runs": n,
+                "failed": int((grp["status"] == "failed").sum()),
+                "success_pct": 100.0 * ok / n, "ci95_low_pct": 100 * lo, "ci95_high_pct": 100 * hi,
+                "settle_median_ms": 1e3 * float(st.median()) if len(st) else float("nan"),
+                "settle_p90_ms": 1e3 * float(st.quantile(0.9)) if len(st) else float("nan"),
+                "rms_max_median_um": 1e6 * float(grp["rms_error_max_m"].median()),
+                "step_median_us": float(pd.to_numeric(step, errors="coerce").median()),
+                "step_p99_max_us": float(pd.to_numeric(p99, errors="coerce").max()),
+            })
+        return pd.DataFrame(rows)
+
+    def __str__(self) -> str:
+        t = self.by_case()
+        if t.empty:
+            return f"campaign {self.name}: no finished runs"
+        return f"campaign {self.name}:\n" + t.to_string(index=False, float_format=lambda x: f"{x:.1f}")
+
+    def save(self, out_dir: str | os.PathLike, figures: bool = True) -> list[Path]:
+        """Write ``summary.csv`` (and ``summary.parquet`` if pyarrow is installed), ``by_case.csv``, figures."""
+        out = Path(out_dir)
+        written = [out / "summary.csv", out / "by_case.csv"]
+        atomic_write_text(written[0], self.table.to_csv(index=False))
+        atomic_write_text(written[1], self.by_case().to_csv(index=False))
+        try:
+            import pyarrow  # noqa: F401
+        except ImportError:
+            pass
+        else:
+            import io
+
+            buf = io.BytesIO()
+            self.table.astype({c: str for c in self.table.columns if self.table[c].dtype == object}).to_parquet(
+                buf, index=False)
+            atomic_write_bytes(out / "summary.parquet", buf.getvalue())
+            written.append(out / "summary.parquet")
+        if figures and len(self.finished):
+            written += plot_summary(self, out)
+        return written
+
+
+def summarize(out_dir: str | os.PathLike, specs: list[RunSpec], name: str = "campaign") -> CampaignSummary:
+    """Build the summary table from the run folders of ``out_dir`` (any subset may be finished)."""
+    import pandas as pd
+
+    rows = []
+    for s in specs:
+        rec = read_run_record(Path(out_dir), s.run_id)
+        metrics = None
+        if rec is not None and rec.get("status") == "ok":
+            mp = run_dir(Path(out_dir), s.run_id) / "metrics.json"
+            metrics = json.loads(mp.read_text()) if mp.is_file() else None
+        rows.append(run_row(s, rec, metrics))
+    return CampaignSummary(name, pd.DataFrame(rows))
+
+
+def _groups(s: CampaignSummary) -> list[tuple[str, Any]]:
+    t = s.finished
+    return [(s.case_label(g.iloc[0]), g) for _, g in t.groupby("case", sort=True)]
+
+
+def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
+    """Figures: success rate and settle-time distribution per case, metrics vs each varied quantity."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written: list[Path] = []
+    groups = _groups(s)
+    labels = [lab for lab, _ in groups]
+    n_g = len(groups)
+
+    # Success rate with 95 % Wilson intervals.
+    fig, ax = plt.subplots(figsize=(max(5.0, 0.9 * n_g + 2), 3.8))
+    rates, errs = [], [[], []]
+    for _, g in groups:
+        n, ok = len(g), int(g["success"].sum())
+        lo, hi = wilson(ok, n)
+        r = 100 * ok / n
+        rates.append(r)
+        errs[0].append(r - 100 * lo)
+        errs[1].append(100 * hi - r)
+    ax.bar(range(n_g), rates, yerr=errs, capsize=4, color="tab:blue", alpha=0.8)
+    for i, (_, g) in enumerate(groups):
+        ax.text(i, 2, f"n={len(g)}", ha="center", va="bottom", fontsize=8, color="white")
+    ax.set_xticks(range(n_g), labels, rotation=20 if n_g > 3 else 0, ha="right" if n_g > 3 else "center",
+                  fontsize=8)
+    ax.set_ylim(0, 105)
+    ax.set_ylabel("success rate [%] (all targets within tolerance, no stop)")
+    ax.set_title(f"{s.name}: success rate per case (95 % Wilson interval)")
+    ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    written.append(out / "success_rate.png")
+    atomic_write_bytes(written[-1], fig)
+    plt.close(fig)
+
+    # Settle-time distributions (every settled target of every run).
+    fig, ax = plt.subplots(figsize=(max(5.0, 0.9 * n_g + 2), 3.8))
+    data = []
+    for _, g in groups:
+        cols = [c for c in g.columns if c.startswith("m.targets.") and c.endswith("." + SETTLE_TIME)]
+        vals = np.concatenate([np.asarray(g[c], dtype=float) for c in cols]) if cols else np.array([])
+        data.append(1e3 * vals[np.isfinite(vals)])
+    if any(len(d) for d in data):
+        ax.violinplot([d if len(d) else [np.nan] for d in data], positions=range(n_g), showmedians=True)
+    ax.set_xticks(range(n_g), labels, rotation=20 if n_g > 3 else 0, ha="right" if n_g > 3 else "center",
+                  fontsize=8)
+    ax.set_ylabel("settle time per target [ms]")
+    ax.set_title(f"{s.name}: settle-time distribution per case")
+    ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    written.append(out / "settle_time.png")
+    atomic_write_bytes(written[-1], fig)
+    plt.close(fig)
+
+    # Metrics against each varied quantity.
+    t = s.finished
+    metrics_y = [("settle_time_max_s", 1e3, "slowest settle time [ms]"),
+                 ("rms_error_max_m", 1e6, "worst steady RMS error [um]")]
+    if "m.step_time_us.p99" in t:
+        metrics_y.append(("m.step_time_us.p99", 1.0, "controller step time p99 [us]"))
+    for col in [c for c in t.columns if c.startswith(("dev.", "grid."))]:
+        fig, axs = plt.subplots(1, len(metrics_y), figsize=(4.2 * len(metrics_y), 3.6), squeeze=False)
+        numeric = col.startswith("dev.") or np.issubdtype(np.asarray(t[col]).dtype, np.number)
+        cats = sorted({str(v) for v in t[col]}) if not numeric else []
+        for a, (ycol, scale, ylab) in zip(axs[0], metrics_y, strict=True):
+            for j, (lab, g) in enumerate(groups):
+                x = np.asarray(g[col], dtype=float) if numeric else np.array([cats.index(str(v)) for v in g[col]])
+                y = scale * np.asarray(g[ycol], dtype=float)
+                ok = np.asarray(g["success"], dtype=bool)
+                a.scatter(x[ok], y[ok], s=10, color=f"C{j % 10}", label=lab, alpha=0.7)
+                a.scatter(x[~ok], np.where(np.isfinite(y[~ok]), y[~ok], np.nan), s=18, marker="x",
+                          color=f"C{j % 10}", alpha=0.9)
+            if not numeric:
+                a.set_xticks(range(len(cats)), cats, fontsize=7, rotation=20)
+            xl = f"{col[4:]} deviation [%]" if col.startswith("dev.") else col[5:]
+            a.set_xlabel(xl)
+            a.set_ylabel(ylab)
+            a.grid(True, alpha=0.3)
+        axs[0][0].legend(fontsize=7, title="o success, x failure", title_fontsize=7)
+        fig.suptitle(f"{s.name}: metrics vs {col}")
+        fig.tight_layout()
+        written.append(out / f"vs_{col.replace('.', '_')}.png")
+        atomic_write_bytes(written[-1], fig)
+        plt.close(fig)
+    return written
