@@ -250,8 +250,8 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
         lo, hi = wilson(ok, n)
         r = 100 * ok / n
         rates.append(r)
-        errs[0].append(r - 100 * lo)
-        errs[1].append(100 * hi - r)
+        errs[0].append(max(0.0, r - 100 * lo))
+        errs[1].append(max(0.0, 100 * hi - r))
     ax.bar(range(n_g), rates, yerr=errs, capsize=4, color="tab:blue", alpha=0.8)
     for i, (_, g) in enumerate(groups):
         ax.text(i, 2, f"n={len(g)}", ha="center", va="bottom", fontsize=8, color="white")
