@@ -1,0 +1,462 @@
+"""The whole NMPC control step as ONE CasADi Function (the Python and the C backend).
+
+``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)``:
+
+1. extended-state high-gain observer (the one of :mod:`maglev_ocp.observers`,
+   same gains and update, but symbolic) on the quantized encoders: state and a
+   constant acceleration disturbance per axis (offset-free tracking);
+2. reference: a jerk-limited bang-bang move planned when the target changes
+   (:mod:`controllers.nmpc_plan`) or the runner's reference extrapolated, plus
+   feed-forward currents from the inverted model;
+3. real-time iteration (RTI) of multiple shooting on the shared model (with
+   cogging unless ``p`` switches it off) plus the disturbance: one
+   linearization per stage along the shifted previous solution;
+4. condensing into a dense QP in the ``2 N`` input corrections, KKT Cholesky;
+5. a fixed number of ADMM iterations (:mod:`controllers.nmpc_qp`): current disk
+   per stage (contains the +-8 A box), soft gap bounds;
+6. checks and fallback (non-finite solution -> LQR about the planned
+   reference, clipped to the disk), warm-start shift of states, inputs and
+   duals.
+
+The state vector layout is described by :class:`StateLayout`. The Function is
+an MX graph of a few SX Functions (prep, ADMM iteration called ``n_iter``
+times, post), so the generated C is compact and needs only fixed work arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import scipy.linalg
+
+from maglev_ocp import constants as k
+from maglev_ocp.model import get_model
+from maglev_ocp.observers import HighGainObserver, ObserverSettings
+from maglev_ocp.params import NOMINAL
+
+from .nmpc_plan import half_duration, move_at, thrust_accel_available, u_for_accel
+from .nmpc_qp import ADMMSettings, admm_iteration, chol_sx, condensed_qp, project_disk
+
+NX, NU = 4, 2
+N_MEAS = 3  #: meas = (g, d, fault)  [m, m, -]
+REF_ROWS = ("g", "g_dot", "g_ddot", "d", "d_dot", "d_ddot")  #: rows of the ref input, one column per node
+STATUS_OK, STATUS_INACCURATE, STATUS_FALLBACK = 0, 1, 2
+STATS_NAMES: tuple[str, ...] = (
+    "status", "fallback", "iterations", "iters_to_tol", "qp_r_prim", "qp_r_dual",
+    "plan_t", "plan_T", "dist_g", "dist_d", "n_fail",
+)
+
+
+@dataclass(frozen=True)
+class StepConfig:
+    """Numeric design of the step Function (everything baked in as constants).
+
+    Built from :class:`controllers.nmpc.NMPCSettings`; see there for meanings.
+    """
+
+    N: int = 20
+    Ts: float = k.Ts
+    n_sub: int = 1
+    Q: tuple[float, float, float, float] = (4e6, 1e2, 4e6, 1e2)
+    R: tuple[float, float] = (1.0, 1.0)
+    Rd: tuple[float, float] = (0.0, 0.0)
+    terminal_scale: float = 1.0
+    n_iter: int = 30
+    admm: ADMMSettings = field(default_factory=ADMMSettings)
+    i_max: float = k.i_amp_max
+    i_box: float = k.i_axis_max
+    gap_lo: float = 10e-3
+    gap_hi: float = 30e-3
+    gap_stride: int = 4
+    soft_w1: float = 10.0
+    soft_w2: float = 100.0
+    obs_eps: float = 4e-3
+    offset_free: bool = True
+    reference: str = "plan"
+    accel_margin: float = 0.9
+    gap_accel: float = 20.0
+    jerk_time: float = 2e-3
+    min_move_time: float = 4e-3
+    tol_prim: float = 1e-2
+    tol_dual: float = 1e-2
+    jacobian: str = "taylor"
+    check_every: int = 5
+
+    @property
+    def n_gap(self) -> int:
+        """Number of soft gap rows (stages ``stride, 2 stride, ..., <= N``)."""
+        return len(self.gap_stages)
+
+    @property
+    def gap_stages(self) -> tuple[int, ...]:
+        """Stages whose predicted gap is softly bounded."""
+        if self.gap_stride <= 0:
+            return ()
+        return tuple(range(self.gap_stride, self.N + 1, self.gap_stride))
+
+
+@dataclass(frozen=True)
+class StateLayout:
+    """Offsets of the pieces of the NMPC's state vector (``state_in`` / ``state_out``).
+
+    Pieces: ``xhat`` (4) observer state, ``dist`` (2) acceleration disturbance
+    [m/s^2], ``u_prev`` (2) last applied currents [A], ``fresh`` (1) 1 right
+    after reset (skip the observer prediction once), ``plan`` (7) planner
+    ``(g_start, d_start, g_target, d_target, t, h, tj)``, ``X`` ((N+1) x 4)
+    shooting nodes, ``U`` (N x 2) currents, ``y`` ADMM duals (2N + n_gap),
+    ``nfail`` (1) consecutive fallbacks.
+    """
+
+    N: int
+    n_gap: int
+
+    @property
+    def pieces(self) -> tuple[tuple[str, int], ...]:
+        """Names and sizes in order."""
+        return (
+            ("xhat", NX), ("dist", 2), ("u_prev", NU), ("fresh", 1), ("plan", 7),
+            ("X", (self.N + 1) * NX), ("U", self.N * NU), ("y", self.N * NU + self.n_gap), ("nfail", 1),
+        )
+
+    @property
+    def size(self) -> int:
+        """Length of the state vector."""
+        return sum(n for _, n in self.pieces)
+
+    def slices(self) -> dict[str, slice]:
+        """Slice of each piece."""
+        out, i = {}, 0
+        for name, n in self.pieces:
+            out[name] = slice(i, i + n)
+            i += n
+        return out
+
+    def split(self, v):
+        """Dict of the pieces of ``v`` (numpy array or CasADi vector)."""
+        return {name: v[s] for name, s in self.slices().items()}
+
+
+def lqr_design(cfg: StepConfig, params=NOMINAL, g0: float = 20e-3) -> tuple[np.ndarray, np.ndarray]:
+    """Discrete LQR at hover (gap ``g0``, ``d = 0``): terminal weight ``P`` and fallback gain ``K``.
+
+    Returns
+    -------
+    P : ndarray, shape (4, 4)
+        DARE solution for the step's ``Q`` and ``R`` (the infinite-horizon tail).
+    K : ndarray, shape (2, 4)
+        Gain of ``u = u_ref + K (x - x_ref)``.
+    """
+    m = get_model()
+    p = params.vector()
+    u0 = np.asarray(m.u_eq(g0, 0.0, p)).ravel()
+    F = m.step(cfg.Ts, 1)
+    x = ca.SX.sym("x", NX)
+    u = ca.SX.sym("u", NU)
+    J = ca.Function("J", [x, u], [ca.jacobian(F(x, u, p), x), ca.jacobian(F(x, u, p), u)])
+    A, B = (np.asarray(M) for M in J([g0, 0, 0, 0], u0))
+    Q, R = np.diag(cfg.Q), np.diag(cfg.R)
+    P = scipy.linalg.solve_discrete_are(A, B, Q, R)
+    K = -np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)
+    return P, K
+
+
+class StepBuilder:
+    """Builds ``nmpc_step`` and ``nmpc_init`` for a :class:`StepConfig`."""
+
+    def __init__(self, cfg: StepConfig, use_cse: bool = True):
+        self.cfg = cfg
+        self.use_cse = use_cse
+        self.layout = StateLayout(cfg.N, cfg.n_gap)
+        self.model = get_model()
+        P, K = lqr_design(cfg)
+        self.P = P * cfg.terminal_scale
+        self.K = K
+        obs = HighGainObserver(NOMINAL, ObserverSettings(eps=cfg.obs_eps, disturbance=True), cfg.Ts)
+        self.L_obs = obs.L.copy()
+        if not cfg.offset_free:
+            self.L_obs[2] = 0.0
+        self._build_pred()
+
+    # ------------------------------------------------------------------ pieces
+    def _build_pred(self) -> None:
+        """Prediction model: RK4 of ``f(x,u,p) + (0, w_g, 0, w_d)`` over one period, and its Jacobians."""
+        m, cfg = self.model, self.cfg
+        x, u, p, w = ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("p", m.np_), ca.SX.sym("w", 2)
+        E = ca.vertcat(0, w[0], 0, w[1])
+        h = cfg.Ts / cfg.n_sub
+        xk = x
+        for _ in range(cfg.n_sub):
+            k1 = m.f(xk, u, p) + E
+            k2 = m.f(xk + h / 2 * k1, u, p) + E
+            k3 = m.f(xk + h / 2 * k2, u, p) + E
+            k4 = m.f(xk + h * k3, u, p) + E
+            xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        self.F = ca.Function("nmpc_pred", [x, u, p, w], [xk])
+        if cfg.jacobian == "exact":
+            Ad, Bd = ca.jacobian(xk, x), ca.jacobian(xk, u)
+        else:
+            # Third-order Taylor series of the transition matrix at the node: |A_c Ts| ~ 0.04, so the
+            # error is ~1e-7 relative; RTI converges to the same solution (the gaps use the exact RK4).
+            Ac, Bc = m.linearization(x, u, p)
+            T = cfg.Ts
+            A2 = ca.mtimes(Ac, Ac)
+            Ad = ca.DM.eye(NX) + Ac * T + A2 * (T**2 / 2) + ca.mtimes(A2, Ac) * (T**3 / 6)
+            Bd = ca.mtimes(ca.DM.eye(NX) * T + Ac * (T**2 / 2) + A2 * (T**3 / 6), Bc)
+        self.FJ = ca.Function("nmpc_pred_jac", [x, u, p, w], [xk, Ad, Bd])
+        self.F_obs = m.step(cfg.Ts, 1)
+
+    def _observer(self, xhat, dist, u_prev, y, p):
+        """Predictor-corrector update of :class:`~maglev_ocp.observers.HighGainObserver`, symbolic."""
+        Ts, L = self.cfg.Ts, self.L_obs
+        xp = self.F_obs(xhat, u_prev, p)
+        xp = xp + ca.vertcat(dist[0] * Ts**2 / 2, dist[0] * Ts, dist[1] * Ts**2 / 2, dist[1] * Ts)
+        ok = ca.fabs(y[0]) + ca.fabs(y[1]) < 1e3  # a non-finite reading is skipped (prediction only)
+        e_g = ca.if_else(ok, y[0] - xp[0], 0)
+        e_d = ca.if_else(ok, y[1] - xp[2], 0)
+        x_new = ca.vertcat(xp[0] + L[0] * e_g, xp[1] + L[1] * e_g, xp[2] + L[0] * e_d, xp[3] + L[1] * e_d)
+        d_new = ca.vertcat(dist[0] + L[2] * e_g, dist[1] + L[2] * e_d)
+        return x_new, d_new
+
+    def _plan(self, g_s, d_s, g_t, d_t, p, w_g):
+        """Duration of a synchronized rest-to-rest move from ``(g_s, d_s)`` to ``(g_t, d_t)``."""
+        cfg = self.cfg
+        # Thrust acceleration left on the current disk at hover, at the weakest of start, middle, end gap.
+        acc = [thrust_accel_available(g, p, cfg.i_max, w_g) for g in (g_s, g_t, (g_s + g_t) / 2)]
+        a_d = cfg.accel_margin * ca.fmin(ca.fmin(acc[0], acc[1]), acc[2])
+        a_d = ca.fmax(a_d, 1.0)
+        h_d, _ = half_duration(d_t - d_s, a_d, cfg.jerk_time)
+        h_g, _ = half_duration(g_t - g_s, cfg.gap_accel, cfg.jerk_time)
+        h = ca.fmax(ca.fmax(h_d, h_g), cfg.min_move_time / 2)
+        tj = ca.fmin(cfg.jerk_time, h / 2)
+        return h, tj
+
+    def _reference(self, plan, ref, t0):
+        """Reference states and accelerations at the horizon nodes ``k = 0..N``.
+
+        ``plan`` mode: the internal planner's move; ``preview`` mode: the
+        columns of ``ref`` (rows :data:`REF_ROWS`).
+        """
+        cfg = self.cfg
+        g_s, d_s, g_t, d_t, _, h, tj = (plan[i] for i in range(7))
+        R, A = [], []
+        for j in range(cfg.N + 1):
+            t = t0 + j * cfg.Ts
+            if cfg.reference == "plan":
+                pg, vg, ag = move_at(t, g_t - g_s, h, tj)
+                pd, vd, ad = move_at(t, d_t - d_s, h, tj)
+                R.append(ca.vertcat(g_s + pg, vg, d_s + pd, vd))
+                A.append(ca.vertcat(ag, ad))
+            else:
+                R.append(ca.vertcat(ref[0, j], ref[1, j], ref[3, j], ref[4, j]))
+                A.append(ca.vertcat(ref[2, j], ref[5, j]))
+        return R, A
+
+    def _uref(self, R, A, p, w):
+        """Feed-forward currents along the reference, projected onto the current disk."""
+        cfg = self.cfg
+        out = []
+        for j in range(cfg.N):
+            u = u_for_accel(R[j], A[j], p, w)
+            out.append(project_disk(u, cfg.i_max, cfg.i_box))
+        return out
+
+    # ---------------------------------------------------------------- functions
+    def build_init(self) -> ca.Function:
+        """``nmpc_init(meas, ref, p) -> state``: at rest at the reading, plan towards ``ref``."""
+        cfg, lay, m = self.cfg, self.layout, self.model
+        meas, ref, p = ca.SX.sym("meas", N_MEAS), ca.SX.sym("ref", 6, cfg.N + 1), ca.SX.sym("p", m.np_)
+        xhat = ca.vertcat(meas[0], 0, meas[1], 0)
+        w = ca.SX.zeros(2)
+        g_t, d_t = ref[0, 0], ref[3, 0]
+        h, tj = self._plan(meas[0], meas[1], g_t, d_t, p, 0)
+        plan = ca.vertcat(meas[0], meas[1], g_t, d_t, 0, h, tj)
+        R, A = self._reference(plan, ref, 0)
+        U = self._uref(R, A, p, w)
+        u_prev = project_disk(u_for_accel(xhat, ca.vertcat(0, 0), p, w), cfg.i_max, cfg.i_box)
+        state = ca.vertcat(
+            xhat, w, u_prev, 1, plan, ca.vertcat(*R), ca.vertcat(*U), ca.SX.zeros(lay.N * NU + lay.n_gap), 0,
+        )
+        assert state.shape[0] == lay.size
+        return ca.Function("nmpc_init", [meas, ref, p], [state], ["meas", "ref", "p"], ["state"])
+
+    def build_prep(self) -> ca.Function:
+        """Observer, planner, RTI linearization, condensing and KKT factorization (one SX Function)."""
+        cfg, lay, m = self.cfg, self.layout, self.model
+        N, nv, ng = cfg.N, cfg.N * NU, cfg.n_gap
+        st, meas, ref, p = (ca.SX.sym("state", lay.size), ca.SX.sym("meas", N_MEAS),
+                            ca.SX.sym("ref", 6, cfg.N + 1), ca.SX.sym("p", m.np_))
+        S = lay.split(st)
+        fresh = S["fresh"][0] > 0.5
+        xo, do = self._observer(S["xhat"], S["dist"], S["u_prev"], meas[:2], p)
+        xhat = ca.if_else(fresh, S["xhat"], xo)
+        dist = ca.if_else(fresh, S["dist"], do)
+        w = dist if cfg.offset_free else ca.SX.zeros(2)
+
+        # Planner: replan from the estimate when the target changes, else advance the clock.
+        pl = S["plan"]
+        g_t, d_t = ref[0, 0], ref[3, 0]
+        if cfg.reference == "plan":
+            new = ca.fabs(g_t - pl[2]) + ca.fabs(d_t - pl[3]) > 0
+            h_new, tj_new = self._plan(xhat[0], xhat[2], g_t, d_t, p, w[0])
+        else:
+            new, h_new, tj_new = ca.SX(0), pl[5], pl[6]
+        t_adv = ca.if_else(fresh, pl[4], pl[4] + cfg.Ts)
+        plan = ca.if_else(
+            new,
+            ca.vertcat(xhat[0], xhat[2], g_t, d_t, 0, h_new, tj_new),
+            ca.vertcat(pl[0], pl[1], pl[2], pl[3], ca.fmin(t_adv, 2 * pl[5] + 1.0), pl[5], pl[6]),
+        )
+        R, Aref = self._reference(plan, ref, plan[4])
+        Uref = self._uref(R, Aref, p, w)
+
+        # RTI linearization along the shifted previous solution (multiple shooting).
+        Xb = ca.reshape(S["X"], NX, N + 1)
+        Ub = ca.reshape(S["U"], NU, N)
+        As, Bs, cs = [], [], []
+        for j in range(N):
+            xn, Aj, Bj = self.FJ(Xb[:, j], Ub[:, j], p, w)
+            As.append(Aj)
+            Bs.append(Bj)
+            cs.append(xn - Xb[:, j + 1])
+        dx0 = xhat - Xb[:, 0]
+        # Cost: sum_k |x_k - r_k|_Q (P at N) + |u_k - uref_k|_R + |u_k - u_{k-1}|_Rd.
+        Ws = [ca.DM(np.diag(cfg.Q))] * N + [ca.DM(self.P)]
+        E = [Xb[:, j] - R[j] for j in range(N + 1)]
+        qp = condensed_qp(As, Bs, cs, dx0, E, Ws, cfg.gap_stages, [Xb[0, j] for j in range(N + 1)])
+        H, q = qp["H"], qp["q"]
+        Rm = np.tile(cfg.R, N)
+        Rdm = np.tile(cfg.Rd, N)
+        ub = ca.vec(Ub)
+        H = H + ca.diag(ca.DM(Rm))
+        q = q + ca.DM(Rm) * (ub - ca.vertcat(*Uref))
+        if any(cfg.Rd):
+            Dm = np.eye(nv) - np.eye(nv, k=-NU)
+            d0 = ca.mtimes(ca.DM(Dm), ub) - ca.vertcat(S["u_prev"], ca.SX.zeros(nv - NU))
+            DRd = ca.DM(Dm.T * Rdm)
+            H = H + ca.DM(DRd @ Dm)
+            q = q + ca.mtimes(DRd, d0)
+        H = H + ca.if_else(meas[2] > 0.5, math.nan, 0) * ca.DM(np.eye(nv))  # forced failure (tests)
+
+        # Soft gap rows in millimetres.
+        G = 1e3 * qp["G"]
+        gfree = qp["gfree"]
+        glb = 1e3 * (cfg.gap_lo - gfree)
+        gub = 1e3 * (cfg.gap_hi - gfree)
+        s = cfg.admm
+        Mk = H + (s.sigma + s.rho_u) * ca.DM.eye(nv)
+        if ng:
+            Mk = Mk + s.rho_g * ca.mtimes(G.T, G)
+        Lc, dinv = chol_sx(ca.densify(Mk))
+
+        outs = [Lc, dinv, q, G, ub, glb, gub, S["y"], xhat, dist, plan,
+                ca.horzcat(*As), ca.horzcat(*Bs), ca.horzcat(*cs), dx0, Xb, ca.horzcat(*R), ca.horzcat(*Uref), w]
+        if self.use_cse:
+            outs = ca.cse(outs)
+        return ca.Function(
+            "nmpc_prep", [st, meas, ref, p], outs, ["state", "meas", "ref", "p"],
+            ["L", "dinv", "q", "G", "ubar", "glb", "gub", "y0", "xhat", "dist", "plan",
+             "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w"],
+        )
+
+    def build_post(self) -> ca.Function:
+        """Checks, fallback and warm-start shift (one SX Function)."""
+        cfg, m = self.cfg, self.model
+        N, nv, ng = cfg.N, cfg.N * NU, cfg.n_gap
+        v = ca.SX.sym("v", nv)  # projected input corrections (the z of the input rows)
+        y = ca.SX.sym("y", nv + ng)
+        ub = ca.SX.sym("ubar", nv)
+        xhat, dist, plan = ca.SX.sym("xhat", NX), ca.SX.sym("dist", 2), ca.SX.sym("plan", 7)
+        As = ca.SX.sym("As", NX, NX * N)
+        Bs = ca.SX.sym("Bs", NX, NU * N)
+        cs = ca.SX.sym("cs", NX, N)
+        dx0 = ca.SX.sym("dx0", NX)
+        Xb = ca.SX.sym("Xbar", NX, N + 1)
+        Xref = ca.SX.sym("Xref", NX, N + 1)
+        Uref = ca.SX.sym("Uref", NU, N)
+        w = ca.SX.sym("w", 2)
+        p = ca.SX.sym("p", m.np_)
+        r_prim, r_dual, iters_to_tol = ca.SX.sym("r_prim"), ca.SX.sym("r_dual"), ca.SX.sym("iters_to_tol")
+        nfail = ca.SX.sym("nfail")
+
+        U = ub + v
+        # new plan: the linear prediction of the corrections on top of the shooting nodes
+        dx = dx0
+        Xcols = [Xb[:, 0] + dx]
+        for j in range(N):
+            Aj, Bj = As[:, j * NX:(j + 1) * NX], Bs[:, j * NU:(j + 1) * NU]
+            dx = ca.mtimes(Aj, dx) + ca.mtimes(Bj, v[j * NU:(j + 1) * NU]) + cs[:, j]
+            Xcols.append(Xb[:, j + 1] + dx)
+        X = ca.vertcat(*Xcols)
+        finite = ca.mmax(ca.fabs(ca.vertcat(U, X, y))) < 1e6
+        u_opt = project_disk(U[:NU], cfg.i_max, cfg.i_box)
+        # Fallback: LQR about the planned reference, on the current disk.
+        u_fb = project_disk(Uref[:, 0] + ca.mtimes(ca.DM(self.K), xhat - Xref[:, 0]), cfg.i_max, cfg.i_box)
+        u = ca.if_else(finite, u_opt, u_fb)
+        accurate = ca.logic_and(r_prim <= cfg.tol_prim, r_dual <= cfg.tol_dual)
+        status = ca.if_else(finite, ca.if_else(accurate, STATUS_OK, STATUS_INACCURATE), STATUS_FALLBACK)
+
+        # Warm start: shift nodes, inputs and duals by one period; on fallback restart from the reference.
+        Xm = ca.horzcat(*Xcols)
+        Um = ca.reshape(U, NU, N)
+        x_end = self.F(Xm[:, N], Um[:, N - 1], p, w)
+        X_sh = ca.vec(ca.horzcat(Xm[:, 1:], x_end))
+        U_sh = ca.vec(ca.horzcat(Um[:, 1:], Um[:, N - 1]))
+        yu = y[:nv]
+        y_sh = ca.vertcat(yu[NU:], yu[nv - NU:])
+        if ng:
+            y_sh = ca.vertcat(y_sh, y[nv:] if cfg.gap_stride != 1 else ca.vertcat(y[nv + 1:], y[nv + ng - 1]))
+        X_fb = ca.vec(ca.horzcat(Xref[:, 1:], Xref[:, N]))
+        U_fb = ca.vec(ca.horzcat(Uref[:, 1:], Uref[:, N - 1]))
+        X_new = ca.if_else(finite, X_sh, X_fb)
+        U_new = ca.if_else(finite, U_sh, U_fb)
+        y_new = ca.if_else(finite, y_sh, ca.SX.zeros(nv + ng))
+        nfail_new = ca.if_else(finite, 0, nfail + 1)
+        state = ca.vertcat(xhat, dist, u, 0, plan, X_new, U_new, y_new, nfail_new)
+        stats = ca.vertcat(
+            status, 1 - finite, cfg.n_iter, iters_to_tol, r_prim, r_dual, plan[4], 2 * plan[5], dist[0], dist[1],
+            nfail_new,
+        )
+        names = ["v", "y", "ubar", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w", "p",
+                 "r_prim", "r_dual", "iters_to_tol", "nfail"]
+        ins = [v, y, ub, xhat, dist, plan, As, Bs, cs, dx0, Xb, Xref, Uref, w, p, r_prim, r_dual, iters_to_tol, nfail]
+        return ca.Function("nmpc_post", ins, [u, state, stats, xhat], names, ["u", "state", "stats", "x_hat"])
+
+    def build_step(self) -> ca.Function:
+        """``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)`` (MX graph of SX Functions)."""
+        cfg, lay, m = self.cfg, self.layout, self.model
+        nv, ng = cfg.N * NU, cfg.n_gap
+        prep = self.build_prep()
+        post = self.build_post()
+        args = (nv, ng, NU, cfg.i_max, cfg.i_box, cfg.soft_w1, cfg.soft_w2, cfg.admm)
+        it_res = admm_iteration(*args, residuals=True)
+        it_fast = admm_iteration(*args, residuals=False)
+        st, meas, ref, p = (ca.MX.sym("state_in", lay.size), ca.MX.sym("meas", N_MEAS),
+                            ca.MX.sym("ref", 6, cfg.N + 1), ca.MX.sym("p", m.np_))
+        o = prep(state=st, meas=meas, ref=ref, p=p)
+        # ADMM warm start: zero correction (the linearization point is the shifted plan), shifted duals.
+        x = ca.MX.zeros(nv)
+        z = ca.MX.zeros(nv + ng)
+        yv = o["y0"]
+        rp = rd = ca.MX(0)
+        # Residuals at checkpoints (every `check_every` iterations and the last): iterations to reach the
+        # tolerance = first checkpoint below it (assuming monotone progress), else n_iter.
+        checks = sorted({*range(cfg.check_every, cfg.n_iter, cfg.check_every), cfg.n_iter})
+        iters_to_tol = ca.MX(checks[0])
+        for i in range(1, cfg.n_iter + 1):
+            it = it_res if i in checks else it_fast
+            x, z, yv, rp_i, rd_i = it(x, z, yv, o["L"], o["dinv"], o["q"], o["G"], o["ubar"], o["glb"], o["gub"])
+            if i in checks:
+                rp, rd = rp_i, rd_i
+                nxt = checks[checks.index(i) + 1] if i != checks[-1] else i
+                iters_to_tol = iters_to_tol + (nxt - i) * ca.logic_or(rp > cfg.tol_prim, rd > cfg.tol_dual)
+        nfail = st[lay.slices()["nfail"]]
+        r = post(v=z[:nv], y=yv, ubar=o["ubar"], xhat=o["xhat"], dist=o["dist"], plan=o["plan"], As=o["As"],
+                 Bs=o["Bs"], cs=o["cs"], dx0=o["dx0"], Xbar=o["Xbar"], Xref=o["Xref"], Uref=o["Uref"], w=o["w"],
+                 p=p, r_prim=rp, r_dual=rd, iters_to_tol=iters_to_tol, nfail=nfail)
+        return ca.Function(
+            "nmpc_step", [st, meas, ref, p], [r["u"], r["state"], r["stats"], r["x_hat"]],
+            ["state_in", "meas", "ref", "p"], ["u", "state_out", "stats", "x_hat"],
+        )
