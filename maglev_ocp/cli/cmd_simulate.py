@@ -1,0 +1,280 @@
+"""``maglev simulate``: run the plant simulator and write a rig-log dataset."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataError, UserError
+
+EXAMPLES = """examples:
+  maglev simulate --experiment hover --g 15 --duration 2 --out data/hover15
+  maglev simulate --experiment excitation --duration 30 --seed 3 --out data/excite
+  maglev simulate --constant -0.5 0 --lock g --g 20 --d -50 --duration 0.5 --out data/parabola
+  maglev simulate --currents my_currents.csv --lock d --plant my_rig.yaml --out data/open
+  maglev simulate --experiment seed-calibration --seed 1 --out data/seed_cal
+  maglev simulate --check data/excite          (validate a dataset and print its summary)"""
+
+
+def register(sub) -> None:
+    """Add the ``simulate`` subcommand."""
+    from . import add_command
+
+    p = add_command(
+        sub, "simulate", help="run the plant simulator and write a rig-log dataset",
+        description=(
+            "Run the plant simulator (the stand-in for the rig: shared model + noise, 10 um\n"
+            "encoders, current limits, stops, fixtures and unmodelled effects, per a rig profile\n"
+            "or a plant YAML) and write a maglev-rig-log/1 dataset (RIG_LOG.md).\n\n"
+            "Experiments: 'hover' holds (g, d) with the seed's PID regulators; 'excitation'\n"
+            "tracks a sum-of-sines reference around (g, d) as the seed did for identification;\n"
+            "'seed-calibration' writes the seed's whole calibration dataset. With --currents or\n"
+            "--constant the currents are applied open loop instead (an unlocked gap then falls\n"
+            "to a stop: recorded as an event, not an error). --lock g|d holds that axis in a\n"
+            "fixture at --g / --d, as in the seed's section V."
+        ),
+        example=EXAMPLES.split("\n", 1)[1].strip().splitlines()[0].strip(),
+    )
+    p.epilog = EXAMPLES
+    p.add_argument("--experiment", choices=("hover", "excitation", "seed-calibration"), default=None,
+                   help="closed-loop experiment (default: hover, or open loop with --currents/--constant)")
+    src = p.add_mutually_exclusive_group()
+    src.add_argument("--currents", metavar="CSV", help="open loop: CSV with columns t,i_q,i_d (ZOH between rows)")
+    src.add_argument("--constant", nargs=2, type=float, metavar=("IQ", "ID"), help="open loop: constant currents [A]")
+    prof = p.add_mutually_exclusive_group()
+    prof.add_argument("--profile", default=None, help="rig profile: default or ideal (default: default)")
+    prof.add_argument("--plant", metavar="FILE", help="plant YAML (a profile plus overrides)")
+    p.add_argument("--params", metavar="FILE", help="nominal parameter YAML (default: seed Table III)")
+    p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
+    p.add_argument("--duration", type=float, default=None, help="run length [s] (default 2; currents CSV: its length)")
+    p.add_argument("--g", type=float, default=20.0, metavar="MM", help="gap set-point / lock position [mm] (20)")
+    p.add_argument("--d", type=float, default=0.0, metavar="MM", help="horizontal set-point / lock position [mm] (0)")
+    p.add_argument("--lock", choices=("none", "g", "d"), default=None, help="hold an axis in a fixture")
+    p.add_argument("--out", default="results/simulate", metavar="DIR", help="dataset folder (results/simulate)")
+    p.add_argument("--plot", action="store_true", help="also plot each run to DIR/<run>.png")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--check", metavar="DATASET", help="only validate DATASET and print its summary")
+    p.set_defaults(handler=run)
+
+
+# ---------------------------------------------------------------------- helpers
+def read_current_sequence(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a current sequence CSV (``t, i_q, i_d``; one-line DataError naming file, row, column)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as err:
+        raise DataError(f"{path}: cannot read: {err.__class__.__name__}") from None
+    rows = [r for r in csv.reader(text.splitlines())]
+    while rows and not any(c.strip() for c in rows[-1]):
+        rows.pop()
+    if not rows:
+        raise DataError(f"{path}: empty file")
+    header = [c.strip() for c in rows[0]]
+    for col in ("t", "i_q", "i_d"):
+        if col not in header:
+            raise DataError(f"{path}: header (line 1): missing column {col!r} (header has {', '.join(header)})")
+    if len(rows) < 2:
+        raise DataError(f"{path}: no data rows")
+    idx = [header.index(c) for c in ("t", "i_q", "i_d")]
+    out = np.empty((len(rows) - 1, 3))
+    for r, row in enumerate(rows[1:], start=1):
+        if len(row) != len(header):
+            raise DataError(f"{path}: row {r} (line {r + 1}): {len(row)} fields, but the header has {len(header)}")
+        for j, (c, name) in enumerate(zip(idx, ("t", "i_q", "i_d"), strict=True)):
+            try:
+                v = float(row[c])
+            except ValueError:
+                raise DataError(f"{path}: row {r} (line {r + 1}), column {name!r}: not a number: {row[c]!r}") from None
+            if not math.isfinite(v):
+                raise DataError(f"{path}: row {r} (line {r + 1}), column {name!r}: non-finite value {row[c]!r}")
+            out[r - 1, j] = v
+    t = out[:, 0]
+    if t[0] < 0:
+        raise DataError(f"{path}: row 1 (line 2), column 't': time must start at >= 0, got {t[0]!r}")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        r = int(bad[0]) + 2
+        raise DataError(f"{path}: row {r} (line {r + 1}), column 't': time does not increase")
+    return t, out[:, 1:]
+
+
+def zoh_sample(t_file: np.ndarray, u_file: np.ndarray, n: int, Ts: float) -> np.ndarray:
+    """Currents at ``k Ts`` for k < n: the last row at or before each sample (the first before it)."""
+    tk = np.arange(n) * Ts
+    idx = np.clip(np.searchsorted(t_file, tk + 1e-12, side="right") - 1, 0, len(t_file) - 1)
+    return u_file[idx]
+
+
+def _mm_tag(v_mm: float) -> str:
+    return f"{v_mm:.1f}".replace("-", "m").replace(".", "p")
+
+
+def _check_range(name: str, v: float, lo: float, hi: float, unit: str) -> None:
+    if not (math.isfinite(v) and lo <= v <= hi):
+        raise UserError(f"{name}: {v:g} {unit} is outside {lo:g}..{hi:g} {unit}")
+
+
+def plot_run(run, path: Path) -> None:
+    """Plot positions (with references), currents and the gap of one run."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..config import atomic_write_bytes
+
+    t = run["t"]
+    fig, ax = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
+    ax[0].plot(t, run["g"] * 1e3, label="g (encoder)")
+    if "g_ref" in run:
+        ax[0].plot(t, run["g_ref"] * 1e3, "--", label="g_ref")
+    ax[0].set_ylabel("g [mm]")
+    ax[1].plot(t, run["d"] * 1e3, label="d (encoder)")
+    if "d_ref" in run:
+        ax[1].plot(t, run["d_ref"] * 1e3, "--", label="d_ref")
+    ax[1].set_ylabel("d [mm]")
+    ax[2].plot(t, run["i_q"], label="i_q")
+    ax[2].plot(t, run["i_d"], label="i_d")
+    ax[2].set_ylabel("current [A]")
+    ax[2].set_xlabel("t [s]")
+    for a in ax:
+        a.grid(True, alpha=0.3)
+        a.legend(loc="upper right", fontsize=8)
+    fig.suptitle(f"{run.file} (locked {list(run.locked)})")
+    fig.tight_layout()
+    atomic_write_bytes(path, fig)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------------- handler
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``maglev simulate``."""
+    from ..riglog import read_dataset
+
+    if args.check:
+        ds = read_dataset(args.check)
+        print(ds.table())
+        return 0
+
+    from ..params import NOMINAL, load_params
+    from ..plant import Plant, PlantConfig, load_plant_config
+
+    if args.seed < 0:
+        raise UserError(f"--seed: must be >= 0, got {args.seed}")
+    if args.duration is not None:
+        _check_range("--duration", args.duration, 0.002, 3600.0, "s")
+    _check_range("--g", args.g, 5.0, 40.0, "mm")
+    _check_range("--d", args.d, -100.0, 100.0, "mm")
+    if args.constant:
+        for name, v in zip(("IQ", "ID"), args.constant, strict=True):
+            _check_range(f"--constant {name}", v, -100.0, 100.0, "A")
+
+    params = load_params(args.params) if args.params else NOMINAL
+    cfg = load_plant_config(args.plant) if args.plant else PlantConfig.from_profile(args.profile or "default")
+    open_loop = args.currents is not None or args.constant is not None
+    if open_loop and args.experiment:
+        raise UserError("--experiment is a closed-loop experiment; leave it out with --currents / --constant")
+    experiment = "open-loop" if open_loop else (args.experiment or "hover")
+    out = Path(args.out)
+    progress = not args.no_progress
+
+    if experiment == "seed-calibration":
+        try:
+            from ..estimation.experiments import generate_seed_calibration
+        except ModuleNotFoundError as err:
+            if err.name and err.name.startswith("maglev_ocp.estimation"):
+                raise UserError("--experiment seed-calibration needs maglev_ocp/estimation/experiments.py "
+                                "(the calibration issue), which is not installed yet") from None
+            raise
+        t0 = time.perf_counter()
+        path = generate_seed_calibration(out, seed=args.seed, plant_config=cfg, params=params, progress=progress)
+        print(read_dataset(path).table())
+        print(f"wrote {path} in {time.perf_counter() - t0:.1f} s")
+        return 0
+
+    g, d = args.g * 1e-3, args.d * 1e-3
+    if args.lock is not None:
+        from ..config import parse_model
+
+        value = None if args.lock == "none" else (g if args.lock == "g" else d)
+        cfg = parse_model(PlantConfig, {**cfg.to_dict(), "lock": {"axis": args.lock, "value": value}}, "--lock")
+    if cfg.stops.enabled:
+        for opt, v, (lo, hi) in (("--g", g, cfg.stops.g), ("--d", d, cfg.stops.d)):
+            if not lo <= v <= hi:
+                raise UserError(f"{opt}: {v * 1e3:g} mm is outside the stops {lo * 1e3:g}..{hi * 1e3:g} mm")
+    lock = cfg.lock.axis
+
+    from ..plant.drive import run_closed_loop, run_open_loop
+    from ..riglog import write_dataset
+
+    ss = np.random.SeedSequence(args.seed)
+    ss_plant, ss_ref = ss.spawn(2)
+    plant = Plant(cfg, params, seed=ss_plant)
+    x0 = np.array([g, 0.0, d, 0.0])
+    t0 = time.perf_counter()
+    if open_loop:
+        if args.currents:
+            t_file, u_file = read_current_sequence(args.currents)
+            duration = args.duration if args.duration is not None else float(t_file[-1]) + plant.Ts
+            n = max(round(duration / plant.Ts), 2)
+            seq = zoh_sample(t_file, u_file, n, plant.Ts)
+            name = Path(args.currents).stem
+        else:
+            duration = args.duration if args.duration is not None else 2.0
+            n = max(round(duration / plant.Ts), 2)
+            seq = np.tile(np.asarray(args.constant, dtype=float), (n, 1))
+            name = f"constant_iq{_mm_tag(args.constant[0])}_id{_mm_tag(args.constant[1])}"
+        file = f"{name}_g{_mm_tag(args.g)}_d{_mm_tag(args.d)}.csv"
+        run_log = run_open_loop(plant, seq, x0=x0, file=file, progress=progress)
+        runs = [run_log.renamed(file, experiment="open-loop")]
+    else:
+        from controllers.pid import PIDController, PIDSettings
+
+        from ..plant.excitation import AxisExcitation, ExcitationSettings, SumOfSines, constant_reference
+
+        duration = args.duration if args.duration is not None else 2.0
+        settings = PIDSettings(control_g=lock != "g", control_d=lock != "d")
+        ctrl = PIDController(params, settings, plant.Ts)
+        if experiment == "hover":
+            ref = constant_reference(g, d)
+        else:
+            base = ExcitationSettings()
+            g_amp = min(base.g.amplitude, g - cfg.stops.g[0] - 1e-3, cfg.stops.g[1] - g - 1e-3)
+            d_amp = min(base.d.amplitude, d - cfg.stops.d[0] - 5e-3, cfg.stops.d[1] - d - 5e-3)
+            exc = ExcitationSettings(
+                g=AxisExcitation(center=g, amplitude=0.0 if lock == "g" else max(g_amp, 0.0), freqs_hz=base.g.freqs_hz),
+                d=AxisExcitation(center=d, amplitude=0.0 if lock == "d" else max(d_amp, 0.0), freqs_hz=base.d.freqs_hz),
+                fade_in=base.fade_in,
+            )
+            ref = SumOfSines(exc, seed=ss_ref)
+        file = f"{experiment}_g{_mm_tag(args.g)}_d{_mm_tag(args.d)}.csv"
+        run_log = run_closed_loop(plant, ctrl, ref, duration, x0=x0, file=file, progress=progress)
+        runs = [run_log.renamed(file, experiment=experiment)]
+    wall = time.perf_counter() - t0
+
+    meta = {
+        "generator": "maglev simulate",
+        "experiment": experiment,
+        "seed": args.seed,
+        "nominal_params": params.as_dict(),
+        "true_params": plant.true_params.as_dict(),
+        "plant": cfg.to_dict(),
+    }
+    write_dataset(out, runs, plant.Ts, cfg.quantization.resolution, meta=meta,
+                  description=f"maglev simulate --experiment {experiment}")
+    if args.plot:
+        for r in runs:
+            plot_run(r, out / (Path(r.file).stem + ".png"))
+    ds = read_dataset(out)
+    print(ds.table())
+    sim_time = sum(r.duration for r in runs) + plant.Ts * len(runs)
+    for e in plant.events:
+        print(f"stop event: {e}")
+    print(f"wrote {out} ({sim_time:.3f} s simulated in {wall:.2f} s wall)")
+    return 0

@@ -1,0 +1,487 @@
+"""Rig-log datasets in the ``maglev-rig-log/1`` format (``shared/spec/RIG_LOG.md``).
+
+A dataset is a folder with ``dataset.yaml`` (format, sample time, encoder
+resolution, and the runs with their locked axes) and one CSV per run with the
+columns ``t, g, d, i_q, i_d`` (SI units) plus any further columns. The plant
+simulator writes datasets with :func:`write_dataset`; calibration and the gap
+diagnosis read any dataset (rig or simulator) with :func:`read_dataset`.
+
+The reader refuses bad data with a :class:`~maglev_ocp.errors.DataError` of one
+line naming the file, the row and the column: YAML that does not parse or lacks
+a field, a wrong ``format``, a missing run file, an empty file, a CSV with a
+missing column, ragged rows, non-numeric or non-finite values, time that does
+not strictly increase or is not evenly spaced at ``sample_time``, ``locked``
+values other than ``[]``, ``[g]``, ``[d]``, and a locked axis that does not
+read a constant.
+
+Numbers are written with ``repr`` (the shortest string that reads back to the
+same double), so a quantized position ``round(v / 1e-5) * 1e-5`` survives a
+write and read bit for bit.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import Field, field_validator
+
+from . import constants as k
+from .config import Strict, atomic_write_text, dump_yaml, load_yaml, parse_model
+from .errors import ConfigError, DataError
+
+FORMAT = "maglev-rig-log/1"
+REQUIRED_COLUMNS: tuple[str, ...] = ("t", "g", "d", "i_q", "i_d")
+LOCK_CHOICES: tuple[tuple[str, ...], ...] = ((), ("g",), ("d",))
+#: Allowed deviation of a time step from ``sample_time``, relative to it.
+SAMPLE_TIME_TOLERANCE = 1e-2
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    return str(v)
+
+
+@dataclass
+class RunLog:
+    """One run of a dataset: named columns of equal length.
+
+    Attributes
+    ----------
+    file : str
+        CSV file name inside the dataset folder.
+    columns : dict of str to ndarray
+        Columns in file order; the required ones are ``t, g, d, i_q, i_d``
+        (float), further ones are float where every value is a number, text otherwise.
+    locked : tuple of str
+        Axes held by a fixture: ``()``, ``("g",)`` or ``("d",)``.
+    meta : dict
+        Free-form metadata kept in ``dataset.yaml`` (e.g. the experiment).
+    """
+
+    file: str
+    columns: dict[str, np.ndarray]
+    locked: tuple[str, ...] = ()
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.locked = tuple(self.locked)
+        if self.locked not in LOCK_CHOICES:
+            raise ValueError(f"locked must be one of [], [g], [d], got {list(self.locked)}")
+        cols = {}
+        n = None
+        for name, v in self.columns.items():
+            a = np.asarray(v)
+            if a.ndim != 1:
+                raise ValueError(f"column {name!r} must be 1-D, got shape {a.shape}")
+            if n is not None and len(a) != n:
+                raise ValueError(f"column {name!r} has {len(a)} rows, expected {n}")
+            n = len(a)
+            cols[str(name)] = a
+        self.columns = cols
+
+    # ----------------------------------------------------------------- access
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Column names in file order."""
+        return tuple(self.columns)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.columns
+
+    def __len__(self) -> int:
+        return len(next(iter(self.columns.values()))) if self.columns else 0
+
+    @property
+    def t(self) -> np.ndarray:
+        """Time [s]."""
+        return self.columns["t"]
+
+    @property
+    def y(self) -> np.ndarray:
+        """Encoder readings ``(g, d)`` [m], shape (N, 2)."""
+        return np.column_stack([self.columns["g"], self.columns["d"]])
+
+    @property
+    def u(self) -> np.ndarray:
+        """Commanded currents ``(i_q, i_d)`` [A], shape (N, 2)."""
+        return np.column_stack([self.columns["i_q"], self.columns["i_d"]])
+
+    @property
+    def duration(self) -> float:
+        """Time span of the run [s]."""
+        t = self.t
+        return float(t[-1] - t[0]) if len(t) else 0.0
+
+    def with_columns(self, **cols: np.ndarray) -> RunLog:
+        """Copy with columns added or replaced (appended after the existing ones)."""
+        new = dict(self.columns)
+        new.update({n: np.asarray(v) for n, v in cols.items()})
+        return RunLog(self.file, new, self.locked, dict(self.meta))
+
+    def renamed(self, file: str, locked: Iterable[str] | None = None, **meta: Any) -> RunLog:
+        """Copy with a new file name (and optionally locked axes / extra metadata)."""
+        return RunLog(file, dict(self.columns), tuple(self.locked if locked is None else locked),
+                      {**self.meta, **meta})
+
+    # ----------------------------------------------------------------- output
+    def to_csv_text(self) -> str:
+        """The run as CSV text (header row, ``repr`` numbers so they read back bit for bit)."""
+        missing = [c for c in REQUIRED_COLUMNS if c not in self.columns]
+        if missing:
+            raise ValueError(f"run {self.file!r} lacks the required columns {missing}")
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(self.names)
+        cols = [c.tolist() for c in self.columns.values()]
+        w.writerows([_fmt(v) for v in row] for row in zip(*cols, strict=True))
+        return buf.getvalue()
+
+    def save(self, csv_path: str | os.PathLike) -> Path:
+        """Write the run as CSV atomically (temporary file, then rename)."""
+        path = Path(csv_path)
+        atomic_write_text(path, self.to_csv_text())
+        return path
+
+    def table(self, max_rows: int = 10) -> str:
+        """Text view: header and the first / last rows."""
+        names = self.names
+        n = len(self)
+        idx = list(range(n)) if n <= max_rows else [*range(max_rows // 2), -1, *range(n - max_rows // 2, n)]
+        width = {c: max(len(c), 12) for c in names}
+        lines = [f"{self.file}  ({n} rows, locked {list(self.locked)})",
+                 "  ".join(f"{c:>{width[c]}}" for c in names)]
+        for i in idx:
+            if i < 0:
+                lines.append("  ".join(f"{'...':>{width[c]}}" for c in names))
+                continue
+            cells = []
+            for c in names:
+                v = self.columns[c][i]
+                cells.append(f"{v:>{width[c]}.6g}" if isinstance(v, (float, np.floating)) else f"{v!s:>{width[c]}}")
+            lines.append("  ".join(cells))
+        return "\n".join(lines)
+
+    def to_frame(self):  # pragma: no cover - needs the optional pandas
+        """The run as a pandas DataFrame (needs pandas, from the ``campaign`` extra)."""
+        try:
+            import pandas as pd
+        except ImportError as err:
+            raise DataError("RunLog.to_frame needs pandas (pip install 'maglev-ocp[campaign]')") from err
+        return pd.DataFrame(self.columns)
+
+
+@dataclass
+class Dataset:
+    """A rig-log dataset: runs plus the sample time and encoder resolution.
+
+    Attributes
+    ----------
+    folder : Path or None
+        Where it was read from / written to.
+    sample_time : float
+        Control period [s]; rows are evenly spaced by it.
+    encoder_resolution : float
+        Encoder resolution [m].
+    runs : list of RunLog
+        The runs, in ``dataset.yaml`` order.
+    meta : dict
+        Free-form metadata (generator, seed, true parameters, ...).
+    """
+
+    sample_time: float
+    encoder_resolution: float
+    runs: list[RunLog]
+    folder: Path | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __iter__(self) -> Iterator[RunLog]:
+        return iter(self.runs)
+
+    def __len__(self) -> int:
+        return len(self.runs)
+
+    def run(self, file: str) -> RunLog:
+        """The run stored in ``file`` (KeyError naming the files otherwise)."""
+        for r in self.runs:
+            if r.file == file:
+                return r
+        raise KeyError(f"no run {file!r}; runs are {[r.file for r in self.runs]}")
+
+    def save(self, folder: str | os.PathLike) -> Path:
+        """Write the dataset to ``folder`` (see :func:`write_dataset`)."""
+        return write_dataset(folder, self.runs, self.sample_time, self.encoder_resolution, meta=self.meta)
+
+    def table(self) -> str:
+        """Summary: one line per run (file, locked, rows, duration, ranges of g and d)."""
+        head = (f"{'file':<32} {'locked':>6} {'rows':>7} {'T [s]':>8} {'g min..max [mm]':>17} "
+                f"{'d min..max [mm]':>17} {'|i| max [A]':>11}")
+        lines = [f"dataset {self.folder or ''} ({FORMAT}, Ts = {self.sample_time:g} s, "
+                 f"encoder {self.encoder_resolution:g} m)", head, "-" * len(head)]
+        for r in self.runs:
+            g, d = r["g"] * 1e3, r["d"] * 1e3
+            imax = float(np.max(np.hypot(r["i_q"], r["i_d"])))
+            lines.append(
+                f"{r.file:<32} {','.join(r.locked) or '-':>6} {len(r):>7} {r.duration:>8.3f} "
+                f"{g.min():>8.3f}..{g.max():<8.3f} {d.min():>8.3f}..{d.max():<8.3f} {imax:>11.3f}"
+            )
+        return "\n".join(lines)
+
+
+# -------------------------------------------------------------------------- schema
+class _RunEntry(Strict):
+    file: str = Field(min_length=1)
+    locked: list[str]
+    meta: dict[str, Any] | None = None
+
+    @field_validator("locked")
+    @classmethod
+    def _locked(cls, v: list[str]) -> list[str]:
+        if tuple(v) not in LOCK_CHOICES:
+            raise ValueError(f"must be [], [g] or [d], got {v}")
+        return v
+
+    @field_validator("file")
+    @classmethod
+    def _file(cls, v: str) -> str:
+        p = Path(v)
+        if p.is_absolute() or ".." in p.parts or len(p.parts) != 1:
+            raise ValueError(f"must be a plain file name inside the dataset folder, got {v!r}")
+        return v
+
+
+class _DatasetFile(Strict):
+    format: str
+    sample_time: float = Field(gt=0, le=10.0)
+    encoder_resolution: float = Field(gt=0, le=1e-2)
+    runs: list[_RunEntry] = Field(min_length=1)
+    description: str | None = None
+    meta: dict[str, Any] | None = None
+
+
+# ---------------------------------------------------------------------------- write
+def write_dataset(
+    folder: str | os.PathLike,
+    runs: Iterable[RunLog],
+    sample_time: float = k.Ts,
+    encoder_resolution: float = k.encoder_resolution,
+    meta: Mapping[str, Any] | None = None,
+    description: str | None = None,
+) -> Path:
+    """Write runs as a ``maglev-rig-log/1`` dataset (CSV files, then ``dataset.yaml``, all atomic).
+
+    Parameters
+    ----------
+    folder : path
+        Dataset folder (created if needed; other files in it are left alone).
+    runs : iterable of RunLog
+        Runs with distinct file names.
+    sample_time : float
+        Control period [s].
+    encoder_resolution : float
+        Encoder resolution [m].
+    meta : mapping, optional
+        Free-form metadata stored under ``meta`` in ``dataset.yaml``.
+    description : str, optional
+        One line saying what the dataset is.
+
+    Returns
+    -------
+    Path
+        The dataset folder.
+    """
+    folder = Path(folder)
+    runs = list(runs)
+    if not runs:
+        raise ValueError("a dataset needs at least one run")
+    files = [r.file for r in runs]
+    if len(set(files)) != len(files):
+        raise ValueError(f"run file names must be distinct, got {files}")
+    entries = []
+    for r in runs:
+        _RunEntry(file=r.file, locked=list(r.locked))  # same checks as the reader
+        r.save(folder / r.file)
+        entry: dict[str, Any] = {"file": r.file, "locked": list(r.locked)}
+        if r.meta:
+            entry["meta"] = _plain(r.meta)
+        entries.append(entry)
+    doc: dict[str, Any] = {"format": FORMAT, "sample_time": float(sample_time),
+                           "encoder_resolution": float(encoder_resolution)}
+    if description:
+        doc["description"] = description
+    if meta:
+        doc["meta"] = _plain(meta)
+    doc["runs"] = entries
+    dump_yaml(folder / "dataset.yaml", doc)
+    return folder
+
+
+def _plain(v: Any) -> Any:
+    """Convert numpy scalars / arrays / tuples for a safe YAML dump."""
+    if isinstance(v, Mapping):
+        return {str(a): _plain(b) for a, b in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return [_plain(x) for x in v.tolist()]
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+# ----------------------------------------------------------------------------- read
+def read_dataset(folder: str | os.PathLike) -> Dataset:
+    """Read and validate a ``maglev-rig-log/1`` dataset.
+
+    Parameters
+    ----------
+    folder : path
+        The dataset folder (or its ``dataset.yaml``).
+
+    Returns
+    -------
+    Dataset
+
+    Raises
+    ------
+    DataError
+        One line naming the file, row and column of the first problem found.
+    """
+    folder = Path(folder)
+    if folder.is_file() and folder.name == "dataset.yaml":
+        folder = folder.parent
+    yml = folder / "dataset.yaml"
+    if not folder.is_dir():
+        raise DataError(f"{folder}: no such dataset folder")
+    if not yml.is_file():
+        raise DataError(f"{yml}: missing (a dataset folder needs dataset.yaml)")
+    try:
+        raw = load_yaml(yml)
+    except ConfigError as err:
+        raise DataError(str(err)) from None
+    if raw is None:
+        raise DataError(f"{yml}: empty file")
+    if not isinstance(raw, dict):
+        raise DataError(f"{yml}: expected a mapping at the top level, got {type(raw).__name__}")
+    if "format" in raw and raw["format"] != FORMAT:
+        raise DataError(f"{yml}: format: expected {FORMAT!r}, got {raw['format']!r}")
+    try:
+        doc = parse_model(_DatasetFile, raw, str(yml))
+    except ConfigError as err:
+        raise DataError(str(err)) from None
+    if not (math.isfinite(doc.sample_time) and math.isfinite(doc.encoder_resolution)):
+        raise DataError(f"{yml}: sample_time and encoder_resolution must be finite")
+    files = [e.file for e in doc.runs]
+    for i, f in enumerate(files):
+        if f in files[:i]:
+            raise DataError(f"{yml}: runs.{i}.file: {f!r} is listed twice")
+    runs = []
+    for i, e in enumerate(doc.runs):
+        path = folder / e.file
+        if not path.is_file():
+            raise DataError(f"{yml}: runs.{i}.file: {e.file!r} does not exist in {folder}")
+        runs.append(read_run(path, doc.sample_time, tuple(e.locked), meta=e.meta or {}))
+    return Dataset(doc.sample_time, doc.encoder_resolution, runs, folder, dict(doc.meta or {}))
+
+
+def read_run(
+    path: str | os.PathLike, sample_time: float, locked: tuple[str, ...] = (), meta: dict[str, Any] | None = None
+) -> RunLog:
+    """Read and validate one run's CSV (see :func:`read_dataset` for what is refused)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError:
+        raise DataError(f"{path}: not a text file (cannot decode as UTF-8)") from None
+    except OSError as err:
+        raise DataError(f"{path}: cannot read: {err.strerror or err}") from None
+    if not text.strip():
+        raise DataError(f"{path}: empty file")
+    try:
+        lines = list(csv.reader(io.StringIO(text)))
+    except csv.Error as err:
+        raise DataError(f"{path}: not valid CSV: {err}") from None
+    # drop trailing blank lines only; a blank line inside the data is an error
+    while lines and not any(c.strip() for c in lines[-1]):
+        lines.pop()
+    header = [c.strip() for c in lines[0]]
+    for j, name in enumerate(header):
+        if not name:
+            raise DataError(f"{path}: header (line 1): column {j + 1} has no name")
+        if name in header[:j]:
+            raise DataError(f"{path}: header (line 1): column {name!r} appears twice")
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise DataError(f"{path}: header (line 1): missing column {missing[0]!r} (header has {', '.join(header)})")
+    body = lines[1:]
+    if len(body) < 2:
+        raise DataError(f"{path}: needs at least 2 data rows, found {len(body)}")
+    n = len(header)
+    for r, row in enumerate(body, start=1):
+        if len(row) != n:
+            raise DataError(f"{path}: row {r} (line {r + 1}): {len(row)} fields, but the header has {n} columns")
+    cells = np.array(body, dtype=str)
+    columns: dict[str, np.ndarray] = {}
+    for j, name in enumerate(header):
+        raw = np.char.strip(cells[:, j])
+        required = name in REQUIRED_COLUMNS
+        try:
+            vals = raw.astype(float)
+        except ValueError:
+            if required:
+                r = _first_bad(raw)
+                raise DataError(
+                    f"{path}: row {r + 1} (line {r + 2}), column {name!r}: not a number: {raw[r]!r}") from None
+            columns[name] = raw  # free-text extra column (flags, notes), kept as text
+            continue
+        if required:
+            bad = np.flatnonzero(~np.isfinite(vals))
+            if bad.size:
+                r = int(bad[0])
+                raise DataError(f"{path}: row {r + 1} (line {r + 2}), column {name!r}: non-finite value {raw[r]!r}")
+        columns[name] = vals
+    t = columns["t"]
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        r = int(bad[0]) + 1
+        raise DataError(f"{path}: row {r + 1} (line {r + 2}), column 't': time does not increase "
+                        f"({t[r - 1]!r} then {t[r]!r})")
+    bad = np.flatnonzero(np.abs(dt - sample_time) > SAMPLE_TIME_TOLERANCE * sample_time)
+    if bad.size:
+        r = int(bad[0]) + 1
+        raise DataError(f"{path}: row {r + 1} (line {r + 2}), column 't': time step {dt[r - 1]:.6g} s differs "
+                        f"from sample_time {sample_time:g} s")
+    for ax in locked:
+        v = columns[ax]
+        bad = np.flatnonzero(v != v[0])
+        if bad.size:
+            r = int(bad[0])
+            raise DataError(f"{path}: row {r + 1} (line {r + 2}), column {ax!r}: axis {ax} is locked but its "
+                            f"reading changes ({v[0]!r} then {v[r]!r})")
+    return RunLog(path.name, columns, locked, dict(meta or {}))
+
+
+def _first_bad(raw: np.ndarray) -> int:
+    for i, s in enumerate(raw):
+        try:
+            float(s)
+        except ValueError:
+            return i
+    return 0  # pragma: no cover
+
+
+__all__ = ["FORMAT", "REQUIRED_COLUMNS", "Dataset", "RunLog", "read_dataset", "read_run", "write_dataset"]
