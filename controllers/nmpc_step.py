@@ -390,7 +390,8 @@ class StepBuilder:
             dx = ca.mtimes(Aj, dx) + ca.mtimes(Bj, v[j * NU:(j + 1) * NU]) + cs[:, j]
             Xcols.append(Xb[:, j + 1] + dx)
         X = ca.vertcat(*Xcols)
-        finite = ca.mmax(ca.fabs(ca.vertcat(U, X, y))) < 1e6
+        # a sum propagates NaN (fmax/fmin and the disk projection would swallow it)
+        finite = ca.sum1(ca.fabs(ca.vertcat(U, X, y))) < 1e12
         u_opt = project_disk(U[:NU], cfg.i_max, cfg.i_box)
         # Fallback: LQR about the planned reference, on the current disk.
         u_fb = project_disk(Uref[:, 0] + ca.mtimes(ca.DM(self.K), xhat - Xref[:, 0]), cfg.i_max, cfg.i_box)

@@ -1,0 +1,218 @@
+"""NMPC: step Function structure, observer, planner, QP solver, warm start, fallback, short closed loops."""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from controllers.nmpc import NMPC, NMPCSettings
+from controllers.nmpc_plan import half_duration, move_at
+from controllers.nmpc_qp import ADMMSettings, admm_iteration
+from controllers.nmpc_step import StepBuilder
+from maglev_ocp import constants as k
+from maglev_ocp.blocks import Controller, Measurement, Reference
+from maglev_ocp.config import parse_model
+from maglev_ocp.errors import ConfigError
+from maglev_ocp.observers import HighGainObserver, ObserverSettings
+from maglev_ocp.params import NOMINAL
+from maglev_ocp.plant import Plant, PlantConfig
+
+TOL = k.position_tolerance
+
+
+def closed_loop(ctrl, targets, profile="default", seed=7, x0=None, on_step=None):
+    """Run ``ctrl`` on the plant through ``targets`` [(g, d, hold)]; return arrays of the run."""
+    plant = Plant(PlantConfig.from_profile(profile), params=NOMINAL, seed=seed)
+    y = plant.reset(x0)
+    ctrl.reset(y, Reference(targets[0][0], targets[0][1]))
+    rows, stats = [], []
+    for g, d, hold in targets:
+        for _ in range(round(hold / k.Ts)):
+            if on_step is not None:
+                y = on_step(len(rows), y)
+            out = ctrl.step(y, Reference(g, d))
+            rows.append((y.t, *y.x_true, *out.u, g, d))
+            stats.append(out.stats)
+            y = plant.step(out.u)
+    return np.array(rows), stats, plant
+
+
+def test_step_function_is_one_closed_casadi_function():
+    ctrl = NMPC(NMPCSettings(), NOMINAL)
+    assert isinstance(ctrl, Controller)
+    plant = Plant(PlantConfig.from_profile("ideal"), params=NOMINAL, seed=1)
+    ctrl.reset(plant.reset(), Reference(0.02, 0.0))
+    for fn in (ctrl.step_function, ctrl.init_function):
+        assert isinstance(fn, ca.Function)
+        assert not fn.has_free()
+    f = ctrl.step_function
+    assert f.name() == "nmpc_step"
+    assert f.name_in() == ["state_in", "meas", "ref", "p"]
+    assert f.name_out() == ["u", "state_out", "stats", "x_hat"]
+    assert f.size1_in(0) == ctrl.layout.size == f.size1_out(1)
+
+
+def test_holds_target_within_tolerance_on_default_rig():
+    ctrl = NMPC(NMPCSettings(), NOMINAL)
+    run, stats, plant = closed_loop(ctrl, [(0.02, 0.0, 0.05), (0.018, 0.01, 0.25)])
+    t = run[:, 0]
+    late = t >= 0.15
+    assert np.all(np.abs(run[late, 1] - 0.018) < TOL)
+    assert np.all(np.abs(run[late, 3] - 0.01) < TOL)
+    amp = np.hypot(run[:, 5], run[:, 6])
+    assert np.all(amp <= k.i_amp_max + 1e-9) and np.all(np.abs(run[:, 5:7]) <= k.i_axis_max + 1e-9)
+    assert not plant.events
+    assert all(s["status"] in ("ok", "inaccurate") and not s["fallback"] for s in stats)
+    assert all(s["step_time_us"] > 0 for s in stats)
+
+
+def test_offset_free_under_parameter_mismatch():
+    """A 5 % error in the PM attraction constant leaves no steady offset (disturbance estimate)."""
+    ctrl = NMPC(NMPCSettings(), NOMINAL.scaled({"C2": 1.05}))
+    run, _, _ = closed_loop(ctrl, [(0.022, -0.02, 0.3)], profile="ideal", x0=[0.022, 0, -0.02, 0])
+    late = run[:, 0] >= 0.2
+    assert np.max(np.abs(run[late, 1] - 0.022)) < 2e-6
+    assert np.max(np.abs(run[late, 3] + 0.02)) < 2e-6
+    blind = NMPC(NMPCSettings(offset_free=False), NOMINAL.scaled({"C2": 1.05}))
+    run_b, _, _ = closed_loop(blind, [(0.022, -0.02, 0.3)], profile="ideal", x0=[0.022, 0, -0.02, 0])
+    # without the estimate the same mismatch leaves a visible offset in the gap
+    assert np.mean(np.abs(run_b[run_b[:, 0] >= 0.2, 1] - 0.022)) > 5 * np.mean(np.abs(run[late, 1] - 0.022))
+
+
+def test_observer_inside_step_matches_high_gain_observer():
+    """The symbolic observer of the step is the HighGainObserver of maglev_ocp.observers."""
+    st = NMPCSettings(observer_eps=4e-3)
+    ctrl = NMPC(st, NOMINAL)
+    obs = HighGainObserver(ctrl_params := NOMINAL, ObserverSettings(eps=4e-3, disturbance=True))
+    del ctrl_params
+    plant = Plant(PlantConfig.from_profile("default"), params=NOMINAL, seed=3)
+    y = plant.reset()
+    ctrl.reset(y, Reference(0.02, 0.0))
+    obs.reset(y.y)
+    u_prev = None
+    for i in range(60):
+        out = ctrl.step(y, Reference(0.02, 0.002))
+        if i == 0:
+            xh = obs.x_hat
+        else:
+            xh = obs.step(y.y, u_prev)
+        np.testing.assert_allclose(out.x_hat, xh, rtol=0, atol=1e-12)
+        np.testing.assert_allclose([out.stats["dist_g"], out.stats["dist_d"]], obs.disturbance, atol=1e-9)
+        u_prev = out.u
+        y = plant.step(out.u)
+
+
+def test_planner_profile_is_consistent():
+    """The internal rest-to-rest profile: reaches the distance at 2h, derivatives agree, peak as planned."""
+    t, D, h, tj = ca.SX.sym("t"), ca.SX.sym("D"), ca.SX.sym("h"), ca.SX.sym("tj")
+    f = ca.Function("f", [t, D, h, tj], list(move_at(t, D, h, tj)))
+    dist, acc, jt = 0.1, 45.0, 2e-3
+    hh, tje = (float(v) for v in ca.Function("hd", [D], list(half_duration(D, acc, jt)))(dist))
+    ts = np.linspace(0, 2 * hh, 2001)
+    pos, vel, a = (np.array([float(f(ti, dist, hh, tje)[j]) for ti in ts]) for j in range(3))
+    assert pos[0] == pytest.approx(0.0, abs=1e-15) and pos[-1] == pytest.approx(dist, rel=1e-12)
+    assert vel[-1] == pytest.approx(0.0, abs=1e-12)
+    assert np.max(np.abs(a)) == pytest.approx(acc, rel=1e-9)
+    dt = ts[1] - ts[0]
+    np.testing.assert_allclose(np.gradient(pos, dt)[5:-5], vel[5:-5], atol=2e-4)
+    np.testing.assert_allclose(np.gradient(vel, dt)[5:-5], a[5:-5], atol=acc * 0.05)
+    # time-optimal within the jerk ramp: duration 2h vs. pure bang-bang 2 sqrt(D/A)
+    assert 2 * math.sqrt(dist / acc) < 2 * hh < 2 * math.sqrt(dist / acc) + 2 * jt
+
+
+def test_admm_converges_to_the_qp_solution_with_active_disks():
+    """The fixed-budget ADMM agrees with an exact solve of the same condensed QP (active current disks)."""
+    st = NMPCSettings(current_limit=4.0, reference="plan")
+    b = StepBuilder(st.step_config("plan"))
+    init, prep = b.build_init(), b.build_prep()
+    p = NOMINAL.vector()
+    ref = np.zeros((6, st.horizon + 1))
+    ref[0], ref[3] = 0.02, 0.05
+    s0 = np.asarray(init([0.02, -0.05, 0], ref, p)).ravel()
+    # the estimate is 3 mm and 0.3 m/s off the plan: the correction saturates the current disks
+    s0[b.layout.slices()["xhat"]] = [0.0205, 0.0, -0.047, 0.3]
+    o = prep(s0, [0.02, -0.05, 0], ref, p)
+    L, dinv, q, G, ubar, glb, gub = (np.asarray(ca.densify(v)) for v in o[:7])
+    q, ubar, glb, gub = (v.ravel() for v in (q, ubar, glb, gub))
+    nv, ng = len(q), G.shape[0]
+    a = st.admm
+    H = L @ L.T - (a.sigma + a.rho_u) * np.eye(nv) - a.rho_g * G.T @ G
+    it = admm_iteration(nv, ng, 2, 4.0, 4.0, st.soft_gap.w_linear, st.soft_gap.w_quadratic,
+                        ADMMSettings(a.rho_u, a.rho_g, a.sigma, a.alpha))
+
+    def run(n):
+        x, z, y = np.zeros(nv), np.zeros(nv + ng), np.zeros(nv + ng)
+        for _ in range(n):
+            x, z, y, _, _ = (np.asarray(v).ravel() for v in it(x, z, y, L, dinv, q, G, ubar, glb, gub))
+        return z[:nv], y
+
+    # Reference: a long run, certified optimal by the KKT conditions of the disk-constrained QP
+    # (gap bounds are far from active here): H v + q + y = 0, y_j = mu_j u_j with mu_j >= 0 on the
+    # active disks and y_j = 0 on the inactive ones.
+    v_ex, y_ex = run(3000)
+    u_ex = ubar + v_ex
+    amp = np.hypot(u_ex[0::2], u_ex[1::2])
+    active = amp > 4.0 - 1e-6
+    assert np.sum(active) >= 3  # several disks active
+    assert np.max(np.abs(y_ex[nv:])) < 1e-9  # gap rows inactive
+    yu = y_ex[:nv]
+    assert np.max(np.abs(H @ v_ex + q + yu)) < 1e-6 * max(1.0, np.max(np.abs(q)))
+    for j in range(nv // 2):
+        yj, uj = yu[2 * j:2 * j + 2], u_ex[2 * j:2 * j + 2]
+        if active[j]:
+            mu = yj @ uj / (uj @ uj)
+            assert mu >= -1e-9 and np.allclose(yj, mu * uj, atol=1e-6)
+        else:
+            assert np.max(np.abs(yj)) < 1e-6
+    err = np.max(np.abs(ubar + run(st.iterations)[0] - u_ex))
+    assert err < 0.05, err  # the budget used online: within 50 mA of the exact QP solution
+
+
+def test_warm_start_is_the_shifted_plan():
+    ctrl = NMPC(NMPCSettings(), NOMINAL)
+    _, _, plant = closed_loop(ctrl, [(0.02, 0.0, 0.1)], profile="ideal")
+    plan = ctrl.plan_arrays()
+    # the last input is duplicated by the shift; the first node is the prediction of the next state
+    np.testing.assert_array_equal(plan["U"][-1], plan["U"][-2])
+    np.testing.assert_allclose(plan["X"][0], plant.x, atol=1e-7)
+    # at rest the next step applies what the shifted plan predicted (to 1 mA)
+    y = Measurement(plant.t, plant.quantize(plant.x[0]) * np.array([1, 0]) + plant.quantize(plant.x[2]) * np.array(
+        [0, 1]), plant.x)
+    u_next = ctrl.step(y, Reference(0.02, 0.0)).u
+    np.testing.assert_allclose(u_next, plan["U"][0], atol=1e-3)
+
+
+def test_forced_failure_falls_back_and_is_reported():
+    st = NMPCSettings(force_failure_steps=[100, 101, 102])
+    ctrl = NMPC(st, NOMINAL)
+
+    def nan_reading(i, y):  # a garbage encoder reading at step 150 must not break the run either
+        if i == 150:
+            return Measurement(y.t, np.array([math.nan, math.nan]), y.x_true, y.info)
+        return y
+
+    run, stats, plant = closed_loop(ctrl, [(0.02, 0.0, 0.05), (0.02, 0.004, 0.25)], on_step=nan_reading)
+    for i in (100, 101, 102):
+        assert stats[i]["fallback"] and stats[i]["status"] == "fallback"
+    assert not any(s["fallback"] for i, s in enumerate(stats) if i not in (100, 101, 102))
+    assert np.all(np.isfinite(run[:, 5:7]))
+    assert np.all(np.hypot(run[:, 5], run[:, 6]) <= k.i_amp_max + 1e-9)
+    late = run[:, 0] >= 0.25
+    assert np.all(np.abs(run[late, 3] - 0.004) < TOL) and np.all(np.abs(run[late, 1] - 0.02) < TOL)
+    assert not plant.events
+    # inject_failure works the same way at run time
+    ctrl.inject_failure(1)
+    out = ctrl.step(Measurement(plant.t, np.array([0.02, 0.004]), plant.x), Reference(0.02, 0.004))
+    assert out.stats["fallback"] and np.all(np.isfinite(out.u))
+
+
+def test_settings_validation():
+    s = parse_model(NMPCSettings, {"type": "nmpc", "horizon": 25, "weights": {"d": 1e6}}, "scenario.yaml")
+    assert s.horizon == 25 and s.weights.d == 1e6
+    with pytest.raises(ConfigError, match=r"scenario\.yaml: weights\.dd: unknown key"):
+        parse_model(NMPCSettings, {"weights": {"dd": 1.0}}, "scenario.yaml")
+    with pytest.raises(ConfigError, match="horizon"):
+        parse_model(NMPCSettings, {"horizon": 2}, "scenario.yaml")
