@@ -311,7 +311,7 @@ class AmplifierLag(Effect):
         Ts : float
             Sample period [s].
         i0 : ndarray, shape (2,), optional
-            Applied current at t = 0 (default: the first command, i.e. at rest).
+            Applied current at t = 0, and the command before it (default: the first command).
 
         Returns
         -------
@@ -319,14 +319,14 @@ class AmplifierLag(Effect):
             Period-mean applied currents (exact for the first-order lag with ZOH).
         """
         u = np.asarray(u_cmd, dtype=float)
+        i = u[0].copy() if i0 is None else np.asarray(i0, float).reshape(2).copy()
         n_del = round(float(theta["delay_samples"]))
         if n_del:
-            u = np.vstack([np.repeat(u[:1], n_del, axis=0), u[:-n_del]]) if len(u) > n_del else np.repeat(
-                u[:1], len(u), axis=0)
+            # before t = 0 the amplifiers were given the current they carried (i0)
+            u = np.vstack([np.repeat(i[None, :], n_del, axis=0), u])[: len(u)]
         w = 2 * math.pi * theta["bandwidth_hz"]
         a = math.exp(-w * Ts)
         mean_gain = 1 - (1 - a) / (w * Ts)  # weight of the new command in the period mean
-        i = u[0].copy() if i0 is None else np.asarray(i0, float).copy()
         out = np.empty_like(u)
         for n in range(len(u)):
             out[n] = i + mean_gain * (u[n] - i)
