@@ -215,7 +215,7 @@ def _draw(camp: Campaign, base: dict[str, Any], i: int) -> tuple[dict[str, Any],
 
 
 def expand(camp: Campaign, base: dict[str, Any] | None = None) -> list[RunSpec]:
-    """The campaign's runs, in a fixed order (draw-major: every case of draw 0, then draw 1, ...).
+    """The campaign's runs, in a fixed order (``camp.order``: draw-major or case-major).
 
     Parameters
     ----------
@@ -233,13 +233,16 @@ def expand(camp: Campaign, base: dict[str, Any] | None = None) -> list[RunSpec]:
     cases = _cases(camp, base)
     wc = max(2, len(str(len(cases) - 1)))
     wd = max(4, len(str(camp.n_runs - 1)))
+    draws = [_draw(camp, base, i) for i in range(camp.n_runs)]
+    pairs = (itertools.product(range(camp.n_runs), range(len(cases))) if camp.order == "draws"
+             else ((i, ci) for ci in range(len(cases)) for i in range(camp.n_runs)))
     specs: list[RunSpec] = []
-    for i in range(camp.n_runs):
-        ov_draw, dev, seed = _draw(camp, base, i)
-        for ci, (ctype, ov_case, point) in enumerate(cases):
-            ov = {**ov_case, **ov_draw}
-            rid = f"{_safe(ctype)}-c{ci:0{wc}d}-r{i:0{wd}d}"
-            specs.append(RunSpec(rid, len(specs), ci, i, ctype, ov, seed, dict(dev), point))
+    for i, ci in pairs:
+        ov_draw, dev, seed = draws[i]
+        ctype, ov_case, point = cases[ci]
+        ov = {**ov_case, **ov_draw}
+        rid = f"{_safe(ctype)}-c{ci:0{wc}d}-r{i:0{wd}d}"
+        specs.append(RunSpec(rid, len(specs), ci, i, ctype, ov, seed, dict(dev), point))
     return specs
 
 
