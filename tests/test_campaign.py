@@ -23,6 +23,7 @@ from maglev_ocp.campaign.execute import execute, read_run_record, run_dir, worke
 from maglev_ocp.campaign.expand import apply_overrides, draw_seed_sequence, n_cases
 from maglev_ocp.errors import ConfigError, UserError
 from maglev_ocp.params import NOMINAL
+from maglev_ocp.scenario import scenario_from_dict
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -51,7 +52,7 @@ vary:
 
 def toy_run(scenario: dict, seed: int, workdir: Path, save) -> dict:
     """Cheap deterministic stand-in for the scenario runner: metrics from the overrides and the seed."""
-    c1 = scenario["plant"]["params"]["C1"]
+    c1 = scenario["plant"]["mismatch"]["overrides"]["C1"]
     gain = scenario["controller"].get("gain", 1.0)
     if seed % 7 == 0 or scenario.get("fail"):
         raise RuntimeError(f"toy failure for seed {seed}")
@@ -104,7 +105,8 @@ def test_expansion_is_deterministic_and_seeded_by_spawn(camp_dir: Path) -> None:
     for s in a:
         assert abs(s.deviations["plant.C1"]) <= 10.0
         assert abs(s.deviations["plant.xi0"]) <= 2 * 5.0
-        assert s.overrides["plant.params.C1"] == pytest.approx(NOMINAL.C1 * (1 + s.deviations["plant.C1"] / 100))
+        assert s.overrides["plant.mismatch.overrides.C1"] == pytest.approx(
+            NOMINAL.C1 * (1 + s.deviations["plant.C1"] / 100))
         assert s.overrides["controller_params.C2"] == pytest.approx(
             NOMINAL.C2 * (1 + s.deviations["belief.C2"] / 100))
         for t in s.overrides["targets"]:
@@ -244,6 +246,10 @@ def test_shipped_campaigns_validate_and_expand() -> None:
                 devs = [s.deviations[f"plant.{p}"] for s in specs]
                 assert max(map(abs, devs)) <= 10.0 + 1e-9 and max(devs) > 8 and min(devs) < -8, (name, p)
         assert all(math.isfinite(s.seed) for s in specs)
+        # Every case's runs are valid scenarios (as the runner will see them).
+        base = camp.base_scenario_dict()
+        for s in {s.case: s for s in specs}.values():
+            scenario_from_dict(apply_overrides(base, s.overrides), f"{name}/{s.run_id}")
 
 
 def test_cli_plan_and_bad_values(tmp_path: Path, capsys) -> None:

@@ -35,10 +35,13 @@ import numpy as np
 from ..params import NOMINAL
 from .config import PERTURBABLE, Campaign, NormalRel, UniformRel
 
-#: Where the plant's true parameters live in a scenario (a ``ParamOverrides`` block).
-PLANT_PARAMS_KEY = "plant.params"
+#: Where the plant's true parameters live in a scenario: the plant's mismatch overrides, applied after
+#: the profile's random mismatch, so the drawn value is exactly the simulated rig's parameter.
+PLANT_PARAMS_KEY = "plant.mismatch.overrides"
 #: Where the controller's belief about the parameters lives in a scenario.
 BELIEF_PARAMS_KEY = "controller_params"
+#: Where a perturbation's reference value is looked up in the base scenario, in order (then NOMINAL).
+_BASE_KEYS = {PLANT_PARAMS_KEY: (PLANT_PARAMS_KEY, "plant.params"), BELIEF_PARAMS_KEY: (BELIEF_PARAMS_KEY,)}
 
 _STREAM_PLANT, _STREAM_BELIEF, _STREAM_TARGETS, _STREAM_NOISE = range(4)
 
@@ -200,8 +203,9 @@ def _draw(camp: Campaign, base: dict[str, Any], i: int) -> tuple[dict[str, Any],
             j = PERTURBABLE.index(name)
             rng = np.random.default_rng(draw_seed_sequence(camp.seed, i, stream, j))
             f = _factor(perts[name], rng)
-            nominal = get_dotted(base, f"{key}.{name}")
-            nominal = float(getattr(NOMINAL, name) if nominal is None else nominal)
+            nominal = next((v for v in (get_dotted(base, f"{bk}.{name}") for bk in _BASE_KEYS[key])
+                            if v is not None), getattr(NOMINAL, name))
+            nominal = float(nominal)
             ov[f"{key}.{name}"] = nominal * f
             dev[f"{tag}.{name}"] = (f - 1.0) * 100.0
     if camp.vary.targets is not None:

@@ -1,0 +1,76 @@
+"""The campaign's bridge to the scenario runner (:mod:`maglev_ocp.runner`).
+
+One run of a campaign is one scenario: the base scenario with the run's
+overrides, validated like a scenario file (so a bad override is a one-line
+error naming the key, recorded as the run's failure), run by
+:func:`maglev_ocp.runner.run_scenario`, its files written into the work
+folder the executor ships back.
+
+Solvers and controllers are built once per worker process: the model is a
+process singleton, the plant's step Function and the NMPC's step Functions
+are cached per design in their modules, and the runner keeps built controllers
+per :meth:`~maglev_ocp.scenario.Scenario.key`; a Dask worker is a long-lived
+process, so every run after the first of a setting reuses them.
+"""
+
+from __future__ import annotations
+
+import inspect
+import json
+from pathlib import Path
+from typing import Any
+
+from .config import SaveSettings
+
+
+def run_scenario_dict(scenario: dict[str, Any], seed: int, workdir: Path, save: SaveSettings) -> dict[str, Any]:
+    """Validate ``scenario``, run it, keep the files ``save`` asks for in ``workdir``; return its metrics."""
+    from ..runner import run_scenario
+    from ..scenario import scenario_from_dict
+
+    name = str(scenario.get("name", "run"))
+    scn = scenario_from_dict(scenario, source=f"campaign run {name}")
+    kw: dict[str, Any] = {"seed": seed}
+    params = inspect.signature(run_scenario).parameters
+    if "progress" in params:
+        kw["progress"] = False
+    result = run_scenario(scn, **kw)
+    metrics = _metrics_of(result)
+    workdir = Path(workdir)
+    if save.log or save.figures:
+        save_params = inspect.signature(result.save).parameters
+        skw: dict[str, Any] = {}
+        if "figures" in save_params:
+            skw["figures"] = bool(save.figures)
+        result.save(workdir, **skw)
+        for p in list(workdir.rglob("*")):
+            if p.is_file() and ((p.suffix == ".png" and not save.figures) or (p.name == "log.csv" and not save.log)):
+                p.unlink()
+    (workdir / "metrics.json").write_text(json.dumps(metrics, indent=1, default=_plain))
+    return metrics
+
+
+def _metrics_of(result: Any) -> dict[str, Any]:
+    """The metrics dict of a runner result (attribute ``metrics``, a dict or an object with ``as_dict``)."""
+    m = getattr(result, "metrics", None)
+    if m is None:
+        raise TypeError(f"runner result {type(result).__name__} has no 'metrics'")
+    if hasattr(m, "as_dict"):
+        m = m.as_dict()
+    elif hasattr(m, "model_dump"):
+        m = m.model_dump(mode="json")
+    if not isinstance(m, dict):
+        raise TypeError(f"runner metrics are {type(m).__name__}, not a dict")
+    return json.loads(json.dumps(m, default=_plain))
+
+
+def _plain(o: Any) -> Any:
+    import numpy as np
+
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if hasattr(o, "as_dict"):
+        return o.as_dict()
+    raise TypeError(f"not JSON serializable: {type(o).__name__}")
