@@ -167,6 +167,23 @@ def test_horizontal_stop_and_locked_gap():
     assert plant.x[2] == 0.060
 
 
+def test_one_plant_runs_locked_and_free_with_the_same_true_parameters():
+    plant = Plant(PlantConfig.from_profile("default"), NOMINAL, seed=21)
+    tp = plant.true_params
+    plant.reset(np.array([0.02, 0.1, 0.01, 0.2]), lock="d")
+    for _ in range(20):
+        plant.step(plant.hover_currents(plant.x))
+    assert plant.log.locked == ("d",) and np.all(plant.log["d_true"] == 0.01) and plant.log["g_dot_true"][0] == 0.1
+    plant.reset(np.array([0.015, 0.0, -0.03, 0.0]), lock="g")
+    for _ in range(20):
+        plant.step([-0.5, 0.0])
+    assert plant.log.locked == ("g",) and np.all(plant.log["g_true"] == 0.015) and plant.x[2] > -0.03
+    plant.reset()
+    assert plant.log.locked == () and plant.true_params == tp
+    with pytest.raises(ValueError):
+        plant.reset(lock="x")
+
+
 def test_locked_axis_reads_a_constant_despite_noise():
     cfg = PlantConfig.from_profile("default", {"lock": {"axis": "d", "value": 3 * k.t1 / 2}})
     plant = Plant(cfg, NOMINAL, seed=3)

@@ -262,9 +262,7 @@ def run(args: argparse.Namespace) -> int:
         "generator": "maglev simulate",
         "experiment": experiment,
         "seed": args.seed,
-        "nominal_params": params.as_dict(),
-        "true_params": plant.true_params.as_dict(),
-        "plant": cfg.to_dict(),
+        **plant.dataset_meta(),
     }
     write_dataset(out, runs, plant.Ts, cfg.quantization.resolution, meta=meta,
                   description=f"maglev simulate --experiment {experiment}")

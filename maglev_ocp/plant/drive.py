@@ -35,6 +35,7 @@ def run_closed_loop(
     duration: float,
     *,
     x0: np.ndarray | None = None,
+    lock: str | None = None,
     file: str = "run.csv",
     progress: bool = False,
     desc: str | None = None,
@@ -53,6 +54,8 @@ def run_closed_loop(
         Run length [s] (rounded to whole periods).
     x0 : array (4,), optional
         Initial true state; default: at rest on the reference at t = 0.
+    lock : {"none", "g", "d"}, optional
+        Fixture for this run (overrides the plant config's; the axis is held at ``x0``).
     file : str
         File name the run gets in a dataset.
     progress : bool
@@ -71,7 +74,7 @@ def run_closed_loop(
     r0 = reference(0.0)
     if x0 is None:
         x0 = np.array([r0.g, 0.0, r0.d, 0.0])
-    y = plant.reset(x0)
+    y = plant.reset(x0, lock=lock)
     controller.reset(y, r0)
     extra = np.full((n, 4), np.nan)
     with tqdm(total=n, disable=not progress, desc=desc or file, unit="step", leave=False) as bar:
@@ -97,6 +100,7 @@ def run_open_loop(
     *,
     x0: np.ndarray | None = None,
     u0: np.ndarray | None = None,
+    lock: str | None = None,
     file: str = "run.csv",
     progress: bool = False,
     desc: str | None = None,
@@ -115,7 +119,7 @@ def run_open_loop(
         Initial true state (default: the plant's, hovering at 20 mm).
     u0 : array (2,), optional
         Current the amplifiers carry at t = 0 (default: the hover currents).
-    file, progress, desc
+    lock, file, progress, desc
         As for :func:`run_closed_loop`.
     """
     Ts = plant.Ts
@@ -131,7 +135,7 @@ def run_open_loop(
         n = len(seq) if duration is None else _n_steps(duration, Ts)
         if n > len(seq):
             raise ValueError(f"{len(seq)} current samples do not cover {duration} s")
-    plant.reset(x0, u0)
+    plant.reset(x0, u0, lock=lock)
     with tqdm(total=n, disable=not progress, desc=desc or file, unit="step", leave=False) as bar:
         for i in range(n):
             plant.step(seq[i])

@@ -307,7 +307,9 @@ class Plant:
         return self._xa[:4].copy()
 
     # -------------------------------------------------------------------- run
-    def reset(self, x0: np.ndarray | None = None, u0: np.ndarray | None = None) -> Measurement:
+    def reset(
+        self, x0: np.ndarray | None = None, u0: np.ndarray | None = None, lock: str | None = None
+    ) -> Measurement:
         """Start a run and return the measurement at t = 0.
 
         Parameters
@@ -318,12 +320,20 @@ class Plant:
         u0 : array (2,), optional
             Current the amplifiers carry at t = 0 (fills the lag state and the delay
             buffer); default: the hover currents at ``x0`` (the rig was hovering).
+        lock : {"none", "g", "d"}, optional
+            Fixture for this run, overriding the config's ``lock.axis``; the axis is
+            held where ``x0`` puts it. One plant (one set of true parameters) can so
+            produce every run of a dataset, locked or free, as on the real rig.
         """
         cfg = self.config
         x = np.array([20e-3, 0.0, 0.0, 0.0]) if x0 is None else np.asarray(x0, dtype=float).reshape(4).copy()
+        if lock is not None and lock not in ("none", "g", "d"):
+            raise ValueError(f"lock must be 'none', 'g' or 'd', got {lock!r}")
+        self._lock = cfg.lock.axis if lock is None else lock
+        self._free[:] = [0.0 if self._lock == "g" else 1.0, 0.0 if self._lock == "d" else 1.0]
         if self._lock != "none":
             i = 0 if self._lock == "g" else 2
-            if cfg.lock.value is not None:
+            if lock is None and cfg.lock.value is not None:
                 x[i] = cfg.lock.value
             x[i + 1] = 0.0
         if not np.all(np.isfinite(x)):
@@ -440,6 +450,11 @@ class Plant:
         order = ("t", "g", "d", "i_q", "i_d", "g_true", "d_true", "g_dot_true", "d_dot_true")
         locked = () if self._lock == "none" else (self._lock,)
         return RunLog("run.csv", {n: cols[n] for n in order}, locked)
+
+    def dataset_meta(self) -> dict:
+        """What a dataset written from this plant should record: config, nominal and true parameters."""
+        return {"plant": self.config.to_dict(), "nominal_params": self.nominal_params.as_dict(),
+                "true_params": self.true_params.as_dict()}
 
     def summary(self) -> str:
         """Text view: settings, true parameters and stop events."""
