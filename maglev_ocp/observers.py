@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import constants as k
+from .fastcall import BufferedFunction
 from .model import get_model
 from .params import NOMINAL, Params
 
@@ -66,7 +67,7 @@ class HighGainObserver:
         self.Ts = Ts
         self.params = params
         self._p = params.vector()
-        self._F = get_model().step(Ts, 1)
+        self._F = BufferedFunction(get_model().step(Ts, 1))
         n = 3 if self.settings.disturbance else 2
         F = np.eye(n)
         F[0, 1] = Ts
@@ -104,7 +105,7 @@ class HighGainObserver:
 
     def predict(self, u_prev: np.ndarray) -> np.ndarray:
         """Model prediction one period ahead with the applied current and the disturbance."""
-        x = np.asarray(self._F(self.x_hat, u_prev, self._p)).ravel()
+        (x,) = self._F(self.x_hat, u_prev, self._p)
         if self.settings.disturbance:
             Ts = self.Ts
             x[0] += self.dist[0] * Ts**2 / 2
