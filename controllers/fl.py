@@ -1,0 +1,283 @@
+"""Feedback linearization of the stage (the nonlinear design the seed cites as [3]).
+
+The outputs ``(g, d)`` have relative degree {2, 2} and no zero dynamics, so the
+model can be inverted exactly: given desired accelerations ``(a_g, a_d)``,
+``i_q`` follows from the horizontal equation (linear in ``i_q``) and ``i_d``
+from the quadratic of the vertical equation (seed eq. (2), ``shared/spec/NOTES.md``).
+The inversion includes cogging (seed eq. (9)) whenever the parameter vector
+has ``xi0 > 0``; a cogging-blind controller is the same law with ``xi0 = 0``.
+
+The outer loop turns the two outputs into double integrators driven by a PD
+(optionally PID) law with reference feedforward; the extended-state observer's
+disturbance estimate is subtracted, which makes the tracking offset-free
+against slowly varying model error. Current limits (each axis and the 8 A
+amplitude) are enforced with the vertical axis first (it is open-loop
+unstable), and the integrators stop when their axis saturates (anti-windup).
+
+The whole control law is one CasADi Function (:func:`fl_law_function`) built
+from the shared model's Functions, so it can be code-generated as it is.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import casadi as ca
+import numpy as np
+from pydantic import Field
+
+from maglev_ocp import constants as k
+from maglev_ocp.blocks import ControlOutput, Measurement, Reference
+from maglev_ocp.config import Strict
+from maglev_ocp.fastcall import BufferedFunction
+from maglev_ocp.model import get_model
+from maglev_ocp.observers import HighGainObserver, ObserverSettings
+from maglev_ocp.params import NOMINAL, Params
+
+#: Order of the reference vector fed to :func:`fl_law_function`.
+REF_FIELDS: tuple[str, ...] = ("g", "g_dot", "g_ddot", "d", "d_dot", "d_ddot")
+#: Order of the gain / limit vector fed to :func:`fl_law_function`.
+GAIN_FIELDS: tuple[str, ...] = ("kp_g", "kd_g", "ki_g", "kp_d", "kd_d", "ki_d", "i_axis_max", "i_amp_max", "Ts")
+#: Order of the flag vector returned by :func:`fl_law_function`.
+FLAG_FIELDS: tuple[str, ...] = ("unreachable", "sat_g", "sat_d")
+
+
+def _inverse_expressions(x: ca.SX, a: ca.SX, p: ca.SX, i_q: ca.SX | None = None) -> tuple[ca.SX, ca.SX, ca.SX]:
+    """Symbolic model inverse: currents that produce the model accelerations ``a = (a_g, a_d)``.
+
+    The coefficients are taken from the shared model's ``accel_terms`` by
+    differentiation (nothing is retyped): the horizontal acceleration is
+    ``a_d = h0(x) - L1(x) i_q`` and the vertical one
+    ``a_g = c0(x, i_q) + L3(x) i_d - L4(x) i_d^2`` (seed eq. (2) with cogging).
+
+    Parameters
+    ----------
+    x, a, p : casadi.SX
+        State (4), desired model accelerations (2) and parameter vector.
+    i_q : casadi.SX, optional
+        Use this ``i_q`` in the vertical equation instead of the one that
+        inverts the horizontal equation (used after ``i_q`` has been limited).
+
+    Returns
+    -------
+    i_q, i_d, unreachable : casadi.SX
+        Currents and a 0/1 flag: 1 when the demanded vertical acceleration
+        is beyond the largest the field can give (``disc < 0``); ``i_d`` is
+        then the current of the largest achievable acceleration.
+    """
+    m = get_model()
+    uq, ud = ca.SX.sym("uq"), ca.SX.sym("ud")
+    terms = m.accel_terms(x, ca.vertcat(uq, ud), p)
+    a_g = terms[0] + terms[1] + terms[2] + terms[3] + terms[4]
+    a_d = terms[5] + terms[6]
+    # Horizontal: a_d = h0 - L1 i_q, linear in i_q.
+    L1 = -ca.substitute(ca.jacobian(a_d, uq), uq, 0)
+    h0 = ca.substitute(a_d, uq, 0)
+    iq_inv = (h0 - a[1]) / L1
+    iq_used = iq_inv if i_q is None else i_q
+    # Vertical: a_g = c0 + L3 i_d - L4 i_d^2 (the reluctance term also holds L4 i_q^2 inside c0).
+    dg = ca.jacobian(a_g, ud)
+    L3 = ca.substitute(dg, ud, 0)
+    L4 = -0.5 * ca.jacobian(dg, ud)
+    c0 = ca.substitute(a_g, ud, 0)
+    L3, L4, c0 = (ca.substitute(e, uq, iq_used) for e in (L3, L4, c0))
+    # L4 i_d^2 - L3 i_d + c = 0 with c = a_g* - c0. Root of smaller magnitude (continuous with the
+    # linear solution c / L3, no field weakening against the magnets), written 2c / (L3 + sqrt(disc))
+    # so that it does not cancel when L4 (C4) is small.
+    c = a[0] - c0
+    disc = L3**2 - 4 * L4 * c
+    unreachable = disc < 0
+    id_root = 2 * c / (L3 + ca.sqrt(ca.fmax(disc, 0)))
+    # disc < 0: the demanded opening acceleration exceeds the maximum of L3 i_d - L4 i_d^2,
+    # reached at i_d = L3 / (2 L4): give that (the current limits clip it further).
+    id_vertex = L3 / (2 * ca.fmax(L4, 1e-12))
+    i_d = ca.if_else(unreachable, id_vertex, id_root)
+    return iq_used if i_q is not None else iq_inv, i_d, unreachable
+
+
+@functools.lru_cache(maxsize=1)
+def model_inverse_function() -> ca.Function:
+    """CasADi Function ``model_inverse(x, a, p) -> (u, unreachable)`` without limits.
+
+    ``u = (i_q, i_d)`` makes the model's accelerations equal to ``a = (a_g, a_d)``
+    at state ``x`` (exactly, cogging included, when ``unreachable == 0``). The
+    reference generator uses it to check that a planned move fits the current limits.
+    """
+    x, a, p = ca.SX.sym("x", 4), ca.SX.sym("a", 2), ca.SX.sym("p", get_model().np_)
+    i_q, i_d, unr = _inverse_expressions(x, a, p)
+    return ca.Function("model_inverse", [x, a, p], [ca.vertcat(i_q, i_d), unr], ["x", "a", "p"], ["u", "unreachable"])
+
+
+def _sat(v: ca.SX, lim: ca.SX) -> ca.SX:
+    return ca.fmin(ca.fmax(v, -lim), lim)
+
+
+@functools.lru_cache(maxsize=1)
+def fl_law_function() -> ca.Function:
+    """The complete feedback-linearizing control law as one CasADi Function.
+
+    ``fl_law(x_hat, dist, ref, z, p, gains) -> (u, z_next, v, flags)``
+
+    Inputs: ``x_hat`` state estimate (4); ``dist`` acceleration disturbance
+    estimate (2, gap then horizontal) [m/s^2]; ``ref`` in the order of
+    :data:`REF_FIELDS`; ``z`` integrals of the position errors (2) [m s];
+    ``p`` parameter vector; ``gains`` in the order of :data:`GAIN_FIELDS`.
+    Outputs: ``u = (i_q, i_d)`` within the limits [A]; ``z_next``; ``v`` the
+    demanded output accelerations [m/s^2]; ``flags`` in the order of
+    :data:`FLAG_FIELDS` (0/1).
+    """
+    np_ = get_model().np_
+    x, dist, ref, z = ca.SX.sym("x_hat", 4), ca.SX.sym("dist", 2), ca.SX.sym("ref", 6), ca.SX.sym("z", 2)
+    p, gains = ca.SX.sym("p", np_), ca.SX.sym("gains", len(GAIN_FIELDS))
+    G = dict(zip(GAIN_FIELDS, ca.vertsplit(gains), strict=True))
+    R = dict(zip(REF_FIELDS, ca.vertsplit(ref), strict=True))
+    e_g, e_gd = R["g"] - x[0], R["g_dot"] - x[1]
+    e_d, e_dd = R["d"] - x[2], R["d_dot"] - x[3]
+    # Outer loop on the double integrators y'' = v, with reference feedforward.
+    v_g = R["g_ddot"] + G["kp_g"] * e_g + G["kd_g"] * e_gd + G["ki_g"] * z[0]
+    v_d = R["d_ddot"] + G["kp_d"] * e_d + G["kd_d"] * e_dd + G["ki_d"] * z[1]
+    # The model must produce v minus what the observer says the unmodelled part adds.
+    a = ca.vertcat(v_g - dist[0], v_d - dist[1])
+    i_amp, i_ax = G["i_amp_max"], G["i_axis_max"]
+    iq0, id0, unr0 = _inverse_expressions(x, a, p)
+    # Limits, vertical axis first (open-loop unstable): i_d gets what it needs up to the
+    # amplitude, i_q the rest of the amplitude budget.
+    id_lim = ca.fmin(i_ax, i_amp)
+    id1 = _sat(id0, id_lim)
+    iq1 = _sat(iq0, ca.fmin(i_ax, ca.sqrt(ca.fmax(i_amp**2 - id1**2, 0))))
+    # i_q enters the vertical equation through the reluctance term: re-solve i_d with the
+    # limited i_q, then limit again (the amplitude stays within bounds by construction).
+    _, id2, unr = _inverse_expressions(x, a, p, i_q=iq1)
+    id2 = _sat(id2, id_lim)
+    iq2 = _sat(iq1, ca.fmin(i_ax, ca.sqrt(ca.fmax(i_amp**2 - id2**2, 0))))
+    tol = 1e-9
+    sat_g = ca.logic_or(ca.fabs(id2 - id0) > tol + 1e-6 * ca.fabs(id0), ca.logic_or(unr, unr0))
+    sat_d = ca.fabs(iq2 - iq0) > tol + 1e-6 * ca.fabs(iq0)
+    # Anti-windup: an axis integrates only while its current is not limited.
+    z_next = ca.vertcat(
+        z[0] + ca.if_else(sat_g, 0, G["Ts"] * e_g),
+        z[1] + ca.if_else(sat_d, 0, G["Ts"] * e_d),
+    )
+    return ca.Function(
+        "fl_law",
+        [x, dist, ref, z, p, gains],
+        [ca.vertcat(iq2, id2), z_next, ca.vertcat(v_g, v_d), ca.vertcat(unr, sat_g, sat_d)],
+        ["x_hat", "dist", "ref", "z", "p", "gains"],
+        ["u", "z_next", "v", "flags"],
+    )
+
+
+class FLSettings(Strict):
+    """Tuning of :class:`FeedbackLinearization` (the scenario's ``controller:`` block for ``type: fl``).
+
+    Attributes
+    ----------
+    omega_g, omega_d : float
+        Closed-loop bandwidth of the gap and horizontal loops [rad/s]: with
+        ``integral: false`` both poles at ``-omega`` (damping ``zeta``), with
+        ``integral: true`` a triple pole at ``-omega``. Keep them well below
+        the observer's ``1/eps`` and the 1 kHz sampling rate.
+    zeta : float
+        Damping ratio of the PD loops.
+    integral : bool
+        Add integral action (on top of the observer's disturbance estimate).
+    observer_eps : float
+        Time constant of the high-gain observer's error poles [s].
+    disturbance : bool
+        Estimate and cancel a constant acceleration disturbance per axis
+        (offset-free tracking).
+    i_axis_max, i_amp_max : float
+        Current limits the law respects [A] (at most the amplifier's 8 A).
+    """
+
+    omega_g: float = Field(70.0, gt=0, le=400)
+    omega_d: float = Field(70.0, gt=0, le=400)
+    zeta: float = Field(1.0, gt=0, le=5)
+    integral: bool = False
+    observer_eps: float = Field(4e-3, gt=0, le=0.1)
+    disturbance: bool = True
+    i_axis_max: float = Field(k.i_axis_max, gt=0, le=k.i_axis_max)
+    i_amp_max: float = Field(k.i_amp_max, gt=0, le=k.i_amp_max)
+
+    def gains(self, Ts: float = k.Ts) -> np.ndarray:
+        """Gain / limit vector in the order of :data:`GAIN_FIELDS`."""
+        out = []
+        for w in (self.omega_g, self.omega_d):
+            if self.integral:  # (s + w)^3
+                out += [3 * w**2, 3 * w, w**3]
+            else:  # s^2 + 2 zeta w s + w^2
+                out += [w**2, 2 * self.zeta * w, 0.0]
+        return np.array([*out, self.i_axis_max, self.i_amp_max, Ts], dtype=float)
+
+
+class FeedbackLinearization:
+    """Feedback-linearizing controller with a high-gain (extended-state) observer.
+
+    Parameters
+    ----------
+    settings : FLSettings
+        Tuning.
+    params : Params
+        What the controller's model believes (e.g. ``params.without_cogging()``
+        for a cogging-blind controller).
+    Ts : float
+        Control period [s].
+
+    Notes
+    -----
+    ``stats`` of each step: ``unreachable`` (demanded attraction out of reach,
+    clipped), ``sat_g``/``sat_d`` (current limits active), ``v_g``/``v_d``
+    (demanded accelerations), ``dist_g``/``dist_d`` (disturbance estimates),
+    and ``solver_failure = fallback = 0`` (a closed-form law cannot fail).
+    """
+
+    name = "fl"
+
+    def __init__(self, settings: FLSettings | None = None, params: Params = NOMINAL, Ts: float = k.Ts):
+        self.settings = settings or FLSettings()
+        self.params = params
+        self.Ts = Ts
+        self._p = params.vector()
+        self._gains = self.settings.gains(Ts)
+        self._law = BufferedFunction(fl_law_function())
+        self.observer = HighGainObserver(
+            params, ObserverSettings(eps=self.settings.observer_eps, disturbance=self.settings.disturbance), Ts
+        )
+        self._z = np.zeros(2)
+        self._u_prev = np.zeros(2)
+        self._started = False
+
+    def reset(self, y0: Measurement, ref: Reference) -> None:
+        """Start a run at reading ``y0`` (mover assumed at rest); clear integrators."""
+        self.observer.reset(np.asarray(y0.y, dtype=float))
+        self._z = np.zeros(2)
+        self._u_prev = np.zeros(2)
+        self._started = False
+
+    def step(self, y: Measurement, ref: Reference) -> ControlOutput:
+        """Observer update with the last command, then the control law."""
+        if self._started:
+            x_hat = self.observer.step(y.y, self._u_prev)
+        else:
+            x_hat = self.observer.x_hat.copy()
+            self._started = True
+        r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
+        dist = self.observer.disturbance
+        u, z_next, v, fl = self._law(x_hat, dist, r, self._z, self._p, self._gains)
+        if not (math.isfinite(u[0]) and math.isfinite(u[1])):  # not for finite inputs; never command NaN
+            u = np.zeros(2)
+        self._z = z_next
+        self._u_prev = u
+        stats = {
+            "unreachable": int(fl[0]), "sat_g": int(fl[1]), "sat_d": int(fl[2]),
+            "v_g": float(v[0]), "v_d": float(v[1]), "dist_g": float(dist[0]), "dist_d": float(dist[1]),
+            "solver_failure": 0, "fallback": 0,
+        }
+        return ControlOutput(u=u, x_hat=x_hat, stats=stats)
+
+
+__all__ = [
+    "FLAG_FIELDS", "GAIN_FIELDS", "REF_FIELDS", "FLSettings", "FeedbackLinearization", "fl_law_function",
+    "model_inverse_function",
+]

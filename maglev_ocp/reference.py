@@ -1,0 +1,376 @@
+"""Reference generator: point-to-point moves that the current limits allow.
+
+A set-point step of 100 mm would ask any controller for an acceleration the
+8 A amplifiers cannot give, and a saturated loop on an open-loop unstable axis
+is a poor way to move. This module plans, for each target of a scenario, a
+smooth rest-to-rest move of the shortest duration whose *model-inverse*
+currents stay within a fraction of the limits along the whole path:
+
+- the shape is a jerk-limited bang-bang profile (trapezoidal acceleration,
+  ``ramp_fraction`` of the move spent ramping; 0 gives pure bang-bang, the
+  time-optimal profile of a double integrator);
+- both axes share one duration ``T`` (a straight line in the ``(g, d)`` plane);
+- ``T`` is the smallest duration (bisection) for which the currents of the
+  shared model's exact inverse (cogging included, see
+  :func:`controllers.fl.model_inverse_function`) along the planned states and
+  accelerations satisfy ``|i_q|, |i_d| <= f * 8 A`` and
+  ``sqrt(i_q^2 + i_d^2) <= f * 8 A`` with ``f = current_fraction``. So the
+  acceleration is the one the limits allow *at the gaps the move passes*
+  (larger at small gaps, where ``L1 = C1 f1`` is larger, and less when the
+  hover current already takes part of the amplitude).
+
+The remaining fraction ``1 - f`` of the current is the feedback's margin.
+The same plan serves every controller: the runner hands each controller
+:meth:`ReferencePlan.at` at every step, and a controller with a horizon can
+read ahead with :meth:`ReferencePlan.sample` (the runner calls a controller's
+``set_reference_plan(plan)`` if it has one).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+
+from . import constants as k
+from .blocks import Reference
+from .config import Strict
+from .errors import ConfigError
+from .params import NOMINAL, Params
+
+
+class ReferenceSettings(Strict):
+    """How targets become references (a scenario's ``reference:`` block).
+
+    Attributes
+    ----------
+    shaping : {"trajectory", "step"}
+        ``trajectory``: plan a current-feasible move to each target (default);
+        ``step``: jump the set-point to the target at its switch time.
+    current_fraction : float
+        Fraction of the current limits the planned feedforward may use; the
+        rest is left to the feedback.
+    ramp_fraction : float
+        Fraction of the move spent ramping the acceleration up or down
+        (0 = pure bang-bang; at most 0.25).
+    """
+
+    shaping: Literal["trajectory", "step"] = "trajectory"
+    current_fraction: float = Field(0.8, gt=0.05, le=1.0)
+    ramp_fraction: float = Field(0.1, ge=0.0, le=0.25)
+
+
+@functools.lru_cache(maxsize=16)
+def _shape_knots(ramp: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Knots of the normalized acceleration profile on tau in [0, 1] (s(0)=0, s(1)=1).
+
+    Acceleration is piecewise linear through the knots (a zero-length
+    segment is a jump); returns ``(tau, acc, vel, pos)`` at the knots.
+    """
+    r, h = ramp, 0.5
+    tau = np.array([0.0, r, h - r, h, h, h + r, 1 - r, 1.0])
+    acc = np.array([0.0, 1.0, 1.0, 0.0, 0.0, -1.0, -1.0, 0.0])
+    if r == 0.0:  # pure bang-bang: jump to +1 at 0, to -1 at 1/2, to 0 at 1
+        acc = np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0])
+    vel, pos = np.zeros_like(tau), np.zeros_like(tau)
+    for i in range(1, len(tau)):
+        dt = tau[i] - tau[i - 1]
+        vel[i] = vel[i - 1] + 0.5 * (acc[i - 1] + acc[i]) * dt
+        pos[i] = pos[i - 1] + vel[i - 1] * dt + (2 * acc[i - 1] + acc[i]) * dt**2 / 6
+    scale = 1.0 / pos[-1]  # peak acceleration of the unit move over unit time
+    return tau, acc * scale, vel * scale, pos * scale
+
+
+def unit_profile(tau: np.ndarray, ramp: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Normalized rest-to-rest profile ``(s, s', s'')`` at ``tau`` in [0, 1].
+
+    Parameters
+    ----------
+    tau : ndarray
+        Normalized time (clipped to [0, 1]).
+    ramp : float
+        Ramp fraction (see :class:`ReferenceSettings`).
+    """
+    kt, ka, kv, kp = _shape_knots(float(ramp))
+    raw = np.asarray(tau, dtype=float)
+    tau = np.clip(raw, 0.0, 1.0)
+    # Segment of each tau among the segments of positive length (zero-length ones are jumps).
+    segs = np.flatnonzero(np.diff(kt) > 0)
+    idx = segs[np.clip(np.searchsorted(kt[segs], tau, side="right") - 1, 0, len(segs) - 1)]
+    dt_seg = kt[idx + 1] - kt[idx]
+    slope = (ka[idx + 1] - ka[idx]) / np.where(dt_seg > 0, dt_seg, 1.0)
+    dt = tau - kt[idx]
+    a = ka[idx] + slope * dt
+    v = kv[idx] + ka[idx] * dt + slope * dt**2 / 2
+    s = kp[idx] + kv[idx] * dt + ka[idx] * dt**2 / 2 + slope * dt**3 / 6
+    done = raw >= 1.0
+    a = np.where(raw < 0.0, 0.0, a)
+    s, v, a = np.where(done, 1.0, s), np.where(done, 0.0, v), np.where(done, 0.0, a)
+    return s, v, a
+
+
+def peak_acceleration_factor(ramp: float) -> float:
+    """Peak of ``s''`` of the unit move (4 for pure bang-bang)."""
+    return float(np.max(np.abs(_shape_knots(float(ramp))[1])))
+
+
+@dataclass(frozen=True)
+class Move:
+    """One planned rest-to-rest move from ``p0`` to ``p1`` starting at ``t0``.
+
+    Attributes
+    ----------
+    t0 : float
+        Start time [s].
+    T : float
+        Duration [s] (0 for no motion).
+    p0, p1 : tuple of float
+        Start and end positions ``(g, d)`` [m].
+    ramp : float
+        Ramp fraction of the profile.
+    """
+
+    t0: float
+    T: float
+    p0: tuple[float, float]
+    p1: tuple[float, float]
+    ramp: float = 0.1
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Reference at times ``t``: array (len(t), 6) ordered g, g_dot, g_ddot, d, d_dot, d_ddot."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.zeros((len(t), 6))
+        p0, p1 = np.asarray(self.p0), np.asarray(self.p1)
+        if self.T <= 0:
+            out[:, 0], out[:, 3] = p1[0], p1[1]
+            return out
+        s, v, a = unit_profile((t - self.t0) / self.T, self.ramp)
+        delta = p1 - p0
+        for j, col in enumerate((0, 3)):
+            out[:, col] = p0[j] + delta[j] * s
+            out[:, col + 1] = delta[j] * v / self.T
+            out[:, col + 2] = delta[j] * a / self.T**2
+        return out
+
+
+def _limits_ok(
+    samples: np.ndarray, params: Params, fraction: float, i_axis: float, i_amp: float
+) -> bool:
+    """Do the model-inverse currents along ``samples`` (rows of :meth:`Move.sample`) fit the limits?"""
+    from controllers.fl import model_inverse_function
+
+    n = samples.shape[0]
+    inv = _mapped_inverse(model_inverse_function(), n)
+    x = np.vstack([samples[:, 0], samples[:, 1], samples[:, 3], samples[:, 4]])
+    a = np.vstack([samples[:, 2], samples[:, 5]])
+    u, unr = inv(x, a, np.tile(params.vector()[:, None], (1, n)))
+    u = np.asarray(u)
+    if np.any(np.asarray(unr) > 0) or not np.all(np.isfinite(u)):
+        return False
+    amp = np.hypot(u[0], u[1])
+    return bool(np.all(np.abs(u) <= fraction * i_axis) and np.all(amp <= fraction * i_amp))
+
+
+@functools.lru_cache(maxsize=8)
+def _mapped_inverse(fn, n: int):
+    return fn.map(n)
+
+
+def plan_move(
+    p0: Sequence[float], p1: Sequence[float], params: Params = NOMINAL, settings: ReferenceSettings | None = None,
+    t0: float = 0.0, n_check: int = 161, i_axis: float = k.i_axis_max, i_amp: float = k.i_amp_max,
+) -> Move:
+    """Plan the shortest current-feasible move from ``p0`` to ``p1`` (see the module docstring).
+
+    Parameters
+    ----------
+    p0, p1 : sequence of float
+        Start and end ``(g, d)`` [m], both at rest.
+    params : Params
+        The model the plan is computed on (the controller's belief).
+    settings : ReferenceSettings
+        Current fraction and ramp fraction.
+    t0 : float
+        Start time of the move [s].
+    n_check : int
+        Number of points along the move at which the currents are checked.
+    i_axis, i_amp : float
+        Current limits [A].
+
+    Returns
+    -------
+    Move
+
+    Raises
+    ------
+    ConfigError
+        If even holding still at ``p0`` or ``p1`` needs more than the allowed current.
+    """
+    st = settings or ReferenceSettings()
+    p0 = (float(p0[0]), float(p0[1]))
+    p1 = (float(p1[0]), float(p1[1]))
+    frac, ramp = st.current_fraction, st.ramp_fraction
+    for pt in (p0, p1):
+        hold = Move(0.0, 0.0, pt, pt, ramp).sample(np.zeros(1))
+        if not _limits_ok(hold, params, frac, i_axis, i_amp):
+            raise ConfigError(
+                f"holding g = {pt[0] * 1e3:.2f} mm, d = {pt[1] * 1e3:.2f} mm needs more than "
+                f"{frac:.2f} x the current limits"
+            )
+    dist = max(abs(p1[0] - p0[0]), abs(p1[1] - p0[1]))
+    if dist < 1e-12:
+        return Move(t0, 0.0, p0, p1, ramp)
+    tau = np.linspace(0.0, 1.0, n_check)
+
+    def feasible(T: float) -> bool:
+        return _limits_ok(Move(0.0, T, p0, p1, ramp).sample(tau * T), params, frac, i_axis, i_amp)
+
+    # Lower bound: the whole amplitude as acceleration at the strongest thrust in the envelope.
+    c_a = peak_acceleration_factor(ramp)
+    T_hi = max(math.sqrt(c_a * dist / 200.0), 1e-3)
+    while not feasible(T_hi):
+        T_hi *= 1.5
+        if T_hi > 1e3:
+            raise ConfigError(f"no feasible move from {p0} to {p1} m within the current limits")
+    T_lo = T_hi / 1.5 if T_hi > 1e-3 else 0.0
+    while T_lo > 1e-4 and feasible(T_lo):
+        T_hi, T_lo = T_lo, T_lo / 1.5
+    for _ in range(40):
+        if T_hi - T_lo < 1e-5:
+            break
+        mid = 0.5 * (T_lo + T_hi)
+        if feasible(mid):
+            T_hi = mid
+        else:
+            T_lo = mid
+    return Move(t0, T_hi, p0, p1, ramp)
+
+
+@dataclass(frozen=True)
+class Target:
+    """A positioning target held for ``hold`` seconds."""
+
+    g: float
+    d: float
+    hold: float
+
+
+@dataclass
+class ReferencePlan:
+    """Reference over a whole scenario: one move per target, each starting at the target's switch time.
+
+    Attributes
+    ----------
+    targets : list of Target
+        Targets in order.
+    switch_times : ndarray
+        Time at which each target becomes active [s].
+    moves : list of Move
+        The planned move to each target (duration 0 with ``shaping: step``).
+    shaping : str
+        ``trajectory`` or ``step``.
+    """
+
+    targets: list[Target]
+    switch_times: np.ndarray
+    moves: list[Move]
+    shaping: str = "trajectory"
+    start: tuple[float, float] = (0.020, 0.0)
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def duration(self) -> float:
+        """End of the last hold [s]."""
+        return float(self.switch_times[-1] + self.targets[-1].hold)
+
+    def target_index(self, t: float) -> int:
+        """Index of the target active at time ``t``."""
+        return int(np.clip(np.searchsorted(self.switch_times, t, side="right") - 1, 0, len(self.targets) - 1))
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Reference rows (g, g_dot, g_ddot, d, d_dot, d_ddot) at times ``t`` (array (n, 6))."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.empty((len(t), 6))
+        idx = np.clip(np.searchsorted(self.switch_times, t, side="right") - 1, 0, len(self.targets) - 1)
+        before = t < self.switch_times[0]
+        for i in np.unique(idx):
+            sel = idx == i
+            out[sel] = self.moves[i].sample(t[sel])
+        if before.any():
+            out[before] = [self.start[0], 0, 0, self.start[1], 0, 0]
+        return out
+
+    def at(self, t: float) -> Reference:
+        """The :class:`~maglev_ocp.blocks.Reference` at time ``t``."""
+        r = self.sample(np.array([t]))[0]
+        return Reference(g=r[0], d=r[3], g_dot=r[1], d_dot=r[4], g_ddot=r[2], d_ddot=r[5])
+
+    def table(self) -> str:
+        """One line per target: switch time, target and planned move duration."""
+        lines = [f"{'#':>3} {'t_switch [s]':>12} {'g [mm]':>8} {'d [mm]':>8} {'hold [s]':>8} {'move [s]':>9}"]
+        for i, (tg, ts, mv) in enumerate(zip(self.targets, self.switch_times, self.moves, strict=True)):
+            lines.append(f"{i:3d} {ts:12.3f} {tg.g * 1e3:8.3f} {tg.d * 1e3:8.3f} {tg.hold:8.3f} {mv.T:9.4f}")
+        return "\n".join(lines)
+
+
+def plan_targets(
+    start: Sequence[float], targets: Sequence[Target], params: Params = NOMINAL,
+    settings: ReferenceSettings | None = None, t_start: float = 0.0, source: str = "targets",
+) -> ReferencePlan:
+    """Plan the reference of a scenario: from ``start`` through every target in order.
+
+    Parameters
+    ----------
+    start : sequence of float
+        Initial ``(g, d)`` [m] (the mover at rest there).
+    targets : sequence of Target
+        Targets, each active for its ``hold``.
+    params : Params
+        The controller's model (moves are planned on what the controller believes).
+    settings : ReferenceSettings
+        Shaping options.
+    t_start : float
+        Switch time of the first target [s].
+    source : str
+        Name used in error messages (e.g. ``scenario.yaml: targets``).
+
+    Raises
+    ------
+    ConfigError
+        If a planned move does not fit in its target's hold.
+    """
+    st = settings or ReferenceSettings()
+    if not targets:
+        raise ConfigError(f"{source}: at least one target is needed")
+    t = t_start
+    prev = (float(start[0]), float(start[1]))
+    moves, switch = [], []
+    for i, tg in enumerate(targets):
+        if st.shaping == "step":
+            mv = Move(t, 0.0, (tg.g, tg.d), (tg.g, tg.d), st.ramp_fraction)
+        else:
+            try:
+                mv = plan_move(prev, (tg.g, tg.d), params, st, t0=t)
+            except ConfigError as err:
+                raise ConfigError(f"{source}[{i}]: {err}") from None
+            if mv.T >= tg.hold:
+                raise ConfigError(
+                    f"{source}[{i}].hold: the planned move takes {mv.T:.3f} s, not less than the hold "
+                    f"{tg.hold:.3f} s (lengthen the hold or raise reference.current_fraction)"
+                )
+        moves.append(mv)
+        switch.append(t)
+        t += tg.hold
+        prev = (tg.g, tg.d)
+    return ReferencePlan(list(targets), np.array(switch), moves, st.shaping, (float(start[0]), float(start[1])))
+
+
+__all__ = [
+    "Move", "ReferencePlan", "ReferenceSettings", "Target", "peak_acceleration_factor", "plan_move",
+    "plan_targets", "unit_profile",
+]

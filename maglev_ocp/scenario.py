@@ -1,0 +1,466 @@
+"""Closed-loop scenarios: what to run, against which plant, to which targets.
+
+A scenario is a YAML file (``scenarios/*.yaml``) validated on load; unknown
+keys and bad values are one-line :class:`~maglev_ocp.errors.ConfigError` s
+naming the file and the key. A minimal one::
+
+    name: envelope_tour
+    seed: 7
+    controller: {type: nmpc}          # nmpc | fl | pid, plus their settings
+    plant: {profile: default}         # rig profile, plant-file keys, true parameters
+    targets:                          # visited in order, each held `hold` s
+      - {g: 0.020, d: 0.000, hold: 0.3}
+      - {g: 0.016, d: 0.045, hold: 0.3}
+
+Every key (SI units):
+
+``name``
+    Folder name of the run's results.
+``seed``
+    Root of every random draw of the run (plant noise and mismatch, random targets).
+``controller``
+    ``type`` (``nmpc``, ``fl``, ``pid``), ``backend`` (``python``, ``c``) and the
+    settings of that controller, validated by its own settings model
+    (``controllers.nmpc.NMPCSettings``, ``controllers.fl.FLSettings``,
+    ``controllers.pid.PIDSettings``).
+``controller_params``
+    What the controller's model believes: ``file`` (a parameter YAML), single
+    entries (``C1: 14.5``), and ``cogging: false`` for a cogging-blind model.
+``plant``
+    ``profile`` (``default``, ``ideal``), ``file`` (a plant YAML), ``params``
+    (the rig's nominal parameters, before the profile's random mismatch), and any
+    key of a plant file (``process_noise``, ``effects``, ``mismatch``, ...).
+``reference``
+    How targets become references (:class:`~maglev_ocp.reference.ReferenceSettings`).
+``start``
+    Where the mover hovers at t = 0 (``{g, d}``, default 20 mm, 0).
+``targets`` / ``random_targets``
+    Targets inside the tracking envelope (g in [15, 25] mm, d in [-50, 50] mm),
+    each held ``hold`` s; ``random_targets: {n, hold, seed}`` draws ``n`` more,
+    uniformly in the envelope, from the scenario seed (or its own ``seed``).
+``tolerance``
+    Positioning tolerance of the settle checks (0.1 mm).
+``checks``
+    Extra pass/fail limits (settle time, steady-state RMS error).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator, model_validator
+from pydantic_core import InitErrorDetails
+
+from . import constants as k
+from .config import Strict, load_yaml, parse_model
+from .errors import ConfigError, UserError
+from .params import NOMINAL, ParamOverrides, Params, load_params
+from .reference import ReferenceSettings, Target
+
+#: Controller types: module, settings class, controller class (imported lazily).
+CONTROLLERS: dict[str, tuple[str, str, str]] = {
+    "fl": ("controllers.fl", "FLSettings", "FeedbackLinearization"),
+    "nmpc": ("controllers.nmpc", "NMPCSettings", "NMPC"),
+    "pid": ("controllers.pid", "PIDSettings", "PIDController"),
+}
+
+_EPS = 1e-12  # slack on envelope checks (targets written in mm convert inexactly)
+
+
+def controller_classes(ctype: str) -> tuple[type[BaseModel], type]:
+    """Settings model and controller class of controller type ``ctype``.
+
+    Raises
+    ------
+    UserError
+        If the controller's module is not available (clear message, not a traceback).
+    """
+    mod_name, settings_name, cls_name = CONTROLLERS[ctype]
+    try:
+        mod = importlib.import_module(mod_name)
+    except ModuleNotFoundError as err:
+        raise UserError(f"controller type {ctype!r} is not available: module {mod_name} is missing ({err})") from None
+    try:
+        return getattr(mod, settings_name), getattr(mod, cls_name)
+    except AttributeError as err:
+        raise UserError(f"controller type {ctype!r} is not available: {err}") from None
+
+
+def _reraise_nested(err: ValidationError, title: str) -> None:
+    """Re-raise a nested model's errors so pydantic prefixes their location (``controller.<key>``)."""
+    details = []
+    for e in err.errors():
+        ctx = e.get("ctx")
+        d: dict[str, Any] = {"type": e["type"], "loc": e["loc"], "input": e.get("input")}
+        if ctx:
+            d["ctx"] = ctx
+        details.append(InitErrorDetails(**d))  # type: ignore[typeddict-item]
+    try:
+        exc = ValidationError.from_exception_data(title, details)
+    except (TypeError, KeyError, ValueError):  # custom error types: fall back to the first message
+        first = err.errors()[0]
+        loc = ".".join(str(x) for x in first["loc"])
+        raise ValueError(f"{loc}: {first['msg']}") from None
+    raise exc
+
+
+class ControllerSpec(BaseModel):
+    """``controller:`` block: type, backend and the controller's own settings.
+
+    The settings keys are validated by the controller's settings model (imported
+    lazily, so a scenario for one controller never needs another one's module).
+    """
+
+    model_config = ConfigDict(extra="allow")
+
+    type: Literal["nmpc", "fl", "pid"]
+    backend: Literal["python", "c"] = "python"
+    _settings: Any = PrivateAttr(None)
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _delegate(cls, data: Any, handler):
+        obj = handler(data)
+        settings_cls, _ = controller_classes(obj.type)
+        extra = dict(obj.__pydantic_extra__ or {})
+        fields = getattr(settings_cls, "model_fields", {})
+        for key in ("type", "backend"):  # pass them on if the settings model declares them
+            if key in fields:
+                extra[key] = getattr(obj, key)
+        try:
+            settings = settings_cls.model_validate(extra)
+        except ValidationError as err:
+            _reraise_nested(err, cls.__name__)
+        obj._settings = settings
+        return obj
+
+    @property
+    def settings(self) -> Any:
+        """The validated settings model of this controller type."""
+        return self._settings
+
+    def to_dict(self) -> dict[str, Any]:
+        """``type``, ``backend`` and every setting (defaults filled in)."""
+        s = self._settings.model_dump(mode="json") if self._settings is not None else {}
+        return {"type": self.type, "backend": self.backend, **{k_: v for k_, v in s.items()
+                                                             if k_ not in ("type", "backend")}}
+
+
+class ControllerParams(ParamOverrides):
+    """``controller_params:`` what the controller's model believes.
+
+    Attributes
+    ----------
+    file : str or None
+        Parameter YAML (relative to the scenario file); default: seed Table III.
+    cogging : bool
+        Keep cogging in the controller's model (``false``: xi0 = 0, cogging-blind).
+    C1 ... Mv : float or None
+        Single entries replacing those of the file / the nominal set.
+    """
+
+    file: str | None = None
+    cogging: bool = True
+
+    def resolve(self, root: str | os.PathLike = ".") -> Params:
+        """The controller's parameters."""
+        base = NOMINAL
+        if self.file:
+            path = Path(self.file)
+            try:
+                base = load_params(path if path.is_absolute() else Path(root) / path)
+            except ConfigError as err:
+                raise ConfigError(f"controller_params.file: {err}") from None
+        p = ParamOverrides(**{n: getattr(self, n) for n in ParamOverrides.model_fields}).apply(base)
+        return p if self.cogging else p.without_cogging()
+
+
+class PlantSpec(BaseModel):
+    """``plant:`` block: rig profile or plant file, the rig's nominal parameters, and plant-file overrides.
+
+    Any other key is a key of a plant file (see :mod:`maglev_ocp.plant.config`)
+    and is validated by :class:`~maglev_ocp.plant.PlantConfig`.
+    """
+
+    model_config = ConfigDict(extra="allow")
+
+    profile: str = "default"
+    file: str | None = None
+    params: ParamOverrides = ParamOverrides()
+
+    def overrides(self) -> dict[str, Any]:
+        """The plant-file keys given here (everything but ``profile``, ``file``, ``params``)."""
+        return dict(self.__pydantic_extra__ or {})
+
+    def config(self, root: str | os.PathLike = ".", source: str = "scenario"):
+        """The :class:`~maglev_ocp.plant.PlantConfig` (ConfigError naming ``plant.<key>``)."""
+        from .plant import PlantConfig, load_plant_config
+        from .plant.config import deep_merge, profile_data
+
+        if self.file:
+            path = Path(self.file)
+            try:
+                base = load_plant_config(path if path.is_absolute() else Path(root) / path).to_dict()
+            except ConfigError as err:
+                raise ConfigError(f"{source}: plant.file: {err}") from None
+        else:
+            try:
+                base = profile_data(self.profile)
+            except ConfigError as err:
+                raise ConfigError(f"{source}: plant.profile: {err}") from None
+        data = deep_merge(base, self.overrides())
+        try:
+            return PlantConfig.model_validate(data)
+        except ValidationError as err:
+            e = err.errors()[0]
+            loc = ".".join(str(x) for x in e["loc"])
+            msg = "unknown key" if e["type"] == "extra_forbidden" else e["msg"]
+            raise ConfigError(f"{source}: plant.{loc}: {msg}") from None
+
+    def params_resolved(self) -> Params:
+        """The rig's nominal parameters (the profile's mismatch perturbs them in the plant)."""
+        return self.params.apply(NOMINAL)
+
+
+class TargetSpec(Strict):
+    """One target: gap and position [m] inside the tracking envelope, held ``hold`` s."""
+
+    g: float
+    d: float
+    hold: float = Field(gt=0, le=3600)
+
+    @field_validator("g")
+    @classmethod
+    def _g_in_envelope(cls, v: float) -> float:
+        lo, hi = k.g_envelope
+        if not (math.isfinite(v) and lo - _EPS <= v <= hi + _EPS):
+            raise ValueError(f"{v!r} m is outside the tracking envelope [{lo}, {hi}] m (gap 15..25 mm)")
+        return v
+
+    @field_validator("d")
+    @classmethod
+    def _d_in_envelope(cls, v: float) -> float:
+        lo, hi = k.d_envelope
+        if not (math.isfinite(v) and lo - _EPS <= v <= hi + _EPS):
+            raise ValueError(f"{v!r} m is outside the tracking envelope [{lo}, {hi}] m (d -50..50 mm)")
+        return v
+
+
+class RandomTargets(Strict):
+    """``random_targets:`` ``n`` targets drawn uniformly in a box inside the envelope.
+
+    Drawn from the scenario seed (or ``seed``), rounded to ``resolution``.
+    """
+
+    n: int = Field(ge=1, le=1000)
+    hold: float = Field(0.4, gt=0, le=3600)
+    seed: int | None = Field(None, ge=0)
+    g: tuple[float, float] = k.g_envelope
+    d: tuple[float, float] = k.d_envelope
+    resolution: float = Field(1e-5, gt=0, le=1e-3)
+
+    @field_validator("g", "d")
+    @classmethod
+    def _inside(cls, v: tuple[float, float], info) -> tuple[float, float]:
+        lo, hi = v
+        env = k.g_envelope if info.field_name == "g" else k.d_envelope
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+            raise ValueError("must be [low, high] with low <= high")
+        if lo < env[0] - _EPS or hi > env[1] + _EPS:
+            raise ValueError(f"must lie inside the tracking envelope {list(env)} m")
+        return v
+
+
+class StartSpec(Strict):
+    """``start:`` where the mover hovers at rest at t = 0 [m] (inside the stops)."""
+
+    g: float = Field(0.020, gt=k.g_stop[0], lt=k.g_stop[1])
+    d: float = Field(0.0, gt=k.d_stop[0], lt=k.d_stop[1])
+
+
+class Checks(Strict):
+    """``checks:`` the tolerance checks that decide a run's exit code.
+
+    Attributes
+    ----------
+    all_settled : bool
+        Every target must be reached and held within ``tolerance``.
+    no_stop_hits : bool
+        The mover must never hit a mechanical stop.
+    currents_within_limits : bool
+        Commanded currents within ±8 A per axis and 8 A amplitude.
+    max_settle_time_s : float or None
+        Upper bound on every target's settle time [s].
+    max_rms_error_m : float or None
+        Upper bound on every target's steady-state RMS error, both axes, true state [m].
+    min_settled_s : float
+        A target counts as settled only if it then stays within tolerance for at
+        least this long [s].
+    """
+
+    all_settled: bool = True
+    no_stop_hits: bool = True
+    currents_within_limits: bool = True
+    max_settle_time_s: float | None = Field(None, gt=0)
+    max_rms_error_m: float | None = Field(None, gt=0)
+    min_settled_s: float = Field(0.05, ge=0)
+
+
+class Scenario(Strict):
+    """A closed-loop scenario (see the module docstring for every key)."""
+
+    name: str = Field(pattern=r"^[A-Za-z0-9_.\-]{1,80}$")
+    description: str = ""
+    seed: int = Field(0, ge=0, lt=2**63)
+    controller: ControllerSpec
+    controller_params: ControllerParams = ControllerParams()
+    plant: PlantSpec = PlantSpec()
+    reference: ReferenceSettings = ReferenceSettings()
+    start: StartSpec = StartSpec()
+    targets: list[TargetSpec] = Field(default_factory=list)
+    random_targets: RandomTargets | None = None
+    tolerance: float = Field(k.position_tolerance, gt=0, le=0.01)
+    checks: Checks = Checks()
+
+    _root_dir: str = PrivateAttr(".")
+    _source: str = PrivateAttr("scenario")
+
+    @model_validator(mode="after")
+    def _some_target(self) -> Scenario:
+        if not self.targets and self.random_targets is None:
+            raise ValueError("needs 'targets' or 'random_targets'")
+        return self
+
+    # ------------------------------------------------------------------ resolution
+    @property
+    def root_dir(self) -> str:
+        """Folder relative paths (parameter and plant files) are resolved against."""
+        return self._root_dir
+
+    @property
+    def source(self) -> str:
+        """Where the scenario came from (file path), for messages."""
+        return self._source
+
+    def with_seed(self, seed: int | None) -> Scenario:
+        """Copy with another seed (``None``: unchanged)."""
+        if seed is None:
+            return self
+        new = self.model_copy(update={"seed": int(seed)})
+        new._root_dir, new._source = self._root_dir, self._source
+        return new
+
+    def seed_sequences(self) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
+        """Independent streams spawned from the scenario seed: (plant, random targets)."""
+        plant, targets = np.random.SeedSequence(self.seed).spawn(2)
+        return plant, targets
+
+    def target_list(self) -> list[Target]:
+        """Targets in order: the explicit ones, then the random draws (deterministic in the seed)."""
+        out = [Target(t.g, t.d, t.hold) for t in self.targets]
+        rt = self.random_targets
+        if rt is not None:
+            ss = np.random.SeedSequence(rt.seed) if rt.seed is not None else self.seed_sequences()[1]
+            rng = np.random.default_rng(ss)
+            u = rng.uniform(size=(rt.n, 2))
+            for ug, ud in u:
+                g = rt.g[0] + ug * (rt.g[1] - rt.g[0])
+                d = rt.d[0] + ud * (rt.d[1] - rt.d[0])
+                # rounded to the resolution (and to 12 digits, so 21.12 mm prints as 0.02112)
+                g = round(float(np.clip(round(g / rt.resolution) * rt.resolution, *rt.g)), 12)
+                d = round(float(np.clip(round(d / rt.resolution) * rt.resolution, *rt.d)), 12)
+                out.append(Target(g, d, rt.hold))
+        return out
+
+    def controller_model_params(self) -> Params:
+        """What the controller's model believes (:class:`ControllerParams`)."""
+        return self.controller_params.resolve(self.root_dir)
+
+    def plant_config(self):
+        """The plant's :class:`~maglev_ocp.plant.PlantConfig`."""
+        return self.plant.config(self.root_dir, self.source)
+
+    def plant_params(self) -> Params:
+        """The rig's nominal parameters (before the profile's random mismatch)."""
+        return self.plant.params_resolved()
+
+    def check_resolvable(self) -> None:
+        """Resolve everything that can fail (files, plant keys, controller module): ConfigError on failure."""
+        self.controller_model_params()
+        self.plant_config()
+
+    def resolved(self) -> dict[str, Any]:
+        """The scenario with every default filled in and random targets drawn (loadable again).
+
+        Controller parameters are written out as values (``cogging`` folded into
+        ``xi0``), the plant as its complete settings.
+        """
+        cp = self.controller_model_params().as_dict()
+        cfg = self.plant_config().to_dict()
+        plant = {"params": self.plant_params().as_dict(), **cfg}
+        return {
+            "name": self.name,
+            "description": self.description,
+            "seed": self.seed,
+            "controller": self.controller.to_dict(),
+            "controller_params": cp,
+            "plant": plant,
+            "reference": self.reference.model_dump(mode="json"),
+            "start": self.start.model_dump(mode="json"),
+            "targets": [{"g": t.g, "d": t.d, "hold": t.hold} for t in self.target_list()],
+            "tolerance": self.tolerance,
+            "checks": self.checks.model_dump(mode="json"),
+        }
+
+    def key(self) -> str:
+        """JSON of what a built controller depends on (type, backend, settings, believed parameters)."""
+        return json.dumps(
+            {"controller": self.controller.to_dict(), "params": self.controller_model_params().as_dict()},
+            sort_keys=True,
+        )
+
+
+def scenario_from_dict(data: Any, source: str = "scenario", root_dir: str | os.PathLike = ".") -> Scenario:
+    """Validate a scenario mapping (one-line ConfigError naming ``source`` and the key)."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: expected a mapping at the top level, got {type(data).__name__}")
+    try:
+        sc = parse_model(Scenario, data, source)
+    except ConfigError:
+        raise
+    except UserError as err:  # e.g. a controller module that is not available
+        raise UserError(f"{source}: controller: {err}") from None
+    sc._root_dir = str(root_dir)
+    sc._source = source
+    try:
+        sc.check_resolvable()
+    except ConfigError as err:
+        msg = str(err)
+        raise ConfigError(msg if msg.startswith(source) else f"{source}: {msg}") from None
+    return sc
+
+
+def load_scenario(path: str | os.PathLike) -> Scenario:
+    """Load and validate a scenario YAML file.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file and the key for anything that does not parse,
+        validate or resolve (parameter / plant files, plant keys, targets).
+    """
+    path = Path(path)
+    data = load_yaml(path)
+    return scenario_from_dict(data, str(path), path.resolve().parent)
+
+
+__all__ = [
+    "CONTROLLERS", "Checks", "ControllerParams", "ControllerSpec", "PlantSpec", "RandomTargets", "Scenario",
+    "StartSpec", "TargetSpec", "controller_classes", "load_scenario", "scenario_from_dict",
+]
