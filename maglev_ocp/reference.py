@@ -61,8 +61,8 @@ class ReferenceSettings(Strict):
     """
 
     shaping: Literal["trajectory", "step"] = "trajectory"
-    current_fraction: float = Field(0.8, gt=0.05, le=1.0)
-    ramp_fraction: float = Field(0.1, ge=0.0, le=0.25)
+    current_fraction: float = Field(0.85, gt=0.05, le=1.0)
+    ramp_fraction: float = Field(0.05, ge=0.0, le=0.25)
 
 
 @functools.lru_cache(maxsize=16)
