@@ -152,8 +152,9 @@ def execute_one(spec_d: dict[str, Any], base: dict[str, Any], campaign_name: str
         for p in sorted(tmp.rglob("*")):
             if p.is_file():
                 files[str(p.relative_to(tmp))] = p.read_bytes()
-        status = "failed" if metrics.get("diverged") else "ok"
-        err = "diverged (the runner says so)" if status == "failed" else None
+        # The runner ends a run early when the controller raises or returns non-finite currents, and says so.
+        err = metrics.get("error") or ("diverged" if metrics.get("diverged") else None)
+        status = "failed" if err else "ok"
         return RunOutcome(spec.run_id, status, metrics=metrics, error=err, wall_s=time.perf_counter() - t0,
                           worker=who, files=files)
     except Exception as exc:

@@ -15,7 +15,6 @@ process, so every run after the first of a setting reuses them.
 
 from __future__ import annotations
 
-import inspect
 import json
 from pathlib import Path
 from typing import Any
@@ -30,22 +29,11 @@ def run_scenario_dict(scenario: dict[str, Any], seed: int, workdir: Path, save: 
 
     name = str(scenario.get("name", "run"))
     scn = scenario_from_dict(scenario, source=f"campaign run {name}")
-    kw: dict[str, Any] = {"seed": seed}
-    params = inspect.signature(run_scenario).parameters
-    if "progress" in params:
-        kw["progress"] = False
-    result = run_scenario(scn, **kw)
+    result = run_scenario(scn, seed=seed, progress=False)  # controller from the process cache
     metrics = _metrics_of(result)
     workdir = Path(workdir)
     if save.log or save.figures:
-        save_params = inspect.signature(result.save).parameters
-        skw: dict[str, Any] = {}
-        if "figures" in save_params:
-            skw["figures"] = bool(save.figures)
-        result.save(workdir, **skw)
-        for p in list(workdir.rglob("*")):
-            if p.is_file() and ((p.suffix == ".png" and not save.figures) or (p.name == "log.csv" and not save.log)):
-                p.unlink()
+        result.save(workdir, figures=bool(save.figures), log=bool(save.log))
     (workdir / "metrics.json").write_text(json.dumps(metrics, indent=1, default=_plain))
     return metrics
 

@@ -218,7 +218,7 @@ def summarize(out_dir: str | os.PathLike, specs: list[RunSpec], name: str = "cam
     for s in specs:
         rec = read_run_record(Path(out_dir), s.run_id)
         metrics = None
-        if rec is not None and rec.get("status") == "ok":
+        if rec is not None:
             mp = run_dir(Path(out_dir), s.run_id) / "metrics.json"
             metrics = json.loads(mp.read_text()) if mp.is_file() else None
         rows.append(run_row(s, rec, metrics))
