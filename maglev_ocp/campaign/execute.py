@@ -444,11 +444,11 @@ def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, sch
         key = "failed" if outcome.status == "failed" else "ok"
         counts[key] += 1
         counts["failed_now"] += key == "failed"
+        finished = counts["ok"] + counts["failed"]
+        bar.set_postfix(done=finished, failed=counts["failed"], remaining=len(specs) - finished, refresh=False)
         bar.update(1)
-        bar.set_postfix(done=counts["ok"], failed=counts["failed"],
-                        remaining=len(specs) - counts["ok"] - counts["failed"])
 
-    bar.set_postfix(done=n_ok, failed=n_failed, remaining=len(specs) - skipped)
+    bar.set_postfix(done=skipped, failed=n_failed, remaining=len(specs) - skipped)
     interrupted = False
     use_dask = bool(scheduler) or workers > 1
     try:

@@ -1,0 +1,125 @@
+"""Shipped campaigns for the headline job: run them, tabulate success rates, measure scaling.
+
+:func:`run_shipped` runs ``campaigns/<name>.yaml`` into ``<results>/campaigns/<name>/``
+(resuming what is there) and writes ``<results>/campaigns/robustness.md``, the
+Markdown table the README quotes; :func:`scaling` runs one campaign afresh on
+1, 2, ... workers and tabulates the wall times.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..config import atomic_write_text
+from . import CampaignResult, run_campaign
+from .config import load_campaign
+
+#: Folder of the shipped campaign files (``campaigns/`` at the repository root).
+CAMPAIGN_DIR = Path(__file__).resolve().parents[2] / "campaigns"
+ROBUSTNESS = ("robustness_fl", "robustness_nmpc")
+
+
+def campaign_path(name: str) -> Path:
+    """Path of the shipped campaign ``name`` (``campaigns/<name>.yaml``)."""
+    return CAMPAIGN_DIR / f"{name}.yaml"
+
+
+def markdown_table(results: dict[str, CampaignResult]) -> str:
+    """Markdown: per campaign and case, runs, success rate (95 % interval), settle and step times."""
+    lines = [
+        "| campaign | case | runs | failed | success [%] | 95 % interval [%] | settle median / p90 [ms] "
+        "| worst RMS median [um] | step median / worst p99 [us] |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for name, res in results.items():
+        for _, r in res.summary.by_case().iterrows():
+            lines.append(
+                f"| {name} | {r['label']} | {r['runs']} | {r['failed']} | {r['success_pct']:.1f} "
+                f"| {r['ci95_low_pct']:.1f} to {r['ci95_high_pct']:.1f} "
+                f"| {r['settle_median_ms']:.0f} / {r['settle_p90_ms']:.0f} | {r['rms_max_median_um']:.1f} "
+                f"| {r['step_median_us']:.0f} / {r['step_p99_max_us']:.0f} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def run_shipped(results_dir: str | os.PathLike, names: tuple[str, ...] = ROBUSTNESS, workers: int = 2,
+                progress: bool = True) -> dict[str, CampaignResult]:
+    """Run (or resume) shipped campaigns into ``<results_dir>/campaigns/<name>`` and write ``robustness.md``.
+
+    Parameters
+    ----------
+    results_dir : path
+        The results folder (``results``).
+    names : tuple of str
+        Shipped campaigns to run (default: the two robustness campaigns).
+    workers : int
+        Worker processes of the local Dask cluster.
+    progress : bool
+        Progress bars.
+
+    Returns
+    -------
+    dict
+        Campaign name -> :class:`CampaignResult`.
+    """
+    out = Path(results_dir) / "campaigns"
+    results = {}
+    for name in names:
+        results[name] = run_campaign(campaign_path(name), out / name, workers=workers, progress=progress)
+    text = (
+        "# Campaign results\n\nSuccess: every target settled within 0.1 mm on both axes (true state) and "
+        "no stop hit.\nRegenerate with `maglev campaign campaigns/<name>.yaml --out results/campaigns/<name> "
+        f"--workers {workers}`.\n\n" + markdown_table(results)
+    )
+    atomic_write_text(out / ("robustness.md" if set(names) <= set(ROBUSTNESS) else "campaigns.md"), text)
+    return results
+
+
+@dataclass
+class ScalingResult:
+    """Wall time of the same campaign on different numbers of workers."""
+
+    campaign: str
+    runs: int
+    wall_s: dict[int, float]
+
+    def table(self) -> str:
+        """Markdown table: workers, wall time, speed-up."""
+        base = self.wall_s[min(self.wall_s)]
+        rows = ["| workers | wall time [s] | speed-up |", "|---:|---:|---:|"]
+        rows += [f"| {w} | {t:.1f} | {base / t:.2f} |" for w, t in sorted(self.wall_s.items())]
+        return f"campaign {self.campaign}, {self.runs} runs\n\n" + "\n".join(rows) + "\n"
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Write :meth:`table` (Markdown)."""
+        atomic_write_text(path, self.table())
+
+
+def scaling(name_or_path: str | os.PathLike, workers: tuple[int, ...] = (1, 2), limit: int | None = None,
+            progress: bool = False) -> ScalingResult:
+    """Run one campaign afresh (temporary folders) on each number of workers; wall time of each.
+
+    The wall time includes the cluster start-up and each worker's first builds,
+    which is what a user waits for.
+    """
+    path = Path(name_or_path)
+    if not path.suffix:
+        path = campaign_path(str(name_or_path))
+    camp = load_campaign(path)
+    walls: dict[int, float] = {}
+    n = 0
+    for w in workers:
+        tmp = Path(tempfile.mkdtemp(prefix=f"maglev-scaling-{camp.name}-"))
+        try:
+            t0 = time.perf_counter()
+            res = run_campaign(camp, tmp, workers=w, limit=limit, progress=progress, figures=False)
+            walls[w] = time.perf_counter() - t0
+            n = res.report.ran
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    return ScalingResult(camp.name, n, walls)
