@@ -1,0 +1,291 @@
+"""Logged runs as the estimators see them: positions, currents, velocity estimates, locked axes.
+
+Every estimator in this package starts from a :class:`RunData`: the encoder
+readings and commanded currents of one run, which axes a fixture held, and
+the velocity estimates of the high-gain observer
+(:mod:`maglev_ocp.observers`). The observer is run here as one CasADi
+``mapaccum`` over the whole run (:func:`observe`), the same predictor-corrector
+equations as :func:`maglev_ocp.observers.estimate_states` (identical numbers,
+checked in the tests) but about fifty times faster, which is what keeps a full
+calibration under a minute.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .. import constants as k
+from ..errors import DataError
+from ..model import get_model
+from ..observers import HighGainObserver, ObserverSettings
+from ..params import NOMINAL, Params
+
+#: Index of each axis' position and velocity in the state ``x = [g, g_dot, d, d_dot]``.
+AXIS_ROWS: dict[str, tuple[int, int]] = {"g": (0, 1), "d": (2, 3)}
+
+
+def call_numpy(fn: ca.Function, *args: np.ndarray | float) -> list[np.ndarray]:
+    """Evaluate a CasADi Function with dense inputs and outputs through its buffer API.
+
+    Converting large DM results to numpy element by element costs far more than
+    the evaluation; the buffer API lets CasADi read and write numpy memory
+    directly. An input given as one column is repeated to the expected number
+    of columns (as CasADi does for mapped Functions).
+
+    Parameters
+    ----------
+    fn : casadi.Function
+        Function with dense inputs and outputs.
+    *args : array_like
+        One per input, shaped like the input (or one column of it).
+
+    Returns
+    -------
+    list of ndarray
+        The outputs, each shaped like the Function's output.
+    """
+    for i in range(fn.n_out()):
+        if not fn.sparsity_out(i).is_dense():
+            raise ValueError(f"call_numpy: output {i} of {fn.name()} is sparse; wrap it with dense_function")
+    buf, trigger = fn.buffer()
+    keep = []
+    for i, a in enumerate(args):
+        r, c = fn.size1_in(i), fn.size2_in(i)
+        arr = np.asarray(a, dtype=float).reshape(r, -1)
+        arr = np.broadcast_to(arr, (r, c))
+        col_major = np.ascontiguousarray(arr.T)  # CasADi stores column by column
+        keep.append(col_major)
+        buf.set_arg(i, memoryview(col_major))
+    outs = []
+    for i in range(fn.n_out()):
+        o = np.empty((fn.size2_out(i), fn.size1_out(i)))
+        outs.append(o)
+        buf.set_res(i, memoryview(o))
+    trigger()
+    del keep
+    return [o.T for o in outs]
+
+
+_DENSE: dict[str, ca.Function] = {}
+_MAPS: dict[tuple[str, int], ca.Function] = {}
+#: Samples per evaluation of a mapped Function (building a map costs time growing with its size).
+MAP_CHUNK = 8192
+
+
+def dense_function(fn: ca.Function) -> ca.Function:
+    """``fn`` (an SX Function) with every output densified (structural zeros stored), cached by name."""
+    key = fn.name()
+    if key not in _DENSE:
+        ins = fn.sx_in()
+        outs = fn.call(ins)
+        _DENSE[key] = ca.Function(key + "_dense", ins, [ca.densify(o) for o in outs])
+    return _DENSE[key]
+
+
+def eval_samples(fn: ca.Function, *args: np.ndarray) -> list[np.ndarray]:
+    """Evaluate an SX Function of one sample over many samples (columns), in cached fixed-size maps.
+
+    Parameters
+    ----------
+    fn : casadi.Function
+        Function of one sample; its inputs are column vectors.
+    *args : ndarray
+        Per input either shape ``(n_in, N)`` (one column per sample) or one
+        column (the same for every sample).
+
+    Returns
+    -------
+    list of ndarray
+        Per output, shape ``(rows, cols * N)``: the per-sample outputs side by side.
+    """
+    fd = dense_function(fn)
+    arrs = [np.asarray(a, dtype=float).reshape(fd.size1_in(i), -1) for i, a in enumerate(args)]
+    N = max(a.shape[1] for a in arrs)
+    key = (fd.name(), MAP_CHUNK)
+    if key not in _MAPS:
+        _MAPS[key] = fd.map(MAP_CHUNK)
+    fm = _MAPS[key]
+    outs: list[list[np.ndarray]] = [[] for _ in range(fd.n_out())]
+    for c0 in range(0, N, MAP_CHUNK):
+        m = min(MAP_CHUNK, N - c0)
+        chunk_args = []
+        for a in arrs:
+            if a.shape[1] == 1:
+                chunk_args.append(a)
+            else:
+                blk = np.zeros((a.shape[0], MAP_CHUNK))
+                blk[:, :m] = a[:, c0 : c0 + m]
+                blk[:, m:] = a[:, c0 : c0 + 1]  # pad with a valid sample
+                chunk_args.append(blk)
+        res = call_numpy(fm, *chunk_args)
+        for j, r in enumerate(res):
+            w = fd.size2_out(j)
+            outs[j].append(r[:, : m * w])
+    return [np.hstack(o) for o in outs]
+
+
+@functools.cache
+def _observer_chain(Ts: float, disturbance: bool, n: int) -> ca.Function:
+    """``mapaccum`` of one observer update over ``n`` samples (CasADi SX, cached)."""
+    m = get_model()
+    F = m.step(Ts, 1)
+    xh = ca.SX.sym("xh", 4)
+    dist = ca.SX.sym("dist", 2)
+    y = ca.SX.sym("y", 2)
+    u = ca.SX.sym("u", 2)
+    p = ca.SX.sym("p", m.np_)
+    L = ca.SX.sym("L", 3)
+    xp = F(xh, u, p)
+    if disturbance:
+        xp = xp + ca.vertcat(dist[0] * Ts**2 / 2, dist[0] * Ts, dist[1] * Ts**2 / 2, dist[1] * Ts)
+    out = [None] * 4
+    dn = [dist[0], dist[1]]
+    for axis, (ip, iv) in enumerate(((0, 1), (2, 3))):
+        e = y[axis] - xp[ip]
+        out[ip] = xp[ip] + L[0] * e
+        out[iv] = xp[iv] + L[1] * e
+        if disturbance:
+            dn[axis] = dist[axis] + L[2] * e
+    z = ca.vertcat(xh, dist)
+    zn = ca.vertcat(*out, *dn)
+    one = ca.Function("observer_update", [z, y, u, p, L], [zn])
+    return one.mapaccum("observer_chain", n, [0], [0])
+
+
+def observe(
+    y: np.ndarray, u: np.ndarray, params: Params = NOMINAL, settings: ObserverSettings | None = None,
+    Ts: float = k.Ts,
+) -> np.ndarray:
+    """State estimates of a logged run by the high-gain observer, vectorized.
+
+    Same equations and numbers as :func:`maglev_ocp.observers.estimate_states`
+    (gain from :class:`~maglev_ocp.observers.HighGainObserver`), evaluated as
+    one CasADi ``mapaccum`` instead of a Python loop.
+
+    Parameters
+    ----------
+    y : ndarray, shape (N, 2)
+        Encoder readings ``(g, d)`` [m].
+    u : ndarray, shape (N, 2)
+        Commanded currents ``(i_q, i_d)`` [A]; row k is applied after reading k.
+    params : Params
+        Model parameters of the observer's prediction.
+    settings : ObserverSettings, optional
+        Observer tuning (default: the shared default).
+    Ts : float
+        Sample period [s].
+
+    Returns
+    -------
+    ndarray, shape (N, 4)
+        ``(g, g_dot, d, d_dot)`` estimates; row k uses readings up to k.
+    """
+    settings = settings or ObserverSettings()
+    obs = HighGainObserver(params, settings, Ts)
+    y = np.asarray(y, float)
+    u = np.asarray(u, float)
+    n = len(y)
+    out = np.empty((n, 4))
+    out[0] = [y[0, 0], 0.0, y[0, 1], 0.0]
+    if n == 1:
+        return out
+    L = np.zeros(3)
+    L[: len(obs.L)] = obs.L
+    z0 = np.concatenate([out[0], np.zeros(2)])
+    chain = _observer_chain(float(Ts), bool(settings.disturbance), n - 1)
+    (Z,) = call_numpy(chain, z0, y[1:].T, u[:-1].T, params.vector(), L)
+    out[1:] = Z[:4].T
+    return out
+
+
+@dataclass
+class RunData:
+    """One logged run, ready for the estimators.
+
+    Attributes
+    ----------
+    name : str
+        Run name (CSV file name in the dataset).
+    t : ndarray, shape (N,)
+        Sample times [s] (evenly spaced by ``Ts``).
+    y : ndarray, shape (N, 2)
+        Encoder readings ``(g, d)`` [m].
+    u : ndarray, shape (N, 2)
+        Commanded currents ``(i_q, i_d)`` [A], held from sample k to k+1.
+    locked : tuple of str
+        Axes held by a fixture (``()``, ``("g",)`` or ``("d",)``).
+    x_hat : ndarray, shape (N, 4)
+        Observer state estimates; a locked axis reads its constant position and zero velocity.
+    Ts : float
+        Sample period [s].
+    """
+
+    name: str
+    t: np.ndarray
+    y: np.ndarray
+    u: np.ndarray
+    locked: tuple[str, ...] = ()
+    x_hat: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+    Ts: float = k.Ts
+
+    def __post_init__(self) -> None:
+        self.t = np.asarray(self.t, float)
+        self.y = np.asarray(self.y, float).reshape(-1, 2)
+        self.u = np.asarray(self.u, float).reshape(-1, 2)
+        self.locked = tuple(self.locked)
+        for ax in self.locked:
+            if ax not in AXIS_ROWS:
+                raise DataError(f"{self.name}: locked axis {ax!r} is not one of g, d")
+        if len(self.t) != len(self.y) or len(self.t) != len(self.u):
+            raise DataError(f"{self.name}: t, y and u have different lengths")
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return len(self.t)
+
+    @property
+    def free_axes(self) -> tuple[str, ...]:
+        """Axes that moved (not locked)."""
+        return tuple(a for a in ("g", "d") if a not in self.locked)
+
+    @property
+    def state_mask(self) -> np.ndarray:
+        """1 for the state rows of the free axes, 0 for the locked ones (shape (4,))."""
+        m = np.ones(4)
+        for ax in self.locked:
+            m[list(AXIS_ROWS[ax])] = 0.0
+        return m
+
+    def with_states(self, params: Params = NOMINAL, settings: ObserverSettings | None = None) -> RunData:
+        """Fill :attr:`x_hat` with the observer's estimates (locked axes: constant, zero velocity)."""
+        x = observe(self.y, self.u, params, settings, self.Ts)
+        for ax in self.locked:
+            ip, iv = AXIS_ROWS[ax]
+            x[:, ip] = self.y[:, 0 if ax == "g" else 1]
+            x[:, iv] = 0.0
+        self.x_hat = x
+        return self
+
+    def measured_state(self) -> np.ndarray:
+        """The NPFISI measurement ``y = x + eps*nu``: encoder positions with estimated velocities."""
+        if self.x_hat is None:
+            self.with_states()
+        x = self.x_hat.copy()
+        x[:, 0] = self.y[:, 0]
+        x[:, 2] = self.y[:, 1]
+        return x
+
+
+def prepare(runs: Sequence[RunData], params: Params = NOMINAL, settings: ObserverSettings | None = None
+            ) -> list[RunData]:
+    """Run the observer on every run that has no state estimates yet."""
+    for r in runs:
+        if r.x_hat is None:
+            r.with_states(params, settings)
+    return list(runs)
