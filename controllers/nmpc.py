@@ -42,12 +42,14 @@ class NMPCWeights(Strict):
 
     The ratio ``q_pos / r`` sets the closed-loop bandwidth: for a double
     integrator with input gain ``b`` [m/s^2/A], ``omega ~ (q b^2 / r)^(1/4)``;
-    ``4e6`` with ``b ~ 6.7`` gives about 115 rad/s.
+    ``4e7`` with ``b ~ 6.7`` gives about 200 rad/s: stiff enough that the lag of
+    the disturbance estimate after a fast move (friction, parameter error) costs
+    only a few micrometres.
     """
 
-    g: float = Field(4e6, ge=0, description="gap error [1/m^2]")
+    g: float = Field(4e7, ge=0, description="gap error [1/m^2]")
     g_dot: float = Field(1e2, ge=0, description="gap-rate error [s^2/m^2]")
-    d: float = Field(4e6, ge=0, description="position error [1/m^2]")
+    d: float = Field(4e7, ge=0, description="position error [1/m^2]")
     d_dot: float = Field(1e2, ge=0, description="velocity error [s^2/m^2]")
     i_q: float = Field(1.0, gt=0, description="i_q deviation from the feed-forward [1/A^2]")
     i_d: float = Field(1.0, gt=0, description="i_d deviation from the feed-forward [1/A^2]")
@@ -59,8 +61,8 @@ class NMPCWeights(Strict):
 class ADMMOptions(Strict):
     """Fixed-budget ADMM (OSQP's iteration) on the condensed QP."""
 
-    rho_u: float = Field(0.3, gt=0, description="penalty of the current-disk rows")
-    rho_g: float = Field(0.3, gt=0, description="penalty of the soft gap rows (mm)")
+    rho_scale: float = Field(0.35, gt=0, description="rho = rho_scale sqrt(lambda_min lambda_max) of the QP Hessian")
+    rho_g_rel: float = Field(1.0, gt=0, description="penalty of the soft gap rows (mm) relative to the currents'")
     sigma: float = Field(1e-6, gt=0)
     alpha: float = Field(1.6, gt=0, lt=2)
     check_every: int = Field(5, ge=1, description="residuals computed every this many iterations")
@@ -117,7 +119,7 @@ class NMPCSettings(Strict):
     iterations: int = Field(30, ge=1, le=500, description="ADMM iterations per step (fixed)")
     admm: ADMMOptions = Field(default_factory=ADMMOptions)
     soft_gap: SoftGap = Field(default_factory=SoftGap)
-    observer_eps: float = Field(4e-3, gt=1e-4, le=0.1, description="high-gain observer time constant [s]")
+    observer_eps: float = Field(3e-3, gt=1e-4, le=0.1, description="high-gain observer time constant [s]")
     offset_free: bool = True
     use_cogging: bool = True
     reference: Literal["auto", "preview", "plan"] = "auto"
@@ -131,7 +133,7 @@ class NMPCSettings(Strict):
         return StepConfig(
             N=self.horizon, Ts=k.Ts, n_sub=self.n_sub, Q=(w.g, w.g_dot, w.d, w.d_dot), R=(w.i_q, w.i_d),
             Rd=(w.di_q, w.di_d), terminal_scale=w.terminal_scale, n_iter=self.iterations,
-            admm=ADMMSettings(rho_u=a.rho_u, rho_g=a.rho_g, sigma=a.sigma, alpha=a.alpha),
+            admm=ADMMSettings(rho_scale=a.rho_scale, rho_g_rel=a.rho_g_rel, sigma=a.sigma, alpha=a.alpha),
             i_max=self.current_limit, i_box=min(k.i_axis_max, self.current_limit), gap_lo=sg.g_min,
             gap_hi=sg.g_max, gap_stride=sg.stride, soft_w1=sg.w_linear, soft_w2=sg.w_quadratic,
             obs_eps=self.observer_eps, offset_free=self.offset_free, reference=mode,
@@ -219,7 +221,13 @@ class NMPC:
             out[0, :], out[3, :] = g, d
             return out
         if self._plan_obj is not None:
-            return self._plan_obj.sample(t + Ts * np.arange(N + 1)).T.copy()
+            tj = t + Ts * np.arange(N + 1)
+            # no preview across the next target switch: the current target is held until it comes
+            sw = np.asarray(getattr(self._plan_obj, "switch_times", []), dtype=float)
+            later = sw[sw > t + 1e-9]
+            if later.size:
+                tj = np.minimum(tj, later[0] - 1e-9)
+            return self._plan_obj.sample(tj).T.copy()
         s = Ts * np.arange(N + 1)
         return np.vstack([
             ref.g + ref.g_dot * s + ref.g_ddot * s**2 / 2, ref.g_dot + ref.g_ddot * s, np.full(N + 1, ref.g_ddot),

@@ -164,22 +164,41 @@ def condensed_qp(As: list, Bs: list, cs: list, dx0: ca.SX, E: list, Ws: list, ga
 class ADMMSettings:
     """Tuning of the fixed-budget ADMM (OSQP's iteration; names as in OSQP).
 
+    The penalty is chosen per step from the Hessian (see :func:`admm_rho`):
+    ``rho = rho_scale * sqrt(lambda_min * lambda_max_est)``, the classic
+    geometric-mean rule, because a fixed ``rho`` that suits one weighting
+    converges ten times slower for another.
+
     Attributes
     ----------
-    rho_u : float
-        Penalty of the current-disk rows (the inputs are scaled to amperes).
-    rho_g : float
-        Penalty of the soft gap rows (scaled to millimetres).
+    rho_scale : float
+        Factor of the geometric-mean rule.
+    rho_g_rel : float
+        Penalty of the soft gap rows (millimetres) relative to the current rows (amperes).
     sigma : float
         Proximal regularization of the primal step.
     alpha : float
         Over-relaxation in (0, 2).
     """
 
-    rho_u: float = 0.3
-    rho_g: float = 0.3
+    rho_scale: float = 0.35
+    rho_g_rel: float = 1.0
     sigma: float = 1e-6
     alpha: float = 1.6
+
+
+def admm_rho(H: ca.SX, lam_min: float, s: ADMMSettings) -> ca.SX:
+    """ADMM penalty for the current-disk rows from the Hessian ``H`` of the condensed QP.
+
+    ``lam_min`` is a lower bound of the smallest eigenvalue (the input weight);
+    the largest is estimated from the trace, ``lambda_max <= trace(H) - (n-1)
+    lambda_min``, which is tight when a few directions dominate (as in the
+    condensed tracking QP, where the position error depends on the sum of all
+    earlier inputs).
+    """
+    n = H.shape[0]
+    lam_max = ca.fmax(ca.trace(H) - (n - 1) * lam_min, lam_min)
+    return ca.fmin(ca.fmax(s.rho_scale * ca.sqrt(lam_min * lam_max), 1e-3), 1e3)
 
 
 def project_disk(w: ca.SX, radius: float, box: float) -> ca.SX:
@@ -193,7 +212,7 @@ def project_disk(w: ca.SX, radius: float, box: float) -> ca.SX:
     return ca.fmin(ca.fmax(w * scale, -box), box)
 
 
-def prox_soft_bound(v: ca.SX, lb: ca.SX, ub: ca.SX, w1: float, w2: float, rho: float) -> ca.SX:
+def prox_soft_bound(v: ca.SX, lb: ca.SX, ub: ca.SX, w1: float, w2: float, rho: ca.SX) -> ca.SX:
     """Proximal step of the soft bound ``w1 viol + w2/2 viol^2`` with ADMM weight ``rho``.
 
     ``argmin_z  w1 viol(z) + w2/2 viol(z)^2 + rho/2 (z - v)^2`` with
@@ -209,7 +228,8 @@ def admm_iteration(nv: int, ng: int, nu: int, radius: float, box: float, soft_w1
     """One ADMM iteration as an SX Function (called ``n_iter`` times in the step).
 
     Inputs: ``x (nv), z (nv + ng), y (nv + ng), L (nv x nv), dinv (nv), q (nv),
-    G (ng x nv), ubar (nv), glb (ng), gub (ng)``. Outputs: ``x, z, y`` after the
+    G (ng x nv), ubar (nv), glb (ng), gub (ng), rho (2: penalty of the current
+    rows and its inverse)``. Outputs: ``x, z, y`` after the
     iteration, and (if ``residuals``) the primal and dual residuals (infinity
     norms, scaled units); without, the residual outputs are 0 and the
     iteration is cheaper (no second product with ``G'``).
@@ -226,12 +246,15 @@ def admm_iteration(nv: int, ng: int, nu: int, radius: float, box: float, soft_w1
     ubar = ca.SX.sym("ubar", nv)
     glb = ca.SX.sym("glb", ng)
     gub = ca.SX.sym("gub", ng)
+    rho = ca.SX.sym("rho", 2)
+    rho_u, rho_u_inv = rho[0], rho[1]
+    rho_g, rho_g_inv = s.rho_g_rel * rho_u, rho_u_inv / s.rho_g_rel
     zu, zg = z[:nv], z[nv:]
     yu, yg = y[:nv], y[nv:]
     # x~ = (P + sigma I + A' R A)^-1 (sigma x - q + A'(R z - y))
-    rhs = s.sigma * x - q + (s.rho_u * zu - yu)
+    rhs = s.sigma * x - q + (rho_u * zu - yu)
     if ng:
-        rhs = rhs + ca.mtimes(G.T, s.rho_g * zg - yg)
+        rhs = rhs + ca.mtimes(G.T, rho_g * zg - yg)
     xt = chol_solve_sx(L, dinv, rhs)
     zt_u = xt
     zt_g = ca.mtimes(G, xt) if ng else ca.SX(0, 1)
@@ -240,33 +263,33 @@ def admm_iteration(nv: int, ng: int, nu: int, radius: float, box: float, soft_w1
     vu = a * zt_u + (1 - a) * zu
     vg = a * zt_g + (1 - a) * zg
     # proximal steps: current disk per stage (absolute currents ubar + v), soft gap bounds
-    wu = vu + yu / s.rho_u
+    wu = vu + yu * rho_u_inv
     zu_new = []
     for k_ in range(nv // nu):
         sl = slice(k_ * nu, (k_ + 1) * nu)
         zu_new.append(project_disk(ubar[sl] + wu[sl], radius, box) - ubar[sl])
     zu_new = ca.vertcat(*zu_new)
     if ng:
-        zg_new = prox_soft_bound(vg + yg / s.rho_g, glb, gub, soft_w1, soft_w2, s.rho_g)
+        zg_new = prox_soft_bound(vg + yg * rho_g_inv, glb, gub, soft_w1, soft_w2, rho_g)
     else:
         zg_new = ca.SX(0, 1)
-    yu_new = yu + s.rho_u * (vu - zu_new)
-    yg_new = yg + s.rho_g * (vg - zg_new)
+    yu_new = yu + rho_u * (vu - zu_new)
+    yg_new = yg + rho_g * (vg - zg_new)
     z_new = ca.vertcat(zu_new, zg_new)
     y_new = ca.vertcat(yu_new, yg_new)
     if residuals:
         r_prim = ca.mmax(ca.fabs(ca.vertcat(zt_u - zu_new, zt_g - zg_new)))
         dz = z_new - z
-        dual = s.rho_u * dz[:nv]
+        dual = rho_u * dz[:nv]
         if ng:
-            dual = dual + ca.mtimes(G.T, s.rho_g * dz[nv:])
+            dual = dual + ca.mtimes(G.T, rho_g * dz[nv:])
         r_dual = ca.mmax(ca.fabs(dual))
     else:
         r_prim = r_dual = ca.SX(0)
     return ca.Function(
         "nmpc_admm_iter_res" if residuals else "nmpc_admm_iter",
-        [x, z, y, L, dinv, q, G, ubar, glb, gub],
+        [x, z, y, L, dinv, q, G, ubar, glb, gub, rho],
         [x_new, z_new, y_new, r_prim, r_dual],
-        ["x", "z", "y", "L", "dinv", "q", "G", "ubar", "glb", "gub"],
+        ["x", "z", "y", "L", "dinv", "q", "G", "ubar", "glb", "gub", "rho"],
         ["x_out", "z_out", "y_out", "r_prim", "r_dual"],
     )

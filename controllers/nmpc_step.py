@@ -38,7 +38,7 @@ from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL
 
 from .nmpc_plan import half_duration, move_at, thrust_accel_available, u_for_accel
-from .nmpc_qp import ADMMSettings, admm_iteration, chol_sx, condensed_qp, project_disk
+from .nmpc_qp import ADMMSettings, admm_iteration, admm_rho, chol_sx, condensed_qp, project_disk
 
 NX, NU = 4, 2
 N_MEAS = 3  #: meas = (g, d, fault)  [m, m, -]
@@ -60,7 +60,7 @@ class StepConfig:
     N: int = 20
     Ts: float = k.Ts
     n_sub: int = 1
-    Q: tuple[float, float, float, float] = (4e6, 1e2, 4e6, 1e2)
+    Q: tuple[float, float, float, float] = (4e7, 1e2, 4e7, 1e2)
     R: tuple[float, float] = (1.0, 1.0)
     Rd: tuple[float, float] = (0.0, 0.0)
     terminal_scale: float = 1.0
@@ -73,7 +73,7 @@ class StepConfig:
     gap_stride: int = 4
     soft_w1: float = 10.0
     soft_w2: float = 100.0
-    obs_eps: float = 4e-3
+    obs_eps: float = 3e-3
     offset_free: bool = True
     reference: str = "plan"
     accel_margin: float = 0.9
@@ -346,18 +346,19 @@ class StepBuilder:
         glb = 1e3 * (cfg.gap_lo - gfree)
         gub = 1e3 * (cfg.gap_hi - gfree)
         s = cfg.admm
-        Mk = H + (s.sigma + s.rho_u) * ca.DM.eye(nv)
+        rho = admm_rho(H, min(cfg.R), s)
+        Mk = H + (s.sigma + rho) * ca.DM.eye(nv)
         if ng:
-            Mk = Mk + s.rho_g * ca.mtimes(G.T, G)
+            Mk = Mk + s.rho_g_rel * rho * ca.mtimes(G.T, G)
         Lc, dinv = chol_sx(ca.densify(Mk))
 
-        outs = [Lc, dinv, q, G, ub, glb, gub, S["y"], xhat, dist, plan,
+        outs = [Lc, dinv, q, G, ub, glb, gub, ca.vertcat(rho, 1 / rho), S["y"], xhat, dist, plan,
                 ca.horzcat(*As), ca.horzcat(*Bs), ca.horzcat(*cs), dx0, Xb, ca.horzcat(*R), ca.horzcat(*Uref), w]
         if self.use_cse:
             outs = ca.cse(outs)
         return ca.Function(
             "nmpc_prep", [st, meas, ref, p], outs, ["state", "meas", "ref", "p"],
-            ["L", "dinv", "q", "G", "ubar", "glb", "gub", "y0", "xhat", "dist", "plan",
+            ["L", "dinv", "q", "G", "ubar", "glb", "gub", "rho", "y0", "xhat", "dist", "plan",
              "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w"],
         )
 
@@ -448,7 +449,8 @@ class StepBuilder:
         iters_to_tol = ca.MX(checks[0])
         for i in range(1, cfg.n_iter + 1):
             it = it_res if i in checks else it_fast
-            x, z, yv, rp_i, rd_i = it(x, z, yv, o["L"], o["dinv"], o["q"], o["G"], o["ubar"], o["glb"], o["gub"])
+            x, z, yv, rp_i, rd_i = it(x, z, yv, o["L"], o["dinv"], o["q"], o["G"], o["ubar"], o["glb"], o["gub"],
+                                      o["rho"])
             if i in checks:
                 rp, rd = rp_i, rd_i
                 nxt = checks[checks.index(i) + 1] if i != checks[-1] else i

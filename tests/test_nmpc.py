@@ -135,18 +135,18 @@ def test_admm_converges_to_the_qp_solution_with_active_disks():
     # the estimate is 3 mm and 0.3 m/s off the plan: the correction saturates the current disks
     s0[b.layout.slices()["xhat"]] = [0.0205, 0.0, -0.047, 0.3]
     o = prep(s0, [0.02, -0.05, 0], ref, p)
-    L, dinv, q, G, ubar, glb, gub = (np.asarray(ca.densify(v)) for v in o[:7])
-    q, ubar, glb, gub = (v.ravel() for v in (q, ubar, glb, gub))
+    L, dinv, q, G, ubar, glb, gub, rho = (np.asarray(ca.densify(v)) for v in o[:8])
+    q, ubar, glb, gub, rho = (v.ravel() for v in (q, ubar, glb, gub, rho))
     nv, ng = len(q), G.shape[0]
     a = st.admm
-    H = L @ L.T - (a.sigma + a.rho_u) * np.eye(nv) - a.rho_g * G.T @ G
+    H = L @ L.T - (a.sigma + rho[0]) * np.eye(nv) - a.rho_g_rel * rho[0] * G.T @ G
     it = admm_iteration(nv, ng, 2, 4.0, 4.0, st.soft_gap.w_linear, st.soft_gap.w_quadratic,
-                        ADMMSettings(a.rho_u, a.rho_g, a.sigma, a.alpha))
+                        ADMMSettings(a.rho_scale, a.rho_g_rel, a.sigma, a.alpha))
 
     def run(n):
         x, z, y = np.zeros(nv), np.zeros(nv + ng), np.zeros(nv + ng)
         for _ in range(n):
-            x, z, y, _, _ = (np.asarray(v).ravel() for v in it(x, z, y, L, dinv, q, G, ubar, glb, gub))
+            x, z, y, _, _ = (np.asarray(v).ravel() for v in it(x, z, y, L, dinv, q, G, ubar, glb, gub, rho))
         return z[:nv], y
 
     # Reference: a long run, certified optimal by the KKT conditions of the disk-constrained QP
