@@ -140,19 +140,22 @@ def fl_law_function() -> ca.Function:
     # The model must produce v minus what the observer says the unmodelled part adds.
     a = ca.vertcat(v_g - dist[0], v_d - dist[1])
     i_amp, i_ax = G["i_amp_max"], G["i_axis_max"]
-    iq0, id0, unr0 = _inverse_expressions(x, a, p)
+    iq0, _, _ = _inverse_expressions(x, a, p)
     # Limits, vertical axis first (open-loop unstable): i_d gets what it needs up to the
-    # amplitude, i_q the rest of the amplitude budget.
+    # amplitude, i_q the rest of the amplitude budget. i_q enters the vertical equation through
+    # the reluctance term (C4 f4 i_q^2), so i_d is re-solved for the limited i_q; two passes from
+    # i_q = 0 settle the split, and the last clip keeps the amplitude within bounds by construction.
     id_lim = ca.fmin(i_ax, i_amp)
-    id1 = _sat(id0, id_lim)
-    iq1 = _sat(iq0, ca.fmin(i_ax, ca.sqrt(ca.fmax(i_amp**2 - id1**2, 0))))
-    # i_q enters the vertical equation through the reluctance term: re-solve i_d with the
-    # limited i_q, then limit again (the amplitude stays within bounds by construction).
-    _, id2, unr = _inverse_expressions(x, a, p, i_q=iq1)
-    id2 = _sat(id2, id_lim)
-    iq2 = _sat(iq1, ca.fmin(i_ax, ca.sqrt(ca.fmax(i_amp**2 - id2**2, 0))))
+    iq = _sat(iq0, i_ax)
+    _, id2_raw, unr = _inverse_expressions(x, a, p, i_q=ca.SX(0))
+    for _ in range(2):
+        iq = _sat(iq, ca.sqrt(ca.fmax(i_amp**2 - _sat(id2_raw, id_lim) ** 2, 0)))
+        _, id2_raw, unr = _inverse_expressions(x, a, p, i_q=iq)
+    id2 = _sat(id2_raw, id_lim)
+    iq2 = _sat(iq, ca.fmin(i_ax, ca.sqrt(ca.fmax(i_amp**2 - id2**2, 0))))
     tol = 1e-9
-    sat_g = ca.logic_or(ca.fabs(id2 - id0) > tol + 1e-6 * ca.fabs(id0), ca.logic_or(unr, unr0))
+    # the gap axis is limited if its current was clipped or the demanded attraction is out of reach
+    sat_g = ca.logic_or(ca.fabs(id2 - id2_raw) > tol, unr)
     sat_d = ca.fabs(iq2 - iq0) > tol + 1e-6 * ca.fabs(iq0)
     # Anti-windup: an axis integrates only while its current is not limited.
     z_next = ca.vertcat(
