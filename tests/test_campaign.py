@@ -191,6 +191,10 @@ def test_local_cluster_equals_in_process_and_failures_are_recorded(camp_dir: Pat
                  "vs_dev_plant_C1.png", "vs_grid_controller_gain.png"):
         assert (camp_dir / "two" / name).is_file(), name
     assert r2.summary.by_case()["runs"].sum() == len(t)
+    from maglev_ocp.campaign.report import markdown_table
+
+    md = markdown_table({"toy": r2})
+    assert md.count("\n| toy | c") == n_cases(camp) and "success [%]" in md
 
 
 def test_stop_and_resume_matches_uninterrupted(camp_dir: Path) -> None:

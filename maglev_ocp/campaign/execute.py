@@ -114,6 +114,7 @@ class RunOutcome:
     error: str | None = None
     traceback: str | None = None
     wall_s: float = 0.0
+    cpu_s: float = 0.0
     worker: str = ""
     files: dict[str, bytes] = field(default_factory=dict)
 
@@ -139,7 +140,7 @@ def execute_one(spec_d: dict[str, Any], base: dict[str, Any], campaign_name: str
     save = SaveSettings(**save_d)
     fn = run_fn or run_real
     who = f"{socket.gethostname()}:{os.getpid()}"
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     tmp = Path(tempfile.mkdtemp(prefix=f"maglev-run-{spec.run_id}-"))
     try:
         scenario = apply_overrides(base, spec.overrides)
@@ -156,10 +157,10 @@ def execute_one(spec_d: dict[str, Any], base: dict[str, Any], campaign_name: str
         err = metrics.get("error") or ("diverged" if metrics.get("diverged") else None)
         status = "failed" if err else "ok"
         return RunOutcome(spec.run_id, status, metrics=metrics, error=err, wall_s=time.perf_counter() - t0,
-                          worker=who, files=files)
+                          cpu_s=time.process_time() - c0, worker=who, files=files)
     except Exception as exc:
         return RunOutcome(spec.run_id, "failed", error=_one_line(exc), traceback=traceback.format_exc(limit=8),
-                          wall_s=time.perf_counter() - t0, worker=who)
+                          wall_s=time.perf_counter() - t0, cpu_s=time.process_time() - c0, worker=who)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -200,7 +201,7 @@ def store_outcome(out_dir: Path, spec: RunSpec, outcome: RunOutcome) -> None:
             (tmp / "metrics.json").write_text(json.dumps(outcome.metrics, indent=1, default=_json_default))
         record = {
             "run_id": spec.run_id, "digest": spec.digest(), "status": outcome.status, "error": outcome.error,
-            "traceback": outcome.traceback, "wall_s": outcome.wall_s, "worker": outcome.worker,
+            "traceback": outcome.traceback, "wall_s": outcome.wall_s, "cpu_s": outcome.cpu_s, "worker": outcome.worker,
             "spec": spec.to_dict(),
         }
         (tmp / "run.json").write_text(json.dumps(record, indent=1, default=_json_default))
@@ -263,11 +264,18 @@ class ExecutionReport:
     workers: int
     scheduler: str | None = None
     interrupted: bool = False
+    cpu_s: float = 0.0
+
+    @property
+    def efficiency(self) -> float:
+        """CPU time of the runs / (wall time x workers): near 1 when every worker had a free core."""
+        return self.cpu_s / (self.wall_s * self.workers) if self.wall_s > 0 else float("nan")
 
     def as_dict(self) -> dict[str, Any]:
         """Plain dict (JSON)."""
         d = dict(self.__dict__)
         d["out_dir"] = str(self.out_dir)
+        d["efficiency"] = self.efficiency
         return d
 
     def save(self, path: str | os.PathLike | None = None) -> None:
@@ -283,7 +291,8 @@ class ExecutionReport:
     def __str__(self) -> str:
         where = self.scheduler or (f"LocalCluster x{self.workers}" if self.workers > 1 else "in-process")
         return (f"{self.total} runs: {self.skipped} already done, {self.ran} ran now ({self.failed} failed), "
-                f"{self.remaining} remaining; {self.wall_s:.1f} s on {where}")
+                f"{self.remaining} remaining; {self.wall_s:.1f} s on {where} "
+                f"(runs' CPU {self.cpu_s:.1f} s, efficiency {self.efficiency:.2f})")
 
 
 def _write_plan(out_dir: Path, camp: Campaign, base: dict[str, Any], specs: list[RunSpec]) -> None:
@@ -374,7 +383,7 @@ def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
         finally:
             client.close()
         return
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=logging.ERROR)
     client = Client(cluster)
     try:
@@ -433,7 +442,7 @@ def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, sch
     if limit is not None:
         todo = todo[:limit]
     save_d = camp.save.model_dump()
-    counts = {"ok": n_ok, "failed": n_failed, "ran": 0, "failed_now": 0}
+    counts = {"ok": n_ok, "failed": n_failed, "ran": 0, "failed_now": 0, "cpu_s": 0.0}
     t0 = time.perf_counter()
     bar = tqdm(total=len(specs), initial=skipped, desc=f"campaign {camp.name}", unit="run", disable=not progress,
                dynamic_ncols=True)
@@ -441,6 +450,7 @@ def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, sch
     def _record(spec: RunSpec, outcome: RunOutcome) -> None:
         store_outcome(out, spec, outcome)
         counts["ran"] += 1
+        counts["cpu_s"] += outcome.cpu_s
         key = "failed" if outcome.status == "failed" else "ok"
         counts[key] += 1
         counts["failed_now"] += key == "failed"
@@ -486,7 +496,8 @@ def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, sch
         bar.close()
     remaining = len(specs) - counts["ok"] - counts["failed"]
     report = ExecutionReport(out, len(specs), skipped, counts["ran"], counts["failed_now"], remaining,
-                             time.perf_counter() - t0, 1 if not use_dask else workers, scheduler, interrupted)
+                             time.perf_counter() - t0, 1 if not use_dask else workers, scheduler, interrupted,
+                             counts["cpu_s"])
     report.save()
     if interrupted:
         raise KeyboardInterrupt

@@ -87,12 +87,14 @@ class ScalingResult:
     campaign: str
     runs: int
     wall_s: dict[int, float]
+    efficiency: dict[int, float]
 
     def table(self) -> str:
         """Markdown table: workers, wall time, speed-up."""
         base = self.wall_s[min(self.wall_s)]
-        rows = ["| workers | wall time [s] | speed-up |", "|---:|---:|---:|"]
-        rows += [f"| {w} | {t:.1f} | {base / t:.2f} |" for w, t in sorted(self.wall_s.items())]
+        rows = ["| workers | wall time [s] | speed-up | CPU efficiency |", "|---:|---:|---:|---:|"]
+        rows += [f"| {w} | {t:.1f} | {base / t:.2f} | {self.efficiency[w]:.2f} |"
+                 for w, t in sorted(self.wall_s.items())]
         return f"campaign {self.campaign}, {self.runs} runs\n\n" + "\n".join(rows) + "\n"
 
     def save(self, path: str | os.PathLike) -> None:
@@ -105,13 +107,16 @@ def scaling(name_or_path: str | os.PathLike, workers: tuple[int, ...] = (1, 2), 
     """Run one campaign afresh (temporary folders) on each number of workers; wall time of each.
 
     The wall time includes the cluster start-up and each worker's first builds,
-    which is what a user waits for.
+    which is what a user waits for. The CPU efficiency (the runs' CPU time over
+    wall time x workers) tells whether each worker had a core of its own: on a
+    machine busy with other work it drops, and so does the speed-up.
     """
     path = Path(name_or_path)
     if not path.suffix:
         path = campaign_path(str(name_or_path))
     camp = load_campaign(path)
     walls: dict[int, float] = {}
+    eff: dict[int, float] = {}
     n = 0
     for w in workers:
         tmp = Path(tempfile.mkdtemp(prefix=f"maglev-scaling-{camp.name}-"))
@@ -120,6 +125,7 @@ def scaling(name_or_path: str | os.PathLike, workers: tuple[int, ...] = (1, 2), 
             res = run_campaign(camp, tmp, workers=w, limit=limit, progress=progress, figures=False)
             walls[w] = time.perf_counter() - t0
             n = res.report.ran
+            eff[w] = res.report.cpu_s / (walls[w] * w)
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
-    return ScalingResult(camp.name, n, walls)
+    return ScalingResult(camp.name, n, walls, eff)

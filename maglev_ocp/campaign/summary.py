@@ -107,12 +107,13 @@ def run_row(spec: RunSpec, record: dict[str, Any] | None, metrics: dict[str, Any
         row["status"] == "ok" and bool(m.get(ALL_SETTLED, False)) and int(_num(m.get(STOP_HITS, 1)) or 0) == 0
     )
     row["wall_s"] = _num((record or {}).get("wall_s"))
+    row["cpu_s"] = _num((record or {}).get("cpu_s"))
     return row
 
 
 def is_timing_column(name: str) -> bool:
     """True for columns that measure time and change between executions."""
-    return name == "wall_s" or "step_time" in name or name.endswith("_us") or "wall" in name
+    return name in ("wall_s", "cpu_s") or "step_time" in name or name.endswith("_us") or "wall" in name
 
 
 def deterministic_columns(columns: list[str]) -> list[str]:
