@@ -1,0 +1,130 @@
+"""Time one NMPC control step over closed-loop scenarios (median, p99 and worst, after warm-up).
+
+Usage::
+
+    .venv/bin/python benchmarks/bench_nmpc_step.py                         # traverse + tour, Python backend
+    .venv/bin/python benchmarks/bench_nmpc_step.py --backend c --json      # the compiled step
+    .venv/bin/python benchmarks/bench_nmpc_step.py --scenario scenarios/random_nmpc.yaml --horizon 30
+
+The time is the wall time of ``NMPC.step`` as the scenario runner measures it
+(the whole step: observer, reference, RTI linearization, condensing, ADMM,
+fallback checks, warm-start shift, plus the Python call overhead), and the
+thread's CPU time over the same call. The machine has 2 cores shared with
+whatever else runs: the wall-clock p99 and worst case are sensitive to that
+load (preemption), the CPU time much less; the 1-min load average is printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+DEFAULT_SCENARIOS = ("traverse_20mm_nmpc.yaml", "tour_nmpc.yaml")
+
+
+class _CpuTimed:
+    """Wraps a controller and records the thread CPU time of each ``step`` [us]."""
+
+    def __init__(self, ctrl):
+        self.ctrl = ctrl
+        self.name = ctrl.name
+        self.cpu_us: list[float] = []
+
+    def set_reference_plan(self, plan) -> None:
+        self.ctrl.set_reference_plan(plan)
+
+    def reset(self, y0, ref) -> None:
+        self.cpu_us = []
+        self.ctrl.reset(y0, ref)
+
+    def step(self, y, ref):
+        t0 = time.thread_time_ns()
+        out = self.ctrl.step(y, ref)
+        self.cpu_us.append((time.thread_time_ns() - t0) * 1e-3)
+        return out
+
+
+def _stats(a: np.ndarray) -> dict:
+    return {"median_us": float(np.median(a)), "p99_us": float(np.percentile(a, 99)), "max_us": float(a.max())}
+
+
+def bench(scenarios: list[Path], backend: str = "python", horizon: int | None = None, warmup: int = 50,
+          progress: bool = True) -> dict:
+    """Run the scenarios with the NMPC and return step-time statistics [us].
+
+    Returns
+    -------
+    dict
+        ``{"backend", "horizon", "n_steps", "median_us", "p99_us", "max_us", "per_scenario": {...}}``.
+    """
+    from maglev_ocp.config import load_yaml
+    from maglev_ocp.runner import build_controller, run_scenario
+    from maglev_ocp.scenario import scenario_from_dict
+
+    times, cpus, per = [], [], {}
+    for path in scenarios:
+        data = load_yaml(path)
+        ctrl = dict(data.get("controller", {}))
+        if ctrl.get("type") != "nmpc":
+            raise SystemExit(f"{path}: controller.type must be nmpc")
+        ctrl["backend"] = backend
+        if horizon is not None:
+            ctrl["horizon"] = horizon
+        data["controller"] = ctrl
+        timed = _CpuTimed(build_controller(scenario_from_dict(data)))
+        res = run_scenario(data, progress=progress, figures=False, controller=timed)
+        st = np.asarray(res.step_time_us, float)[warmup:]
+        cpu = np.asarray(timed.cpu_us, float)[warmup:]
+        times.append(st)
+        cpus.append(cpu)
+        per[res.scenario.name] = {"n_steps": int(st.size), **_stats(st), "cpu": _stats(cpu),
+                                  "passed": bool(res.passed)}
+    allt, allc = np.concatenate(times), np.concatenate(cpus)
+    return {"backend": backend, "horizon": horizon or 20, "n_steps": int(allt.size), **_stats(allt),
+            "cpu": _stats(allc), "load_avg_1min": os.getloadavg()[0], "per_scenario": per}
+
+
+def table(r: dict) -> str:
+    """Text view of :func:`bench`'s result."""
+    lines = [f"NMPC step time, backend {r['backend']}, horizon {r['horizon']} "
+             f"(1-min load average {r['load_avg_1min']:.2f} on {os.cpu_count()} cores)",
+             f"{'scenario':<24} {'steps':>6} {'wall median/p99/max [us]':>26} {'CPU median/p99/max [us]':>26}"]
+
+    def row(name: str, n: int, s: dict) -> str:
+        c = s["cpu"]
+        w = f"{s['median_us']:.0f} / {s['p99_us']:.0f} / {s['max_us']:.0f}"
+        cc = f"{c['median_us']:.0f} / {c['p99_us']:.0f} / {c['max_us']:.0f}"
+        return f"{name:<24} {n:6d} {w:>26} {cc:>26}"
+
+    for name, s in r["per_scenario"].items():
+        lines.append(row(name, s["n_steps"], s))
+    lines.append(row("all", r["n_steps"], r))
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line of the benchmark."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenario", action="append", default=None, metavar="YAML",
+                    help="scenario(s) with controller type nmpc (default: traverse_20mm_nmpc, tour_nmpc)")
+    ap.add_argument("--backend", choices=("python", "c"), default="python")
+    ap.add_argument("--horizon", type=int, default=None)
+    ap.add_argument("--warmup", type=int, default=50, help="steps dropped at the start of each run")
+    ap.add_argument("--json", action="store_true", help="print JSON")
+    a = ap.parse_args(argv)
+    sys.path.insert(0, str(ROOT))
+    paths = [Path(p) for p in a.scenario] if a.scenario else [ROOT / "scenarios" / s for s in DEFAULT_SCENARIOS]
+    r = bench(paths, a.backend, a.horizon, a.warmup, progress=not a.json)
+    print(json.dumps(r, indent=2) if a.json else table(r))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
