@@ -160,15 +160,20 @@ def test_missing_base_scenario_is_an_error(camp_dir: Path) -> None:
         load_campaign(p)
 
 
-def test_local_cluster_equals_in_process_and_failures_are_recorded(camp_dir: Path) -> None:
-    """A real dask.distributed LocalCluster (2 worker processes) gives the summary of a 1-process run."""
+def test_scheduler_address_equals_in_process_and_failures_are_recorded(camp_dir: Path) -> None:
+    """A running dask.distributed cluster (scheduler + 2 worker processes on loopback), reached by its
+    address as with ``--scheduler``, gives the summary of a 1-process run."""
     import cloudpickle
+    from dask.distributed import LocalCluster
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
     camp = load_campaign(camp_dir / "camp.yaml")
     r1 = run_campaign(camp, camp_dir / "one", workers=1, run_fn=toy_run, progress=False, figures=False)
-    r2 = run_campaign(camp, camp_dir / "two", workers=2, run_fn=toy_run, progress=False, figures=True)
-    assert r1.report.workers == 1 and r2.report.workers == 2
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=":0") as cluster:
+        r2 = run_campaign(camp, camp_dir / "two", scheduler=cluster.scheduler_address, run_fn=toy_run,
+                          progress=False, figures=True)
+    assert r1.report.workers == 1 and r2.report.workers == 2 and r2.report.scheduler.startswith("tcp://127.0.0.1")
     a, b = _summary_det(camp_dir / "one"), _summary_det(camp_dir / "two")
     assert list(a.columns) == list(b.columns)
     assert a.equals(b)

@@ -180,11 +180,20 @@ class Campaign(Strict):
         return p if p.is_absolute() else (Path(self.root_dir) / p).resolve()
 
     def base_scenario_dict(self) -> dict[str, Any]:
-        """The base scenario as a plain mapping (overrides are applied on it)."""
+        """The base scenario as a plain mapping (overrides are applied on it).
+
+        Files the scenario names relative to itself (``plant.file``,
+        ``controller_params.file``) are made absolute, so that a worker
+        resolves them wherever it runs.
+        """
         path = self.base_scenario_path()
         data = load_yaml(path)
         if not isinstance(data, dict):
             raise ConfigError(f"{path}: expected a mapping at the top level, got {type(data).__name__}")
+        for block in ("plant", "controller_params"):
+            sub = data.get(block)
+            if isinstance(sub, dict) and isinstance(sub.get("file"), str) and not Path(sub["file"]).is_absolute():
+                sub["file"] = str((path.parent / sub["file"]).resolve())
         return data
 
 

@@ -471,6 +471,8 @@ def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, sch
             from dask.distributed import as_completed
 
             with _client(workers, scheduler) as client:
+                if scheduler:
+                    workers = max(1, len(client.scheduler_info().get("workers", {})))
                 base_f = client.scatter(base, broadcast=True)
                 by_key = {}
                 futures = []
