@@ -288,3 +288,18 @@ def test_smoke_campaign_real_runner_dask_resume_equals_in_process(tmp_path: Path
 
     s0 = yaml.safe_load((run_dir(tmp_path / "dask", t["run_id"][0]) / "scenario.yaml").read_text())
     assert s0["plant"]["mismatch"]["overrides"]["C2"] == pytest.approx(t["ov.plant.mismatch.overrides.C2"][0])
+
+
+def test_explicit_runs_multiply_the_cases_and_case_order(camp_dir: Path) -> None:
+    p = camp_dir / "runs.yaml"
+    p.write_text(CAMPAIGN.replace("n_runs: 6", "n_runs: 2\norder: cases\nruns:\n  - {}\n"
+                                  "  - {plant.process_noise.g: 0.0, controller_params.cogging: false}"))
+    camp = load_campaign(p)
+    specs = expand(camp)
+    assert n_cases(camp) == 2 * 2 * 2 and len(specs) == 16
+    assert [s.case for s in specs[:4]] == [0, 0, 1, 1]  # case-major order
+    odd = [s for s in specs if s.case % 2 == 1]
+    assert all(s.overrides["controller_params.cogging"] is False for s in odd)
+    assert all("controller_params.cogging" not in s.overrides for s in specs if s.case % 2 == 0)
+    scn = apply_overrides(camp.base_scenario_dict(), odd[0].overrides)
+    assert scn["plant"]["process_noise"] == {"g": 0.0} and scn["controller"]["type"] == "pid"
