@@ -1,0 +1,90 @@
+"""The whole feedback-linearization step (observer + control law) as CasADi Functions.
+
+:class:`controllers.fl.FeedbackLinearization` keeps its observer in Python and
+calls the CasADi law :func:`controllers.fl.fl_law_function`. For the rig the
+step must be one self-contained C function, so this module composes the
+observer update (:mod:`maglev_ocp.codegen.observer_fn`, same gains) and the
+same law Function into
+
+``fl_step(state_in, meas, ref, p, gains) -> (u, state_out, x_hat, dist, v, flags)``
+
+with the controller's memory in one state vector (:data:`FL_STATE`), and
+
+``fl_init(meas) -> state``: at rest at the reading (as ``FeedbackLinearization.reset``).
+
+Both mirror ``FeedbackLinearization.reset`` / ``step`` line by line, so the C
+backend reproduces the Python controller to rounding.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from .. import constants as k
+from ..model import get_model
+from ..observers import ObserverSettings
+from .observer_fn import observer_gain, observer_update
+
+#: Pieces of the FL controller's state vector: name, size, unit, meaning.
+FL_STATE: tuple[tuple[str, int, str, str], ...] = (
+    ("x_hat", 4, "m, m/s, m, m/s", "observer estimate (g, g_dot, d, d_dot)"),
+    ("dist", 2, "m/s^2", "acceleration disturbance estimate (gap, horizontal)"),
+    ("z", 2, "m s", "integrals of the position errors (gap, horizontal)"),
+    ("u_prev", 2, "A", "currents commanded at the previous step (i_q, i_d)"),
+    ("started", 1, "-", "0 right after fl_init (first step skips the observer prediction), then 1"),
+)
+FL_STATE_SIZE = sum(n for _, n, _, _ in FL_STATE)
+
+
+def fl_state_slices() -> dict[str, slice]:
+    """Slice of each piece of :data:`FL_STATE`."""
+    out, i = {}, 0
+    for name, n, _, _ in FL_STATE:
+        out[name] = slice(i, i + n)
+        i += n
+    return out
+
+
+def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
+    """``fl_init`` and ``fl_step`` for :class:`controllers.fl.FLSettings` ``settings``.
+
+    The observer gain (``settings.observer_eps``, ``settings.disturbance``) is
+    baked in; the model parameters ``p`` and the gain vector ``gains`` (order
+    :data:`controllers.fl.GAIN_FIELDS`) are inputs.
+
+    Returns
+    -------
+    fl_init, fl_step : casadi.Function
+    """
+    from controllers.fl import GAIN_FIELDS, REF_FIELDS, fl_law_function
+
+    law = fl_law_function()
+    osettings = ObserverSettings(eps=settings.observer_eps, disturbance=settings.disturbance)
+    L = observer_gain(osettings, Ts)
+    np_ = get_model().np_
+    sl = fl_state_slices()
+
+    meas0 = ca.SX.sym("meas", 2)
+    state0 = ca.vertcat(meas0[0], 0, meas0[1], 0, ca.SX.zeros(2 + 2 + 2), 0)
+    fl_init = ca.Function("fl_init", [meas0], [state0], ["meas"], ["state"])
+
+    st, meas, ref = ca.SX.sym("state_in", FL_STATE_SIZE), ca.SX.sym("meas", 2), ca.SX.sym("ref", len(REF_FIELDS))
+    p, gains = ca.SX.sym("p", np_), ca.SX.sym("gains", len(GAIN_FIELDS))
+    x_old, d_old, z, u_prev = st[sl["x_hat"]], st[sl["dist"]], st[sl["z"]], st[sl["u_prev"]]
+    started = st[sl["started"]][0] > 0.5
+    x_obs, d_obs = observer_update(x_old, d_old, u_prev, meas, p, L, Ts, settings.disturbance)
+    # first step after reset: the estimate is the reset reading (no prediction), as in the Python class
+    x_hat = ca.if_else(started, x_obs, x_old)
+    dist = ca.if_else(started, d_obs, d_old)
+    u, z_next, v, flags = law(x_hat, dist, ref, z, p, gains)
+    finite = ca.fabs(u[0]) + ca.fabs(u[1]) < ca.inf  # never command NaN/inf (NaN compares false)
+    u = ca.if_else(finite, u, ca.SX.zeros(2))
+    state = ca.vertcat(x_hat, dist, z_next, u, 1)
+    fl_step = ca.Function(
+        "fl_step", [st, meas, ref, p, gains], [u, state, x_hat, dist, v, flags],
+        ["state_in", "meas", "ref", "p", "gains"], ["u", "state_out", "x_hat", "dist", "v", "flags"],
+    )
+    return fl_init, fl_step
+
+
+__all__ = ["FL_STATE", "FL_STATE_SIZE", "fl_functions", "fl_state_slices"]

@@ -1,0 +1,351 @@
+"""What is generated for each controller: its CasADi Functions and their documented ports.
+
+A :class:`ControllerCode` bundles, for one controller, the Functions that become
+C (``<kind>_init`` and ``<kind>_step``), the documentation of every input and
+output (size, unit, meaning, and the layout of packed vectors such as the
+controller state), and the numeric constants the harness needs (parameter
+vector, gains). :mod:`maglev_ocp.codegen.sources` turns a list of them into C
+sources, the header ``maglev_controller.h``, the harness and the build files.
+
+* ``nmpc``: ``nmpc_init(meas, ref, p) -> state`` and
+  ``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)``, the
+  NMPC developer's step Function (:mod:`controllers.nmpc_step`) as it is;
+* ``fl``: ``fl_init``/``fl_step`` (:mod:`maglev_ocp.codegen.fl_fn`);
+* ``observer``: ``observer_step`` (:mod:`maglev_ocp.codegen.observer_fn`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from .. import constants as k
+from ..params import Params
+from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, STATES
+
+#: Controllers that can be generated.
+KINDS: tuple[str, ...] = ("nmpc", "fl", "observer")
+
+
+@dataclass(frozen=True)
+class Piece:
+    """A named slice of a packed vector.
+
+    Attributes
+    ----------
+    name : str
+        Name (a C macro ``..._<NAME>_OFFSET`` / ``_SIZE`` is generated).
+    size : int
+        Number of entries.
+    unit : str
+        Unit(s) of the entries.
+    description : str
+        What the entries are.
+    """
+
+    name: str
+    size: int
+    unit: str
+    description: str
+
+
+@dataclass(frozen=True)
+class Port:
+    """One input or output of a generated function (dense, column-major).
+
+    Attributes
+    ----------
+    name : str
+        Name as in the CasADi Function.
+    rows, cols : int
+        Shape (stored column-major, ``rows * cols`` doubles).
+    unit, description : str
+        Unit and meaning.
+    pieces : tuple of Piece
+        Layout, for packed vectors (empty: see ``description``).
+    """
+
+    name: str
+    rows: int
+    cols: int
+    unit: str
+    description: str
+    pieces: tuple[Piece, ...] = ()
+
+    @property
+    def size(self) -> int:
+        """Number of doubles."""
+        return self.rows * self.cols
+
+
+@dataclass
+class CodeUnit:
+    """A Function to generate and the documentation of its ports."""
+
+    fn: ca.Function
+    doc: str
+    inputs: tuple[Port, ...]
+    outputs: tuple[Port, ...]
+
+    @property
+    def name(self) -> str:
+        """C symbol of the function."""
+        return self.fn.name()
+
+    def check(self) -> None:
+        """Assert the documentation matches the Function (names and sizes)."""
+        fn = self.fn
+        assert tuple(fn.name_in()) == tuple(p.name for p in self.inputs), (fn.name_in(), self.inputs)
+        assert tuple(fn.name_out()) == tuple(p.name for p in self.outputs), (fn.name_out(), self.outputs)
+        for i, p in enumerate(self.inputs):
+            assert fn.nnz_in(i) == p.size and fn.numel_in(i) == p.size, (fn.name(), p.name)
+            if p.pieces:
+                assert sum(q.size for q in p.pieces) == p.size, (fn.name(), p.name)
+        for i, p in enumerate(self.outputs):
+            assert fn.nnz_out(i) == p.size and fn.numel_out(i) == p.size, (fn.name(), p.name)
+            if p.pieces:
+                assert sum(q.size for q in p.pieces) == p.size, (fn.name(), p.name)
+
+
+@dataclass
+class ControllerCode:
+    """Everything generated for one controller.
+
+    Attributes
+    ----------
+    kind : str
+        ``nmpc``, ``fl`` or ``observer``.
+    init, step : CodeUnit or None
+        Initialization (no init for the observer) and per-period step.
+    constants : dict of str to (ndarray, str)
+        Arrays written into the header (C name without prefix -> values, comment).
+    defines : dict of str to number
+        Integer / float macros written into the header.
+    settings : dict
+        The controller's settings (JSON), for the manifest and the cache key.
+    notes : str
+        Free text for the header (how to call, what is baked in).
+    """
+
+    kind: str
+    init: CodeUnit | None
+    step: CodeUnit
+    constants: dict[str, tuple[np.ndarray, str]] = field(default_factory=dict)
+    defines: dict[str, Any] = field(default_factory=dict)
+    settings: dict[str, Any] = field(default_factory=dict)
+    notes: str = ""
+
+    @property
+    def units(self) -> list[CodeUnit]:
+        """The functions to generate (init first)."""
+        return [u for u in (self.init, self.step) if u is not None]
+
+
+# ----------------------------------------------------------------------------- common ports
+def _unit_list(signals) -> str:
+    return ", ".join(f"{s.name} [{s.unit}]" for s in signals)
+
+
+def params_port(np_: int) -> Port:
+    """The model parameter vector input ``p``."""
+    return Port("p", np_, 1, "SI", "model parameters: " + _unit_list(PARAMETERS),
+                tuple(Piece(s.name, 1, s.unit, s.description) for s in PARAMETERS))
+
+
+def _u_port(name: str = "u") -> Port:
+    return Port(name, 2, 1, "A", "commanded currents: " + _unit_list(INPUTS),
+                tuple(Piece(s.name, 1, s.unit, s.description) for s in INPUTS))
+
+
+def _xhat_port(name: str = "x_hat") -> Port:
+    return Port(name, 4, 1, "m, m/s", "state estimate: " + _unit_list(STATES),
+                tuple(Piece(s.name, 1, s.unit, s.description) for s in STATES))
+
+
+def _meas2_port(name: str = "meas") -> Port:
+    return Port(name, 2, 1, "m", "encoder readings: " + _unit_list(MEASUREMENTS),
+                tuple(Piece(s.name, 1, s.unit, s.description) for s in MEASUREMENTS))
+
+
+def _dist_port(name: str = "dist") -> Port:
+    return Port(name, 2, 1, "m/s^2", "acceleration disturbance estimate (gap, horizontal) [m/s^2]",
+                (Piece("a_g", 1, "m/s^2", "gap axis"), Piece("a_d", 1, "m/s^2", "horizontal axis")))
+
+
+REF_ROW_UNITS: tuple[tuple[str, str], ...] = (
+    ("g", "m"), ("g_dot", "m/s"), ("g_ddot", "m/s^2"), ("d", "m"), ("d_dot", "m/s"), ("d_ddot", "m/s^2"),
+)
+
+
+# ----------------------------------------------------------------------------- NMPC
+def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
+    """Code units of :class:`controllers.nmpc.NMPC` for reference mode ``mode`` (``plan`` or ``preview``).
+
+    Parameters
+    ----------
+    settings : controllers.nmpc.NMPCSettings
+        The controller's settings (the step Function is built from them, once per design).
+    params : Params
+        What the controller's model believes (cogging dropped if ``use_cogging`` is off).
+    mode : {"plan", "preview"}
+        Reference mode baked into the step (``auto`` is resolved by the caller).
+    """
+    from controllers.nmpc import step_functions
+    from controllers.nmpc_step import N_MEAS, STATS_NAMES
+
+    if mode not in ("plan", "preview"):
+        raise ValueError(f"NMPC reference mode must be 'plan' or 'preview', got {mode!r}")
+    init, step, b = step_functions(settings.step_config(mode))
+    lay = b.layout
+    N = settings.horizon
+    model_params = params if settings.use_cogging else params.without_cogging()
+    state_units = {
+        "xhat": ("m, m/s", "observer estimate (g, g_dot, d, d_dot)"),
+        "dist": ("m/s^2", "acceleration disturbance estimate (gap, horizontal)"),
+        "u_prev": ("A", "currents applied over the last period (i_q, i_d)"),
+        "fresh": ("-", "1 right after nmpc_init (the observer skips one prediction), else 0"),
+        "plan": ("m, m, m, m, s, s, s", "move planner (g_start, d_start, g_target, d_target, t, h, tj)"),
+        "X": ("m, m/s", f"shooting nodes, {N + 1} columns of (g, g_dot, d, d_dot), column-major"),
+        "U": ("A", f"planned currents, {N} columns of (i_q, i_d), column-major"),
+        "y": ("A / mm scaled", f"ADMM duals: {2 * N} current rows, then {lay.n_gap} soft gap rows"),
+        "nfail": ("-", "consecutive fallbacks"),
+    }
+    state_pieces = tuple(Piece(n, s, *state_units[n]) for n, s in lay.pieces)
+    state_port = Port("state_in", lay.size, 1, "mixed", "controller memory (warm start etc.)", state_pieces)
+    ref_desc = (f"reference over the horizon: 6 rows ({', '.join(f'{r} [{u}]' for r, u in REF_ROW_UNITS)}) "
+                f"x {N + 1} columns (nodes t + k Ts, k = 0..{N}), column-major"
+                + ("; plan mode reads only the target (g, d) of column 0" if mode == "plan" else ""))
+    ref_port = Port("ref", 6, N + 1, "m, m/s, m/s^2", ref_desc)
+    meas_port = Port("meas", N_MEAS, 1, "m, m, -", "encoder readings g [m], d [m], then a fault flag "
+                     "(1 poisons the QP to exercise the fallback; 0 in operation)",
+                     (Piece("g", 1, "m", "air gap reading"), Piece("d", 1, "m", "horizontal reading"),
+                      Piece("fault", 1, "-", "test flag, 0 in operation")))
+    stats_units = {
+        "status": ("-", "0 ok, 1 inaccurate (ADMM residuals above tolerance), 2 fallback"),
+        "fallback": ("-", "1 when the LQR fallback was applied"),
+        "iterations": ("-", "ADMM iterations run (fixed budget)"),
+        "iters_to_tol": ("-", "first residual checkpoint below tolerance"),
+        "qp_r_prim": ("A or mm", "ADMM primal residual (infinity norm)"),
+        "qp_r_dual": ("scaled", "ADMM dual residual (infinity norm)"),
+        "plan_t": ("s", "time since the planned move started"),
+        "plan_T": ("s", "duration of the planned move"),
+        "dist_g": ("m/s^2", "gap disturbance estimate"),
+        "dist_d": ("m/s^2", "horizontal disturbance estimate"),
+        "n_fail": ("-", "consecutive fallbacks"),
+    }
+    stats_pieces = tuple(Piece(n, 1, *stats_units.get(n, ("-", n))) for n in STATS_NAMES)
+    p_port = params_port(len(model_params.vector()))
+    init_unit = CodeUnit(
+        init, "state at rest at the reading, planning towards the reference's target",
+        (meas_port, ref_port, p_port),
+        (Port("state", lay.size, 1, "mixed", "initial controller memory", state_pieces),),
+    )
+    step_unit = CodeUnit(
+        step, "one NMPC period: observer update, planner, RTI linearization, condensing, "
+        f"{settings.iterations} ADMM iterations, checks and fallback, warm-start shift",
+        (state_port, meas_port, ref_port, p_port),
+        (_u_port(), Port("state_out", lay.size, 1, "mixed", "controller memory for the next call", state_pieces),
+         Port("stats", len(STATS_NAMES), 1, "mixed", "solver statistics", stats_pieces), _xhat_port()),
+    )
+    for u in (init_unit, step_unit):
+        u.check()
+    notes = (
+        f"Reference mode '{mode}'. Baked in at generation: horizon N = {N}, weights, ADMM settings, the "
+        "observer gain, the terminal weight and the LQR fallback gain (designed at 20 mm hover on the "
+        "nominal parameters). The parameter vector p is an input (default: NMPC_PARAMS)."
+    )
+    return ControllerCode(
+        "nmpc", init_unit, step_unit,
+        constants={"PARAMS": (model_params.vector(), "model parameters p, " + _unit_list(PARAMETERS))},
+        defines={"HORIZON": N, "STATE_SIZE": lay.size, "REF_COLS": N + 1, "N_STATS": len(STATS_NAMES),
+                 "REF_MODE_PREVIEW": int(mode == "preview")},
+        settings={"mode": mode, **settings.model_dump(mode="json")},
+        notes=notes,
+    )
+
+
+# ----------------------------------------------------------------------------- FL
+def fl_code(settings, params: Params) -> ControllerCode:
+    """Code units of :class:`controllers.fl.FeedbackLinearization` (observer + law in one step)."""
+    from controllers.fl import FLAG_FIELDS, GAIN_FIELDS, REF_FIELDS
+
+    from .fl_fn import FL_STATE, FL_STATE_SIZE, fl_functions
+
+    init, step = fl_functions(settings, k.Ts)
+    pieces = tuple(Piece(*q) for q in FL_STATE)
+    state_in = Port("state_in", FL_STATE_SIZE, 1, "mixed", "controller memory", pieces)
+    ref_units = dict(REF_ROW_UNITS)
+    ref = Port("ref", len(REF_FIELDS), 1, "m, m/s, m/s^2", "reference at this sample",
+               tuple(Piece(r, 1, ref_units[r], "reference " + r) for r in REF_FIELDS))
+    gain_units = {"kp_g": "1/s^2", "kd_g": "1/s", "ki_g": "1/s^3", "kp_d": "1/s^2", "kd_d": "1/s", "ki_d": "1/s^3",
+                  "i_axis_max": "A", "i_amp_max": "A", "Ts": "s"}
+    gains = Port("gains", len(GAIN_FIELDS), 1, "mixed", "outer-loop gains and current limits",
+                 tuple(Piece(g, 1, gain_units[g], g) for g in GAIN_FIELDS))
+    p_port = params_port(len(params.vector()))
+    init_unit = CodeUnit(init, "state at rest at the reading (integrators cleared)", (_meas2_port(),),
+                         (Port("state", FL_STATE_SIZE, 1, "mixed", "initial controller memory", pieces),))
+    step_unit = CodeUnit(
+        step, "one feedback-linearization period: observer update, model inversion with cogging, "
+        "limits with anti-windup",
+        (state_in, _meas2_port(), ref, p_port, gains),
+        (_u_port(), Port("state_out", FL_STATE_SIZE, 1, "mixed", "controller memory for the next call", pieces),
+         _xhat_port(), _dist_port(),
+         Port("v", 2, 1, "m/s^2", "demanded output accelerations (gap, horizontal)"),
+         Port("flags", len(FLAG_FIELDS), 1, "-", "0/1 flags: " + ", ".join(FLAG_FIELDS),
+              tuple(Piece(f, 1, "-", f) for f in FLAG_FIELDS))),
+    )
+    for u in (init_unit, step_unit):
+        u.check()
+    return ControllerCode(
+        "fl", init_unit, step_unit,
+        constants={"PARAMS": (params.vector(), "model parameters p, " + _unit_list(PARAMETERS)),
+                   "GAINS": (settings.gains(k.Ts), "gains: " + ", ".join(f"{g} [{gain_units[g]}]"
+                                                                          for g in GAIN_FIELDS))},
+        defines={"STATE_SIZE": FL_STATE_SIZE},
+        settings=settings.model_dump(mode="json"),
+        notes=f"Observer time constant eps = {settings.observer_eps} s baked in "
+              f"(disturbance estimate: {settings.disturbance}); p and gains are inputs.",
+    )
+
+
+# ----------------------------------------------------------------------------- observer
+def observer_code(eps: float, disturbance: bool, params: Params) -> ControllerCode:
+    """Code unit of the high-gain observer update alone."""
+    from ..observers import ObserverSettings
+    from .observer_fn import observer_step_function
+
+    fn = observer_step_function(ObserverSettings(eps=eps, disturbance=disturbance), k.Ts)
+    unit = CodeUnit(
+        fn, "one observer update with the reading y taken after u_prev was held for one period",
+        (_xhat_port(), _dist_port(), _u_port("u_prev"), _meas2_port("y"), params_port(len(params.vector()))),
+        (_xhat_port("x_hat_next"), _dist_port("dist_next")),
+    )
+    unit.check()
+    return ControllerCode(
+        "observer", None, unit,
+        constants={"PARAMS": (params.vector(), "model parameters p, " + _unit_list(PARAMETERS))},
+        defines={},
+        settings={"eps": eps, "disturbance": disturbance},
+        notes=f"Start at rest: x_hat = (g0, 0, d0, 0), dist = 0. eps = {eps} s baked in.",
+    )
+
+
+def resolve_nmpc_mode(settings, shaping: str | None) -> str:
+    """The NMPC's reference mode as :meth:`controllers.nmpc.NMPC._resolve_mode` picks it.
+
+    ``shaping`` is the scenario's ``reference.shaping`` (``None``: no reference
+    plan from a runner, e.g. a bare rig log).
+    """
+    mode = settings.reference
+    if mode == "auto":
+        mode = "preview" if (shaping is not None and shaping != "step") else "plan"
+    return mode
+
+
+__all__ = [
+    "KINDS", "CodeUnit", "ControllerCode", "Piece", "Port", "fl_code", "nmpc_code", "observer_code",
+    "params_port", "resolve_nmpc_mode",
+]
