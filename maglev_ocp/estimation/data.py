@@ -75,6 +75,8 @@ _DENSE: dict[str, ca.Function] = {}
 _MAPS: dict[tuple[str, int], ca.Function] = {}
 #: Samples per evaluation of a mapped Function (building a map costs time growing with its size).
 MAP_CHUNK = 8192
+#: Samples per evaluation of the observer chain.
+OBSERVER_CHUNK = 4096
 
 
 def dense_function(fn: ca.Function) -> ca.Function:
@@ -196,10 +198,17 @@ def observe(
         return out
     L = np.zeros(3)
     L[: len(obs.L)] = obs.L
-    z0 = np.concatenate([out[0], np.zeros(2)])
-    chain = _observer_chain(float(Ts), bool(settings.disturbance), n - 1)
-    (Z,) = call_numpy(chain, z0, y[1:].T, u[:-1].T, params.vector(), L)
-    out[1:] = Z[:4].T
+    z = np.concatenate([out[0], np.zeros(2)])
+    chain = _observer_chain(float(Ts), bool(settings.disturbance), OBSERVER_CHUNK)
+    p = params.vector()
+    for c0 in range(1, n, OBSERVER_CHUNK):
+        m = min(OBSERVER_CHUNK, n - c0)
+        Y = np.repeat(y[c0 + m - 1 : c0 + m], OBSERVER_CHUNK, axis=0)  # padding: harmless extra steps
+        U = np.repeat(u[c0 + m - 2 : c0 + m - 1], OBSERVER_CHUNK, axis=0)
+        Y[:m], U[:m] = y[c0 : c0 + m], u[c0 - 1 : c0 - 1 + m]
+        (Z,) = call_numpy(chain, z, Y.T, U.T, p, L)
+        out[c0 : c0 + m] = Z[:4, :m].T
+        z = Z[:, m - 1]
     return out
 
 
@@ -289,3 +298,22 @@ def prepare(runs: Sequence[RunData], params: Params = NOMINAL, settings: Observe
         if r.x_hat is None:
             r.with_states(params, settings)
     return list(runs)
+
+
+def runs_from_dataset(dataset, params: Params = NOMINAL, settings: ObserverSettings | None = None) -> list[RunData]:
+    """The runs of a rig-log :class:`~maglev_ocp.riglog.Dataset` as :class:`RunData` with state estimates.
+
+    Parameters
+    ----------
+    dataset : maglev_ocp.riglog.Dataset
+        A dataset read by :func:`maglev_ocp.riglog.read_dataset`.
+    params : Params
+        Model parameters of the observer's prediction.
+    settings : ObserverSettings, optional
+        Observer tuning.
+    """
+    out = []
+    for r in dataset.runs:
+        rd = RunData(r.file, r.t, r.y, r.u, tuple(r.locked), Ts=float(dataset.sample_time))
+        out.append(rd.with_states(params, settings))
+    return out

@@ -42,12 +42,12 @@ from ..params import NOMINAL, Params
 from ..signals import PARAM_NAMES
 from .data import RunData, call_numpy, eval_samples
 
-#: Samples per mapaccum chunk (the last chunk is padded with no-op steps).
-CHUNK = 4000
+#: Samples per mapaccum chunk, longest first (a run's tail is padded with no-op steps).
+CHUNKS: tuple[int, ...] = (4000, 1000, 200)
 #: Short chunk, used while Sigma is small and the estimator is stiff (more RK4 steps).
-CHUNK_SHORT = 200
-#: Cap on the RK4 steps per sample.
-MAX_SUB = 40
+CHUNK_SHORT = CHUNKS[-1]
+#: Cap on the RK4 steps per sample (powers of two, so that few integrators are built).
+MAX_SUB = 64
 
 
 @dataclass
@@ -326,7 +326,8 @@ class NPFISI:
         except np.linalg.LinAlgError:  # Sigma no longer positive definite: the run is diverging anyway
             mu = 0.0
         rate = max(1.0 / s.eps, math.sqrt(mu / s.eps))
-        return int(min(max(1, math.ceil(self.Ts * rate / 0.9)), MAX_SUB))
+        need = max(1, math.ceil(self.Ts * rate / 0.9))
+        return int(min(2 ** math.ceil(math.log2(need)), MAX_SUB))
 
     def run(self, runs: Sequence[RunData], progress: bool = False) -> NPFISIResult:
         """Run the estimator over ``runs`` in order (theta and Sigma carried from run to run).
@@ -378,9 +379,12 @@ class NPFISI:
             while c0 < r.n - 1:
                 sig_now = z[4 + n :].reshape(n, n, order="F")
                 n_sub = self._n_sub(An_run[c0 // 5 : (c0 + CHUNK_SHORT) // 5 + 1], sig_now)
-                chunk = CHUNK if n_sub <= n_base else CHUNK_SHORT
-                if chunk == CHUNK:
-                    n_sub = max(n_sub, self._n_sub(An_run[c0 // 5 : (c0 + CHUNK) // 5 + 1], sig_now))
+                if n_sub > n_base:  # still stiff: short steps until Sigma has grown
+                    chunk = CHUNK_SHORT
+                else:
+                    left = r.n - 1 - c0
+                    chunk = next((c for c in CHUNKS if c <= left), CHUNK_SHORT)
+                    n_sub = max(n_sub, self._n_sub(An_run[c0 // 5 : (c0 + chunk) // 5 + 1], sig_now))
                 n_sub_max = max(n_sub_max, n_sub)
                 chunk_fn = _step_function(s.names, n_sub, float(self.Ts), chunk)
                 c1 = min(c0 + chunk, r.n - 1)
