@@ -192,9 +192,6 @@ class FLSettings(Strict):
         (offset-free tracking).
     i_axis_max, i_amp_max : float
         Current limits the law respects [A] (at most the amplifier's 8 A).
-    zoh_feedforward : bool
-        With a reference plan, feed forward the reference's mean acceleration
-        over the coming period (see :meth:`FeedbackLinearization.set_reference_plan`).
     """
 
     omega_g: float = Field(120.0, gt=0, le=400)
@@ -205,7 +202,6 @@ class FLSettings(Strict):
     disturbance: bool = True
     i_axis_max: float = Field(k.i_axis_max, gt=0, le=k.i_axis_max)
     i_amp_max: float = Field(k.i_amp_max, gt=0, le=k.i_amp_max)
-    zoh_feedforward: bool = True
 
     def gains(self, Ts: float = k.Ts) -> np.ndarray:
         """Gain / limit vector in the order of :data:`GAIN_FIELDS`."""
@@ -233,6 +229,11 @@ class FeedbackLinearization:
 
     Notes
     -----
+    The feedforward is ``ref.g_ddot`` / ``ref.d_ddot`` as handed in; the runner
+    gives the reference's mean acceleration over the coming period
+    (:meth:`maglev_ocp.reference.ReferencePlan.sample` with ``zoh``), the
+    acceleration a zero-order-held current can actually deliver.
+
     ``stats`` of each step: ``unreachable`` (demanded attraction out of reach,
     clipped), ``sat_g``/``sat_d`` (current limits active), ``v_g``/``v_d``
     (demanded accelerations), ``dist_g``/``dist_d`` (disturbance estimates),
@@ -254,40 +255,6 @@ class FeedbackLinearization:
         self._z = np.zeros(2)
         self._u_prev = np.zeros(2)
         self._started = False
-        self._plan = None
-        self._plan_rows: np.ndarray | None = None
-        self._plan_ff: np.ndarray | None = None
-
-    def set_reference_plan(self, plan) -> None:
-        """Read the reference ahead (a :class:`maglev_ocp.reference.ReferencePlan`, the runner calls this).
-
-        With ``zoh_feedforward`` the feedforward acceleration of step k becomes
-        the reference's mean acceleration over the coming period,
-        ``(v_ref(t_k + Ts) - v_ref(t_k)) / Ts``: the constant acceleration that a
-        zero-order-held current must give for the reference's velocity to be met
-        at the next sample (``ref.g_ddot`` at t_k lags half a period, which during
-        an acceleration ramp of a fast move costs tens of micrometres).
-        """
-        self._plan = plan
-        self._plan_rows = self._plan_ff = None
-        if plan is None or not self.settings.zoh_feedforward:
-            return
-        n = round(plan.duration / self.Ts) + 2
-        rows = plan.sample(np.arange(n) * self.Ts)
-        self._plan_rows = rows
-        self._plan_ff = np.column_stack([np.diff(rows[:, 1]), np.diff(rows[:, 4])]) / self.Ts
-
-    def _feedforward(self, t: float, ref: Reference) -> tuple[float, float]:
-        """Feedforward accelerations (g, d) for the period starting at ``t``."""
-        ff = self._plan_ff
-        if ff is not None:
-            i = round(t / self.Ts)
-            if 0 <= i < len(ff):
-                row = self._plan_rows[i]
-                # only if the reference handed in is the plan's (else the plan is stale)
-                if abs(row[0] - ref.g) < 1e-12 and abs(row[3] - ref.d) < 1e-12:
-                    return float(ff[i, 0]), float(ff[i, 1])
-        return ref.g_ddot, ref.d_ddot
 
     def reset(self, y0: Measurement, ref: Reference) -> None:
         """Start a run at reading ``y0`` (mover assumed at rest); clear integrators."""
@@ -303,8 +270,7 @@ class FeedbackLinearization:
         else:
             x_hat = self.observer.x_hat.copy()
             self._started = True
-        a_g, a_d = self._feedforward(y.t, ref)
-        r = (ref.g, ref.g_dot, a_g, ref.d, ref.d_dot, a_d)
+        r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
         dist = self.observer.disturbance
         u, z_next, v, fl = self._law(x_hat, dist, r, self._z, self._p, self._gains)
         if not (math.isfinite(u[0]) and math.isfinite(u[1])):  # not for finite inputs; never command NaN

@@ -21,7 +21,9 @@ currents stay within a fraction of the limits along the whole path:
 
 The remaining fraction ``1 - f`` of the current is the feedback's margin.
 The same plan serves every controller: the runner hands each controller
-:meth:`ReferencePlan.at` at every step, and a controller with a horizon can
+:meth:`ReferencePlan.at` at every step (positions and velocities at the
+sample, accelerations averaged over the coming 1 ms period, which is what a
+zero-order-held current can deliver), and a controller with a horizon can
 read ahead with :meth:`ReferencePlan.sample` (the runner calls a controller's
 ``set_reference_plan(plan)`` if it has one).
 """
@@ -292,9 +294,30 @@ class ReferencePlan:
         """Index of the target active at time ``t``."""
         return int(np.clip(np.searchsorted(self.switch_times, t, side="right") - 1, 0, len(self.targets) - 1))
 
-    def sample(self, t: np.ndarray) -> np.ndarray:
-        """Reference rows (g, g_dot, g_ddot, d, d_dot, d_ddot) at times ``t`` (array (n, 6))."""
+    def sample(self, t: np.ndarray, zoh: float | None = None) -> np.ndarray:
+        """Reference rows (g, g_dot, g_ddot, d, d_dot, d_ddot) at times ``t`` (array (n, 6)).
+
+        Parameters
+        ----------
+        t : ndarray
+            Times [s].
+        zoh : float, optional
+            If given (the control period), the accelerations are the reference's
+            MEAN acceleration over ``[t, t + zoh]``, ``(v(t + zoh) - v(t)) / zoh``:
+            the constant acceleration a zero-order-held current must produce for
+            the reference velocity to be met at the next sample. The instantaneous
+            acceleration at ``t`` lags that by half a period, which during the
+            acceleration ramps of a fast move costs tens of micrometres of tracking.
+        """
         t = np.atleast_1d(np.asarray(t, dtype=float))
+        out = self._sample(t)
+        if zoh:
+            ahead = self._sample(t + zoh)
+            out[:, 2] = (ahead[:, 1] - out[:, 1]) / zoh
+            out[:, 5] = (ahead[:, 4] - out[:, 4]) / zoh
+        return out
+
+    def _sample(self, t: np.ndarray) -> np.ndarray:
         out = np.empty((len(t), 6))
         idx = np.clip(np.searchsorted(self.switch_times, t, side="right") - 1, 0, len(self.targets) - 1)
         before = t < self.switch_times[0]
@@ -305,9 +328,14 @@ class ReferencePlan:
             out[before] = [self.start[0], 0, 0, self.start[1], 0, 0]
         return out
 
-    def at(self, t: float) -> Reference:
-        """The :class:`~maglev_ocp.blocks.Reference` at time ``t``."""
-        r = self.sample(np.array([t]))[0]
+    def at(self, t: float, zoh: float | None = k.Ts) -> Reference:
+        """The :class:`~maglev_ocp.blocks.Reference` at time ``t``.
+
+        Its accelerations are the mean over the coming control period ``zoh``
+        (see :meth:`sample`; ``zoh=None`` for the instantaneous ones): what the
+        runner hands every controller.
+        """
+        r = self.sample(np.array([t]), zoh)[0]
         return Reference(g=r[0], d=r[3], g_dot=r[1], d_dot=r[4], g_ddot=r[2], d_ddot=r[5])
 
     def table(self) -> str:

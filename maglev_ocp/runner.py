@@ -242,7 +242,7 @@ def run_scenario(
 
     n = round(plan.duration / Ts)
     tgrid = np.arange(n) * Ts
-    refs = plan.sample(tgrid)
+    refs = plan.sample(tgrid, zoh=Ts)  # accelerations: mean over each period (ZOH-consistent feedforward)
     tgt_idx = np.clip(np.searchsorted(plan.switch_times, tgrid + 1e-9, side="right") - 1, 0, len(plan.targets) - 1)
     tg_arr = np.array([[plan.targets[i].g, plan.targets[i].d] for i in tgt_idx]).reshape(n, 2)
 

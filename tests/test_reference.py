@@ -122,3 +122,18 @@ def test_step_shaping_jumps():
     plan = plan_targets((0.02, 0.0), [Target(0.016, 0.01, 0.2)], NOMINAL, ReferenceSettings(shaping="step"))
     r = plan.at(0.0)
     assert (r.g, r.d, r.g_dot) == (0.016, 0.01, 0.0)
+
+
+def test_zoh_accelerations_are_the_period_mean():
+    """With zoh = Ts the accelerations are (v(t+Ts) - v(t)) / Ts: one constant acceleration over the period
+    then meets the reference velocity at the next sample exactly."""
+    plan = plan_targets((0.02, -0.05), [Target(0.02, 0.05, 0.3)], NOMINAL)
+    t = np.arange(0, 0.12, k.Ts)
+    inst = plan.sample(t)
+    z = plan.sample(t, zoh=k.Ts)
+    ahead = plan.sample(t + k.Ts)
+    np.testing.assert_allclose(inst[:, 4] + k.Ts * z[:, 5], ahead[:, 4], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(z[:, [0, 1, 3, 4]], inst[:, [0, 1, 3, 4]])
+    assert np.max(np.abs(z[:, 5] - inst[:, 5])) > 1.0  # differs during the ramps of a fast move
+    r = plan.at(0.01)
+    assert r.d_ddot == pytest.approx(z[10, 5]) and plan.at(0.01, zoh=None).d_ddot == pytest.approx(inst[10, 5])

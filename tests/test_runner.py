@@ -183,7 +183,9 @@ def test_a_failing_controller_ends_the_run_not_the_process(kind, tmp_path):
     assert m["error"] and m["passed"] is False
 
 
-def test_c_backend_for_fl_is_a_clear_user_error():
+def test_c_backend_without_generated_code_is_a_clear_user_error(monkeypatch):
+    """backend: c goes to maglev_ocp.codegen.backend; without it, a one-line UserError (not a traceback)."""
+    monkeypatch.setitem(sys.modules, "maglev_ocp.codegen.backend", None)  # import fails
     sc = scenario_from_dict({**SHORT, "controller": {"type": "fl", "backend": "c"}}, "s.yaml")
     with pytest.raises(UserError, match="not available yet"):
         build_controller(sc)
@@ -230,3 +232,21 @@ def test_scenario_path_and_dict_inputs(tmp_path):
     a = run_scenario(p, progress=False)
     b = run_scenario({**SHORT, "plant": {"profile": "ideal"}}, progress=False)
     assert np.array_equal(a.columns["g_true"], b.columns["g_true"])
+
+
+def test_main_job_writes_results(tmp_path):
+    """The headline job on one scenario: model table, plant simulation, the scenario's folder and summary.md."""
+    from maglev_ocp.main_job import HEADLINE, SCENARIO_DIR, main
+
+    for n in HEADLINE:
+        assert (SCENARIO_DIR / f"{n}.yaml").is_file()
+    out = tmp_path / "results"
+    rc = main(["--out", str(out), "--scenarios", "gap_steps_fl", "--no-min-time", "--jobs", "1"])
+    assert rc == 0
+    for f in ("model_table.txt", "model_table.json", "model_table.png", "summary.md", "summary.json",
+              "gap_steps_fl/log.csv", "gap_steps_fl/metrics.json", "gap_steps_fl/positions.png"):
+        assert (out / f).is_file(), f
+    assert (out / "simulate" / "dataset.yaml").is_file()
+    text = (out / "summary.md").read_text()
+    assert "gap_steps_fl" in text and "PASS" in text
+    assert main(["--out", str(out), "--scenarios", "no_such_scenario"]) == 2
