@@ -166,9 +166,8 @@ def lqr_design(cfg: StepConfig, params=NOMINAL, g0: float = 20e-3) -> tuple[np.n
 class StepBuilder:
     """Builds ``nmpc_step`` and ``nmpc_init`` for a :class:`StepConfig`."""
 
-    def __init__(self, cfg: StepConfig, use_cse: bool = True):
+    def __init__(self, cfg: StepConfig):
         self.cfg = cfg
-        self.use_cse = use_cse
         self.layout = StateLayout(cfg.N, cfg.n_gap)
         self.model = get_model()
         P, K = lqr_design(cfg)
@@ -233,71 +232,43 @@ class StepBuilder:
         tj = ca.fmin(cfg.jerk_time, h / 2)
         return h, tj
 
-    def _reference(self, plan, ref, t0):
-        """Reference states and accelerations at the horizon nodes ``k = 0..N``.
-
-        ``plan`` mode: the internal planner's move; ``preview`` mode: the
-        columns of ``ref`` (rows :data:`REF_ROWS`).
-        """
-        cfg = self.cfg
-        g_s, d_s, g_t, d_t, _, h, tj = (plan[i] for i in range(7))
-        R, A = [], []
-        for j in range(cfg.N + 1):
-            t = t0 + j * cfg.Ts
-            if cfg.reference == "plan":
-                pg, vg, ag = move_at(t, g_t - g_s, h, tj)
-                pd, vd, ad = move_at(t, d_t - d_s, h, tj)
-                R.append(ca.vertcat(g_s + pg, vg, d_s + pd, vd))
-                A.append(ca.vertcat(ag, ad))
-            else:
-                R.append(ca.vertcat(ref[0, j], ref[1, j], ref[3, j], ref[4, j]))
-                A.append(ca.vertcat(ref[2, j], ref[5, j]))
-        return R, A
-
-    def _uref(self, R, A, p, w):
-        """Feed-forward currents along the reference, projected onto the current disk."""
-        cfg = self.cfg
-        out = []
-        for j in range(cfg.N):
-            u = u_for_accel(R[j], A[j], p, w)
-            out.append(project_disk(u, cfg.i_max, cfg.i_box))
-        return out
-
     # ---------------------------------------------------------------- functions
     def build_init(self) -> ca.Function:
         """``nmpc_init(meas, ref, p) -> state``: at rest at the reading, plan towards ``ref``."""
         cfg, lay, m = self.cfg, self.layout, self.model
-        meas, ref, p = ca.SX.sym("meas", N_MEAS), ca.SX.sym("ref", 6, cfg.N + 1), ca.SX.sym("p", m.np_)
-        xhat = ca.vertcat(meas[0], 0, meas[1], 0)
-        w = ca.SX.zeros(2)
-        g_t, d_t = ref[0, 0], ref[3, 0]
-        h, tj = self._plan(meas[0], meas[1], g_t, d_t, p, 0)
-        plan = ca.vertcat(meas[0], meas[1], g_t, d_t, 0, h, tj)
-        R, A = self._reference(plan, ref, 0)
-        U = self._uref(R, A, p, w)
-        u_prev = project_disk(u_for_accel(xhat, ca.vertcat(0, 0), p, w), cfg.i_max, cfg.i_box)
+        N = cfg.N
+        ms, tg, ps = ca.SX.sym("meas", N_MEAS), ca.SX.sym("target", 2), ca.SX.sym("p", m.np_)
+        xh = ca.vertcat(ms[0], 0, ms[1], 0)
+        h, tj = self._plan(ms[0], ms[1], tg[0], tg[1], ps, 0)
+        pl = ca.vertcat(ms[0], ms[1], tg[0], tg[1], 0, h, tj)
+        u0 = project_disk(u_for_accel(xh, ca.vertcat(0, 0), ps, ca.SX.zeros(2)), cfg.i_max, cfg.i_box)
+        head = ca.Function("nmpc_init_head", [ms, tg, ps], [xh, pl, u0], {"cse": True})
+
+        meas, ref, p = ca.MX.sym("meas", N_MEAS), ca.MX.sym("ref", 6, N + 1), ca.MX.sym("p", m.np_)
+        xhat, plan, u_prev = head(meas, ca.vertcat(ref[0, 0], ref[3, 0]), p)
+        dts = ca.DM(np.arange(N + 1) * cfg.Ts).T
+        R, U = self._fn_node().map(N + 1, "serial")(dts, plan, ref, p, ca.MX.zeros(2))
         state = ca.vertcat(
-            xhat, w, u_prev, 1, plan, ca.vertcat(*R), ca.vertcat(*U), ca.SX.zeros(lay.N * NU + lay.n_gap), 0,
+            xhat, ca.MX.zeros(2), u_prev, 1, plan, ca.vec(R), ca.vec(U[:, :N]), ca.MX.zeros(lay.N * NU + lay.n_gap),
+            0,
         )
         assert state.shape[0] == lay.size
         return ca.Function("nmpc_init", [meas, ref, p], [state], ["meas", "ref", "p"], ["state"])
 
-    def build_prep(self) -> ca.Function:
-        """Observer, planner, RTI linearization, condensing and KKT factorization (one SX Function)."""
+    def _fn_head(self) -> ca.Function:
+        """Observer update and planner (SX): ``(state, meas, target, p) -> (xhat, dist, plan, w)``."""
         cfg, lay, m = self.cfg, self.layout, self.model
-        N, nv, ng = cfg.N, cfg.N * NU, cfg.n_gap
-        st, meas, ref, p = (ca.SX.sym("state", lay.size), ca.SX.sym("meas", N_MEAS),
-                            ca.SX.sym("ref", 6, cfg.N + 1), ca.SX.sym("p", m.np_))
+        st, meas, tgt, p = (ca.SX.sym("state", lay.size), ca.SX.sym("meas", N_MEAS), ca.SX.sym("target", 2),
+                            ca.SX.sym("p", m.np_))
         S = lay.split(st)
         fresh = S["fresh"][0] > 0.5
         xo, do = self._observer(S["xhat"], S["dist"], S["u_prev"], meas[:2], p)
         xhat = ca.if_else(fresh, S["xhat"], xo)
         dist = ca.if_else(fresh, S["dist"], do)
         w = dist if cfg.offset_free else ca.SX.zeros(2)
-
         # Planner: replan from the estimate when the target changes, else advance the clock.
         pl = S["plan"]
-        g_t, d_t = ref[0, 0], ref[3, 0]
+        g_t, d_t = tgt[0], tgt[1]
         if cfg.reference == "plan":
             new = ca.fabs(g_t - pl[2]) + ca.fabs(d_t - pl[3]) > 0
             h_new, tj_new = self._plan(xhat[0], xhat[2], g_t, d_t, p, w[0])
@@ -309,53 +280,107 @@ class StepBuilder:
             ca.vertcat(xhat[0], xhat[2], g_t, d_t, 0, h_new, tj_new),
             ca.vertcat(pl[0], pl[1], pl[2], pl[3], ca.fmin(t_adv, 2 * pl[5] + 1.0), pl[5], pl[6]),
         )
-        R, Aref = self._reference(plan, ref, plan[4])
-        Uref = self._uref(R, Aref, p, w)
+        return ca.Function("nmpc_head", [st, meas, tgt, p], [xhat, dist, plan, w],
+                           ["state", "meas", "target", "p"], ["xhat", "dist", "plan", "w"], {"cse": True})
 
-        # RTI linearization along the shifted previous solution (multiple shooting).
-        Xb = ca.reshape(S["X"], NX, N + 1)
-        Ub = ca.reshape(S["U"], NU, N)
-        As, Bs, cs = [], [], []
-        for j in range(N):
-            xn, Aj, Bj = self.FJ(Xb[:, j], Ub[:, j], p, w)
-            As.append(Aj)
-            Bs.append(Bj)
-            cs.append(xn - Xb[:, j + 1])
-        dx0 = xhat - Xb[:, 0]
+    def _fn_node(self) -> ca.Function:
+        """Reference node (SX, mapped over the horizon): ``(dt, plan, refcol, p, w) -> (r, uref)``."""
+        cfg, m = self.cfg, self.model
+        dt, plan, rc, p, w = (ca.SX.sym("dt"), ca.SX.sym("plan", 7), ca.SX.sym("refcol", 6), ca.SX.sym("p", m.np_),
+                              ca.SX.sym("w", 2))
+        g_s, d_s, g_t, d_t, t0, h, tj = (plan[i] for i in range(7))
+        if cfg.reference == "plan":
+            pg, vg, ag = move_at(t0 + dt, g_t - g_s, h, tj)
+            pd, vd, ad = move_at(t0 + dt, d_t - d_s, h, tj)
+            r, a = ca.vertcat(g_s + pg, vg, d_s + pd, vd), ca.vertcat(ag, ad)
+        else:
+            r, a = ca.vertcat(rc[0], rc[1], rc[3], rc[4]), ca.vertcat(rc[2], rc[5])
+        uref = project_disk(u_for_accel(r, a, p, w), cfg.i_max, cfg.i_box)
+        return ca.Function("nmpc_node", [dt, plan, rc, p, w], [r, uref], ["dt", "plan", "refcol", "p", "w"],
+                           ["r", "uref"], {"cse": True})
+
+    def _fn_stage(self) -> ca.Function:
+        """RTI linearization of one shooting interval (SX, mapped): ``(x, u, x_next, p, w) -> (A, B, c)``."""
+        m = self.model
+        x, u, xn, p, w = (ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("x_next", NX), ca.SX.sym("p", m.np_),
+                          ca.SX.sym("w", 2))
+        xe, A, B = self.FJ(x, u, p, w)
+        return ca.Function("nmpc_stage", [x, u, xn, p, w], [A, B, xe - xn], ["x", "u", "x_next", "p", "w"],
+                           ["A", "B", "c"], {"cse": True})
+
+    def _fn_condense(self) -> ca.Function:
+        """Condensed QP (SX): ``(As, Bs, cs, dx0, Xbar, Xref, Ubar, Uref, u_prev, fault) -> (H, q, G, glb, gub)``."""
+        cfg = self.cfg
+        N, nv = cfg.N, cfg.N * NU
+        As, Bs, cs = ca.SX.sym("As", NX, NX * N), ca.SX.sym("Bs", NX, NU * N), ca.SX.sym("cs", NX, N)
+        dx0, Xb, Xr = ca.SX.sym("dx0", NX), ca.SX.sym("Xbar", NX, N + 1), ca.SX.sym("Xref", NX, N + 1)
+        Ub, Ur, u_prev, fault = (ca.SX.sym("Ubar", NU, N), ca.SX.sym("Uref", NU, N), ca.SX.sym("u_prev", NU),
+                                 ca.SX.sym("fault"))
+        Al = [As[:, j * NX:(j + 1) * NX] for j in range(N)]
+        Bl = [Bs[:, j * NU:(j + 1) * NU] for j in range(N)]
+        cl = [cs[:, j] for j in range(N)]
         # Cost: sum_k |x_k - r_k|_Q (P at N) + |u_k - uref_k|_R + |u_k - u_{k-1}|_Rd.
         Ws = [ca.DM(np.diag(cfg.Q))] * N + [ca.DM(self.P)]
-        E = [Xb[:, j] - R[j] for j in range(N + 1)]
-        qp = condensed_qp(As, Bs, cs, dx0, E, Ws, cfg.gap_stages, [Xb[0, j] for j in range(N + 1)])
+        E = [Xb[:, j] - Xr[:, j] for j in range(N + 1)]
+        qp = condensed_qp(Al, Bl, cl, dx0, E, Ws, cfg.gap_stages, [Xb[0, j] for j in range(N + 1)])
         H, q = qp["H"], qp["q"]
         Rm = np.tile(cfg.R, N)
         Rdm = np.tile(cfg.Rd, N)
         ub = ca.vec(Ub)
         H = H + ca.diag(ca.DM(Rm))
-        q = q + ca.DM(Rm) * (ub - ca.vertcat(*Uref))
+        q = q + ca.DM(Rm) * (ub - ca.vec(Ur))
         if any(cfg.Rd):
             Dm = np.eye(nv) - np.eye(nv, k=-NU)
-            d0 = ca.mtimes(ca.DM(Dm), ub) - ca.vertcat(S["u_prev"], ca.SX.zeros(nv - NU))
+            d0 = ca.mtimes(ca.DM(Dm), ub) - ca.vertcat(u_prev, ca.SX.zeros(nv - NU))
             DRd = ca.DM(Dm.T * Rdm)
             H = H + ca.DM(DRd @ Dm)
             q = q + ca.mtimes(DRd, d0)
-        H = H + ca.if_else(meas[2] > 0.5, math.nan, 0) * ca.DM(np.eye(nv))  # forced failure (tests)
-
+        H = H + ca.if_else(fault > 0.5, math.nan, 0) * ca.DM(np.eye(nv))  # forced failure (tests)
         # Soft gap rows in millimetres.
         G = 1e3 * qp["G"]
-        gfree = qp["gfree"]
-        glb = 1e3 * (cfg.gap_lo - gfree)
-        gub = 1e3 * (cfg.gap_hi - gfree)
+        glb = 1e3 * (cfg.gap_lo - qp["gfree"])
+        gub = 1e3 * (cfg.gap_hi - qp["gfree"])
+        return ca.Function("nmpc_condense", [As, Bs, cs, dx0, Xb, Xr, Ub, Ur, u_prev, fault],
+                           [ca.densify(H), q, G, glb, gub],
+                           ["As", "Bs", "cs", "dx0", "Xbar", "Xref", "Ubar", "Uref", "u_prev", "fault"],
+                           ["H", "q", "G", "glb", "gub"], {"cse": True})
+
+    def _fn_kkt(self) -> ca.Function:
+        """ADMM penalty and Cholesky factor of the KKT matrix (SX): ``(H, G) -> (L, dinv, rho)``."""
+        cfg = self.cfg
+        nv, ng = cfg.N * NU, cfg.n_gap
+        H, G = ca.SX.sym("H", nv, nv), ca.SX.sym("G", ng, nv)
         s = cfg.admm
         rho = admm_rho(H, min(cfg.R), s)
         Mk = H + (s.sigma + rho) * ca.DM.eye(nv)
         if ng:
             Mk = Mk + s.rho_g_rel * rho * ca.mtimes(G.T, G)
         Lc, dinv = chol_sx(ca.densify(Mk))
+        return ca.Function("nmpc_kkt", [H, G], [Lc, dinv, ca.vertcat(rho, 1 / rho)], ["H", "G"],
+                           ["L", "dinv", "rho"])
 
-        outs = [Lc, dinv, q, G, ub, glb, gub, ca.vertcat(rho, 1 / rho), S["y"], xhat, dist, plan,
-                ca.horzcat(*As), ca.horzcat(*Bs), ca.horzcat(*cs), dx0, Xb, ca.horzcat(*R), ca.horzcat(*Uref), w]
-        if self.use_cse:
-            outs = ca.cse(outs)
+    def build_prep(self) -> ca.Function:
+        """Observer, planner, RTI linearization, condensing and KKT factorization.
+
+        An MX composition of SX Functions (per-node and per-stage ones mapped
+        serially: loops in the generated C), so the code stays compact.
+        """
+        cfg, lay, m = self.cfg, self.layout, self.model
+        N = cfg.N
+        st, meas, ref, p = (ca.MX.sym("state", lay.size), ca.MX.sym("meas", N_MEAS),
+                            ca.MX.sym("ref", 6, N + 1), ca.MX.sym("p", m.np_))
+        S = lay.split(st)
+        xhat, dist, plan, w = self._fn_head()(st, meas, ca.vertcat(ref[0, 0], ref[3, 0]), p)
+        dts = ca.DM(np.arange(N + 1) * cfg.Ts).T
+        R, Uref = self._fn_node().map(N + 1, "serial")(dts, plan, ref, p, w)
+        Uref = Uref[:, :N]
+        Xb = ca.reshape(S["X"], NX, N + 1)
+        Ub = ca.reshape(S["U"], NU, N)
+        As, Bs, cs = self._fn_stage().map(N, "serial")(Xb[:, :N], Ub, Xb[:, 1:], p, w)
+        dx0 = xhat - Xb[:, 0]
+        H, q, G, glb, gub = self._fn_condense()(As, Bs, cs, dx0, Xb, R, Ub, Uref, S["u_prev"], meas[2])
+        Lc, dinv, rho = self._fn_kkt()(H, G)
+        outs = [Lc, dinv, q, G, ca.vec(Ub), glb, gub, rho, S["y"], xhat, dist, plan, As, Bs, cs, dx0, Xb, R, Uref, w]
         return ca.Function(
             "nmpc_prep", [st, meas, ref, p], outs, ["state", "meas", "ref", "p"],
             ["L", "dinv", "q", "G", "ubar", "glb", "gub", "rho", "y0", "xhat", "dist", "plan",
