@@ -143,7 +143,7 @@ def main_text(codes: list[ControllerCode]) -> str:
     kinds = [c.kind for c in codes]
     code = "".join(blocks[kd] for kd in kinds)
     dispatch = "".join(
-        f'    if (!strcmp(kind, "{kd}")) {{ known = 1; rc = run_{kd}(&t, &rf, out, times, &n_times, repeat); }}\n'
+        f'    if (!strcmp(kind, "{kd}")) {{ known = 1; rc = run_{kd}(&t, &rf, out, repeat); }}\n'
         for kd in kinds)
     return (tpl.MAIN_C.replace("@KINDS@", " | ".join(kinds)).replace("@CONTROLLER_CODE@", code)
             .replace("@DISPATCH@", dispatch.rstrip("\n")))
