@@ -103,22 +103,35 @@ class CalibrationResult:
 
     # ------------------------------------------------------------------ views
     def weakly_determined(self) -> dict[str, str]:
-        """Parameters the data pins down poorly, with the reason."""
+        """Parameters the data pins down poorly (relative standard error above 2 %, or not seen at all)."""
         out = {}
         for n in BATCH_PARAMS:
             se = self.stderr.get(n)
             v = getattr(self.params, n)
             if self.source.get(n) == "prior":
                 out[n] = "not determined by this dataset (prior value kept)"
-            elif se is not None and abs(v) > 0 and se / abs(v) > WEAK_REL_STDERR:
+            elif se is None:
+                out[n] = f"from {self.source.get(n)}, without a standard error"
+            elif abs(v) > 0 and se / abs(v) > WEAK_REL_STDERR:
                 out[n] = f"relative standard error {100 * se / abs(v):.2g} %"
-        if self.batch is not None and "C4" in self.batch.names and "C3" in self.batch.names:
-            i, j = self.batch.names.index("C4"), self.batch.names.index("C3")
-            rho = float(self.batch.correlation[i, j])
-            if abs(rho) > 0.9:
-                out.setdefault("C4", f"relative standard error {100 * self.batch.rel_stderr('C4'):.2g} %")
-                out["C4"] += f"; correlation with C3 {rho:+.2f} (C4 f4 i^2 is a small correction at hover currents)"
         return out
+
+    def least_determined(self) -> str:
+        """One line on the parameter with the largest relative standard error and its strongest correlation."""
+        if self.batch is None or not self.batch.names:
+            return "no batch fit: no standard errors"
+        b = self.batch
+        n = max(b.names, key=b.rel_stderr)
+        i = b.names.index(n)
+        others = [j for j in range(len(b.names)) if j != i]
+        text = f"least determined: {n}, relative standard error {100 * b.rel_stderr(n):.2g} %"
+        if others:
+            j = max(others, key=lambda q: abs(b.correlation[i, q]))
+            text += f", correlation with {b.names[j]} {b.correlation[i, j]:+.2f}"
+        if n == "C4":
+            text += (" (C4 f4 (i_q^2 + i_d^2) is a small correction at the hover currents, nearly collinear"
+                     " with C3 f3 i_d)")
+        return text + ". Standard errors cover noise, not unmodelled effects."
 
     def correlation(self) -> dict:
         """``{"names": [...], "matrix": [[...]]}`` of the batch estimates (empty without a batch fit)."""
@@ -140,6 +153,7 @@ class CalibrationResult:
             "source": self.source,
             "correlation": self.correlation(),
             "weakly_determined": self.weakly_determined(),
+            "least_determined": self.least_determined(),
             "prior": {n: getattr(self.prior, n) for n in BATCH_PARAMS},
             "masses": {"Mh": self.params.Mh, "Mv": self.params.Mv},
             "procedures": procs,
@@ -162,10 +176,13 @@ class CalibrationResult:
             lines.append(f"| {n} | {v:.6g} | {sev} | {rel} | {self.source[n]} | {getattr(self.prior, n):.5g} | "
                          f"{cross} |")
         weak = self.weakly_determined()
+        lines.append("")
         if weak:
-            lines.append("")
             lines.append("Weakly determined:")
             lines += [f"- {n}: {why}" for n, why in weak.items()]
+        else:
+            lines.append(f"Every parameter has a relative standard error below {100 * WEAK_REL_STDERR:g} %.")
+        lines.append(self.least_determined()[0].upper() + self.least_determined()[1:])
         ran = [k for k, r in (("V.A", self.va), ("V.B", self.vb), ("V.C", self.vc), ("V.D", self.vd)) if r]
         lines.append("")
         lines.append(f"Procedures run: {', '.join(ran) or 'none'}"
@@ -310,47 +327,48 @@ def calibrate(
     if MAIN_EPS not in eps_list:
         raise UserError(f"eps values {list(eps_list)} must include {MAIN_EPS} (the seed's choice, used by V.C)")
     t0 = time.perf_counter()
-    timing: dict[str, float] = {}
-    stages = ["read", "observer", "V.A", "V.B", "V.C", "V.D", "batch"]
-    bar = tqdm(total=len(stages), desc="calibrate", unit="stage", disable=not progress)
-
-    def tick(name: str, t_start: float) -> float:
-        timing[name] = round(time.perf_counter() - t_start, 3)
-        bar.set_postfix_str(name)
-        bar.update(1)
-        return time.perf_counter()
-
-    t = time.perf_counter()
-    ds = read_dataset(dataset)
-    t = tick("read", t)
-    runs = runs_from_dataset(ds, prior)
-    groups = classify(runs)
-    t = tick("observer", t)
+    timing: dict[str, float] = {"read": 0.0}
+    ds = read_dataset(dataset)  # a bad dataset fails here, in one line, before any progress output
+    timing["read"] = round(time.perf_counter() - t0, 3)
+    if not ds.runs:
+        raise DataError(f"{dataset}: no runs")
+    stages = ["observer", "V.A", "V.B", "V.C", "V.D", "batch"]
     skipped: dict[str, str] = {}
-    va = procedure_va(groups, prior, eps_list)
-    if va is None:
-        skipped["V.A"] = "no run with the gap locked and a constant i_q while d moves"
-    t = tick("V.A", t)
-    vb = procedure_vb(groups, prior, eps_list)
-    if vb is None:
-        skipped["V.B"] = "no run with d locked where the cogging vanishes (d = 0) and i_q = 0"
-    t = tick("V.B", t)
-    vc = procedure_vc(groups, prior, vb)
-    if vc is None:
-        skipped["V.C"] = ("no run with d locked at a cogging peak (3 t1/2) and i_q = 0" if not groups.hover_cog
-                          else "needs V.B (runs with d locked at 0)")
-    t = tick("V.C", t)
-    vd = procedure_vd(groups, prior, vc, eps_list)
-    if vd is None:
-        skipped["V.D"] = "no run with both axes free"
-    t = tick("V.D", t)
-    batch = None
-    try:
-        batch = batch_estimate(runs, prior, batch_settings)
-    except ValueError as err:
-        skipped["batch"] = str(err)
-    t = tick("batch", t)
-    bar.close()
+    with tqdm(total=len(stages), desc="calibrate", unit="stage", disable=not progress) as bar:
+
+        def tick(name: str, t_start: float) -> float:
+            timing[name] = round(time.perf_counter() - t_start, 3)
+            bar.set_postfix_str(name)
+            bar.update(1)
+            return time.perf_counter()
+
+        t = time.perf_counter()
+        runs = runs_from_dataset(ds, prior)
+        groups = classify(runs)
+        t = tick("observer", t)
+        va = procedure_va(groups, prior, eps_list)
+        if va is None:
+            skipped["V.A"] = "no run with the gap locked and a constant i_q while d moves"
+        t = tick("V.A", t)
+        vb = procedure_vb(groups, prior, eps_list)
+        if vb is None:
+            skipped["V.B"] = "no run with d locked where the cogging vanishes (d = 0) and i_q = 0"
+        t = tick("V.B", t)
+        vc = procedure_vc(groups, prior, vb)
+        if vc is None:
+            skipped["V.C"] = ("no run with d locked at a cogging peak (3 t1/2) and i_q = 0" if not groups.hover_cog
+                              else "needs V.B (runs with d locked at 0)")
+        t = tick("V.C", t)
+        vd = procedure_vd(groups, prior, vc, eps_list)
+        if vd is None:
+            skipped["V.D"] = "no run with both axes free"
+        t = tick("V.D", t)
+        batch = None
+        try:
+            batch = batch_estimate(runs, prior, batch_settings)
+        except ValueError as err:
+            skipped["batch"] = str(err)
+        t = tick("batch", t)
 
     # calibrated values: batch where it determined the parameter, else V.C's cogging law, else the prior
     values = {n: getattr(prior, n) for n in BATCH_PARAMS}
@@ -365,8 +383,6 @@ def calibrate(
                 values[n], source[n] = v, "V.C"
     params = prior.with_(**values)
     timing["total"] = round(time.perf_counter() - t0, 3)
-    if not runs:
-        raise DataError(f"{dataset}: no runs")
     return CalibrationResult(str(ds.folder), prior, params, stderr, source, groups, va, vb, vc, vd, batch, timing,
                              skipped)
 
