@@ -1,0 +1,18 @@
+"""Sim-to-real gap diagnosis: where the model and the rig part, which effect causes it, how far it shrinks.
+
+``maglev diagnose DATASET --out DIR`` runs :func:`diagnose` on a rig-log
+dataset and writes :mod:`report` files; ``--selftest N`` runs the blind
+self-check (:mod:`selftest`); ``--scenario`` the closed-loop view
+(:mod:`closed_loop`).
+
+Modules: :mod:`residuals` (filtered equation-error residuals), :mod:`localize`
+(floor, binning, spectrum, period scan, regions), :mod:`candidates` (library
+effects fitted as CasADi NLPs), :mod:`attribution` (held-out scores, verdict),
+:mod:`simulate_compare` (short-window simulated trajectories), :mod:`diagnose`
+(the pipeline), :mod:`report`, :mod:`generate` (diagnosis datasets on the
+plant), :mod:`selftest`, :mod:`closed_loop`.
+"""
+
+from .diagnose import LIBRARY, DiagnoseSettings, Diagnosis, diagnose
+
+__all__ = ["LIBRARY", "DiagnoseSettings", "Diagnosis", "diagnose"]

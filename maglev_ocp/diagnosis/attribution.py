@@ -1,0 +1,309 @@
+"""Scoring candidate effects on held-out runs, and the verdict.
+
+Each candidate's fit (on the training runs) is scored on the **held-out**
+runs, never on the data it was fitted to:
+
+- ``heldout_rms_before/after``: rms of the filtered residual of the baseline
+  and of the augmented model [m/s^2] (both channels pooled), and
+  ``reduction = 1 - after / before``;
+- ``z``: significance of the held-out improvement (:func:`paired_z` on the
+  per-sample losses, residuals normalized by each channel's floor);
+- ``closes``: the fraction of the gap closed, ``(R_b^2 - R_a^2) / (R_b^2 - 1)``
+  in floor-normalized units (``R^2 = 1`` is a residual at the noise floor);
+- ``delta_bic``: change of the information criterion on the training runs,
+  with the effective sample size ``n / inflation`` (see :meth:`FitResult.bic`).
+
+Verdicts can be wrong in only one way at a time:
+
+- ``none``: no gap is detected (no state structure beyond the floor, no
+  spectral peak, no periodicity in d) **and** no candidate improves the
+  held-out residual significantly. No effect is claimed.
+- effect name(s): the best significant candidate closes at least
+  ``closes_min`` of the gap. Candidates whose held-out residual is not
+  significantly worse than the best's (paired ``|z| < confusable_z``) and that
+  also close the gap form a confusable set, reported together (``a|b``). If a
+  significant gap remains, a second effect is added when it closes most of
+  what is left (``a+b``).
+- ``unexplained``: a gap is detected (or a candidate helps) but no candidate,
+  alone or paired, closes ``closes_min`` of it; the report says where it is.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.stats as st
+
+from .candidates import FitResult
+from .residuals import Residual, autocorr_factor
+
+
+def stack(res: Sequence[Residual], floors: np.ndarray) -> np.ndarray:
+    """Floor-normalized residual samples of valid channels, stacked (NaN channels dropped)."""
+    parts = []
+    for c in range(2):
+        for r in res:
+            if r.run.n and r.run.valid[c]:
+                parts.append(r.r[:, c] / floors[c])
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def raw_rms(res: Sequence[Residual], channel: int | None = None) -> float:
+    """Rms [m/s^2] of the residual over valid samples (both channels, or one)."""
+    parts = []
+    chans = (0, 1) if channel is None else (channel,)
+    for c in chans:
+        for r in res:
+            if r.run.n and r.run.valid[c]:
+                parts.append(r.r[:, c])
+    if not parts:
+        return math.nan
+    x = np.concatenate(parts)
+    return float(np.sqrt(np.mean(x**2)))
+
+
+def sample_loss(res: Sequence[Residual], floors: np.ndarray, block_s: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample loss (sum over valid channels of the floor-normalized squared residual) and block ids.
+
+    Blocks are ``block_s`` long pieces of each run; samples of different runs
+    never share a block. The same held-out runs give aligned arrays for every
+    model, so losses can be compared sample by sample.
+    """
+    loss, ids = [], []
+    nb = 0
+    for r in res:
+        n = r.run.n
+        if n == 0:
+            continue
+        e = np.zeros(n)
+        for c in range(2):
+            if r.run.valid[c]:
+                e += (r.r[:, c] / floors[c]) ** 2
+        t = r.run.feat["t"]
+        dt = float(np.median(np.diff(t))) if n > 1 else 1.0
+        per = max(round(block_s / dt), 1)
+        b = np.arange(n) // per
+        loss.append(e)
+        ids.append(b + nb)
+        nb += int(b.max()) + 1
+    if not loss:
+        return np.zeros(0), np.zeros(0, int)
+    return np.concatenate(loss), np.concatenate(ids)
+
+
+def paired_z(loss_a: np.ndarray, loss_b: np.ndarray, blocks: np.ndarray) -> float:
+    """Significance that model b has a smaller held-out loss than model a (larger z: b better).
+
+    Two tests valid under "no difference", the larger z is kept:
+
+    - Diebold-Mariano: the mean loss difference over its autocorrelation-corrected
+      standard error (``1 + 2 sum rho_k`` of the difference itself); conservative
+      when the improvement is strongly structured;
+    - Wilcoxon signed-rank over blocks of the loss difference (0.5 s blocks are
+      far longer than the residual's noise correlation, so they are nearly
+      independent under the null); robust to improvements that differ a lot
+      from block to block (a gap that lives only at small gaps).
+    """
+    q = loss_a - loss_b
+    n = len(q)
+    if n < 10:
+        return 0.0
+    sd = float(np.std(q, ddof=1))
+    z_dm = 0.0
+    if sd > 0:
+        z_dm = float(np.mean(q) / (sd * math.sqrt(autocorr_factor(q) / n)))
+    nb = int(blocks.max()) + 1 if len(blocks) else 0
+    z_w = 0.0
+    if nb >= 6:
+        dq = np.bincount(blocks, weights=q, minlength=nb)
+        dq = dq[dq != 0]
+        m = len(dq)
+        if m >= 6:
+            ranks = st.rankdata(np.abs(dq))
+            w_plus = float(ranks[dq > 0].sum())
+            mu = m * (m + 1) / 4
+            sig = math.sqrt(m * (m + 1) * (2 * m + 1) / 24)
+            z_w = (w_plus - mu) / sig
+    return max(z_dm, z_w)
+
+
+@dataclass
+class EffectScore:
+    """One candidate, fitted and scored.
+
+    Attributes
+    ----------
+    name : str
+        Effect name (or ``a+b`` for a pair).
+    fit : FitResult
+        The fit on the training runs.
+    params, stderr : dict
+        Fitted physical values and their standard errors (readable names).
+    heldout_rms_before, heldout_rms_after : float
+        Held-out residual rms of the baseline and of the augmented model [m/s^2].
+    per_channel : dict
+        ``{channel: [before, after]}`` [m/s^2].
+    reduction : float
+        ``1 - after / before``.
+    closes : float
+        Fraction of the held-out gap above the floor that the effect closes (clipped to [-1, 1]).
+    z : float
+        Significance of the held-out improvement.
+    delta_bic : float
+        Training-run information criterion minus the baseline's (negative is better).
+    significant : bool
+        ``z >= z_min`` and ``delta_bic <= -bic_margin``.
+    selected : bool
+        Part of the verdict.
+    confusable_with : list of str
+        Candidates that explain the gap equally well.
+    note : str
+        What was held fixed.
+    """
+
+    name: str
+    fit: FitResult | None
+    params: dict[str, float]
+    stderr: dict[str, float]
+    heldout_rms_before: float
+    heldout_rms_after: float
+    per_channel: dict[str, list[float]]
+    reduction: float
+    closes: float
+    z: float
+    delta_bic: float
+    significant: bool = False
+    selected: bool = False
+    confusable_with: list[str] = field(default_factory=list)
+    note: str = ""
+    loss_after: np.ndarray | None = None  # per-sample held-out loss (for paired comparisons)
+    blocks: np.ndarray | None = None
+    r2_after: float = math.nan  # mean floor-normalized squared held-out residual (1 = at the floor)
+
+    def to_dict(self) -> dict:
+        """JSON-ready view (the issue's ``effects`` entries plus statistics)."""
+        return {
+            "name": self.name, "params": self.params, "stderr": self.stderr,
+            "heldout_rms_before": self.heldout_rms_before, "heldout_rms_after": self.heldout_rms_after,
+            "reduction": self.reduction, "selected": self.selected, "gap_closed": self.closes,
+            "z_heldout": self.z, "delta_bic": self.delta_bic, "significant": self.significant,
+            "per_channel_rms": self.per_channel, "confusable_with": self.confusable_with, "note": self.note,
+        }
+
+
+@dataclass(frozen=True)
+class VerdictRules:
+    """Thresholds of the verdict.
+
+    Attributes
+    ----------
+    z_min : float
+        Held-out improvement significance a candidate needs.
+    bic_margin : float
+        Required drop of the training information criterion.
+    closes_min : float
+        Fraction of the gap an effect (or pair) must close to be named.
+    confusable_z : float
+        Candidates within this paired z of the best form a confusable set.
+    second_min : float
+        Fraction of the *remaining* gap a second effect must close to be added.
+    """
+
+    z_min: float = 4.0
+    bic_margin: float = 10.0
+    closes_min: float = 0.5
+    confusable_z: float = 2.0
+    second_min: float = 0.5
+
+
+def score(name: str, fit: FitResult | None, base_fit: FitResult, before: Sequence[Residual],
+          after: Sequence[Residual], floors: np.ndarray, rules: VerdictRules, params: dict[str, float],
+          stderr: dict[str, float], note: str = "") -> EffectScore:
+    """Score one fitted candidate on the held-out residuals ``before`` (baseline) and ``after``."""
+    eb, ea = stack(before, floors), stack(after, floors)
+    Rb2, Ra2 = float(np.mean(eb**2)), float(np.mean(ea**2))
+    gap = Rb2 - 1.0
+    closes = (Rb2 - Ra2) / max(gap, Rb2 - Ra2, 1e-12)
+    lb, blocks = sample_loss(before, floors)
+    la, _ = sample_loss(after, floors)
+    z = paired_z(lb, la, blocks)
+    rb, ra = raw_rms(before), raw_rms(after)
+    chans = {}
+    for c, cname in enumerate(("vertical", "horizontal")):
+        b, a = raw_rms(before, c), raw_rms(after, c)
+        if math.isfinite(b):
+            chans[cname] = [b, a]
+    dbic = (fit.bic() - base_fit.bic()) if fit is not None else 0.0
+    sig = bool(z >= rules.z_min and dbic <= -rules.bic_margin)
+    return EffectScore(name, fit, params, stderr, rb, ra, chans, 1 - ra / rb if rb > 0 else 0.0,
+                       float(np.clip(closes, -1.0, 1.0)), z, dbic, sig, note=note, loss_after=la, blocks=blocks,
+                       r2_after=Ra2)
+
+
+@dataclass
+class Verdict:
+    """The verdict and how it was reached.
+
+    Attributes
+    ----------
+    verdict : str
+        ``none``, ``unexplained``, an effect name, ``a|b`` (confusable set) or ``a+b`` (two effects).
+    selected : list of str
+        Effects in the verdict, ranked.
+    gap_detected : bool
+        The baseline residual has a gap above the floor.
+    reasons : list of str
+        Plain-language steps of the decision.
+    """
+
+    verdict: str
+    selected: list[str]
+    gap_detected: bool
+    reasons: list[str]
+
+
+def decide(scores: Sequence[EffectScore], gap_detected: bool, rules: VerdictRules,
+           gap_evidence: Sequence[str] = ()) -> tuple[Verdict, EffectScore | None]:
+    """Verdict from single-effect scores (pairs are handled by the caller via :func:`pick_second`).
+
+    Returns the verdict and the best significant score (None if there is none).
+    """
+    reasons = list(gap_evidence)
+    sig = [s for s in scores if s.significant]
+    if not gap_detected and not sig:
+        reasons.append("no gap above the noise floor and no candidate improves the held-out runs: none")
+        return Verdict("none", [], False, reasons), None
+    if not sig:
+        reasons.append("a gap is detected but no candidate improves the held-out runs significantly")
+        return Verdict("unexplained", [], gap_detected, reasons), None
+    best = max(sig, key=lambda s: (s.reduction, -s.delta_bic))
+    reasons.append(f"best candidate {best.name}: held-out reduction {best.reduction:.1%}, closes "
+                   f"{best.closes:.0%} of the gap, z = {best.z:.1f}, dBIC = {best.delta_bic:.0f}")
+    if best.closes < rules.closes_min:
+        return Verdict("unexplained", [], True, reasons), best
+    conf = []
+    for s in sig:
+        if s is best or s.closes < rules.closes_min:
+            continue
+        zc = paired_z(s.loss_after, best.loss_after, best.blocks) if s.loss_after is not None else 0.0
+        if zc < rules.confusable_z:
+            conf.append(s.name)
+            reasons.append(f"{s.name} explains the held-out runs as well (paired z = {zc:.1f}): confusable")
+    best.confusable_with = conf
+    for s in sig:
+        if s.name in conf:
+            s.confusable_with = [best.name] + [c for c in conf if c != s.name]
+    name = "|".join([best.name, *conf])
+    return Verdict(name, [best.name, *conf], True, reasons), best
+
+
+def rank(scores: Sequence[EffectScore]) -> list[EffectScore]:
+    """Best first: significant before not, then by held-out reduction, then by the information criterion."""
+    return sorted(scores, key=lambda s: (not s.significant, -s.reduction, s.delta_bic))
+
+
+__all__ = ["EffectScore", "Verdict", "VerdictRules", "decide", "paired_z", "rank", "raw_rms", "sample_loss", "score",
+           "stack"]

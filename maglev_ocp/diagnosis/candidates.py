@@ -1,0 +1,711 @@
+"""Candidate effects fitted as CasADi NLPs on top of the shared model.
+
+Every candidate is an effect of :mod:`maglev_ocp.effects` (the same code that
+makes the plant behave) composed on the shared model with
+:meth:`~maglev_ocp.effects.EffectSet.accel`. Its physical parameters (a subset;
+the rest fixed where the filtered data cannot resolve them, see each spec's
+``note``) are fitted by weighted least squares on the filtered equation-error
+residual of :mod:`.residuals`:
+
+``min_w  1/2 sum_c sum_k s_c^2 (m_c[k] - (W a_c(Z; w))[k])^2``,  ``lo <= w <= hi``
+
+solved by CasADi's SQP method with the Gauss-Newton Hessian ``J^T J`` (a custom
+``hess_lag``).
+The data ``Z`` is an NLP parameter, so a solver is built once per candidate and
+re-solved for other data (the amplifier lag's current filter). Standard errors
+come from the same Gauss-Newton Hessian, inflated by the residual's
+autocorrelation (``n / n_eff``).
+
+The amplifier lag is the one dynamic effect: the plant filters the commanded
+currents (:meth:`AmplifierLag.filter_currents`, reused here as it is), and the
+candidate's ``bandwidth_hz`` is found by a bounded scalar search over the
+log-bandwidth for each whole-sample delay, with the remaining parameters
+solved by the NLP at every trial.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import scipy.optimize as spo
+import scipy.sparse as spa
+
+from ..effects import EFFECTS, AmplifierLag, EffectSet
+from ..params import Params
+from ..signals import PARAM_NAMES
+from .residuals import PreparedRun, Residual, ZeroPhaseFilter, autocorr_factor, residual_of
+
+_DEBUG = False  # print the SQP iterations
+
+
+# ------------------------------------------------------------------------- specs
+@dataclass(frozen=True)
+class Free:
+    """A fitted parameter.
+
+    Attributes
+    ----------
+    key : str
+        ``"p.<name>"`` for an entry of the model's parameter vector, or
+        ``"<effect>.<param>"`` for an effect parameter.
+    lo, hi : float
+        Bounds (physical units).
+    start : float
+        Initial guess.
+    scale : float
+        Typical magnitude (the NLP works on ``value / scale``).
+    """
+
+    key: str
+    lo: float
+    hi: float
+    start: float
+    scale: float
+
+
+@dataclass(frozen=True)
+class CandidateSpec:
+    """How one candidate effect is fitted.
+
+    Attributes
+    ----------
+    name : str
+        Effect name (the verdict's vocabulary).
+    effects : tuple of str
+        :class:`EffectSet` composed on the model.
+    free : tuple of Free
+        Fitted parameters.
+    fixed : tuple of (str, float)
+        ``("<effect>.<param>", value)`` held fixed (others at the library defaults).
+    ties : tuple of (str, str)
+        ``("<effect>.<param>", "<key of a Free>")``: shares a fitted value.
+    lag : bool
+        Amplifier lag (searched over bandwidth and delay, see module docstring).
+    note : str
+        What was held fixed and why.
+    """
+
+    name: str
+    effects: tuple[str, ...] = ()
+    free: tuple[Free, ...] = ()
+    fixed: tuple[tuple[str, float], ...] = ()
+    ties: tuple[tuple[str, str], ...] = ()
+    lag: bool = False
+    note: str = ""
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        """Keys of the fitted parameters, in vector order."""
+        return tuple(f.key for f in self.free)
+
+    def with_free(self, extra: Sequence[Free]) -> CandidateSpec:
+        """Copy with more fitted parameters (e.g. the baseline's C1..C4 re-fitted jointly)."""
+        return CandidateSpec(self.name, self.effects, tuple(extra) + self.free, self.fixed, self.ties, self.lag,
+                             self.note)
+
+
+def _eb(effect: str, param: str) -> tuple[float, float]:
+    return EFFECTS[effect].bounds()[param]
+
+
+def library_specs() -> dict[str, CandidateSpec]:
+    """The candidate library: one spec per effect of :mod:`maglev_ocp.effects`.
+
+    ``parameter_error`` is only meaningful against a given model (``--params``):
+    against a model calibrated on the same data it is absorbed by the
+    calibration by construction.
+    """
+    pi = math.pi
+    specs = [
+        CandidateSpec(
+            "cogging", ("cogging",),
+            free=(
+                Free("p.xi0", 0.0, 50.0, 1.0, 4.0),
+                Free("p.ell", 1e-3, 0.03, 4e-3, 4e-3),
+                Free("cogging.h2", -2.0, 2.0, 0.05, 0.2),
+                Free("cogging.h3", -2.0, 2.0, 0.05, 0.2),
+                Free("cogging.phi2", -2 * pi, 2 * pi, 0.3, 1.0),
+                Free("cogging.phi3", -2 * pi, 2 * pi, 0.3, 1.0),
+            ),
+            fixed=(("cogging.h1", 0.0), ("cogging.power", 0.0), ("cogging.kn", 1.0)),
+            ties=(("cogging.xi0", "p.xi0"), ("cogging.ell", "p.ell")),
+            note=("the seed's law (xi0, ell in p, eq. (9)) plus the library's 2nd/3rd slot harmonics relative to "
+                  "xi0 with the same decay; power-law decay (collinear with ell) and the harmonics' normal ratio "
+                  "kn (undetermined while the harmonics are small) held at 0 and 1"),
+        ),
+        CandidateSpec(
+            "friction", ("friction",),
+            free=(
+                Free("friction.coulomb_g", 0.0, 10.0, 0.05, 0.2),
+                Free("friction.coulomb_d", 0.0, 10.0, 0.05, 0.2),
+                Free("friction.viscous_g", 0.0, 100.0, 0.5, 1.0),
+                Free("friction.viscous_d", 0.0, 100.0, 0.5, 1.0),
+            ),
+            fixed=(("friction.stribeck_g", 0.0), ("friction.stribeck_d", 0.0), ("friction.v_reg", 1e-3)),
+            note=("Coulomb + viscous per axis; the Stribeck excess (below a few mm/s) and the sign "
+                  "regularization are below the velocity resolution of 10 um encoders (v_reg fixed at 1 mm/s)"),
+        ),
+        CandidateSpec(
+            "end_effect", ("end_effect",),
+            free=(
+                Free("end_effect.ripple", 0.0, 0.5, 0.02, 0.05),
+                Free("end_effect.ripple_phase", -2 * pi, 2 * pi, 0.3, 1.0),
+                Free("end_effect.d_edge", 0.0, 0.2, 0.04, 0.02),
+                Free("end_effect.edge_width", 1e-3, 0.05, 5e-3, 5e-3),
+            ),
+            note="thrust ripple with the pole pitch and loss of force at overhang, all four parameters",
+        ),
+        CandidateSpec(
+            "amplifier_lag", (), lag=True,
+            free=(),
+            note=("first-order lag + whole-sample delay, applied to the commanded currents exactly as the plant "
+                  "does; below the residual's cut-off lag and delay act alike, so the split between them is "
+                  "weakly determined"),
+        ),
+        CandidateSpec(
+            "saturation", ("saturation",),
+            free=(
+                Free("saturation.loss_8mm", 0.0, 0.8, 0.05, 0.1),
+                Free("saturation.ell_sat", 5e-4, 0.05, 3e-3, 3e-3),
+            ),
+            note="gap-dependent loss of every magnetic force",
+        ),
+        CandidateSpec(
+            "commutation_offset", ("commutation_offset",),
+            free=(Free("commutation_offset.delta", *_eb("commutation_offset", "delta"), 0.0, 0.05),),
+            note="dq-frame rotation of the motor currents",
+        ),
+        CandidateSpec(
+            "eddy_drag", ("eddy_drag",),
+            free=(Free("eddy_drag.c_eddy", *_eb("eddy_drag", "c_eddy"), 10.0, 50.0),),
+            note="drag proportional to B(g)^2 times the horizontal velocity",
+        ),
+        CandidateSpec(
+            "parameter_error", ("parameter_error",),
+            free=(
+                Free("parameter_error.k_C1", 0.5, 2.0, 1.0, 0.05),
+                Free("parameter_error.k_C2", 0.5, 2.0, 1.0, 0.05),
+                Free("parameter_error.k_C3", 0.5, 2.0, 1.0, 0.05),
+                Free("parameter_error.k_C4", 0.0, 5.0, 1.0, 0.5),
+            ),
+            fixed=(("parameter_error.k_Mh", 1.0), ("parameter_error.k_Mv", 1.0)),
+            note=("factors on the C1..C4 terms; mass factors are not separable from them (a mass error "
+                  "scales the same terms) and are held at 1"),
+        ),
+    ]
+    return {s.name: s for s in specs}
+
+
+def calibration_free(params: Params, vertical: bool, horizontal: bool) -> tuple[Free, ...]:
+    """Free entries C1..C4 of ``p`` for a calibration on data with the given channels."""
+    out = []
+    if horizontal:
+        out.append(Free("p.C1", 0.3 * params.C1, 3.0 * params.C1, params.C1, params.C1))
+    if vertical:
+        out += [
+            Free("p.C2", 0.3 * params.C2, 3.0 * params.C2, params.C2, params.C2),
+            Free("p.C3", 0.0, 5.0 * max(params.C3, 1.0), params.C3, max(params.C3, 1.0)),
+            Free("p.C4", 0.0, 20.0 * max(params.C4, 0.05), params.C4, max(params.C4, 0.05)),
+        ]
+    return tuple(out)
+
+
+# -------------------------------------------------------------------- functions
+@functools.lru_cache(maxsize=64)
+def _accel_function(spec: CandidateSpec) -> ca.Function:
+    """``acc(z[8], p[8], w[n]) -> a[2]``: model + effects with the fitted values ``w`` (physical units)."""
+    es = EffectSet(spec.effects)
+    z = ca.SX.sym("z", 8)
+    p = ca.SX.sym("p", len(PARAM_NAMES))
+    w = ca.SX.sym("w", len(spec.free))
+    values = {f.key: w[i] for i, f in enumerate(spec.free)}
+    pe = [values.get(f"p.{n}", p[i]) for i, n in enumerate(PARAM_NAMES)]
+    theta = []
+    dflt = dict(zip(es.param_names, es.defaults(), strict=True))
+    ties, fixed = dict(spec.ties), dict(spec.fixed)
+    for key in es.param_names:
+        if key in values:
+            theta.append(values[key])
+        elif key in ties:
+            theta.append(values[ties[key]])
+        elif key in fixed:
+            theta.append(fixed[key])
+        else:
+            theta.append(dflt[key])
+    x = z[0:4]
+    u = z[4:6]
+    a = es.accel(x, u, ca.vertcat(*pe), ca.vertcat(*theta) if theta else ca.SX(0, 1))
+    return ca.Function(f"cand_{spec.name}", [z, p, w], [a], ["z", "p", "w"], ["a"])
+
+
+def accel_series(spec: CandidateSpec, Z: np.ndarray, p: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Per-period model acceleration ``(N-1, 2)`` of ``spec`` with values ``w`` on features ``Z``."""
+    f = _accel_function(spec)
+    if len(Z) == 0:
+        return np.zeros((0, 2))
+    out = f.map(len(Z))(Z.T, np.asarray(p, float), np.asarray(w, float))
+    return np.asarray(out).T
+
+
+def lag_features(Z: np.ndarray, runs_u: np.ndarray, theta: Mapping[str, float]) -> np.ndarray:
+    """``Z`` with the currents replaced by the amplifier's period-mean output (plant code reused)."""
+    ua = AmplifierLag.filter_currents(runs_u, theta)
+    Zl = Z.copy()
+    Zl[:, 4:6] = ua[:-1]
+    Zl[:, 6:8] = np.vstack([ua[:1], ua[:-2]])
+    return Zl
+
+
+# ------------------------------------------------------------------------ fitting
+class Dataset:
+    """Training (or scoring) data of a fit: stacked runs, per-channel filter rows.
+
+    Parameters
+    ----------
+    runs : sequence of PreparedRun
+        Runs (each with ``Z``, ``W``, ``meas``).
+    sqrt_w : ndarray, shape (2,)
+        Square-root weights of the two channels (1 / noise rms).
+    filt : ZeroPhaseFilter
+        The filter the runs were prepared with (for the symbolic filter of the NLP).
+    """
+
+    def __init__(self, runs: Sequence[PreparedRun], sqrt_w: np.ndarray, filt: ZeroPhaseFilter):
+        self.runs = [r for r in runs if r.n > 0]
+        self.sqrt_w = np.asarray(sqrt_w, float)
+        self.filt = filt
+        self.Z = np.vstack([r.Z for r in self.runs]) if self.runs else np.zeros((0, 8))
+        self.offsets = np.cumsum([0] + [len(r.Z) for r in self.runs])
+        W = spa.block_diag([r.W for r in self.runs], format="csr") if self.runs else spa.csr_matrix((0, 0))
+        meas = np.vstack([r.meas for r in self.runs]) if self.runs else np.zeros((0, 2))
+        mask = np.vstack([np.tile(r.valid, (r.n, 1)) for r in self.runs]) if self.runs else np.zeros((0, 2), bool)
+        self.W_c = [W[mask[:, c]] for c in range(2)]
+        self.m_c = [meas[mask[:, c], c] for c in range(2)]
+        self.n_c = [int(mask[:, c].sum()) for c in range(2)]
+        self.n = sum(self.n_c)
+        self._poly: list[tuple] | None = None
+
+    def weighted_residual(self, a: np.ndarray) -> np.ndarray:
+        """Stacked weighted residual for per-period accelerations ``a`` (N_tot, 2)."""
+        return np.concatenate([self.sqrt_w[c] * (self.m_c[c] - self.W_c[c] @ a[:, c]) for c in range(2)])
+
+    def channels_present(self) -> tuple[bool, bool]:
+        """Whether the vertical / horizontal channel has data."""
+        return self.n_c[0] > 0, self.n_c[1] > 0
+
+    def _polyphase(self) -> list[tuple]:
+        # Per run: (offset, base, n_seg, pad, nb, Q, D, Wq, S) for the polyphase form of W (see filter_mx).
+        if self._poly is None:
+            D = self.filt.settings.decimate
+            w_a = self.filt.w_a
+            Q = -(-len(w_a) // D)
+            wpad = np.zeros(D * Q)
+            wpad[: len(w_a)] = w_a
+            Wq = ca.DM(wpad.reshape(Q, D).T)  # Wq[r, q] = w_a[D q + r]
+            out = []
+            for i, r in enumerate(self.runs):
+                nc = r.n
+                base = int(r.centers[0]) - self.filt.M - 1
+                nb = nc + Q - 1
+                n_seg = D * nb
+                avail = len(r.Z) - base
+                pad = max(0, n_seg - avail)
+                jj = np.repeat(np.arange(nc), Q)
+                qq = np.tile(np.arange(Q), nc)
+                S = ca.DM.triplet(jj.tolist(), ((jj + qq) * Q + qq).tolist(), np.ones(nc * Q).tolist(), nc, Q * nb)
+                out.append((int(self.offsets[i]), base, n_seg - pad, pad, nb, Q, D, Wq, S))
+            self._poly = out
+        return self._poly
+
+    def filter_mx(self, X: ca.MX, channel: int) -> ca.MX:
+        """``W X`` for a symbolic per-period series ``X`` (N_tot x k) on the rows of ``channel``.
+
+        The decimated FIR is evaluated in polyphase form (three dense/sparse
+        products per run) instead of one large sparse matrix: with ``D`` the
+        decimation and ``w_a`` padded to ``D Q`` taps,
+        ``(W x)_j = sum_q sum_r w_a[D q + r] x[base + D (j + q) + r]``.
+        """
+        k_ = X.size2()
+        parts = []
+        for (off, base, n_take, pad, nb, Q, D, Wq, S), run in zip(self._polyphase(), self.runs, strict=True):
+            if not run.valid[channel]:
+                continue
+            seg = X[off + base: off + base + n_take, :]
+            if pad:
+                seg = ca.vertcat(seg, ca.MX.zeros(pad, k_))
+            R = ca.reshape(seg, D, nb * k_)
+            V = ca.mtimes(Wq.T, R)  # Q x (nb k)
+            parts.append(ca.mtimes(S, ca.reshape(V, Q * nb, k_)))
+        return ca.vertcat(*parts)
+
+
+@dataclass
+class FitResult:
+    """A fitted candidate.
+
+    Attributes
+    ----------
+    spec : CandidateSpec
+        What was fitted.
+    w : ndarray
+        Fitted values (physical units), order of ``spec.free``.
+    stderr : ndarray
+        Standard errors (autocorrelation-inflated); NaN where the data do not determine a value.
+    sse : float
+        Weighted sum of squares on the training data.
+    n : int
+        Number of residual samples.
+    inflation : float
+        ``n / n_eff`` of the residual.
+    extra : dict
+        Values not in ``w`` (the lag's bandwidth and delay).
+    success : bool
+        Solver status.
+    """
+
+    spec: CandidateSpec
+    w: np.ndarray
+    stderr: np.ndarray
+    sse: float
+    n: int
+    inflation: float
+    extra: dict[str, float] = field(default_factory=dict)
+    success: bool = True
+
+    @property
+    def k(self) -> int:
+        """Number of fitted parameters."""
+        return len(self.w) + (1 if "effective_delay_s" in self.extra else 0)
+
+    def bic(self) -> float:
+        """Information criterion with the effective sample size ``n_eff = n / inflation``.
+
+        ``BIC = n_eff ln(SSE / n) + k ln(n_eff)``: the residual's autocorrelation
+        makes ``n`` samples worth ``n_eff`` independent ones.
+        """
+        n_eff = max(self.n / self.inflation, 1.0)
+        return n_eff * math.log(max(self.sse, 1e-300) / max(self.n, 1)) + self.k * math.log(n_eff)
+
+    def params(self) -> dict[str, float]:
+        """Fitted values by key, plus the lag's extra values."""
+        out = {f.key: float(v) for f, v in zip(self.spec.free, self.w, strict=True)}
+        out.update({k_: float(v) for k_, v in self.extra.items()})
+        return out
+
+    def stderrs(self) -> dict[str, float]:
+        """Standard errors by key."""
+        out = {f.key: float(s) for f, s in zip(self.spec.free, self.stderr, strict=True)}
+        out.update({k_[: -len("_stderr")]: float(v) for k_, v in self.extra.items() if k_.endswith("_stderr")})
+        return out
+
+
+class CandidateFitter:
+    """Builds (once) and solves the NLP of one candidate on one data set.
+
+    Parameters
+    ----------
+    spec : CandidateSpec
+        The candidate (with any jointly re-fitted model parameters in ``free``).
+    data : Dataset
+        Training data.
+    p : ndarray
+        Model parameter vector for the entries not fitted.
+    prior : float
+        Weight of a weak ridge ``prior/2 ||(w - w_start) / scale||^2`` that keeps
+        directions the data do not determine (e.g. the phase of a harmonic whose
+        amplitude is zero) well posed; against ``n`` unit-weighted residuals it
+        does not move determined parameters.
+
+    Notes
+    -----
+    The NLP is ``min 1/2 ||r(s)||^2`` over the scaled values ``s = w / scale``
+    within the bounds, with ``r`` the weighted filtered residual. The model
+    acceleration and its Jacobian with respect to ``w`` are evaluated per
+    period by one mapped SX Function (the shared model's expressions with the
+    effect inlined), then filtered by the sparse FIR rows; CasADi's SQP method
+    (qrqp for the bound-constrained steps) gets the exact gradient ``J^T r`` and
+    the Gauss-Newton Hessian ``J^T J``.
+    """
+
+    def __init__(self, spec: CandidateSpec, data: Dataset, p: np.ndarray, prior: float = 1.0):
+        self.spec = spec
+        self.data = data
+        self.p = np.asarray(p, float)
+        self.nw = len(spec.free)
+        self.prior = prior
+        self.chunk = 4  # SQP iterations per call; calls repeat until the objective stops improving
+        self.rtol = 1e-6
+        self.max_chunks = 8
+        self.scale = np.array([f.scale for f in spec.free])
+        self.s0 = np.array([f.start for f in spec.free]) / np.where(self.scale > 0, self.scale, 1.0)
+        self._solver = None
+        self._rj = None
+
+    def _build(self) -> None:
+        spec, data = self.spec, self.data
+        N = len(data.Z)
+        nw = self.nw
+        acc = _accel_function(spec)
+        accj = _accel_jac_function(spec)
+        s = ca.MX.sym("s", nw)
+        pv = ca.MX.sym("Zv", 8 * N)
+        Zp = ca.reshape(pv, 8, N)
+        w = s * ca.DM(self.scale)
+        pd = ca.DM(self.p)
+        A = acc.map(N)(Zp, pd, w).T  # N x 2
+        A2, dA = accj.map(N)(Zp, pd, w)
+        A2 = A2.T
+        sc = ca.diag(ca.DM(self.scale))
+        r_parts, r2_parts, j_parts = [], [], []
+        for c in range(2):
+            if data.n_c[c] == 0:
+                continue
+            sw = float(data.sqrt_w[c])
+            m = ca.DM(data.m_c[c])
+            r_parts.append(sw * (m - data.filter_mx(A[:, c], c)))
+            # Value and derivative from the one mapped SX Function, filtered together.
+            dAc = ca.reshape(dA[c, :], nw, N).T  # N x nw, derivative with respect to w
+            F = data.filter_mx(ca.horzcat(A2[:, c], dAc), c)
+            r2_parts.append(sw * (m - F[:, 0]))
+            j_parts.append(-sw * ca.mtimes(F[:, 1:], sc))  # ... and with respect to s
+        s0 = ca.DM(self.s0)
+        f = 0.5 * ca.sumsqr(ca.vertcat(*r_parts)) + 0.5 * self.prior * ca.sumsqr(s - s0)
+        r2 = ca.vertcat(*r2_parts)
+        J = ca.vertcat(*j_parts)
+        grad = ca.mtimes(J.T, r2) + self.prior * (s - s0)
+        f2 = 0.5 * ca.sumsqr(r2) + 0.5 * self.prior * ca.sumsqr(s - s0)
+        lam_f = ca.MX.sym("lam_f")
+        lam_g = ca.MX.sym("lam_g", 0)
+        H = ca.mtimes(J.T, J) + self.prior * ca.DM.eye(nw)
+        # SQP with the Gauss-Newton Hessian: a handful of iterations on a least-squares problem.
+        hess = ca.Function("gn_hess", [s, pv, lam_f, lam_g], [lam_f * H],
+                           ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
+        jac_fg = ca.Function("jac_fg", [s, pv], [f2, grad, ca.MX(0, 1), ca.MX(0, nw)],
+                             ["x", "p"], ["f", "grad_f_x", "g", "jac_g_x"])
+        opts = {
+            "print_time": False, "print_header": False, "print_iteration": _DEBUG, "print_status": False,
+            "qpsol": "qrqp", "qpsol_options": {"print_iter": False, "print_header": False, "error_on_fail": False},
+            "hessian_approximation": "exact", "max_iter": self.chunk, "tol_du": 1e-6, "tol_pr": 1e-9,
+            "hess_lag": hess, "jac_fg": jac_fg, "error_on_fail": False,
+        }
+        self._solver = ca.nlpsol(f"fit_{spec.name}", "sqpmethod", {"x": s, "p": pv, "f": f}, opts)
+        self._rj = ca.Function("res_jac", [s, pv], [r2, J])
+
+    def solve(self, Z: np.ndarray | None = None, starts: Sequence[np.ndarray] | None = None) -> FitResult:
+        """Fit on the data (or on features ``Z`` of the same size); best of the given starts."""
+        spec = self.spec
+        Z = self.data.Z if Z is None else Z
+        if self.nw == 0:
+            a = accel_series(spec, Z, self.p, np.zeros(0))
+            r = self.data.weighted_residual(a)
+            return FitResult(spec, np.zeros(0), np.zeros(0), float(r @ r), self.data.n, _inflation(r, self.data))
+        if self._solver is None:
+            self._build()
+        scale = self.scale
+        lo = np.array([f.lo for f in spec.free]) / scale
+        hi = np.array([f.hi for f in spec.free]) / scale
+        if starts is None:
+            starts = [np.array([f.start for f in spec.free])]
+        best = None
+        Zv = ca.DM(np.ascontiguousarray(np.asarray(Z, float)).ravel())  # column-major vec of the 8 x N matrix
+        for x0 in starts:
+            x = np.clip(np.asarray(x0) / scale, lo, hi)
+            f_prev = math.inf
+            ok = False
+            for _ in range(self.max_chunks):
+                sol = self._solver(x0=x, lbx=lo, ubx=hi, p=Zv)
+                x = np.asarray(sol["x"]).ravel()
+                f = float(sol["f"])
+                ok = bool(self._solver.stats().get("success", False))
+                # Converged when SQP says so, or when a chunk of Gauss-Newton steps no longer lowers the
+                # objective (directions the data leave undetermined then only crawl).
+                if ok or f_prev - f <= self.rtol * abs(f):
+                    ok = True
+                    break
+                f_prev = f
+            if best is None or f < best[0]:
+                best = (f, x, ok)
+        f, s_opt, ok = best
+        r, J = (np.asarray(v) for v in self._rj(s_opt, Zv))
+        r = r.ravel()
+        sse = float(r @ r)
+        infl = _inflation(r, self.data)
+        stderr = _stderr(J, sse, self.data.n, infl) * scale
+        return FitResult(spec, s_opt * scale, stderr, sse, self.data.n, infl, success=bool(ok))
+
+
+@functools.lru_cache(maxsize=64)
+def _accel_jac_function(spec: CandidateSpec) -> ca.Function:
+    """``(z, p, w) -> (a[2], da/dw [2 x n])`` at the SX level (cheap to map over many periods)."""
+    f = _accel_function(spec)
+    z, p, w = ca.SX.sym("z", 8), ca.SX.sym("p", len(PARAM_NAMES)), ca.SX.sym("w", len(spec.free))
+    a = f(z, p, w)
+    return ca.Function(f"candj_{spec.name}", [z, p, w], [a, ca.jacobian(a, w)], ["z", "p", "w"], ["a", "da_dw"])
+
+
+def _inflation(r: np.ndarray, data: Dataset) -> float:
+    """Autocorrelation inflation of the stacked weighted residual (mean over channels, sample-weighted)."""
+    out, tot, i = 0.0, 0, 0
+    for c in range(2):
+        n = data.n_c[c]
+        if n:
+            out += n * autocorr_factor(r[i:i + n])
+            tot += n
+            i += n
+    return out / tot if tot else 1.0
+
+
+def _stderr(J: np.ndarray, sse: float, n: int, infl: float) -> np.ndarray:
+    """Standard errors from the Gauss-Newton Hessian; NaN for directions the data do not determine."""
+    k_ = J.shape[1]
+    H = J.T @ J
+    s2 = sse / max(n - k_, 1) * infl
+    d = np.sqrt(np.maximum(np.diag(H), 0.0))
+    out = np.full(k_, np.nan)
+    ok = d > 1e-12 * max(d.max(initial=0.0), 1e-300)
+    if not ok.any():
+        return out
+    Hn = H[np.ix_(ok, ok)] / np.outer(d[ok], d[ok])
+    ev = np.linalg.eigvalsh(Hn)
+    if ev.min() <= 1e-10 * ev.max():
+        cov = np.linalg.pinv(Hn, rcond=1e-10)
+    else:
+        cov = np.linalg.inv(Hn)
+    out[ok] = np.sqrt(np.maximum(np.diag(cov), 0.0) * s2) / d[ok]
+    return out
+
+
+def fit_candidate(spec: CandidateSpec, data: Dataset, p: np.ndarray, u_runs: Sequence[np.ndarray] | None = None,
+                  max_delay: int = 3) -> FitResult:
+    """Fit one candidate on training data.
+
+    Parameters
+    ----------
+    spec : CandidateSpec
+        The candidate (possibly with C1..C4 free).
+    data : Dataset
+        Training data.
+    p : ndarray
+        Model parameter vector (baseline) for everything not fitted.
+    u_runs : sequence of ndarray, optional
+        Commanded currents of each run of ``data`` (needed by the amplifier lag).
+    max_delay : int
+        Largest whole-sample delay tried by the amplifier lag.
+
+    Returns
+    -------
+    FitResult
+    """
+    fitter = CandidateFitter(spec, data, p)
+    if not spec.lag:
+        starts = _starts(spec)
+        return fitter.solve(starts=starts)
+    if u_runs is None:
+        raise ValueError("the amplifier lag needs the commanded currents of each run")
+    return _fit_lag(fitter, data, u_runs, max_delay)
+
+
+def _starts(spec: CandidateSpec) -> list[np.ndarray]:
+    """Initial guesses: the spec's, plus the opposite phase where an amplitude is bounded below by zero.
+
+    A phase whose amplitude may change sign needs one start (the objective has
+    one minimum per period); with a non-negative amplitude a start half a
+    period off would drive the amplitude onto its bound, where the phase
+    gradient vanishes, so a second start half a period away is added.
+    """
+    x0 = np.array([f.start for f in spec.free])
+    starts = [x0]
+    phase_idx = [i for i, f in enumerate(spec.free) if f.key.endswith("_phase")]
+    if phase_idx:
+        x = x0.copy()
+        x[phase_idx] += math.pi
+        starts.append(x)
+    return starts
+
+
+def lag_Z(data: Dataset, u_runs: Sequence[np.ndarray], bw: float, delay: int) -> np.ndarray:
+    """Stacked features of ``data`` with the currents passed through the amplifier model."""
+    theta = {"bandwidth_hz": bw, "delay_samples": delay}
+    return np.vstack([lag_features(r.Z, u, theta) for r, u in zip(data.runs, u_runs, strict=True)])
+
+
+def lag_theta(t_eff: float, Ts: float = 1e-3) -> dict[str, float]:
+    """Amplifier parameters for an effective delay ``t_eff`` [s]: whole samples of delay plus a lag.
+
+    Below the residual's cut-off a first-order lag of time constant ``T`` and a
+    transport delay ``T`` look alike (they differ at second order in
+    ``omega T``), so the search runs over the effective delay and splits it
+    into ``delay_samples = floor(t_eff / Ts)`` and ``bandwidth_hz = 1 / (2 pi r)``
+    with the remainder ``r`` (capped at the library's upper bandwidth).
+    """
+    lo, hi = AmplifierLag.bounds()["bandwidth_hz"]
+    n = math.floor(t_eff / Ts + 1e-9)
+    rem = t_eff - n * Ts
+    bw = hi if rem <= 1.0 / (2 * math.pi * hi) else 1.0 / (2 * math.pi * rem)
+    return {"bandwidth_hz": float(min(max(bw, lo), hi)), "delay_samples": float(n)}
+
+
+def _fit_lag(fitter: CandidateFitter, data: Dataset, u_runs: Sequence[np.ndarray], max_delay: int) -> FitResult:
+    Ts = data.filt.Ts
+    t_max = (max_delay + 1) * Ts
+    cache: dict[float, FitResult] = {}
+
+    def sse(t_eff: float) -> float:
+        key = round(float(t_eff), 9)
+        if key not in cache:
+            th = lag_theta(key, Ts)
+            cache[key] = fitter.solve(Z=lag_Z(data, u_runs, th["bandwidth_hz"], int(th["delay_samples"])))
+        return cache[key].sse
+
+    grid = np.linspace(0.0, t_max, 9)
+    vals = [sse(t) for t in grid]
+    j = int(np.argmin(vals))
+    a, b = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
+    res = spo.minimize_scalar(sse, bounds=(a, b), method="bounded", options={"xatol": 2e-6})
+    t_best = min(cache, key=lambda t_: cache[t_].sse)
+    del res
+    fr = cache[t_best]
+    # Standard error of the effective delay from the curvature of the profile SSE.
+    h = 2e-5
+    c2 = (sse(t_best + h) - 2 * fr.sse + sse(max(t_best - h, 0.0))) / h**2 if t_best >= h else math.nan
+    s2 = fr.sse / max(fr.n - fr.k - 1, 1) * fr.inflation
+    se_t = math.sqrt(2 * s2 / c2) if c2 > 0 else math.nan
+    th = lag_theta(t_best, Ts)
+    extra = {**th, "effective_delay_s": t_best, "effective_delay_s_stderr": se_t}
+    return FitResult(fitter.spec, fr.w, fr.stderr, fr.sse, fr.n, fr.inflation, extra, fr.success)
+
+
+def residuals_with(spec: CandidateSpec, fit: FitResult | None, runs: Sequence[PreparedRun], p: np.ndarray,
+                   u_runs: Sequence[np.ndarray] | None = None) -> list[Residual]:
+    """Residuals of ``runs`` under a fitted candidate (or the baseline if ``fit`` is None)."""
+    out = []
+    w = fit.w if fit is not None else np.zeros(len(spec.free))
+    for i, run in enumerate(runs):
+        Z = run.Z
+        if spec.lag and fit is not None and u_runs is not None and run.n > 0:
+            theta = {"bandwidth_hz": fit.extra["bandwidth_hz"], "delay_samples": int(fit.extra["delay_samples"])}
+            Z = lag_features(run.Z, u_runs[i], theta)
+        if run.n == 0:
+            out.append(Residual(run, np.zeros((0, 2)), np.zeros((0, 2))))
+            continue
+        out.append(residual_of(run, accel_series(spec, Z, p, w)))
+    return out
+
+
+def physical_params(fit: FitResult, base: Params) -> dict[str, float]:
+    """The fitted values as ``{name: value}`` with readable names (``C1``, ``xi0``, ``h2``, ...)."""
+    out = {}
+    for key, v in fit.params().items():
+        out[key.split(".", 1)[1] if key.startswith("p.") else key] = v
+    return out
+
+
+__all__ = [
+    "CandidateFitter", "CandidateSpec", "Dataset", "FitResult", "Free", "accel_series", "calibration_free",
+    "fit_candidate", "lag_Z", "lag_features", "library_specs", "physical_params", "residuals_with",
+]

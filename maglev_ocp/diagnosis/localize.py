@@ -1,0 +1,624 @@
+"""Where the residual lives: binning against a floor, spectrum, period scan, regions.
+
+Everything here works on the filtered residual samples of :mod:`.residuals`
+and their smoothed features (gap, position, velocities, currents, current
+rates). The statistics account for the residual's autocorrelation: a bin of
+``n`` samples carries ``n / inflation`` independent ones, with
+``inflation = 1 + 2 sum rho_k`` measured on the residual itself.
+
+- **noise floor**: from the data, not from a noise model. The systematic part
+  of a residual is what the state predicts; the floor is the rms of what is
+  left after an additive binned map (gap x position, velocities, currents,
+  current rates) fitted on the *training* runs is subtracted on the *held-out*
+  runs. It is an upper bound of the pure-noise rms (it includes any
+  systematic part the maps miss), which makes "exceeds the floor" a
+  conservative statement. The quantization-only floor of the filter is
+  reported beside it.
+- **structure test**: the held-out gain of those maps, ``1 - SSE(r - map) /
+  SSE(r)``, against its null distribution obtained by circularly shifting the
+  training residual against its features (same autocorrelation, no link to
+  the state).
+- **spectrum**: Welch PSD per channel; narrow peaks above a running-median
+  baseline are reported as bands.
+- **period scan**: least-squares fit of ``a cos(2 pi d / P) + b sin(2 pi d / P)``
+  over a grid of periods ``P`` (not an FFT over +-50 mm, which could not
+  resolve a 19 mm period in a 100 mm stroke).
+- **regions**: bins of the gap x position map whose mean exceeds
+  ``z_crit`` standard errors (Bonferroni over the bins), grouped into
+  connected boxes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.ndimage as ndi
+import scipy.signal as sps
+import scipy.stats as st
+
+from .. import constants as k
+from .residuals import CHANNELS, Residual, autocorr_factor
+
+#: Features used for 1-D maps and binned views, with plot units scale.
+FEATURES_1D: tuple[str, ...] = ("g", "d", "g_dot", "d_dot", "i_q", "i_d", "di_q", "di_d")
+#: Reference periods of the stage [m] (slot pitch, its double and half, pole pitch, its half).
+KNOWN_PERIODS: dict[str, float] = {
+    "t1/2": k.t1 / 2, "t1": k.t1, "2 t1": 2 * k.t1, "tau/2": k.tau / 2, "tau": k.tau,
+}
+
+
+# ------------------------------------------------------------------ data gathering
+@dataclass
+class Samples:
+    """Residual samples of one channel, pooled over runs, with their features.
+
+    Attributes
+    ----------
+    r : ndarray
+        Residual [m/s^2].
+    feat : dict of ndarray
+        Features at the same samples.
+    run : ndarray of int
+        Index of the run of each sample (for circular shifts within runs).
+    """
+
+    r: np.ndarray
+    feat: dict[str, np.ndarray]
+    run: np.ndarray
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return len(self.r)
+
+
+def pool(residuals: Sequence[Residual], channel: int) -> Samples:
+    """Pool the valid samples of one channel over runs."""
+    rs, fs, idx = [], {n: [] for n in FEATURES_1D}, []
+    for i, res in enumerate(residuals):
+        if res.run.n == 0 or not res.run.valid[channel]:
+            continue
+        rs.append(res.r[:, channel])
+        for n in FEATURES_1D:
+            fs[n].append(res.run.feat[n])
+        idx.append(np.full(res.run.n, i))
+    if not rs:
+        return Samples(np.zeros(0), {n: np.zeros(0) for n in FEATURES_1D}, np.zeros(0, int))
+    return Samples(np.concatenate(rs), {n: np.concatenate(v) for n, v in fs.items()}, np.concatenate(idx))
+
+
+# ------------------------------------------------------------------------ binning
+@dataclass
+class BinStats:
+    """Binned residual of one channel over one or two features.
+
+    Attributes
+    ----------
+    names : tuple of str
+        Feature names (1 or 2).
+    edges : list of ndarray
+        Bin edges per feature.
+    mean, se, count : ndarray
+        Bin mean [m/s^2], its standard error (the bin's floor) and sample count;
+        NaN / 0 for empty bins.
+    z : ndarray
+        ``mean / se``.
+    """
+
+    names: tuple[str, ...]
+    edges: list[np.ndarray]
+    mean: np.ndarray
+    se: np.ndarray
+    count: np.ndarray
+    z: np.ndarray
+
+    def to_dict(self) -> dict:
+        """JSON-ready view."""
+        return {
+            "features": list(self.names),
+            "edges": [e.tolist() for e in self.edges],
+            "mean_m_s2": np.where(np.isfinite(self.mean), self.mean, None).tolist(),
+            "floor_m_s2": np.where(np.isfinite(self.se), self.se, None).tolist(),
+            "count": self.count.astype(int).tolist(),
+        }
+
+
+def edges_for(x: np.ndarray, n_bins: int) -> np.ndarray:
+    """Equal-width bin edges over the 1..99 % range of ``x`` (robust to outliers)."""
+    if len(x) == 0:
+        return np.linspace(0.0, 1.0, n_bins + 1)
+    lo, hi = np.percentile(x, [1, 99])
+    if not hi > lo:
+        lo, hi = lo - 1e-9, hi + 1e-9
+    return np.linspace(lo, hi, n_bins + 1)
+
+
+def _index(x: np.ndarray, e: np.ndarray) -> np.ndarray:
+    return np.clip(np.searchsorted(e, x, side="right") - 1, 0, len(e) - 2)
+
+
+def bin_stats(s: Samples, names: Sequence[str], edges: Sequence[np.ndarray], sigma: float,
+              inflation: float, min_count: int = 20) -> BinStats:
+    """Bin means of the residual over features, with standard errors from ``sigma`` and ``inflation``.
+
+    Parameters
+    ----------
+    s : Samples
+        Pooled residual.
+    names, edges : sequences
+        Features and their bin edges.
+    sigma : float
+        Noise rms (the floor) [m/s^2].
+    inflation : float
+        Autocorrelation inflation of the residual.
+    min_count : int
+        Bins with fewer samples are reported empty.
+    """
+    shape = tuple(len(e) - 1 for e in edges)
+    idx = np.ravel_multi_index([_index(s.feat[n], e) for n, e in zip(names, edges, strict=True)], shape)
+    size = int(np.prod(shape))
+    cnt = np.bincount(idx, minlength=size).astype(float)
+    sm = np.bincount(idx, weights=s.r, minlength=size)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(cnt >= min_count, sm / cnt, np.nan)
+        se = np.where(cnt >= min_count, sigma * np.sqrt(inflation / cnt), np.nan)
+        z = mean / se
+    return BinStats(tuple(names), [np.asarray(e) for e in edges], mean.reshape(shape), se.reshape(shape),
+                    cnt.reshape(shape), z.reshape(shape))
+
+
+# --------------------------------------------------------------- additive maps
+MAP_GROUPS: tuple[tuple[str, ...], ...] = (("g", "d"), ("g_dot",), ("d_dot",), ("i_q",), ("i_d",), ("di_q",),
+                                           ("di_d",))
+
+
+@dataclass
+class AdditiveMap:
+    """Additive binned model of a residual: a 2-D gap x position map plus 1-D maps.
+
+    Fitted by backfitting on training samples; predicts the residual's
+    systematic part from the features alone.
+    """
+
+    edges: dict[tuple[str, ...], list[np.ndarray]]
+    tables: dict[tuple[str, ...], np.ndarray] = field(default_factory=dict)
+
+    @classmethod
+    def fit(cls, s: Samples, n_bins_2d: int = 10, n_bins_1d: int = 12, sweeps: int = 4,
+            min_count: int = 15) -> AdditiveMap:
+        """Backfit the maps on ``s``."""
+        edges = {}
+        for grp in MAP_GROUPS:
+            nb = n_bins_2d if len(grp) == 2 else n_bins_1d
+            edges[grp] = [edges_for(s.feat[n], nb) for n in grp]
+        m = cls(edges)
+        if s.n == 0:
+            return m
+        idx = {grp: m._flat(s, grp) for grp in MAP_GROUPS}
+        sizes = {grp: int(np.prod([len(e) - 1 for e in edges[grp]])) for grp in MAP_GROUPS}
+        m.tables = {grp: np.zeros(sizes[grp]) for grp in MAP_GROUPS}
+        pred = {grp: np.zeros(s.n) for grp in MAP_GROUPS}
+        total = np.zeros(s.n)
+        for _ in range(sweeps):
+            for grp in MAP_GROUPS:
+                part = s.r - (total - pred[grp])
+                cnt = np.bincount(idx[grp], minlength=sizes[grp])
+                sm = np.bincount(idx[grp], weights=part, minlength=sizes[grp])
+                # Shrink thin bins towards zero (James-Stein like): cnt / (cnt + min_count).
+                tab = np.where(cnt > 0, sm / np.maximum(cnt, 1), 0.0) * cnt / (cnt + min_count)
+                m.tables[grp] = tab
+                new = tab[idx[grp]]
+                total += new - pred[grp]
+                pred[grp] = new
+        return m
+
+    def _flat(self, s: Samples, grp: tuple[str, ...]) -> np.ndarray:
+        e = self.edges[grp]
+        shape = tuple(len(x) - 1 for x in e)
+        return np.ravel_multi_index([_index(s.feat[n], x) for n, x in zip(grp, e, strict=True)], shape)
+
+    def predict(self, s: Samples) -> np.ndarray:
+        """Predicted systematic residual at the samples of ``s``."""
+        out = np.zeros(s.n)
+        if not self.tables or s.n == 0:
+            return out
+        for grp in MAP_GROUPS:
+            out += self.tables[grp][self._flat(s, grp)]
+        return out
+
+
+def _shift(s: Samples, rng: np.random.Generator) -> Samples:
+    """``s`` with the residual circularly shifted within each run (features unchanged)."""
+    r = s.r.copy()
+    for i in np.unique(s.run):
+        sel = np.flatnonzero(s.run == i)
+        n = len(sel)
+        if n > 4:
+            r[sel] = np.roll(r[sel], int(rng.integers(n // 4, n - n // 4)))
+    return Samples(r, s.feat, s.run)
+
+
+def _gain(train: Samples, test: Samples) -> tuple[float, AdditiveMap]:
+    m = AdditiveMap.fit(train)
+    pred = m.predict(test)
+    sse0 = float(test.r @ test.r)
+    if sse0 <= 0:
+        return 0.0, m
+    e = test.r - pred
+    return 1.0 - float(e @ e) / sse0, m
+
+
+@dataclass
+class ChannelFloor:
+    """Noise floor and structure test of one channel.
+
+    Attributes
+    ----------
+    channel : str
+        ``vertical`` or ``horizontal``.
+    rms : float
+        Held-out rms of the residual [m/s^2].
+    floor : float
+        Noise floor rms: held-out rms after the training maps are subtracted [m/s^2].
+    quantization : float
+        Rms due to 10 um quantization alone, for reference [m/s^2].
+    inflation : float
+        Autocorrelation inflation ``n / n_eff``.
+    gain : float
+        Held-out gain of the maps.
+    null_mean, null_std : float
+        Mean and spread of the gain under the null (shifted residuals).
+    z : float
+        ``(gain - null_mean) / null_std``.
+    significant : bool
+        The residual has state structure beyond the floor (``z > z_crit``).
+    n : int
+        Held-out samples.
+    """
+
+    channel: str
+    rms: float
+    floor: float
+    quantization: float
+    inflation: float
+    gain: float
+    null_mean: float
+    null_std: float
+    z: float
+    significant: bool
+    n: int
+
+    @property
+    def excess(self) -> float:
+        """Rms of the residual above the floor, ``sqrt(max(rms^2 - floor^2, 0))`` [m/s^2]."""
+        return math.sqrt(max(self.rms**2 - self.floor**2, 0.0))
+
+    def to_dict(self) -> dict:
+        """JSON-ready view."""
+        return {
+            "rms_m_s2": self.rms, "floor_m_s2": self.floor, "quantization_m_s2": self.quantization,
+            "excess_m_s2": self.excess, "autocorr_inflation": self.inflation, "map_gain": self.gain,
+            "null_gain_mean": self.null_mean, "null_gain_std": self.null_std, "z": self.z,
+            "significant": self.significant, "n_samples": self.n,
+        }
+
+
+def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: int, quantization: float,
+                  rng: np.random.Generator, n_null: int = 12, z_crit: float = 4.0) -> ChannelFloor | None:
+    """Noise floor and structure test of one channel (None if the channel has no data).
+
+    Parameters
+    ----------
+    train, test : sequences of Residual
+        Training and held-out residuals.
+    channel : int
+        0 vertical, 1 horizontal.
+    quantization : float
+        Quantization-only rms of the filter.
+    rng : numpy Generator
+        For the circular shifts of the null distribution.
+    n_null : int
+        Number of null draws.
+    z_crit : float
+        Threshold on the gain's z-score.
+    """
+    tr, te = pool(train, channel), pool(test, channel)
+    if tr.n < 50 or te.n < 50:
+        return None
+    gain, m = _gain(tr, te)
+    null = np.array([_gain(_shift(tr, rng), te)[0] for _ in range(n_null)])
+    mu, sd = float(null.mean()), float(max(null.std(ddof=1), 1e-4))
+    z = (gain - mu) / sd
+    rms = float(np.sqrt(np.mean(te.r**2)))
+    e = te.r - m.predict(te)
+    floor = float(np.sqrt(np.mean(e**2)))
+    infl = autocorr_factor(e)
+    return ChannelFloor(CHANNELS[channel], rms, min(floor, rms), quantization, infl, gain, mu, sd, z,
+                        bool(z > z_crit), te.n)
+
+
+# ----------------------------------------------------------------------- spectrum
+@dataclass
+class Spectrum:
+    """Welch PSD of a channel's residual.
+
+    Attributes
+    ----------
+    f : ndarray
+        Frequencies [Hz].
+    psd : ndarray
+        Power spectral density [(m/s^2)^2/Hz].
+    baseline : ndarray
+        Running-median baseline of the PSD.
+    peaks : list of dict
+        Bands where the PSD exceeds the baseline significantly:
+        ``{"band_hz": [lo, hi], "peak_hz", "ratio", "power_m2_s4"}``.
+    dof : float
+        Degrees of freedom of the Welch estimate.
+    """
+
+    f: np.ndarray
+    psd: np.ndarray
+    baseline: np.ndarray
+    peaks: list[dict]
+    dof: float
+
+
+def spectrum(residuals: Sequence[Residual], channel: int, fs: float, fmax: float, seg_s: float = 4.0,
+             false_alarm: float = 1e-3) -> Spectrum | None:
+    """Welch PSD (segments within runs, averaged) with peak bands above a running median.
+
+    Parameters
+    ----------
+    residuals : sequence of Residual
+        Residuals (all samples of a run are contiguous in time).
+    channel : int
+        0 vertical, 1 horizontal.
+    fs : float
+        Sample rate of the residual samples [Hz].
+    fmax : float
+        Highest frequency reported (the residual filter's cut-off) [Hz].
+    seg_s : float
+        Welch segment length [s].
+    false_alarm : float
+        Per-band false-alarm probability (Bonferroni over the bins below fmax).
+    """
+    nper = int(seg_s * fs)
+    acc, wsum, nseg = None, 0.0, 0
+    f = None
+    for res in residuals:
+        if res.run.n < nper or not res.run.valid[channel]:
+            continue
+        f, p = sps.welch(res.r[:, channel], fs=fs, nperseg=nper, noverlap=nper // 2, detrend="constant")
+        m = 1 + 2 * (res.run.n - nper) // nper
+        acc = p * m if acc is None else acc + p * m
+        wsum += m
+        nseg += m
+    if acc is None or f is None:
+        return None
+    psd = acc / wsum
+    sel = f <= fmax
+    f, psd = f[sel], psd[sel]
+    dof = max(2.0, 2 * nseg * 0.9)
+    width = max(5, round(2.0 / (f[1] - f[0])) | 1) if len(f) > 1 else 5
+    baseline = ndi.median_filter(psd, size=width, mode="nearest")
+    n_bins = max(1, int(np.sum(f > 0.5)))
+    # Under H0 psd / baseline ~ chi2(dof) / dof.
+    thr = st.chi2.isf(false_alarm / n_bins, dof) / dof
+    over = (psd > thr * baseline) & (f > 0.5)
+    peaks = []
+    lab, n_lab = ndi.label(over)
+    for j in range(1, n_lab + 1):
+        ii = np.flatnonzero(lab == j)
+        df = f[1] - f[0]
+        band = [float(max(f[ii[0]] - df / 2, 0.0)), float(f[ii[-1]] + df / 2)]
+        ipk = ii[np.argmax(psd[ii] / baseline[ii])]
+        peaks.append({
+            "band_hz": band, "peak_hz": float(f[ipk]), "ratio": float(psd[ipk] / baseline[ipk]),
+            "power_m2_s4": float(np.sum(psd[ii] - baseline[ii]) * df),
+        })
+    peaks.sort(key=lambda q: -q["power_m2_s4"])
+    return Spectrum(f, psd, baseline, peaks, dof)
+
+
+def dominant_band(spec: Spectrum, fraction: float = 0.8) -> list[float] | None:
+    """Smallest band around the PSD maximum that holds ``fraction`` of the power above the baseline median."""
+    if spec is None or len(spec.f) < 3:
+        return None
+    ex = np.maximum(spec.psd - np.median(spec.psd), 0.0)
+    tot = ex.sum()
+    if tot <= 0:
+        return None
+    i0 = int(np.argmax(ex))
+    lo, hi = i0, i0
+    acc = ex[i0]
+    while acc < fraction * tot:
+        left = ex[lo - 1] if lo > 0 else -1
+        right = ex[hi + 1] if hi < len(ex) - 1 else -1
+        if left < 0 and right < 0:
+            break
+        if left >= right:
+            lo -= 1
+            acc += ex[lo]
+        else:
+            hi += 1
+            acc += ex[hi]
+    df = spec.f[1] - spec.f[0]
+    return [float(max(spec.f[lo] - df / 2, 0.0)), float(spec.f[hi] + df / 2)]
+
+
+# -------------------------------------------------------------------- period scan
+@dataclass
+class PeriodScan:
+    """Least-squares period scan of a channel's residual over the position ``d``.
+
+    Attributes
+    ----------
+    periods : ndarray
+        Scanned periods [m].
+    explained : ndarray
+        Fraction of the (gap-detrended) residual variance explained by a
+        sinusoid of each period.
+    best_period, best_amplitude, best_explained : float
+        The best period [m], its amplitude [m/s^2] and explained fraction.
+    threshold : float
+        Explained fraction that noise alone exceeds with probability 1e-3
+        (from circular shifts).
+    significant : bool
+        ``best_explained > threshold``.
+    match : str or None
+        Name of a reference period within 4 % (``t1``, ``2 t1``, ``tau``, ...).
+    """
+
+    periods: np.ndarray
+    explained: np.ndarray
+    best_period: float
+    best_amplitude: float
+    best_explained: float
+    threshold: float
+    significant: bool
+    match: str | None
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary."""
+        return {
+            "best_period_m": self.best_period, "amplitude_m_s2": self.best_amplitude,
+            "explained_fraction": self.best_explained, "noise_threshold": self.threshold,
+            "significant": self.significant, "matches": self.match,
+        }
+
+
+def _scan(d: np.ndarray, r: np.ndarray, periods: np.ndarray) -> np.ndarray:
+    tot = float(r @ r)
+    out = np.empty(len(periods))
+    for j, P in enumerate(periods):
+        ph = 2 * math.pi * d / P
+        X = np.column_stack([np.cos(ph), np.sin(ph)])
+        coef, *_ = np.linalg.lstsq(X, r, rcond=None)
+        e = r - X @ coef
+        out[j] = 1 - float(e @ e) / tot if tot > 0 else 0.0
+    return out
+
+
+def period_scan(s: Samples, rng: np.random.Generator, p_min: float = 4e-3, p_max: float | None = None,
+                n_periods: int = 300, n_null: int = 8, max_samples: int = 6000) -> PeriodScan | None:
+    """Scan periods in ``d`` (after removing the residual's gap dependence by bin means).
+
+    Parameters
+    ----------
+    s : Samples
+        Pooled residual of one channel.
+    rng : numpy Generator
+        For subsampling and the null distribution.
+    p_min, p_max : float
+        Scanned range [m] (``p_max`` defaults to the travelled span of ``d``, at most 120 mm).
+    n_periods : int
+        Log-spaced grid size.
+    n_null : int
+        Circular shifts for the threshold.
+    max_samples : int
+        Subsample for speed (the residual is low-passed, so little is lost).
+    """
+    if s.n < 100:
+        return None
+    d = s.feat["d"]
+    span = float(np.percentile(d, 99) - np.percentile(d, 1))
+    if span < 2 * p_min:
+        return None
+    p_max = min(p_max or span, 0.12, max(span, 2 * p_min))
+    # Remove the gap dependence (a smooth function of g is not a period in d).
+    e = edges_for(s.feat["g"], 12)
+    gi = _index(s.feat["g"], e)
+    gm = np.bincount(gi, weights=s.r, minlength=len(e) - 1) / np.maximum(np.bincount(gi, minlength=len(e) - 1), 1)
+    r = s.r - gm[gi]
+    sel = np.arange(s.n)
+    if s.n > max_samples:
+        sel = np.sort(rng.choice(s.n, max_samples, replace=False))
+    periods = np.geomspace(p_min, p_max, n_periods)
+    expl = _scan(d[sel], r[sel], periods)
+    sub = Samples(r, s.feat, s.run)
+    null_max = []
+    for _ in range(n_null):
+        sh = _shift(sub, rng)
+        null_max.append(float(np.max(_scan(d[sel], sh.r[sel], periods[::3]))))
+    thr = float(np.mean(null_max) + 3 * np.std(null_max, ddof=1)) if n_null > 1 else float(np.max(null_max))
+    j = int(np.argmax(expl))
+    P = float(periods[j])
+    ph = 2 * math.pi * d / P
+    X = np.column_stack([np.cos(ph), np.sin(ph)])
+    coef, *_ = np.linalg.lstsq(X, r, rcond=None)
+    match = None
+    for name, ref in KNOWN_PERIODS.items():
+        if abs(P / ref - 1) < 0.04:
+            match = name
+    return PeriodScan(periods, expl, P, float(np.hypot(*coef)), float(expl[j]), thr, bool(expl[j] > thr), match)
+
+
+# ------------------------------------------------------------------------ regions
+@dataclass
+class Region:
+    """A region of the gap x position plane where a channel's residual exceeds its floor.
+
+    Attributes
+    ----------
+    channel : str
+        ``vertical`` or ``horizontal``.
+    g_range_m, d_range_m : list of float
+        Bounding box [m].
+    freq_band_hz : list of float or None
+        Band of the residual's excess power (spectrum) in this channel.
+    excess_over_floor : float
+        Rms of the bin means in the region divided by the bins' floor (standard error): how many
+        floors the residual stands above noise.
+    mean_abs_m_s2 : float
+        Mean |bin mean| in the region [m/s^2].
+    n_bins : int
+        Bins in the region.
+    """
+
+    channel: str
+    g_range_m: list[float]
+    d_range_m: list[float]
+    freq_band_hz: list[float] | None
+    excess_over_floor: float
+    mean_abs_m_s2: float
+    n_bins: int
+
+    def to_dict(self) -> dict:
+        """JSON-ready view (the issue's ``regions`` entries)."""
+        return {
+            "channel": self.channel, "g_range_m": self.g_range_m, "d_range_m": self.d_range_m,
+            "freq_band_hz": self.freq_band_hz, "excess_over_floor": self.excess_over_floor,
+            "mean_abs_m_s2": self.mean_abs_m_s2, "n_bins": self.n_bins,
+        }
+
+
+def regions_from_map(bs: BinStats, channel: str, band: list[float] | None, alpha: float = 0.01,
+                     max_regions: int = 3) -> list[Region]:
+    """Connected groups of bins whose mean exceeds the floor (|z| above a Bonferroni threshold)."""
+    finite = np.isfinite(bs.z)
+    n_bins = max(int(finite.sum()), 1)
+    z_crit = float(st.norm.isf(alpha / (2 * n_bins)))
+    sig = finite & (np.abs(np.where(finite, bs.z, 0.0)) > z_crit)
+    lab, n_lab = ndi.label(sig)
+    out = []
+    for j in range(1, n_lab + 1):
+        ii, jj = np.nonzero(lab == j)
+        eg, ed = bs.edges
+        zz = bs.z[ii, jj]
+        out.append(Region(
+            channel, [float(eg[ii.min()]), float(eg[ii.max() + 1])], [float(ed[jj.min()]), float(ed[jj.max() + 1])],
+            band, float(np.sqrt(np.mean(zz**2))), float(np.mean(np.abs(bs.mean[ii, jj]))), len(ii),
+        ))
+    out.sort(key=lambda r_: -r_.excess_over_floor * r_.n_bins)
+    return out[:max_regions]
+
+
+__all__ = [
+    "FEATURES_1D", "KNOWN_PERIODS", "AdditiveMap", "BinStats", "ChannelFloor", "PeriodScan", "Region", "Samples",
+    "Spectrum", "bin_stats", "channel_floor", "dominant_band", "edges_for", "period_scan", "pool",
+    "regions_from_map", "spectrum",
+]

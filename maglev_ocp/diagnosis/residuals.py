@@ -1,0 +1,316 @@
+"""Filtered equation-error residuals between the model and a logged run.
+
+The residual of a channel (vertical: the gap ``g``; horizontal: the position
+``d``) is the measured acceleration minus the model's, both passed through the
+**same** zero-phase FIR low-pass ``h``:
+
+``r_c = h * D2(y_c) - h * K * a_c(y, u; p)``
+
+- ``D2`` is the second difference ``(y[k+1] - 2 y[k] + y[k-1]) / Ts^2`` of the
+  quantized encoder reading. Under a zero-order hold it equals exactly
+  ``(a[k-1] + a[k]) / 2``, the mean of the accelerations of the two periods
+  around sample ``k``; ``K = [1/2, 1/2]`` applies that same average to the
+  model side, so no half-sample delay is introduced (a delay would look like an
+  amplifier lag).
+- ``a[k]`` is the model acceleration over period ``k`` (current ``u[k]`` held
+  from ``t[k]`` to ``t[k+1]``), evaluated at the mid-period position
+  ``(y[k] + y[k+1]) / 2``.
+- Because the identical linear filter acts on the measured accelerations and
+  on the model acceleration (hence on every current-carrying regressor, since
+  filtering is linear), the closed loop's correlation between current and
+  measurement noise produces no phase bias, and the 10 um quantization (white,
+  variance q^2/12, amplified as f^4 by ``D2``) is removed above the cut-off.
+- The filtered series is decimated (the filter is band-limited), which also
+  makes the residual samples less correlated.
+
+The noise floor of a residual comes from the data (see :mod:`.localize`); this
+module also gives the analytic quantization part, ``q / sqrt(12) * ||w||``
+with ``w`` the filter applied to the encoder reading.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.signal as sps
+import scipy.sparse as spa
+
+from .. import constants as k
+from ..errors import DataError
+
+#: Channel names, in the order of the residual's columns.
+CHANNELS: tuple[str, str] = ("vertical", "horizontal")
+#: Axis measured by each channel.
+CHANNEL_AXIS: dict[str, str] = {"vertical": "g", "horizontal": "d"}
+#: Columns of the per-period feature matrix ``Z`` fed to the model acceleration.
+Z_NAMES: tuple[str, ...] = ("g", "g_dot", "d", "d_dot", "i_q", "i_d", "i_q_prev", "i_d_prev")
+
+
+@dataclass(frozen=True)
+class ResidualSettings:
+    """How residuals are filtered.
+
+    Attributes
+    ----------
+    fc_hz : float
+        Cut-off of the zero-phase FIR low-pass [Hz]. Gap effects of a stage
+        sweeping at < 0.3 m/s stay below it; quantization noise above it.
+    numtaps : int
+        FIR length (odd). Kaiser window, ~80 dB stop band.
+    decimate : int
+        Keep every ``decimate``-th filtered sample.
+    vel_fc_hz : float
+        Cut-off of the zero-phase smoother that gives velocities (for
+        velocity-dependent effects such as friction) [Hz].
+    """
+
+    fc_hz: float = 15.0
+    numtaps: int = 401
+    decimate: int = 8
+    vel_fc_hz: float = 25.0
+
+
+@dataclass
+class RunInput:
+    """One logged run as the diagnosis needs it (independent of the file format).
+
+    Attributes
+    ----------
+    name : str
+        Run name (file name).
+    Ts : float
+        Sample period [s].
+    y : ndarray, shape (N, 2)
+        Encoder readings ``(g, d)`` [m].
+    u : ndarray, shape (N, 2)
+        Commanded currents ``(i_q, i_d)`` [A]; row k is held from ``t[k]`` to ``t[k+1]``.
+    locked : tuple of str
+        Axes held by a fixture (``"g"``, ``"d"``).
+    t0 : float
+        Time of the first row [s].
+    """
+
+    name: str
+    Ts: float
+    y: np.ndarray
+    u: np.ndarray
+    locked: tuple[str, ...] = ()
+    t0: float = 0.0
+
+
+@dataclass
+class PreparedRun:
+    """A run turned into filtered residual data.
+
+    Attributes
+    ----------
+    name : str
+        Run name.
+    locked : tuple of str
+        Locked axes.
+    valid : ndarray of bool, shape (2,)
+        Which channels carry information (a locked axis has none).
+    Z : ndarray, shape (N-1, 8)
+        Per-period inputs of the model acceleration (columns :data:`Z_NAMES`).
+    W : scipy.sparse.csr_matrix, shape (n_c, N-1)
+        The filter ``h * K`` applied to a per-period acceleration series, at the
+        decimated centre samples.
+    meas : ndarray, shape (n_c, 2)
+        Filtered measured accelerations ``h * D2(y)`` [m/s^2].
+    centers : ndarray of int, shape (n_c,)
+        Sample indices of the residual samples.
+    feat : dict of ndarray
+        Smoothed signals at the centres: ``t, g, d, g_dot, d_dot, i_q, i_d, di_q, di_d``.
+    """
+
+    name: str
+    locked: tuple[str, ...]
+    valid: np.ndarray
+    Z: np.ndarray
+    W: spa.csr_matrix
+    meas: np.ndarray
+    centers: np.ndarray
+    feat: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        """Number of residual samples."""
+        return len(self.centers)
+
+
+class ZeroPhaseFilter:
+    """The one zero-phase FIR low-pass used on both sides of the residual.
+
+    Parameters
+    ----------
+    settings : ResidualSettings
+        Cut-off, length, decimation.
+    Ts : float
+        Sample period [s].
+    """
+
+    def __init__(self, settings: ResidualSettings, Ts: float = k.Ts) -> None:
+        if settings.numtaps % 2 == 0:
+            raise ValueError("numtaps must be odd (zero phase)")
+        self.settings = settings
+        self.Ts = Ts
+        fs = 1.0 / Ts
+        self.h = sps.firwin(settings.numtaps, settings.fc_hz, window=("kaiser", 8.0), fs=fs)
+        self.M = settings.numtaps // 2
+        # Encoder side: h * D2 (length numtaps + 2), model side: h * K (length numtaps + 1).
+        self.w_y = np.convolve(self.h, np.array([1.0, -2.0, 1.0])) / Ts**2
+        self.w_a = np.convolve(self.h, np.array([0.5, 0.5]))
+        b, a = sps.butter(2, settings.vel_fc_hz, fs=fs)
+        self._vel_ba = (b, a)
+
+    def centers(self, N: int) -> np.ndarray:
+        """Decimated centre samples where both filters are fully inside a run of N samples."""
+        lo, hi = self.M + 1, N - 2 - self.M
+        if hi < lo:
+            return np.zeros(0, dtype=int)
+        return np.arange(lo, hi + 1, self.settings.decimate)
+
+    def encoder_accel(self, y: np.ndarray, centers: np.ndarray) -> np.ndarray:
+        """Filtered acceleration ``h * D2(y)`` at ``centers`` (y of shape (N,) or (N, m))."""
+        full = sps.oaconvolve(np.asarray(y, float), self.w_y[:, None] if np.ndim(y) == 2 else self.w_y,
+                              mode="valid", axes=0)
+        # full[j] is centred on sample j + M + 1.
+        return full[centers - self.M - 1]
+
+    def model_matrix(self, N: int, centers: np.ndarray) -> spa.csr_matrix:
+        """Sparse ``(n_c, N-1)`` matrix of ``h * K`` acting on per-period accelerations ``a[0..N-2]``."""
+        L = len(self.w_a)
+        rows = np.repeat(np.arange(len(centers)), L)
+        cols = (centers[:, None] - self.M - 1 + np.arange(L)[None, :]).ravel()
+        vals = np.tile(self.w_a, len(centers))
+        return spa.csr_matrix((vals, (rows, cols)), shape=(len(centers), N - 1))
+
+    def smooth(self, x: np.ndarray, centers: np.ndarray) -> np.ndarray:
+        """Low-passed ``x`` (same FIR ``h``, unit DC gain) at ``centers``."""
+        full = sps.oaconvolve(np.asarray(x, float), self.h, mode="valid")
+        return full[centers - self.M]
+
+    def velocity(self, y: np.ndarray) -> np.ndarray:
+        """Zero-phase smoothed velocity per period (at the mid-period instants), shape (N-1,)."""
+        b, a = self._vel_ba
+        ys = sps.filtfilt(b, a, np.asarray(y, float), padlen=min(3 * max(len(a), len(b)), len(y) - 1))
+        return np.diff(ys) / self.Ts
+
+    def quantization_floor(self, q: float = k.encoder_resolution) -> float:
+        """Rms of the filtered acceleration due to white quantization noise (q^2 / 12) [m/s^2]."""
+        return q / math.sqrt(12.0) * float(np.linalg.norm(self.w_y))
+
+
+def prepare_run(run: RunInput, filt: ZeroPhaseFilter) -> PreparedRun:
+    """Turn one logged run into filtered residual data.
+
+    Parameters
+    ----------
+    run : RunInput
+        The run.
+    filt : ZeroPhaseFilter
+        The filter (shared by all runs of a diagnosis).
+
+    Returns
+    -------
+    PreparedRun
+        With no residual samples if the run is shorter than the filter.
+    """
+    y = np.asarray(run.y, float)
+    u = np.asarray(run.u, float)
+    N = len(y)
+    if y.shape != (N, 2) or u.shape != (N, 2):
+        raise DataError(f"run {run.name}: expected (N, 2) positions and currents")
+    if abs(run.Ts - filt.Ts) > 1e-9:
+        raise DataError(f"run {run.name}: sample time {run.Ts} differs from the filter's {filt.Ts}")
+    centers = filt.centers(N)
+    valid = np.array(["g" not in run.locked, "d" not in run.locked])
+    if len(centers) == 0:
+        return PreparedRun(run.name, tuple(run.locked), valid, np.zeros((0, 8)), spa.csr_matrix((0, 0)),
+                           np.zeros((0, 2)), centers, {})
+    y_mid = 0.5 * (y[:-1] + y[1:])
+    v = np.column_stack([filt.velocity(y[:, 0]), filt.velocity(y[:, 1])])
+    for j, ax in enumerate(("g", "d")):
+        if ax in run.locked:
+            v[:, j] = 0.0
+    u_prev = np.vstack([u[:1], u[:-2]])
+    Z = np.column_stack([y_mid[:, 0], v[:, 0], y_mid[:, 1], v[:, 1], u[:-1, 0], u[:-1, 1], u_prev])
+    meas = filt.encoder_accel(y, centers)
+    W = filt.model_matrix(N, centers)
+    t = run.t0 + centers * run.Ts
+    du = np.vstack([np.zeros((1, 2)), np.diff(u, axis=0) / run.Ts])
+    feat = {
+        "t": t,
+        "g": filt.smooth(y[:, 0], centers),
+        "d": filt.smooth(y[:, 1], centers),
+        "g_dot": filt.smooth(np.append(v[:, 0], v[-1, 0]), centers),
+        "d_dot": filt.smooth(np.append(v[:, 1], v[-1, 1]), centers),
+        "i_q": filt.smooth(u[:, 0], centers),
+        "i_d": filt.smooth(u[:, 1], centers),
+        "di_q": filt.smooth(du[:, 0], centers),
+        "di_d": filt.smooth(du[:, 1], centers),
+    }
+    return PreparedRun(run.name, tuple(run.locked), valid, Z, W, meas, centers, feat)
+
+
+@dataclass
+class Residual:
+    """Filtered residual of one run under one model.
+
+    Attributes
+    ----------
+    run : PreparedRun
+        The run's data.
+    r : ndarray, shape (n_c, 2)
+        Residual ``measured - model`` per channel [m/s^2]; NaN in invalid channels.
+    model : ndarray, shape (n_c, 2)
+        Filtered model acceleration [m/s^2].
+    """
+
+    run: PreparedRun
+    r: np.ndarray
+    model: np.ndarray
+
+
+def residual_of(run: PreparedRun, accel: np.ndarray) -> Residual:
+    """Residual of ``run`` given the per-period model accelerations ``accel`` (shape (N-1, 2))."""
+    model = np.asarray(run.W @ accel)
+    r = run.meas - model
+    r[:, ~run.valid] = np.nan
+    return Residual(run, r, model)
+
+
+def autocorr_factor(r: np.ndarray, max_lag: int = 200) -> float:
+    """Variance inflation ``1 + 2 sum rho_k`` of an autocorrelated series (initial positive sequence).
+
+    ``n_eff = n / factor`` is the number of effectively independent samples
+    of a mean or a sum of squares; used by the information criterion and the
+    bin floors.
+    """
+    r = np.asarray(r, float)
+    r = r[np.isfinite(r)] - np.nanmean(r)
+    n = len(r)
+    if n < 8:
+        return 1.0
+    nfft = 1 << math.ceil(math.log2(2 * n))
+    f = np.fft.rfft(r, nfft)
+    ac = np.fft.irfft(f * np.conj(f), nfft)[: min(max_lag, n - 1) + 1]
+    if ac[0] <= 0:
+        return 1.0
+    rho = ac / ac[0]
+    s = 0.0
+    # Geyer's initial positive sequence: sum pairs while they stay positive.
+    for i in range(1, len(rho) - 1, 2):
+        pair = rho[i] + rho[i + 1]
+        if pair <= 0:
+            break
+        s += pair
+    return max(1.0, 1.0 + 2.0 * s)
+
+
+__all__ = [
+    "CHANNELS", "CHANNEL_AXIS", "Z_NAMES", "PreparedRun", "Residual", "ResidualSettings", "RunInput",
+    "ZeroPhaseFilter", "autocorr_factor", "prepare_run", "residual_of",
+]
