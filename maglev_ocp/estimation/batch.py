@@ -66,6 +66,12 @@ REL_BOUNDS: dict[str, tuple[float, float]] = {
 }
 #: Chebyshev nodes in 1/ell for the cogging regressor.
 N_CHEB = 32
+#: Nuisance parameters: Coulomb [N] and viscous [N s/m] friction of each guide (law of
+#: :class:`maglev_ocp.effects.Friction`), fitted alongside when ``BatchSettings.friction``.
+FRICTION_PARAMS: tuple[str, ...] = ("friction_coulomb_g", "friction_viscous_g", "friction_coulomb_d",
+                                    "friction_viscous_d")
+_FRICTION_SCALE = {"coulomb": 0.1, "viscous": 1.0}
+REL_BOUNDS.update({n: (-50.0, 500.0) for n in FRICTION_PARAMS})
 
 
 @dataclass
@@ -90,6 +96,14 @@ class BatchSettings:
         Lower bound on a block's residual RMS used for weighting [m/s^2].
     max_iter : int
         Ipopt iteration limit.
+    friction : bool
+        Also fit Coulomb and viscous friction of each free guide as nuisance
+        parameters (:data:`FRICTION_PARAMS`). Real guides have friction (seed
+        section III); left out, it biases C1 by a few per cent on the
+        horizontal runs, whose accelerations are small.
+    friction_v_reg : float
+        Velocity [m/s] of the tanh that stands in for sign(v) in the Coulomb
+        regressor (wider than the velocity estimates' noise).
     """
 
     names: tuple[str, ...] = BATCH_PARAMS
@@ -99,6 +113,8 @@ class BatchSettings:
     hac_lags: int | None = None
     weight_floor: float = 1e-3
     max_iter: int = 60
+    friction: bool = True
+    friction_v_reg: float = 1e-3
 
     def __post_init__(self) -> None:
         self.names = tuple(self.names)
@@ -198,6 +214,16 @@ def _cogging_accel(n_ell: int) -> ca.Function:
     return ca.Function("cog_accel", [z, p, ells], [ca.vertcat(*outs)], {"cse": True})
 
 
+@functools.cache
+def _friction_regressors() -> ca.Function:
+    """``(v, v_reg) -> [F(v; Fc=1), F(v; b=1)]``: unit Coulomb and viscous friction forces [N] (effects library)."""
+    from ..effects import Friction
+
+    v, v_reg = ca.SX.sym("v"), ca.SX.sym("v_reg")
+    return ca.Function("friction_regressors", [v, v_reg], [ca.vertcat(
+        Friction.force(v, 1.0, 0.0, 0.0, 1.0, v_reg), Friction.force(v, 0.0, 0.0, 1.0, 1.0, v_reg))])
+
+
 def _chebyshev(s: ca.MX | float, n: int) -> list:
     """Chebyshev polynomials ``T_0..T_n-1`` at ``s`` by the three-term recurrence."""
     T = [1.0 + 0 * s, s]
@@ -224,6 +250,8 @@ class BatchResult:
         Correlation matrix of the estimates.
     blocks : list of dict
         Per (run, axis) block: samples used and residual RMS [m/s^2].
+    nuisance : dict
+        Nuisance parameters fitted alongside (friction): ``{name: {value, stderr}}``.
     info : dict
         Solver status, iterations, timings, parameters held at the prior, settings.
     """
@@ -235,6 +263,7 @@ class BatchResult:
     stderr_naive: dict[str, float]
     correlation: np.ndarray
     blocks: list[dict]
+    nuisance: dict[str, dict[str, float]] = field(default_factory=dict)
     info: dict = field(default_factory=dict)
 
     def rel_stderr(self, name: str) -> float:
@@ -250,7 +279,8 @@ class BatchResult:
         return {
             "names": list(self.names), "values": self.values, "stderr": self.stderr,
             "stderr_naive": self.stderr_naive, "correlation": np.round(self.correlation, 6).tolist(),
-            "weakly_determined": self.weakly_determined(), "blocks": self.blocks, "info": self.info,
+            "weakly_determined": self.weakly_determined(), "nuisance": self.nuisance, "blocks": self.blocks,
+            "info": self.info,
         }
 
     def table(self) -> str:
@@ -262,6 +292,10 @@ class BatchResult:
                   "|---" * (len(self.names) + 1) + "|"]
         for i, n in enumerate(self.names):
             lines.append(f"| {n} | " + " | ".join(f"{v:+.3f}" for v in self.correlation[i]) + " |")
+        if self.nuisance:
+            lines += ["", "Nuisance parameters fitted alongside:", "", "| nuisance | estimate | std. error |",
+                      "|---|---|---|"]
+            lines += [f"| {n} | {q['value']:.4g} | {q['stderr']:.2g} |" for n, q in self.nuisance.items()]
         return "\n".join(lines)
 
     def save(self, path: str | os.PathLike) -> None:
@@ -295,7 +329,8 @@ def _corr_length(r: np.ndarray, max_lag: int) -> int:
 class _Problem:
     """The filtered equation error as numeric matrices: ``r(w) = r0 - R w_lin - xi0 * V(ell)``."""
 
-    def __init__(self, blocks: list[_Block], names: tuple[str, ...], p_prior: np.ndarray, nom: np.ndarray):
+    def __init__(self, blocks: list[_Block], names: tuple[str, ...], p_prior: np.ndarray, nom: np.ndarray,
+                 v_reg: float = 1e-3):
         m = get_model()
         self.names = names
         n = len(names)
@@ -349,6 +384,13 @@ class _Problem:
             r0.append(b.a_f - b.S @ b_avg_all[b.row, sl])
             Rb = np.zeros((len(b.a_f), n))
             Rb[:, lin_cols] = (b.S @ A_avg_all[b.row, sl]) * nom[lin_cols][None, :]
+            fc, fv = f"friction_coulomb_{b.axis}", f"friction_viscous_{b.axis}"
+            if fc in names:
+                (F,) = eval_samples(_friction_regressors(), b.x[:, b.row], v_reg)
+                M = p_prior[PARAM_NAMES.index("Mv" if b.axis == "g" else "Mh")]
+                for j, nm in ((0, fc), (1, fv)):
+                    c = names.index(nm)
+                    Rb[:, c] = (b.S @ F[j]) / M * nom[c]
             R.append(Rb)
             if self.fit_xi:
                 V.append(b.S @ C_all[sl])
@@ -412,18 +454,21 @@ def batch_estimate(
     blocks = _blocks(runs, h, D)
     if not blocks:
         raise ValueError("no run is long enough for the batch estimator's filter")
-    names = st.names
+    model_names = st.names
+    names = model_names + (FRICTION_PARAMS if st.friction else ())
     n = len(names)
-    idx = [PARAM_NAMES.index(nm) for nm in names]
+    nm_ = len(model_names)
+    idx = [PARAM_NAMES.index(nm) for nm in model_names]
     p_prior = prior.vector()
-    nom = np.where(np.abs(p_prior[idx]) > 0, p_prior[idx], NOMINAL.vector()[idx])
+    nom = np.concatenate([np.where(np.abs(p_prior[idx]) > 0, p_prior[idx], NOMINAL.vector()[idx]),
+                          [_FRICTION_SCALE[nm.split("_")[1]] for nm in names[nm_:]]])
 
     bar = None
     if progress:
         from tqdm import tqdm
 
         bar = tqdm(total=4, desc="batch fit", leave=False)
-    prob = _Problem(blocks, names, p_prior, nom)
+    prob = _Problem(blocks, names, p_prior, nom, st.friction_v_reg)
     w = ca.MX.sym("w", n)
     res = prob.residual(w)
     resid_fn = ca.Function("batch_resid", [w], [res])
@@ -433,7 +478,7 @@ def batch_estimate(
 
     lbw = np.array([REL_BOUNDS[nm][0] for nm in names])
     ubw = np.array([REL_BOUNDS[nm][1] for nm in names])
-    w0 = p_prior[idx] / nom
+    w0 = np.concatenate([p_prior[idx] / nom[:nm_], np.zeros(n - nm_)])
     if prob.fit_xi:  # start the cogging amplitude away from zero so that ell has a gradient
         j = names.index("xi0")
         w0[j] = max(w0[j], 0.25)
@@ -505,24 +550,32 @@ def batch_estimate(
     cov_naive = Hinv * float(r2 @ r2) / max(len(r2) - nf, 1)
     se = np.sqrt(np.clip(np.diag(cov), 0, None)) * nom[fi]
     se_naive = np.sqrt(np.clip(np.diag(cov_naive), 0, None)) * nom[fi]
-    dcov = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
-    corr = cov / np.outer(dcov, dcov)
     vals = w2 * nom
     p_new = p_prior.copy()
-    p_new[idx] = vals
-    fitted = tuple(names[i] for i in fi)
+    p_new[idx] = vals[:nm_]
+    fitted_all = [names[i] for i in fi]
+    model_pos = [q for q, i in enumerate(fi) if i < nm_]  # positions of the model parameters among the fitted
+    fitted = tuple(fitted_all[q] for q in model_pos)
+    cov_m = cov[np.ix_(model_pos, model_pos)]
+    dcov = np.sqrt(np.clip(np.diag(cov_m), 1e-300, None))
+    corr = cov_m / np.outer(dcov, dcov)
+    nuisance = {fitted_all[q]: {"value": float(vals[fi[q]]), "stderr": float(se[q])}
+                for q in range(len(fi)) if fi[q] >= nm_}
+    held_nuisance = [nm for nm in held if nm not in model_names]
+    held = [nm for nm in held if nm in model_names]
     at_bound = [names[i] for i in fi if min(w2[i] - lbw[i], ubw[i] - w2[i]) < 1e-6 * max(1.0, abs(w2[i]))]
     if bar is not None:
         bar.update(1)
         bar.close()
     return BatchResult(
         params=Params.from_vector(p_new), names=fitted,
-        values={nm: float(vals[i]) for nm, i in zip(fitted, fi, strict=True)},
-        stderr={nm: float(v) for nm, v in zip(fitted, se, strict=True)},
-        stderr_naive={nm: float(v) for nm, v in zip(fitted, se_naive, strict=True)},
-        correlation=corr, blocks=blk_info,
+        values={fitted_all[q]: float(vals[fi[q]]) for q in model_pos},
+        stderr={fitted_all[q]: float(se[q]) for q in model_pos},
+        stderr_naive={fitted_all[q]: float(se_naive[q]) for q in model_pos},
+        correlation=corr, blocks=blk_info, nuisance=nuisance,
         info={"pass1": info1, "pass2": info2, "n_residuals": len(r2), "n_blocks": len(blocks),
-              "held_at_prior": held, "at_bound": at_bound, "decimate": D, "sigma_t": st.sigma_t,
+              "held_at_prior": held, "nuisance_not_seen": held_nuisance, "at_bound": at_bound,
+              "decimate": D, "sigma_t": st.sigma_t,
               "kernel_taps": len(h), "hac_lags": [min(lags_used), max(lags_used)],
-              "seconds": time.perf_counter() - t_start},
+              "friction": st.friction, "seconds": time.perf_counter() - t_start},
     )

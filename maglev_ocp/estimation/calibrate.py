@@ -12,10 +12,11 @@ parameters (:mod:`.batch`), and returns a :class:`CalibrationResult`. Its
 * ``fig*.png`` - the seed's Fig. 3-9 and the estimator diagnostics.
 
 Which estimate becomes the calibrated value: the batch fit for every
-parameter it determines (it uses all runs at once and gives honest standard
-errors); a parameter the data does not see keeps the prior's value and is
-reported as such. The NPFISI tables are the seed's procedures, kept side by
-side as a cross-check.
+parameter it determines (it uses all runs at once, fits the guides' friction
+alongside as a nuisance, and gives standard errors); a parameter the data
+does not see keeps the prior's value (or V.C's cogging law) and is reported
+as such. The NPFISI tables are the seed's procedures, kept side by side as a
+cross-check.
 """
 
 from __future__ import annotations
@@ -175,6 +176,11 @@ class CalibrationResult:
             cross = f"{vd.final[n]:.5g}" if vd is not None and n in vd.final else "-"
             lines.append(f"| {n} | {v:.6g} | {sev} | {rel} | {self.source[n]} | {getattr(self.prior, n):.5g} | "
                          f"{cross} |")
+        if self.batch is not None and self.batch.nuisance:
+            lines.append("")
+            lines.append("Friction of the guides, fitted alongside as nuisance (Coulomb [N], viscous [N s/m]): "
+                         + ", ".join(f"{n.removeprefix('friction_')} {q['value']:.3g} ± {q['stderr']:.2g}"
+                                     for n, q in self.batch.nuisance.items()))
         weak = self.weakly_determined()
         lines.append("")
         if weak:
