@@ -52,8 +52,6 @@ class NMPCWeights(Strict):
     d_dot: float = Field(1e2, ge=0, description="velocity error [s^2/m^2]")
     i_q: float = Field(1.0, gt=0, description="i_q deviation from the feed-forward [1/A^2]")
     i_d: float = Field(1.0, gt=0, description="i_d deviation from the feed-forward [1/A^2]")
-    di_q: float = Field(0.0, ge=0, description="i_q change per period [1/A^2]")
-    di_d: float = Field(0.0, ge=0, description="i_d change per period [1/A^2]")
     terminal_scale: float = Field(1.0, gt=0, description="factor on the LQR terminal weight")
 
 
@@ -115,6 +113,8 @@ class NMPCSettings(Strict):
     jacobian: Literal["taylor", "exact"] = "taylor"
     weights: NMPCWeights = Field(default_factory=NMPCWeights)
     solver: Literal["admm"] = "admm"
+    qp: Literal["riccati", "dense"] = Field(
+        "riccati", description="ADMM x-update: stage-wise Riccati recursion (O(N)) or dense condensed Cholesky")
     iterations: int = Field(30, ge=1, le=500, description="ADMM iterations per step (fixed)")
     admm: ADMMOptions = Field(default_factory=ADMMOptions)
     soft_gap: SoftGap = Field(default_factory=SoftGap)
@@ -131,13 +131,13 @@ class NMPCSettings(Strict):
         w, a, sg, pl = self.weights, self.admm, self.soft_gap, self.plan
         return StepConfig(
             N=self.horizon, Ts=k.Ts, n_sub=self.n_sub, Q=(w.g, w.g_dot, w.d, w.d_dot), R=(w.i_q, w.i_d),
-            Rd=(w.di_q, w.di_d), terminal_scale=w.terminal_scale, n_iter=self.iterations,
+            terminal_scale=w.terminal_scale, n_iter=self.iterations,
             admm=ADMMSettings(rho_scale=a.rho_scale, rho_g_rel=a.rho_g_rel, sigma=a.sigma, alpha=a.alpha),
             i_max=self.current_limit, i_box=min(k.i_axis_max, self.current_limit), gap_lo=sg.g_min,
             gap_hi=sg.g_max, gap_stride=sg.stride, soft_w1=sg.w_linear, soft_w2=sg.w_quadratic,
             obs_eps=self.observer_eps, offset_free=self.offset_free, reference=mode,
             accel_margin=pl.accel_margin, gap_accel=pl.gap_accel, jerk_time=pl.jerk_time,
-            tol_prim=a.tol_prim, tol_dual=a.tol_dual, jacobian=self.jacobian, check_every=a.check_every,
+            tol_prim=a.tol_prim, tol_dual=a.tol_dual, jacobian=self.jacobian, check_every=a.check_every, qp=self.qp,
         )
 
 

@@ -196,8 +196,12 @@ def admm_rho(H: ca.SX, lam_min: float, s: ADMMSettings) -> ca.SX:
     condensed tracking QP, where the position error depends on the sum of all
     earlier inputs).
     """
-    n = H.shape[0]
-    lam_max = ca.fmax(ca.trace(H) - (n - 1) * lam_min, lam_min)
+    return rho_from_trace(ca.trace(H), H.shape[0], lam_min, s)
+
+
+def rho_from_trace(trace, n: int, lam_min: float, s: ADMMSettings):
+    """``rho`` of :func:`admm_rho` from ``trace(H)`` of an ``n x n`` Hessian (SX or MX)."""
+    lam_max = ca.fmax(trace - (n - 1) * lam_min, lam_min)
     return ca.fmin(ca.fmax(s.rho_scale * ca.sqrt(lam_min * lam_max), 1e-3), 1e3)
 
 
@@ -230,9 +234,9 @@ def admm_iteration(nv: int, ng: int, nu: int, radius: float, box: float, soft_w1
     Inputs: ``x (nv), z (nv + ng), y (nv + ng), L (nv x nv), dinv (nv), q (nv),
     G (ng x nv), ubar (nv), glb (ng), gub (ng), rho (2: penalty of the current
     rows and its inverse)``. Outputs: ``x, z, y`` after the
-    iteration, and (if ``residuals``) the primal and dual residuals (infinity
-    norms, scaled units); without, the residual outputs are 0 and the
-    iteration is cheaper (no second product with ``G'``).
+    iteration, and (if ``residuals``) the primal residual ``max |A x~ - z|`` and
+    the dual residual ``rho max |z_new - z|`` (scaled units); without, the
+    residual outputs are 0.
     ``ubar`` is the linearization point of the currents (the disk applies to
     ``ubar + v``); ``glb, gub`` are the gap bounds minus the gap's free response.
     """
@@ -279,11 +283,7 @@ def admm_iteration(nv: int, ng: int, nu: int, radius: float, box: float, soft_w1
     y_new = ca.vertcat(yu_new, yg_new)
     if residuals:
         r_prim = ca.mmax(ca.fabs(ca.vertcat(zt_u - zu_new, zt_g - zg_new)))
-        dz = z_new - z
-        dual = rho_u * dz[:nv]
-        if ng:
-            dual = dual + ca.mtimes(G.T, rho_g * dz[nv:])
-        r_dual = ca.mmax(ca.fabs(dual))
+        r_dual = rho_u * ca.mmax(ca.fabs(z_new - z))
     else:
         r_prim = r_dual = ca.SX(0)
     return ca.Function(

@@ -39,6 +39,7 @@ from maglev_ocp.params import NOMINAL
 
 from .nmpc_plan import half_duration, move_at, thrust_accel_available, u_for_accel
 from .nmpc_qp import ADMMSettings, admm_iteration, admm_rho, chol_sx, condensed_qp, project_disk
+from .nmpc_riccati import factor_function, iteration_function
 
 NX, NU = 4, 2
 N_MEAS = 3  #: meas = (g, d, fault)  [m, m, -]
@@ -62,7 +63,6 @@ class StepConfig:
     n_sub: int = 1
     Q: tuple[float, float, float, float] = (4e7, 1e2, 4e7, 1e2)
     R: tuple[float, float] = (1.0, 1.0)
-    Rd: tuple[float, float] = (0.0, 0.0)
     terminal_scale: float = 1.0
     n_iter: int = 30
     admm: ADMMSettings = field(default_factory=ADMMSettings)
@@ -83,6 +83,7 @@ class StepConfig:
     tol_prim: float = 1e-2
     tol_dual: float = 1e-2
     jacobian: str = "taylor"
+    qp: str = "riccati"
     check_every: int = 5
 
     @property
@@ -319,22 +320,15 @@ class StepBuilder:
         Al = [As[:, j * NX:(j + 1) * NX] for j in range(N)]
         Bl = [Bs[:, j * NU:(j + 1) * NU] for j in range(N)]
         cl = [cs[:, j] for j in range(N)]
-        # Cost: sum_k |x_k - r_k|_Q (P at N) + |u_k - uref_k|_R + |u_k - u_{k-1}|_Rd.
+        # Cost: sum_k |x_k - r_k|_Q (P at N) + |u_k - uref_k|_R.
         Ws = [ca.DM(np.diag(cfg.Q))] * N + [ca.DM(self.P)]
         E = [Xb[:, j] - Xr[:, j] for j in range(N + 1)]
         qp = condensed_qp(Al, Bl, cl, dx0, E, Ws, cfg.gap_stages, [Xb[0, j] for j in range(N + 1)])
         H, q = qp["H"], qp["q"]
         Rm = np.tile(cfg.R, N)
-        Rdm = np.tile(cfg.Rd, N)
         ub = ca.vec(Ub)
         H = H + ca.diag(ca.DM(Rm))
         q = q + ca.DM(Rm) * (ub - ca.vec(Ur))
-        if any(cfg.Rd):
-            Dm = np.eye(nv) - np.eye(nv, k=-NU)
-            d0 = ca.mtimes(ca.DM(Dm), ub) - ca.vertcat(u_prev, ca.SX.zeros(nv - NU))
-            DRd = ca.DM(Dm.T * Rdm)
-            H = H + ca.DM(DRd @ Dm)
-            q = q + ca.mtimes(DRd, d0)
         H = H + ca.if_else(fault > 0.5, math.nan, 0) * ca.DM(np.eye(nv))  # forced failure (tests)
         # Soft gap rows in millimetres.
         G = 1e3 * qp["G"]
@@ -359,16 +353,10 @@ class StepBuilder:
         return ca.Function("nmpc_kkt", [H, G], [Lc, dinv, ca.vertcat(rho, 1 / rho)], ["H", "G"],
                            ["L", "dinv", "rho"])
 
-    def build_prep(self) -> ca.Function:
-        """Observer, planner, RTI linearization, condensing and KKT factorization.
-
-        An MX composition of SX Functions (per-node and per-stage ones mapped
-        serially: loops in the generated C), so the code stays compact.
-        """
-        cfg, lay, m = self.cfg, self.layout, self.model
+    def _common(self, st, meas, ref, p) -> dict:
+        """Observer, planner, references and RTI linearization (MX calls of the SX pieces)."""
+        cfg, lay = self.cfg, self.layout
         N = cfg.N
-        st, meas, ref, p = (ca.MX.sym("state", lay.size), ca.MX.sym("meas", N_MEAS),
-                            ca.MX.sym("ref", 6, N + 1), ca.MX.sym("p", m.np_))
         S = lay.split(st)
         xhat, dist, plan, w = self._fn_head()(st, meas, ca.vertcat(ref[0, 0], ref[3, 0]), p)
         dts = ca.DM(np.arange(N + 1) * cfg.Ts).T
@@ -377,15 +365,30 @@ class StepBuilder:
         Xb = ca.reshape(S["X"], NX, N + 1)
         Ub = ca.reshape(S["U"], NU, N)
         As, Bs, cs = self._fn_stage().map(N, "serial")(Xb[:, :N], Ub, Xb[:, 1:], p, w)
-        dx0 = xhat - Xb[:, 0]
-        H, q, G, glb, gub = self._fn_condense()(As, Bs, cs, dx0, Xb, R, Ub, Uref, S["u_prev"], meas[2])
-        Lc, dinv, rho = self._fn_kkt()(H, G)
-        outs = [Lc, dinv, q, G, ca.vec(Ub), glb, gub, rho, S["y"], xhat, dist, plan, As, Bs, cs, dx0, Xb, R, Uref, w]
-        return ca.Function(
-            "nmpc_prep", [st, meas, ref, p], outs, ["state", "meas", "ref", "p"],
-            ["L", "dinv", "q", "G", "ubar", "glb", "gub", "rho", "y0", "xhat", "dist", "plan",
-             "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w"],
-        )
+        return {"ubar": ca.vec(Ub), "Ubar": Ub, "y0": S["y"], "u_prev": S["u_prev"], "xhat": xhat, "dist": dist,
+                "plan": plan, "As": As, "Bs": Bs, "cs": cs, "dx0": xhat - Xb[:, 0], "Xbar": Xb, "Xref": R,
+                "Uref": Uref, "w": w}
+
+    def build_prep(self) -> ca.Function:
+        """Observer, planner, RTI linearization and (dense path) condensing and KKT factorization.
+
+        An MX composition of SX Functions (per-node and per-stage ones mapped
+        serially: loops in the generated C), so the code stays compact.
+        """
+        cfg, lay, m = self.cfg, self.layout, self.model
+        N = cfg.N
+        st, meas, ref, p = (ca.MX.sym("state", lay.size), ca.MX.sym("meas", N_MEAS),
+                            ca.MX.sym("ref", 6, N + 1), ca.MX.sym("p", m.np_))
+        o = self._common(st, meas, ref, p)
+        names = ["ubar", "y0", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w"]
+        outs = [o[n] for n in names]
+        if cfg.qp == "dense":
+            H, q, G, glb, gub = self._fn_condense()(o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"],
+                                                    o["Ubar"], o["Uref"], o["u_prev"], meas[2])
+            Lc, dinv, rho = self._fn_kkt()(H, G)
+            names = ["L", "dinv", "q", "G", "glb", "gub", "rho", *names]
+            outs = [Lc, dinv, q, G, glb, gub, rho, *outs]
+        return ca.Function("nmpc_prep", [st, meas, ref, p], outs, ["state", "meas", "ref", "p"], names)
 
     def build_post(self) -> ca.Function:
         """Checks, fallback and warm-start shift (one SX Function)."""
@@ -451,39 +454,71 @@ class StepBuilder:
         ins = [v, y, ub, xhat, dist, plan, As, Bs, cs, dx0, Xb, Xref, Uref, w, p, r_prim, r_dual, iters_to_tol, nfail]
         return ca.Function("nmpc_post", ins, [u, state, stats, xhat], names, ["u", "state", "stats", "x_hat"])
 
-    def build_step(self) -> ca.Function:
-        """``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)`` (MX graph of SX Functions)."""
-        cfg, lay, m = self.cfg, self.layout, self.model
+    def _checkpoints(self) -> list[int]:
+        cfg = self.cfg
+        return sorted({*range(cfg.check_every, cfg.n_iter, cfg.check_every), cfg.n_iter})
+
+    def _track(self, i, rp_i, rd_i, state):
+        """Residual bookkeeping at checkpoints: iterations to reach the tolerance = first checkpoint below it
+        (assuming monotone progress), else n_iter."""
+        cfg, checks = self.cfg, self._checkpoints()
+        if i in checks:
+            nxt = checks[checks.index(i) + 1] if i != checks[-1] else i
+            state["rp"], state["rd"] = rp_i, rd_i
+            state["iters"] = state["iters"] + (nxt - i) * ca.logic_or(rp_i > cfg.tol_prim, rd_i > cfg.tol_dual)
+
+    def _admm_dense(self, o: dict):
+        """Fixed-budget ADMM on the dense condensed QP (reference implementation)."""
+        cfg = self.cfg
         nv, ng = cfg.N * NU, cfg.n_gap
-        prep = self.build_prep()
-        post = self.build_post()
         args = (nv, ng, NU, cfg.i_max, cfg.i_box, cfg.soft_w1, cfg.soft_w2, cfg.admm)
         it_res = admm_iteration(*args, residuals=True)
         it_fast = admm_iteration(*args, residuals=False)
-        st, meas, ref, p = (ca.MX.sym("state_in", lay.size), ca.MX.sym("meas", N_MEAS),
-                            ca.MX.sym("ref", 6, cfg.N + 1), ca.MX.sym("p", m.np_))
-        o = prep(state=st, meas=meas, ref=ref, p=p)
-        # ADMM warm start: zero correction (the linearization point is the shifted plan), shifted duals.
-        x = ca.MX.zeros(nv)
-        z = ca.MX.zeros(nv + ng)
-        yv = o["y0"]
-        rp = rd = ca.MX(0)
-        # Residuals at checkpoints (every `check_every` iterations and the last): iterations to reach the
-        # tolerance = first checkpoint below it (assuming monotone progress), else n_iter.
-        checks = sorted({*range(cfg.check_every, cfg.n_iter, cfg.check_every), cfg.n_iter})
-        iters_to_tol = ca.MX(checks[0])
+        # warm start: zero correction (the linearization point is the shifted plan), shifted duals
+        x, z, yv = ca.MX.zeros(nv), ca.MX.zeros(nv + ng), o["y0"]
+        track = {"rp": ca.MX(0), "rd": ca.MX(0), "iters": ca.MX(self._checkpoints()[0])}
         for i in range(1, cfg.n_iter + 1):
-            it = it_res if i in checks else it_fast
+            it = it_res if i in self._checkpoints() else it_fast
             x, z, yv, rp_i, rd_i = it(x, z, yv, o["L"], o["dinv"], o["q"], o["G"], o["ubar"], o["glb"], o["gub"],
                                       o["rho"])
-            if i in checks:
-                rp, rd = rp_i, rd_i
-                nxt = checks[checks.index(i) + 1] if i != checks[-1] else i
-                iters_to_tol = iters_to_tol + (nxt - i) * ca.logic_or(rp > cfg.tol_prim, rd > cfg.tol_dual)
+            self._track(i, rp_i, rd_i, track)
+        return z, yv, track
+
+    def _admm_riccati(self, o: dict, fault):
+        """Fixed-budget ADMM with the Riccati x-update (:mod:`controllers.nmpc_riccati`)."""
+        cfg = self.cfg
+        N, nv = cfg.N, cfg.N * NU
+        fac = factor_function(N, cfg.gap_stages, np.diag(cfg.Q), self.P, cfg.R, cfg.admm, cfg.gap_lo, cfg.gap_hi)
+        it = iteration_function(N, cfg.gap_stages, cfg.i_max, cfg.i_box, cfg.soft_w1, cfg.soft_w2, cfg.admm)
+        K, Sinv, PB, Pc, rho, qW, rbase, glb, gub, zg0 = fac(o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"],
+                                                              o["Xref"], o["Ubar"], o["Uref"], fault)
+        # warm start: zero correction (the linearization point is the shifted plan), gap rows at the free
+        # response, shifted duals
+        x, z, yv = ca.MX.zeros(nv), ca.vertcat(ca.MX.zeros(nv), zg0), o["y0"]
+        track = {"rp": ca.MX(0), "rd": ca.MX(0), "iters": ca.MX(self._checkpoints()[0])}
+        for i in range(1, cfg.n_iter + 1):
+            x, z, yv, rp_i, rd_i = it(x, z, yv, K, Sinv, PB, Pc, o["As"], o["Bs"], o["cs"], o["dx0"], qW, rbase,
+                                      o["ubar"], glb, gub, rho)
+            self._track(i, rp_i, rd_i, track)
+        return z, yv, track
+
+    def build_step(self) -> ca.Function:
+        """``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)`` (MX graph of SX Functions)."""
+        cfg, lay, m = self.cfg, self.layout, self.model
+        nv = cfg.N * NU
+        post = self.build_post()
+        st, meas, ref, p = (ca.MX.sym("state_in", lay.size), ca.MX.sym("meas", N_MEAS),
+                            ca.MX.sym("ref", 6, cfg.N + 1), ca.MX.sym("p", m.np_))
+        if cfg.qp == "dense":
+            o = self.build_prep()(state=st, meas=meas, ref=ref, p=p)
+            z, yv, tr = self._admm_dense(o)
+        else:
+            o = self._common(st, meas, ref, p)
+            z, yv, tr = self._admm_riccati(o, meas[2])
         nfail = st[lay.slices()["nfail"]]
         r = post(v=z[:nv], y=yv, ubar=o["ubar"], xhat=o["xhat"], dist=o["dist"], plan=o["plan"], As=o["As"],
                  Bs=o["Bs"], cs=o["cs"], dx0=o["dx0"], Xbar=o["Xbar"], Xref=o["Xref"], Uref=o["Uref"], w=o["w"],
-                 p=p, r_prim=rp, r_dual=rd, iters_to_tol=iters_to_tol, nfail=nfail)
+                 p=p, r_prim=tr["rp"], r_dual=tr["rd"], iters_to_tol=tr["iters"], nfail=nfail)
         return ca.Function(
             "nmpc_step", [st, meas, ref, p], [r["u"], r["state"], r["stats"], r["x_hat"]],
             ["state_in", "meas", "ref", "p"], ["u", "state_out", "stats", "x_hat"],

@@ -125,7 +125,7 @@ def test_planner_profile_is_consistent():
 
 def test_admm_converges_to_the_qp_solution_with_active_disks():
     """The fixed-budget ADMM agrees with an exact solve of the same condensed QP (active current disks)."""
-    st = NMPCSettings(current_limit=4.0, reference="plan")
+    st = NMPCSettings(current_limit=4.0, reference="plan", qp="dense")
     b = StepBuilder(st.step_config("plan"))
     init, prep = b.build_init(), b.build_prep()
     p = NOMINAL.vector()
@@ -134,8 +134,9 @@ def test_admm_converges_to_the_qp_solution_with_active_disks():
     s0 = np.asarray(init([0.02, -0.05, 0], ref, p)).ravel()
     # the estimate is 3 mm and 0.3 m/s off the plan: the correction saturates the current disks
     s0[b.layout.slices()["xhat"]] = [0.0205, 0.0, -0.047, 0.3]
-    o = prep(s0, [0.02, -0.05, 0], ref, p)
-    L, dinv, q, G, ubar, glb, gub, rho = (np.asarray(ca.densify(v)) for v in o[:8])
+    o = dict(zip(prep.name_out(), prep(s0, [0.02, -0.05, 0], ref, p), strict=True))
+    L, dinv, q, G, ubar, glb, gub, rho = (np.asarray(ca.densify(o[n])) for n in
+                                          ("L", "dinv", "q", "G", "ubar", "glb", "gub", "rho"))
     q, ubar, glb, gub, rho = (v.ravel() for v in (q, ubar, glb, gub, rho))
     nv, ng = len(q), G.shape[0]
     a = st.admm
@@ -169,6 +170,26 @@ def test_admm_converges_to_the_qp_solution_with_active_disks():
             assert np.max(np.abs(yj)) < 1e-6
     err = np.max(np.abs(ubar + run(st.iterations)[0] - u_ex))
     assert err < 0.05, err  # the budget used online: within 50 mA of the exact QP solution
+
+
+def test_riccati_and_dense_admm_give_the_same_step():
+    """The O(N) Riccati x-update produces the dense condensed ADMM's iterates (same QP, same rho)."""
+    p = NOMINAL.vector()
+    ref = np.zeros((6, 21))
+    ref[0], ref[3] = 0.02, 0.05
+    outs = {}
+    for qp in ("dense", "riccati"):
+        b = StepBuilder(NMPCSettings(reference="plan", qp=qp, current_limit=6.0).step_config("plan"))
+        init, step = b.build_init(), b.build_step()
+        s0 = np.asarray(init([0.02, -0.05, 0], ref, p)).ravel()
+        s0[b.layout.slices()["xhat"]] = [0.0203, 0.01, -0.048, 0.2]  # off the plan: disks active
+        outs[qp] = [np.asarray(v).ravel() for v in step(s0, [0.02, -0.05, 0], ref, p)]
+    u_d, st_d, stats_d, _ = outs["dense"]
+    u_r, st_r, stats_r, _ = outs["riccati"]
+    assert np.max(np.hypot(u_d[0], u_d[1])) > 5.99  # the first current is on its disk
+    np.testing.assert_allclose(u_r, u_d, atol=1e-10)
+    np.testing.assert_allclose(st_r, st_d, atol=1e-9)
+    np.testing.assert_allclose(stats_r[:4], stats_d[:4])
 
 
 def test_warm_start_is_the_shifted_plan():
