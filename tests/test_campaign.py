@@ -193,7 +193,7 @@ def test_scheduler_address_equals_in_process_and_failures_are_recorded(camp_dir:
     assert not t.loc[failing, "success"].any()
     assert r2.report.ran == len(t) and r2.report.remaining == 0
     for name in ("summary.csv", "summary.parquet", "by_case.csv", "success_rate.png", "settle_time.png",
-                 "vs_dev_plant_C1.png", "vs_grid_controller_gain.png"):
+                 "vs_dev_plant_C1.png", "vs_grid_controller_gain.png", "tradeoff.png"):
         assert (camp_dir / "two" / name).is_file(), name
     assert r2.summary.by_case()["runs"].sum() == len(t)
     from maglev_ocp.campaign.report import markdown_table

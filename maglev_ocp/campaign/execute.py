@@ -165,6 +165,14 @@ def execute_one(spec_d: dict[str, Any], base: dict[str, Any], campaign_name: str
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+def _load() -> float:
+    """1-minute load average of this machine (NaN where unknown): how busy the cores were."""
+    try:
+        return float(os.getloadavg()[0])
+    except (OSError, AttributeError):
+        return float("nan")
+
+
 def _one_line(exc: BaseException) -> str:
     msg = " ".join(str(exc).split())
     return f"{type(exc).__name__}: {msg}"[:500]
@@ -265,6 +273,7 @@ class ExecutionReport:
     scheduler: str | None = None
     interrupted: bool = False
     cpu_s: float = 0.0
+    load_avg_1m: float = float("nan")
 
     @property
     def efficiency(self) -> float:
@@ -292,7 +301,8 @@ class ExecutionReport:
         where = self.scheduler or (f"LocalCluster x{self.workers}" if self.workers > 1 else "in-process")
         return (f"{self.total} runs: {self.skipped} already done, {self.ran} ran now ({self.failed} failed), "
                 f"{self.remaining} remaining; {self.wall_s:.1f} s on {where} "
-                f"(runs' CPU {self.cpu_s:.1f} s, efficiency {self.efficiency:.2f})")
+                f"(runs' CPU {self.cpu_s:.1f} s, efficiency {self.efficiency:.2f}, "
+                f"load average {self.load_avg_1m:.1f} on {os.cpu_count()} CPUs)")
 
 
 def _write_plan(out_dir: Path, camp: Campaign, base: dict[str, Any], specs: list[RunSpec]) -> None:
@@ -499,7 +509,7 @@ def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, sch
     remaining = len(specs) - counts["ok"] - counts["failed"]
     report = ExecutionReport(out, len(specs), skipped, counts["ran"], counts["failed_now"], remaining,
                              time.perf_counter() - t0, 1 if not use_dask else workers, scheduler, interrupted,
-                             counts["cpu_s"])
+                             counts["cpu_s"], _load())
     report.save()
     if interrupted:
         raise KeyboardInterrupt

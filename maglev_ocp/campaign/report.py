@@ -88,12 +88,14 @@ class ScalingResult:
     runs: int
     wall_s: dict[int, float]
     efficiency: dict[int, float]
+    load_avg_1m: dict[int, float]
 
     def table(self) -> str:
         """Markdown table: workers, wall time, speed-up."""
         base = self.wall_s[min(self.wall_s)]
-        rows = ["| workers | wall time [s] | speed-up | CPU efficiency |", "|---:|---:|---:|---:|"]
-        rows += [f"| {w} | {t:.1f} | {base / t:.2f} | {self.efficiency[w]:.2f} |"
+        rows = ["| workers | wall time [s] | speed-up | CPU efficiency | load average (1 min) |",
+                "|---:|---:|---:|---:|---:|"]
+        rows += [f"| {w} | {t:.1f} | {base / t:.2f} | {self.efficiency[w]:.2f} | {self.load_avg_1m[w]:.1f} |"
                  for w, t in sorted(self.wall_s.items())]
         return f"campaign {self.campaign}, {self.runs} runs\n\n" + "\n".join(rows) + "\n"
 
@@ -117,6 +119,7 @@ def scaling(name_or_path: str | os.PathLike, workers: tuple[int, ...] = (1, 2), 
     camp = load_campaign(path)
     walls: dict[int, float] = {}
     eff: dict[int, float] = {}
+    load: dict[int, float] = {}
     n = 0
     for w in workers:
         tmp = Path(tempfile.mkdtemp(prefix=f"maglev-scaling-{camp.name}-"))
@@ -126,6 +129,7 @@ def scaling(name_or_path: str | os.PathLike, workers: tuple[int, ...] = (1, 2), 
             walls[w] = time.perf_counter() - t0
             n = res.report.ran
             eff[w] = res.report.cpu_s / (walls[w] * w)
+            load[w] = res.report.load_avg_1m
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
-    return ScalingResult(camp.name, n, walls, eff)
+    return ScalingResult(camp.name, n, walls, eff, load)

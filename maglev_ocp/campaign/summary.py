@@ -286,8 +286,26 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
     atomic_write_bytes(written[-1], fig)
     plt.close(fig)
 
-    # Metrics against each varied quantity.
+    # Trade-off of a sweep: per case, median settle time against median controller step time.
     t = s.finished
+    if any(c.startswith("grid.") for c in t.columns) and "m.step_time_us.median" in t:
+        fig, ax = plt.subplots(figsize=(7.0, 4.6))
+        for j, (lab, g) in enumerate(groups):
+            st = 1e3 * np.nanmedian(np.asarray(g["settle_time_max_s"], dtype=float))
+            stp = np.nanmedian(np.asarray(g["m.step_time_us.median"], dtype=float))
+            rate = 100 * float(np.mean(np.asarray(g["success"], dtype=bool)))
+            ax.scatter([stp], [st], s=40, color=f"C{j % 10}")
+            ax.annotate(f"{lab} [{rate:.0f} %]", (stp, st), fontsize=7, xytext=(4, 3), textcoords="offset points")
+        ax.set_xlabel("controller step time, median over runs [us]")
+        ax.set_ylabel("slowest settle time, median over runs [ms]")
+        ax.set_title(f"{s.name}: speed of motion vs computation per case [success rate]")
+        ax.grid(True, alpha=0.3)
+        fig.tight_layout()
+        written.append(out / "tradeoff.png")
+        atomic_write_bytes(written[-1], fig)
+        plt.close(fig)
+
+    # Metrics against each varied quantity.
     metrics_y = [("settle_time_max_s", 1e3, "slowest settle time [ms]"),
                  ("rms_error_max_m", 1e6, "worst steady RMS error [um]")]
     if "m.step_time_us.p99" in t:
