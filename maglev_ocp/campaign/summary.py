@@ -154,8 +154,8 @@ class CampaignSummary:
 
     def case_label(self, row: Any) -> str:
         """Label of a case: controller and its grid point."""
-        g = [f"{c.split('.')[-1]}={row[c]}" for c in self.table.columns if c.startswith("grid.")]
-        return f"c{int(row['case'])} {row['controller']}" + (f" ({', '.join(g)})" if g else "")
+        g = [f"{c.split('.')[-1]}: {_short(str(row[c]))}" for c in self.table.columns if c.startswith("grid.")]
+        return f"c{int(row['case'])} {row['controller']}" + (f" ({'; '.join(g)})" if g else "")
 
     def by_case(self) -> Any:
         """Per-case table: runs, failures, success rate (95 % Wilson interval), settle and step times."""
@@ -226,6 +226,17 @@ def summarize(out_dir: str | os.PathLike, specs: list[RunSpec], name: str = "cam
     return CampaignSummary(name, pd.DataFrame(rows))
 
 
+def _short(v: str) -> str:
+    """Compact label of a grid value (a JSON mapping becomes ``k=v, ...``)."""
+    try:
+        obj = json.loads(v)
+    except (TypeError, ValueError):
+        return v
+    if isinstance(obj, dict):
+        return ", ".join(f"{k_}={x:g}" if isinstance(x, (int, float)) else f"{k_}={x}" for k_, x in obj.items())
+    return v
+
+
 def _groups(s: CampaignSummary) -> list[tuple[str, Any]]:
     t = s.finished
     return [(s.case_label(g.iloc[0]), g) for _, g in t.groupby("case", sort=True)]
@@ -289,18 +300,19 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
     # Trade-off of a sweep: per case, median settle time against median controller step time.
     t = s.finished
     if any(c.startswith("grid.") for c in t.columns) and "m.step_time_us.median" in t:
-        fig, ax = plt.subplots(figsize=(7.0, 4.6))
+        fig, ax = plt.subplots(figsize=(7.5, 4.4 + 0.16 * n_g))
         for j, (lab, g) in enumerate(groups):
             st = 1e3 * np.nanmedian(np.asarray(g["settle_time_max_s"], dtype=float))
             stp = np.nanmedian(np.asarray(g["m.step_time_us.median"], dtype=float))
             rate = 100 * float(np.mean(np.asarray(g["success"], dtype=bool)))
-            ax.scatter([stp], [st], s=40, color=f"C{j % 10}")
-            ax.annotate(f"{lab} [{rate:.0f} %]", (stp, st), fontsize=7, xytext=(4, 3), textcoords="offset points")
+            ax.scatter([stp], [st], s=40, color=f"C{j % 10}", label=f"{lab} [{rate:.0f} % success]")
+            ax.annotate(lab.split()[0], (stp, st), fontsize=7, xytext=(4, 3), textcoords="offset points")
+        fig.legend(loc="lower center", fontsize=7, ncol=1 if n_g > 4 else 2, frameon=False)
         ax.set_xlabel("controller step time, median over runs [us]")
         ax.set_ylabel("slowest settle time, median over runs [ms]")
-        ax.set_title(f"{s.name}: speed of motion vs computation per case [success rate]")
+        ax.set_title(f"{s.name}: speed of motion vs computation per case")
         ax.grid(True, alpha=0.3)
-        fig.tight_layout()
+        fig.tight_layout(rect=(0, 0.17 * n_g / (4.4 / 0.16 + n_g) * 6 + 0.02, 1, 1))
         written.append(out / "tradeoff.png")
         atomic_write_bytes(written[-1], fig)
         plt.close(fig)
@@ -311,24 +323,35 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
     if "m.step_time_us.p99" in t:
         metrics_y.append(("m.step_time_us.p99", 1.0, "controller step time p99 [us]"))
     for col in [c for c in t.columns if c.startswith(("dev.", "grid."))]:
-        fig, axs = plt.subplots(1, len(metrics_y), figsize=(4.2 * len(metrics_y), 3.6), squeeze=False)
-        numeric = col.startswith("dev.") or np.issubdtype(np.asarray(t[col]).dtype, np.number)
-        cats = sorted({str(v) for v in t[col]}) if not numeric else []
-        for a, (ycol, scale, ylab) in zip(axs[0], metrics_y, strict=True):
-            for j, (lab, g) in enumerate(groups):
-                x = np.asarray(g[col], dtype=float) if numeric else np.array([cats.index(str(v)) for v in g[col]])
-                y = scale * np.asarray(g[ycol], dtype=float)
-                ok = np.asarray(g["success"], dtype=bool)
-                a.scatter(x[ok], y[ok], s=10, color=f"C{j % 10}", label=lab, alpha=0.7)
-                a.scatter(x[~ok], np.where(np.isfinite(y[~ok]), y[~ok], np.nan), s=18, marker="x",
-                          color=f"C{j % 10}", alpha=0.9)
-            if not numeric:
-                a.set_xticks(range(len(cats)), cats, fontsize=7, rotation=20)
-            xl = f"{col[4:]} deviation [%]" if col.startswith("dev.") else col[5:]
-            a.set_xlabel(xl)
-            a.set_ylabel(ylab)
-            a.grid(True, alpha=0.3)
-        axs[0][0].legend(fontsize=7, title="o success, x failure", title_fontsize=7)
+        fig, axs = plt.subplots(1, len(metrics_y), figsize=(4.2 * len(metrics_y), 3.8), squeeze=False)
+        if col.startswith("dev."):
+            # Scatter per case against the drawn deviation; o success, x failure.
+            for a, (ycol, scale, ylab) in zip(axs[0], metrics_y, strict=True):
+                for j, (lab, g) in enumerate(groups):
+                    x = np.asarray(g[col], dtype=float)
+                    y = scale * np.asarray(g[ycol], dtype=float)
+                    ok = np.asarray(g["success"], dtype=bool)
+                    a.scatter(x[ok], y[ok], s=10, color=f"C{j % 10}", label=lab, alpha=0.7)
+                    a.scatter(x[~ok], y[~ok], s=18, marker="x", color=f"C{j % 10}", alpha=0.9)
+                a.set_xlabel(f"{col[4:]} deviation [%]")
+                a.set_ylabel(ylab)
+                a.grid(True, alpha=0.3)
+            if n_g <= 6:
+                axs[0][0].legend(fontsize=7, title="o success, x failure", title_fontsize=7)
+        else:
+            # Box per grid value (pooled over the other varied settings), in grid order.
+            cats = list(dict.fromkeys(str(v) for v in t[col]))
+            names = [_short(v) for v in cats]
+            for a, (ycol, scale, ylab) in zip(axs[0], metrics_y, strict=True):
+                data = []
+                for c in cats:
+                    y = scale * np.asarray(t.loc[t[col].astype(str) == c, ycol], dtype=float)
+                    data.append(y[np.isfinite(y)] if np.isfinite(y).any() else np.array([np.nan]))
+                a.boxplot(data, positions=range(len(cats)), widths=0.5, showfliers=True)
+                a.set_xticks(range(len(cats)), names, fontsize=7, rotation=15 if len(cats) > 3 else 0)
+                a.set_xlabel(col[5:])
+                a.set_ylabel(ylab)
+                a.grid(True, axis="y", alpha=0.3)
         fig.suptitle(f"{s.name}: metrics vs {col}")
         fig.tight_layout()
         written.append(out / f"vs_{col.replace('.', '_')}.png")
