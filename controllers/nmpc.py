@@ -115,7 +115,7 @@ class NMPCSettings(Strict):
     solver: Literal["admm"] = "admm"
     qp: Literal["riccati", "dense"] = Field(
         "riccati", description="ADMM x-update: stage-wise Riccati recursion (O(N)) or dense condensed Cholesky")
-    iterations: int = Field(30, ge=1, le=500, description="ADMM iterations per step (fixed)")
+    iterations: int = Field(20, ge=1, le=500, description="ADMM iterations per step (fixed)")
     admm: ADMMOptions = Field(default_factory=ADMMOptions)
     soft_gap: SoftGap = Field(default_factory=SoftGap)
     observer_eps: float = Field(3e-3, gt=1e-4, le=0.1, description="high-gain observer time constant [s]")
@@ -277,7 +277,10 @@ class NMPC:
             fault = 1.0
             self._pending_faults = max(self._pending_faults - 1, 0)
         meas = np.array([y.y[0], y.y[1], fault])
-        u, st, stats, xh = self._step(self.state, meas, self._ref_matrix(y.t, ref), self.p)
+        refm = self._ref_matrix(y.t, ref)
+        t1 = time.perf_counter()
+        u, st, stats, xh = self._step(self.state, meas, refm, self.p)
+        kernel_us = (time.perf_counter() - t1) * 1e6
         self.state = st.copy()
         u = u.copy()
         dt_us = (time.perf_counter() - t0) * 1e6
@@ -294,6 +297,7 @@ class NMPC:
             "dist_g": sv["dist_g"],
             "dist_d": sv["dist_d"],
             "step_time_us": dt_us,
+            "kernel_us": kernel_us,
         }
         return ControlOutput(u=u, x_hat=xh.copy(), stats=out_stats)
 

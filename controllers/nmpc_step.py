@@ -64,7 +64,7 @@ class StepConfig:
     Q: tuple[float, float, float, float] = (4e7, 1e2, 4e7, 1e2)
     R: tuple[float, float] = (1.0, 1.0)
     terminal_scale: float = 1.0
-    n_iter: int = 30
+    n_iter: int = 20
     admm: ADMMSettings = field(default_factory=ADMMSettings)
     i_max: float = k.i_amp_max
     i_box: float = k.i_axis_max
