@@ -89,10 +89,10 @@ class PeerResult:
 
     Attributes
     ----------
-    ours : dict
-        Our compiled step (observer + planner + RTI + ADMM QP + shift) [us].
-    acados_wall, acados_internal : dict
-        acados ``solve()`` around the call, and its own ``time_tot`` [us].
+    ours, ours_cpu : dict
+        Our compiled step (observer + planner + RTI + ADMM QP + shift): wall clock and thread CPU time [us].
+    acados_wall, acados_cpu, acados_internal : dict
+        acados ``solve()``: wall clock and thread CPU time around the call, and its own ``time_tot`` [us].
     ratio_median, ratio_p99 : float
         Ours divided by acados (wall).
     u_diff_A : dict
@@ -102,7 +102,9 @@ class PeerResult:
     """
 
     ours: dict
+    ours_cpu: dict
     acados_wall: dict
+    acados_cpu: dict
     acados_internal: dict
     ratio_median: float
     ratio_p99: float
@@ -112,15 +114,18 @@ class PeerResult:
 
     def table(self) -> str:
         """Text table of the comparison."""
-        rows = [("ours (compiled C step)", self.ours), ("acados solve() wall", self.acados_wall),
-                ("acados time_tot", self.acados_internal)]
+        rows = [("ours: C step, wall", self.ours), ("acados: solve(), wall", self.acados_wall),
+                ("acados: time_tot", self.acados_internal), ("ours: C step, CPU", self.ours_cpu),
+                ("acados: solve(), CPU", self.acados_cpu)]
         s = self.settings
         lines = [f"N = {s['N']}, {s['steps']} steps after {s['warmup']} warm-up, driver: {s['driver']}, "
                  f"acados {s['qp_solver']} ({s['hpipm_mode']}), load average {s['loadavg']}",
                  f"{'':<26} {'median [us]':>12} {'p99 [us]':>10} {'max [us]':>10}"]
         for name, d in rows:
             lines.append(f"{name:<26} {d['median_us']:12.1f} {d['p99_us']:10.1f} {d['max_us']:10.1f}")
-        lines.append(f"ratio ours / acados: median {self.ratio_median:.2f}, p99 {self.ratio_p99:.2f}")
+        lines.append(f"ratio ours / acados (wall): median {self.ratio_median:.2f}, p99 {self.ratio_p99:.2f}; "
+                     f"(CPU): median {self.ours_cpu['median_us'] / self.acados_cpu['median_us']:.2f}, "
+                     f"p99 {self.ours_cpu['p99_us'] / self.acados_cpu['p99_us']:.2f}")
         u = self.u_diff_A
         lines.append(f"|u_ours - u_acados| [A]: median {u['median']:.3g}, p99 {u['p99']:.3g}, max {u['max']:.3g}")
         return "\n".join(lines)
@@ -245,8 +250,8 @@ def run(N: int = 20, driver: str = "ours", qp_solver: str = "PARTIAL_CONDENSING_
     y = plant.reset()
     ours.reset(y, Reference(DEFAULT_TOUR[0][0], DEFAULT_TOUR[0][1]))
     n_total = sum(round(h / k.Ts) for _, _, h in DEFAULT_TOUR)
-    t_ours, t_ac, t_ac_int, udiff = [], [], [], []
-    perf = time.perf_counter
+    t_ours, c_ours, t_ac, c_ac, t_ac_int, udiff = [], [], [], [], [], []
+    perf, cpu = time.perf_counter, time.thread_time
     bar = tqdm(total=n_total, desc=f"peer N={N}", unit="step", disable=not progress, leave=False)
     i = 0
     for g_t, d_t, hold in DEFAULT_TOUR:
@@ -269,19 +274,23 @@ def run(N: int = 20, driver: str = "ours", qp_solver: str = "PARTIAL_CONDENSING_
             solver.set(0, "ubx", xhat)
 
             def run_acados():
+                c0 = cpu()
                 t0 = perf()
                 solver.solve()
-                return (perf() - t0) * 1e6
+                t1 = perf()
+                return (t1 - t0) * 1e6, (cpu() - c0) * 1e6
 
             if i % 2 == 0:  # alternate the order: both see the same machine state on average
                 out = ours.step(y, ref)
-                ta = run_acados()
+                ta, ca_ = run_acados()
             else:
-                ta = run_acados()
+                ta, ca_ = run_acados()
                 out = ours.step(y, ref)
             u_ac = solver.get(0, "u")
             t_ours.append(out.stats["kernel_us"])
+            c_ours.append(out.stats["kernel_cpu_us"])
             t_ac.append(ta)
+            c_ac.append(ca_)
             t_ac_int.append(solver.get_stats("time_tot") * 1e6)
             udiff.append(float(np.max(np.abs(u_ac - out.u))))
             # warm start: shift acados's trajectory by one period (ours shifts inside its step)
@@ -298,10 +307,11 @@ def run(N: int = 20, driver: str = "ours", qp_solver: str = "PARTIAL_CONDENSING_
     bar.close()
     sl = slice(warmup, None)
     o, a, ai = summary(np.array(t_ours)[sl]), summary(np.array(t_ac)[sl]), summary(np.array(t_ac_int)[sl])
+    oc, ac = summary(np.array(c_ours)[sl]), summary(np.array(c_ac)[sl])
     ud = np.array(udiff)[sl]
     err = abs(plant.x[0] - DEFAULT_TOUR[-1][0]) + abs(plant.x[2] - DEFAULT_TOUR[-1][1]) if hasattr(plant, "x") else None
     return PeerResult(
-        ours=o, acados_wall=a, acados_internal=ai,
+        ours=o, ours_cpu=oc, acados_wall=a, acados_cpu=ac, acados_internal=ai,
         ratio_median=o["median_us"] / a["median_us"], ratio_p99=o["p99_us"] / a["p99_us"],
         u_diff_A={"median": float(np.median(ud)), "p99": float(np.percentile(ud, 99)), "max": float(ud.max())},
         settings={"N": N, "driver": driver, "qp_solver": qp_solver, "hpipm_mode": hpipm_mode,

@@ -123,6 +123,8 @@ def test_codegen_of_all_controllers_is_fast_documented_and_malloc_free():
                         m = re.search(rf"#define {base}_{last.name.upper()}_OFFSET (\d+)", hdr)
                         assert m and int(m.group(1)) + last.size == p.size, base
     assert "[m/s^2]" in hdr and "[A]" in hdr  # units from maglev_ocp.signals
+    defined = re.findall(r"^#define (\w+)", hdr, re.M)
+    assert len(defined) == len(set(defined)), "a macro is defined twice"
     n = codes["nmpc"].defines["HORIZON"]
     assert n >= 20 and f"#define NMPC_STATE_SIZE {codes['nmpc'].step.inputs[0].size}" in hdr
     mk = files["Makefile"]
@@ -265,6 +267,7 @@ def test_bench_reports_every_controller_and_backend(tmp_path):
         e = d["fl"][b]
         assert e["n"] == 90 and 0 < e["median_us"] <= e["p99_us"] <= e["max_us"]
     assert 0 < d["fl"]["c"]["kernel_median_us"] <= d["fl"]["c"]["median_us"]
+    assert 0 < d["fl"]["c"]["kernel_cpu_median_us"] <= d["fl"]["c"]["kernel_cpu_max_us"]
     assert "controller" in res.table() and res.save(tmp_path / "b.json").exists()
 
 

@@ -145,6 +145,13 @@ class ControllerCode:
 
 
 # ----------------------------------------------------------------------------- common ports
+def _design(settings) -> dict[str, Any]:
+    """The settings that define the generated code (JSON; ``backend`` left out: the same code serves both)."""
+    d = settings.model_dump(mode="json")
+    d.pop("backend", None)
+    return d
+
+
 def _unit_list(signals) -> str:
     return ", ".join(f"{s.name} [{s.unit}]" for s in signals)
 
@@ -262,7 +269,7 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
         constants={"PARAMS": (model_params.vector(), "model parameters p, " + _unit_list(PARAMETERS))},
         defines={"HORIZON": N, "STATE_SIZE": lay.size, "REF_COLS": N + 1, "N_STATS": len(STATS_NAMES),
                  "REF_MODE_PREVIEW": int(mode == "preview")},
-        settings={"mode": mode, **settings.model_dump(mode="json")},
+        settings={"mode": mode, **_design(settings)},
         notes=notes,
     )
 
@@ -305,7 +312,7 @@ def fl_code(settings, params: Params) -> ControllerCode:
                    "GAINS": (settings.gains(k.Ts), "gains: " + ", ".join(f"{g} [{gain_units[g]}]"
                                                                           for g in GAIN_FIELDS))},
         defines={"STATE_SIZE": FL_STATE_SIZE},
-        settings=settings.model_dump(mode="json"),
+        settings=_design(settings),
         notes=f"Observer time constant eps = {settings.observer_eps} s baked in "
               f"(disturbance estimate: {settings.disturbance}); p and gains are inputs.",
     )

@@ -56,9 +56,12 @@ def _port_doc(fn_macro: str, direction: str, idx: int, port: Port) -> list[str]:
     shape = f"{port.rows}x{port.cols}" if port.cols > 1 else f"{port.rows}"
     lines = [f"/* {direction.lower()}[{idx}] {port.name} ({shape}) [{port.unit}]: {port.description} */",
              f"#define {base} {idx}", f"#define {base}_SIZE {port.size}"]
-    off = 0
-    for pc in port.pieces:
+    off, used = 0, set()
+    for i, pc in enumerate(port.pieces):
         pm = _macro(base, pc.name)
+        if pm in used:  # names differing only in case (plan_t, plan_T): keep the macros distinct
+            pm = f"{pm}_{i}"
+        used.add(pm)
         lines.append(f"#define {pm}_OFFSET {off}  /* {pc.size} x [{pc.unit}] {pc.description} */")
         lines.append(f"#define {pm}_SIZE {pc.size}")
         off += pc.size
@@ -183,8 +186,11 @@ class GeneratedSources:
         """Write every file into ``out_dir`` (each atomically); returns the folder."""
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
+        umask = os.umask(0)
+        os.umask(umask)
         for name, text in self.files.items():
             atomic_write_text(out / name, text)
+            os.chmod(out / name, 0o666 & ~umask)  # sources readable like any checkout (temp files are 0600)
         return out
 
     def table(self) -> str:
