@@ -188,6 +188,7 @@ class NMPC:
         model_params = params if self.settings.use_cogging else params.without_cogging()
         self.p = model_params.vector()
         self._plan_obj = None
+        self._pcache: tuple[int, np.ndarray] | None = None
         self._mode: str | None = None
         self._k = 0
         self._pending_faults = 0
@@ -197,6 +198,7 @@ class NMPC:
     def set_reference_plan(self, plan) -> None:
         """Let the NMPC read the runner's reference ahead (a :class:`maglev_ocp.reference.ReferencePlan`)."""
         self._plan_obj = plan
+        self._pcache = None
 
     def _resolve_mode(self) -> str:
         mode = self.settings.reference
@@ -218,18 +220,36 @@ class NMPC:
             out[0, :], out[3, :] = g, d
             return out
         if self._plan_obj is not None:
-            tj = t + Ts * np.arange(N + 1)
-            # no preview across the next target switch: the current target is held until it comes
-            sw = np.asarray(getattr(self._plan_obj, "switch_times", []), dtype=float)
-            later = sw[sw > t + 1e-9]
-            if later.size:
-                tj = np.minimum(tj, later[0] - 1e-9)
-            return self._plan_obj.sample(tj).T.copy()
+            return self._preview(t)
         s = Ts * np.arange(N + 1)
         return np.vstack([
             ref.g + ref.g_dot * s + ref.g_ddot * s**2 / 2, ref.g_dot + ref.g_ddot * s, np.full(N + 1, ref.g_ddot),
             ref.d + ref.d_dot * s + ref.d_ddot * s**2 / 2, ref.d_dot + ref.d_ddot * s, np.full(N + 1, ref.d_ddot),
         ])
+
+    _CHUNK = 512  #: periods of the runner's plan sampled at once (the plan is read ahead in blocks)
+
+    def _preview(self, t: float) -> np.ndarray:
+        """The runner's plan at ``t + j Ts``, ``j = 0..N``, held at its value just before the next target switch.
+
+        No preview across a target switch: the current target is held until it
+        comes. The plan is sampled on the period grid in blocks (cached), so a
+        step costs a slice, not a plan evaluation.
+        """
+        N, Ts, plan = self.settings.horizon, k.Ts, self._plan_obj
+        kk = round(t / Ts)
+        c = self._pcache
+        if c is None or not (c[0] <= kk and kk + N < c[0] + len(c[1])):
+            grid = (kk + np.arange(self._CHUNK + N + 1)) * Ts
+            c = self._pcache = (kk, plan.sample(grid))
+        cols = c[1][kk - c[0]:kk - c[0] + N + 1].copy()
+        sw = np.asarray(getattr(plan, "switch_times", []), dtype=float)
+        later = sw[sw > t + 1e-9]
+        if later.size:
+            cut = (kk + np.arange(N + 1)) * Ts >= later[0] - 1e-9
+            if cut.any():
+                cols[cut] = plan.sample(np.array([later[0] - 1e-9]))[0]
+        return cols.T
 
     # ------------------------------------------------------------------- steps
     def _functions(self, mode: str):
@@ -257,6 +277,7 @@ class NMPC:
     def reset(self, y0: Measurement, ref: Reference) -> None:
         """Start at rest at the reading ``y0``, aiming at ``ref``."""
         self._mode = self._resolve_mode()
+        self._pcache = None
         self._functions(self._mode)
         meas = np.array([y0.y[0], y0.y[1], 0.0])
         (st,) = self._init(meas, self._ref_matrix(y0.t, ref), self.p)
