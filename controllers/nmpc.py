@@ -4,7 +4,7 @@ The controller is :class:`NMPC` (the :class:`~maglev_ocp.blocks.Controller`
 protocol); its settings are :class:`NMPCSettings`, the ``controller:`` block of
 a scenario. One control step is a single CasADi Function built by
 :mod:`controllers.nmpc_step` (observer, reference, RTI linearization,
-condensing, fixed-budget ADMM on the current disks and soft gap bounds,
+Riccati-structured fixed-budget ADMM on the current disks and soft gap bounds,
 fallback, warm-start shift); the Python backend evaluates it with CasADi, the
 C backend is the same Function code-generated (:mod:`maglev_ocp.codegen`).
 

@@ -6,21 +6,29 @@
    same gains and update, but symbolic) on the quantized encoders: state and a
    constant acceleration disturbance per axis (offset-free tracking);
 2. reference: a jerk-limited bang-bang move planned when the target changes
-   (:mod:`controllers.nmpc_plan`) or the runner's reference extrapolated, plus
-   feed-forward currents from the inverted model;
+   (:mod:`controllers.nmpc_plan`, ``plan`` mode) or the runner's reference over
+   the horizon (``preview`` mode), plus feed-forward currents from the inverted
+   model;
 3. real-time iteration (RTI) of multiple shooting on the shared model (with
    cogging unless ``p`` switches it off) plus the disturbance: one
    linearization per stage along the shifted previous solution;
-4. condensing into a dense QP in the ``2 N`` input corrections, KKT Cholesky;
-5. a fixed number of ADMM iterations (:mod:`controllers.nmpc_qp`): current disk
-   per stage (contains the +-8 A box), soft gap bounds;
+4. the QP in the ``2 N`` current corrections: ADMM penalty from the trace of
+   the condensed Hessian, then either the Riccati factorization of the ADMM
+   x-update (``qp = "riccati"``, default, :mod:`controllers.nmpc_riccati`) or
+   dense condensing and a KKT Cholesky (``qp = "dense"``, :mod:`controllers.nmpc_qp`);
+   both give the same iterates;
+5. a fixed number of ADMM iterations (OSQP's iteration): current disk per
+   stage (contains the +-8 A box, closed-form projection), soft gap bounds
+   (exact + quadratic penalty, closed-form proximal step);
 6. checks and fallback (non-finite solution -> LQR about the planned
    reference, clipped to the disk), warm-start shift of states, inputs and
    duals.
 
 The state vector layout is described by :class:`StateLayout`. The Function is
-an MX graph of a few SX Functions (prep, ADMM iteration called ``n_iter``
-times, post), so the generated C is compact and needs only fixed work arrays.
+an MX graph of a few SX Functions (observer/planner, per-node and per-stage
+maps, factorization, one ADMM iteration called ``n_iter`` times, post), so the
+generated C is compact, branch-free in its loop counts, and needs only fixed
+work arrays.
 """
 
 from __future__ import annotations
