@@ -96,5 +96,7 @@ def test_cogging_model_gain_at_15mm():
         res = run_scenario(sc, progress=False)
         _check(res)
         err[cog] = _moving_error(res)
+        print(f"cogging in the model: {cog}: tracking error of d during the moves: RMS {err[cog][0] * 1e6:.1f} um, "
+              f"max {err[cog][1] * 1e6:.1f} um")
     assert err[True][1] < k.position_tolerance  # the move itself stays within 0.1 mm of the reference
     assert err[True][0] < 0.8 * err[False][0] and err[True][1] < 0.8 * err[False][1], err
