@@ -19,18 +19,28 @@ The same OCP on both sides:
 * initial state and disturbance: our observer's estimate at that step;
 * warm start: both shift their previous solution by one period.
 
-The loop: our compiled NMPC (C backend) drives the plant through a tour of
-target steps; at every period acados solves the same OCP instance (RTI, one
-QP) and both are timed, in alternating order (interleaved, so machine load
-hits both alike). Reported: median, p99 and max of each, the ratios, and how
-far acados's first current is from ours (same problem: they should be close).
-With ``--driver acados`` acados's currents drive the plant instead (its own
-closed loop, our step shadowing).
+Procedure: (1) our compiled NMPC (C backend) drives the plant through a tour
+of target steps and every OCP instance is recorded (our step's inputs, and the
+instance as acados needs it); (2) the recorded instances are replayed, each
+solved by both, alternating which goes first (interleaved, so machine load and
+cache state hit both alike); acados warm-starts from its own previous solution
+shifted by one period, as our step does. Only the two solver calls are timed
+(wall clock and thread CPU time). Reported: median, p99 and max of each, the
+ratios, and how far acados's first current is from ours (same problem: they
+agree to micro-amperes once the ADMM has converged). ``--realtime`` runs the
+replay under SCHED_FIFO, as a rig's control loop would (other processes on a
+shared machine otherwise preempt either solver for milliseconds).
+
+acados options: SQP_RTI, Gauss-Newton, HPIPM. Its best configuration measured here
+is the default: FULL_CONDENSING_HPIPM, hpipm_mode SPEED, QP warm start (median
+196 us, p99 605 us in blocks of 50 steps under SCHED_FIFO, against 358 / 839 for
+PARTIAL_CONDENSING_HPIPM SPEED, 260 / 432 for FULL_CONDENSING SPEED_ABS without
+warm start, 730 / 1164 for PARTIAL_CONDENSING BALANCE).
 
 Run::
 
     .venv/bin/python benchmarks/peer_acados.py                  # N = 20, table
-    .venv/bin/python benchmarks/peer_acados.py --json out.json  # also the numbers
+    .venv/bin/python benchmarks/peer_acados.py --realtime --json out.json  # SCHED_FIFO, also the numbers
 
 acados comes from the optional extra (``pip install comma-deps-acados``); when
 it is not installed this prints why and exits 0 (skipped).
@@ -118,8 +128,11 @@ class PeerResult:
                 ("acados: time_tot", self.acados_internal), ("ours: C step, CPU", self.ours_cpu),
                 ("acados: solve(), CPU", self.acados_cpu)]
         s = self.settings
-        lines = [f"N = {s['N']}, {s['steps']} steps after {s['warmup']} warm-up, driver: {s['driver']}, "
-                 f"acados {s['qp_solver']} ({s['hpipm_mode']}), load average {s['loadavg']}",
+        lines = [f"N = {s['N']}, {s['steps']} steps after {s['warmup']} warm-up, interleaved every "
+                 f"{s.get('block', 1)} step(s), "
+                 f"acados {s['qp_solver']} ({s['hpipm_mode']}), ours {s['admm_iterations']} ADMM iterations "
+                 f"({s['cflags']}), load average {s['loadavg']}, "
+                 f"{'SCHED_FIFO' if s.get('realtime') else 'normal priority'}",
                  f"{'':<26} {'median [us]':>12} {'p99 [us]':>10} {'max [us]':>10}"]
         for name, d in rows:
             lines.append(f"{name:<26} {d['median_us']:12.1f} {d['p99_us']:10.1f} {d['max_us']:10.1f}")
@@ -215,19 +228,137 @@ DEFAULT_TOUR = [(0.020, 0.000, 0.10), (0.016, 0.045, 0.25), (0.024, -0.045, 0.25
                 (0.025, 0.050, 0.25), (0.020, 0.000, 0.20)]
 
 
-def run(N: int = 20, driver: str = "ours", qp_solver: str = "PARTIAL_CONDENSING_HPIPM", hpipm_mode: str = "SPEED",
-        qp_iter_max: int = 50, warm_start: int = 1, warmup: int = 50, build_dir: str | None = None,
-        iterations: int | None = None, progress: bool = True, seed: int = 7) -> PeerResult:
-    """Run the interleaved comparison (see the module docstring)."""
+def record_loop(ours, prep, io: dict, N: int, seed: int, progress: bool) -> dict[str, np.ndarray]:
+    """Phase 1: our compiled NMPC drives the plant through :data:`DEFAULT_TOUR`; record every OCP instance.
+
+    Per step: our step's inputs (``state_in, meas, ref``) and the instance as acados needs it (initial
+    state and disturbance from our observer, the references from our planner, via ``nmpc_prep``).
+    """
     from tqdm.auto import tqdm
 
-    from controllers.nmpc import NMPCSettings, step_functions
     from maglev_ocp import constants as k
     from maglev_ocp.blocks import Reference
+    from maglev_ocp.params import NOMINAL
+    from maglev_ocp.plant import Plant, PlantConfig
+
+    plant = Plant(PlantConfig.from_profile("default"), params=NOMINAL, seed=seed)
+    y = plant.reset()
+    ours.reset(y, Reference(DEFAULT_TOUR[0][0], DEFAULT_TOUR[0][1]))
+    rec: dict[str, list] = {n: [] for n in ("state", "meas", "ref", "xhat", "w", "Xref", "Uref", "u")}
+    n_total = sum(round(h / k.Ts) for _, _, h in DEFAULT_TOUR)
+    bar = tqdm(total=n_total, desc=f"record N={N}", unit="step", disable=not progress, leave=False)
+    for g_t, d_t, hold in DEFAULT_TOUR:
+        ref = Reference(g_t, d_t)
+        for _ in range(round(hold / k.Ts)):
+            ref_mat = ours._ref_matrix(y.t, ref)
+            meas = np.array([y.y[0], y.y[1], 0.0])
+            outs = prep(ours.state, meas, ref_mat, ours.p)
+            rec["state"].append(ours.state.copy())
+            rec["meas"].append(meas)
+            rec["ref"].append(np.ravel(ref_mat, order="F"))
+            for key in ("xhat", "w"):
+                rec[key].append(outs[io[key]].copy())
+            rec["Xref"].append(outs[io["Xref"]].reshape(N + 1, 4).copy())
+            rec["Uref"].append(outs[io["Uref"]].reshape(N, 2).copy())
+            out = ours.step(y, ref)
+            rec["u"].append(out.u.copy())
+            y = plant.step(out.u)
+            bar.update(1)
+    bar.close()
+    err = abs(plant.x[0] - DEFAULT_TOUR[-1][0]) + abs(plant.x[2] - DEFAULT_TOUR[-1][1])
+    data = {key: np.array(v) for key, v in rec.items()}
+    data["final_error_m"] = np.array(err)
+    return data
+
+
+def replay_interleaved(fn, solver, data: dict, p_vec: np.ndarray, N: int, realtime: bool, progress: bool,
+                       block: int = 1) -> dict[str, np.ndarray]:
+    """Phase 2: every recorded instance solved by both, alternating which goes first; both timed.
+
+    ``fn`` is our compiled ``nmpc_step`` (:class:`maglev_ocp.codegen.loader.CompiledFunction`), fed the
+    recorded inputs; acados gets the same instance and warm-starts from its own previous solution,
+    shifted by one period (as our step does internally). Only the two solver calls are timed.
+    ``block = 1``: the two alternate every step (each runs right after the other and after the Python
+    glue, i.e. with cold caches); ``block = B``: they alternate every ``B`` steps (each runs ``B`` steps
+    in a row, closer to a dedicated control loop).
+    """
+    from tqdm.auto import tqdm
+
+    from maglev_ocp.codegen.bench import realtime_priority
+
+    n = len(data["meas"])
+    out = {key: np.zeros(n) for key in ("t_ours", "c_ours", "t_ac", "c_ac", "t_ac_int", "udiff", "udiff_rec")}
+    u_ours, u_ac = np.zeros((n, 2)), np.zeros((n, 2))
+    perf, cpu = time.perf_counter, time.thread_time
+
+    def ours_step(i: int) -> None:
+        fn.args[0][:] = data["state"][i]
+        fn.args[1][:] = data["meas"][i]
+        fn.args[2][:] = data["ref"][i]
+        fn.args[3][:] = p_vec
+        c0 = cpu()
+        t0 = perf()
+        fn.call_raw()
+        t1 = perf()
+        c1 = cpu()
+        out["t_ours"][i], out["c_ours"][i] = (t1 - t0) * 1e6, (c1 - c0) * 1e6
+        u_ours[i] = fn.res[0]
+
+    def acados_step(i: int) -> None:
+        Xref, Uref = data["Xref"][i], data["Uref"][i]
+        pw = np.concatenate([p_vec, data["w"][i]])
+        for kk in range(N):
+            solver.set(kk, "yref", np.concatenate([Xref[kk], Uref[kk]]))
+            solver.set(kk, "p", pw)
+        solver.set(N, "yref", Xref[N])
+        solver.set(N, "p", pw)
+        solver.set(0, "lbx", data["xhat"][i])
+        solver.set(0, "ubx", data["xhat"][i])
+        c0 = cpu()
+        t0 = perf()
+        solver.solve()
+        t1 = perf()
+        c1 = cpu()
+        out["t_ac"][i], out["c_ac"][i] = (t1 - t0) * 1e6, (c1 - c0) * 1e6
+        out["t_ac_int"][i] = float(np.ravel(solver.get_stats("time_tot"))[0]) * 1e6
+        u_ac[i] = solver.get(0, "u")
+        xs = [solver.get(kk, "x") for kk in range(N + 1)]
+        us = [solver.get(kk, "u") for kk in range(N)]
+        for kk in range(N):  # warm start: shift by one period
+            solver.set(kk, "x", xs[kk + 1])
+            solver.set(kk, "u", us[min(kk + 1, N - 1)])
+
+    bar = tqdm(total=n, desc=f"replay N={N}", unit="step", disable=not progress or realtime, leave=False)
+    block = max(int(block), 1)
+    with realtime_priority(realtime) as rt:
+        for j, i0 in enumerate(range(0, n, block)):
+            idx = range(i0, min(i0 + block, n))
+            order = (ours_step, acados_step) if j % 2 == 0 else (acados_step, ours_step)  # alternate
+            if block == 1:
+                for f in order:
+                    f(i0)
+            else:
+                for f in order:
+                    for i in idx:
+                        f(i)
+            bar.update(len(idx))
+    bar.close()
+    out["udiff"] = np.max(np.abs(u_ac - u_ours), axis=1)
+    out["udiff_rec"] = np.max(np.abs(u_ours - data["u"]), axis=1)
+    out["realtime"] = np.array(bool(rt))
+    return out
+
+
+def run(N: int = 20, qp_solver: str = "FULL_CONDENSING_HPIPM", hpipm_mode: str = "SPEED",
+        qp_iter_max: int = 50, warm_start: int = 1, warmup: int = 50, build_dir: str | None = None,
+        iterations: int | None = None, progress: bool = True, seed: int = 7, realtime: bool = False,
+        cflags: str | None = None, block: int = 1) -> PeerResult:
+    """Record the closed loop, then replay it interleaved (see the module docstring and
+    :func:`replay_interleaved` for ``block``)."""
+    from controllers.nmpc import NMPCSettings, step_functions
     from maglev_ocp.codegen.backend import build_c_controller
     from maglev_ocp.fastcall import BufferedFunction
     from maglev_ocp.params import NOMINAL
-    from maglev_ocp.plant import Plant, PlantConfig
 
     why = setup_acados()
     if why:
@@ -236,7 +367,8 @@ def run(N: int = 20, driver: str = "ours", qp_solver: str = "PARTIAL_CONDENSING_
     if iterations is not None:
         upd["iterations"] = iterations
     settings = NMPCSettings(**upd)
-    ours = build_c_controller("nmpc", settings, NOMINAL, progress=progress)
+    ours = build_c_controller("nmpc", settings, NOMINAL, cflags=cflags, progress=progress)
+    ours.compile("plan")
     cfg = settings.step_config("plan")
     _, _, b = step_functions(cfg)
     prep = BufferedFunction(b.build_prep())
@@ -246,79 +378,27 @@ def run(N: int = 20, driver: str = "ours", qp_solver: str = "PARTIAL_CONDENSING_
     bdir = Path(build_dir) if build_dir else ROOT / "build" / "peer_acados" / f"N{N}_{qp_solver}_{hpipm_mode}"
     solver = build_acados(b, p_vec, bdir.resolve(), qp_solver, hpipm_mode, qp_iter_max, warm_start)
 
-    plant = Plant(PlantConfig.from_profile("default"), params=NOMINAL, seed=seed)
-    y = plant.reset()
-    ours.reset(y, Reference(DEFAULT_TOUR[0][0], DEFAULT_TOUR[0][1]))
-    n_total = sum(round(h / k.Ts) for _, _, h in DEFAULT_TOUR)
-    t_ours, c_ours, t_ac, c_ac, t_ac_int, udiff = [], [], [], [], [], []
-    perf, cpu = time.perf_counter, time.thread_time
-    bar = tqdm(total=n_total, desc=f"peer N={N}", unit="step", disable=not progress, leave=False)
-    i = 0
-    for g_t, d_t, hold in DEFAULT_TOUR:
-        ref = Reference(g_t, d_t)
-        for _ in range(round(hold / k.Ts)):
-            # the OCP instance of this period, as our step sees it (same state, reading and reference)
-            ref_mat = ours._ref_matrix(y.t, ref)
-            meas = np.array([y.y[0], y.y[1], 0.0])
-            outs = prep(ours.state, meas, ref_mat, p_vec)
-            xhat, w = outs[io["xhat"]], outs[io["w"]]
-            Xref = outs[io["Xref"]].reshape(N + 1, 4)
-            Uref = outs[io["Uref"]].reshape(N, 2)
-            pw = np.concatenate([p_vec, w])
-            for kk in range(N):
-                solver.set(kk, "yref", np.concatenate([Xref[kk], Uref[kk]]))
-                solver.set(kk, "p", pw)
-            solver.set(N, "yref", Xref[N])
-            solver.set(N, "p", pw)
-            solver.set(0, "lbx", xhat)
-            solver.set(0, "ubx", xhat)
-
-            def run_acados():
-                c0 = cpu()
-                t0 = perf()
-                solver.solve()
-                t1 = perf()
-                return (t1 - t0) * 1e6, (cpu() - c0) * 1e6
-
-            if i % 2 == 0:  # alternate the order: both see the same machine state on average
-                out = ours.step(y, ref)
-                ta, ca_ = run_acados()
-            else:
-                ta, ca_ = run_acados()
-                out = ours.step(y, ref)
-            u_ac = solver.get(0, "u")
-            t_ours.append(out.stats["kernel_us"])
-            c_ours.append(out.stats["kernel_cpu_us"])
-            t_ac.append(ta)
-            c_ac.append(ca_)
-            t_ac_int.append(solver.get_stats("time_tot") * 1e6)
-            udiff.append(float(np.max(np.abs(u_ac - out.u))))
-            # warm start: shift acados's trajectory by one period (ours shifts inside its step)
-            xs = [solver.get(kk, "x") for kk in range(N + 1)]
-            us = [solver.get(kk, "u") for kk in range(N)]
-            for kk in range(N):
-                solver.set(kk, "x", xs[kk + 1])
-                solver.set(kk, "u", us[min(kk + 1, N - 1)])
-            u_apply = out.u if driver == "ours" else np.clip(u_ac, -k.i_axis_max, k.i_axis_max)
-            y = plant.step(u_apply)
-            i += 1
-            if (i & 31) == 0:
-                bar.update(i - bar.n)
-    bar.close()
+    data = record_loop(ours, prep, io, N, seed, progress)
+    fn = ours._libs["plan"][1].fn
+    r = replay_interleaved(fn, solver, data, p_vec, N, realtime, progress, block)
     sl = slice(warmup, None)
-    o, a, ai = summary(np.array(t_ours)[sl]), summary(np.array(t_ac)[sl]), summary(np.array(t_ac_int)[sl])
-    oc, ac = summary(np.array(c_ours)[sl]), summary(np.array(c_ac)[sl])
-    ud = np.array(udiff)[sl]
-    err = abs(plant.x[0] - DEFAULT_TOUR[-1][0]) + abs(plant.x[2] - DEFAULT_TOUR[-1][1]) if hasattr(plant, "x") else None
+    o, a, ai = summary(r["t_ours"][sl]), summary(r["t_ac"][sl]), summary(r["t_ac_int"][sl])
+    oc, ac = summary(r["c_ours"][sl]), summary(r["c_ac"][sl])
+    ud = r["udiff"][sl]
+    if float(np.max(r["udiff_rec"])) > 0:  # replaying our recorded inputs must give the recorded currents
+        raise RuntimeError(f"replay of our step differs from the live run by {np.max(r['udiff_rec'])} A")
+    from maglev_ocp import constants as k
+
     return PeerResult(
         ours=o, ours_cpu=oc, acados_wall=a, acados_cpu=ac, acados_internal=ai,
         ratio_median=o["median_us"] / a["median_us"], ratio_p99=o["p99_us"] / a["p99_us"],
         u_diff_A={"median": float(np.median(ud)), "p99": float(np.percentile(ud, 99)), "max": float(ud.max())},
-        settings={"N": N, "driver": driver, "qp_solver": qp_solver, "hpipm_mode": hpipm_mode,
-                  "qp_iter_max": qp_iter_max, "qp_warm_start": warm_start, "admm_iterations": settings.iterations,
-                  "steps": len(t_ours) - warmup, "warmup": warmup, "cflags": ours.builds["plan"].cflags,
-                  "loadavg": [round(v, 2) for v in os.getloadavg()], "tour": DEFAULT_TOUR},
-        settled=None if err is None else bool(err < 2 * k.position_tolerance),
+        settings={"N": N, "driver": "ours (recorded), replayed interleaved", "block": block, "qp_solver": qp_solver,
+                  "hpipm_mode": hpipm_mode, "qp_iter_max": qp_iter_max, "qp_warm_start": warm_start,
+                  "admm_iterations": settings.iterations, "steps": len(r["t_ours"]) - warmup, "warmup": warmup,
+                  "cflags": ours.builds["plan"].cflags, "loadavg": [round(v, 2) for v in os.getloadavg()],
+                  "tour": DEFAULT_TOUR, "realtime": bool(r["realtime"])},
+        settled=bool(float(data["final_error_m"]) < 2 * k.position_tolerance),
     )
 
 
@@ -326,11 +406,14 @@ def main(argv=None) -> int:
     """Command line of the peer comparison."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--horizon", "-N", type=int, default=20)
-    ap.add_argument("--driver", choices=("ours", "acados"), default="ours")
-    ap.add_argument("--qp-solver", default="PARTIAL_CONDENSING_HPIPM",
+    ap.add_argument("--qp-solver", default="FULL_CONDENSING_HPIPM",
                     choices=("PARTIAL_CONDENSING_HPIPM", "FULL_CONDENSING_HPIPM"))
     ap.add_argument("--hpipm-mode", default="SPEED", choices=("SPEED_ABS", "SPEED", "BALANCE", "ROBUST"))
     ap.add_argument("--iterations", type=int, default=None, help="ADMM iterations of our step (default: settings)")
+    ap.add_argument("--realtime", action="store_true", help="time the loop under SCHED_FIFO (as on a rig; root)")
+    ap.add_argument("--block", type=int, default=1,
+                    help="alternate the solvers every BLOCK steps (1: every step, caches cold for both)")
+    ap.add_argument("--cflags", default=None, help="compiler flags of our step (default: the C backend's)")
     ap.add_argument("--json", default=None, metavar="FILE", help="also write the result as JSON")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
@@ -341,8 +424,9 @@ def main(argv=None) -> int:
     if not math.isfinite(args.horizon) or not 4 <= args.horizon <= 80:
         print("peer_acados: --horizon must be in 4..80", file=sys.stderr)
         return 2
-    res = run(N=args.horizon, driver=args.driver, qp_solver=args.qp_solver, hpipm_mode=args.hpipm_mode,
-              iterations=args.iterations, progress=not args.no_progress)
+    res = run(N=args.horizon, qp_solver=args.qp_solver, hpipm_mode=args.hpipm_mode,
+              iterations=args.iterations, progress=not args.no_progress, realtime=args.realtime,
+              cflags=args.cflags, block=args.block)
     print(res.table())
     if args.json:
         res.save(args.json)

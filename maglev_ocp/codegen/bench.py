@@ -16,6 +16,7 @@ each step is timed after a warm-up:
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import time
@@ -44,6 +45,29 @@ DEFAULT_SCENARIO: dict[str, Any] = {
 
 CONTROLLER_TYPES: tuple[str, ...] = ("nmpc", "fl", "pid")
 BACKENDS: tuple[str, ...] = ("python", "c")
+
+
+@contextlib.contextmanager
+def realtime_priority(enabled: bool = True, priority: int = 10):
+    """Run the block under ``SCHED_FIFO`` (as a rig's control loop runs), restoring the policy after.
+
+    On a shared machine other processes preempt a normal-priority loop for
+    milliseconds, which is what wall-clock tails then measure. Needs
+    CAP_SYS_NICE (root); yields whether real-time scheduling is in effect.
+    """
+    if not enabled or not hasattr(os, "sched_setscheduler"):
+        yield False
+        return
+    try:
+        old_policy, old_param = os.sched_getscheduler(0), os.sched_getparam(0)
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except (PermissionError, OSError):
+        yield False
+        return
+    try:
+        yield True
+    finally:
+        os.sched_setscheduler(0, old_policy, old_param)
 
 
 def stats_us(values: np.ndarray, prefix: str = "") -> dict[str, float]:
@@ -129,16 +153,18 @@ class BenchResult:
                     f"{f(v.get('kernel_max_us'))} {f(v.get('kernel_cpu_p99_us')):>10}")
         m = self.meta
         lines.append(f"scenario {m.get('scenario')}, {m.get('steps')} steps per run, first {m.get('warmup')} "
-                     f"dropped; CFLAGS {m.get('cflags')!r}; load average {m.get('loadavg')}")
+                     f"dropped; CFLAGS {m.get('cflags')!r}; load average {m.get('loadavg')}; "
+                     f"{'SCHED_FIFO' if m.get('realtime') else 'normal priority'}")
         return "\n".join(lines)
 
 
 def run_bench(scenario=None, controllers=CONTROLLER_TYPES, backends=BACKENDS, warmup: int = 50,
-              cflags: str | None = None, progress: bool = True) -> BenchResult:
+              cflags: str | None = None, progress: bool = True, realtime: bool = False) -> BenchResult:
     """Time each controller and backend over ``scenario`` (a path, mapping or ``Scenario``; default built in).
 
     The scenario's own controller settings are used for its controller type;
     the other types run with their default settings on the same targets and plant.
+    ``realtime``: run the closed loops under ``SCHED_FIFO`` (:func:`realtime_priority`).
     """
     from ..runner import run_scenario
     from ..scenario import Scenario, controller_classes, load_scenario, scenario_from_dict
@@ -154,7 +180,7 @@ def run_bench(scenario=None, controllers=CONTROLLER_TYPES, backends=BACKENDS, wa
         base = load_scenario(scenario)
     flags = cflags if cflags is not None else default_cflags()
     results: dict[str, dict[str, dict[str, Any] | None]] = {}
-    steps = 0
+    steps, rt_used = 0, False
     for ctype in controllers:
         if ctype == base.controller.type:
             sc = base
@@ -181,7 +207,9 @@ def run_bench(scenario=None, controllers=CONTROLLER_TYPES, backends=BACKENDS, wa
                     settings = settings.model_copy(update={"backend": "python"})
                 ctrl = cls(settings=settings, params=params)
             rec = _Recorder(ctrl)
-            res = run_scenario(sc, controller=rec, progress=progress, figures=False)
+            with realtime_priority(realtime) as rt:
+                res = run_scenario(sc, controller=rec, progress=progress and not rt, figures=False)
+            rt_used = rt
             steps = len(rec.step_us)
             sl = slice(min(warmup, max(steps - 1, 0)), None)
             entry: dict[str, Any] = {"n": len(rec.step_us[sl]), **stats_us(np.array(rec.step_us)[sl])}
@@ -191,8 +219,9 @@ def run_bench(scenario=None, controllers=CONTROLLER_TYPES, backends=BACKENDS, wa
             entry["all_settled"] = bool(res.metrics.all_settled) if hasattr(res.metrics, "all_settled") else None
             results[ctype][backend] = entry
     meta = {"scenario": base.name, "steps": steps, "warmup": warmup, "cflags": flags,
-            "loadavg": [round(v, 2) for v in os.getloadavg()]}
+            "loadavg": [round(v, 2) for v in os.getloadavg()], "realtime": rt_used}
     return BenchResult(results, meta)
 
 
-__all__ = ["BACKENDS", "CONTROLLER_TYPES", "DEFAULT_SCENARIO", "BenchResult", "run_bench", "stats_us"]
+__all__ = ["BACKENDS", "CONTROLLER_TYPES", "DEFAULT_SCENARIO", "BenchResult", "realtime_priority", "run_bench",
+           "stats_us"]
