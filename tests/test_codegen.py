@@ -146,6 +146,11 @@ def test_cli_codegen_needs_out_and_never_writes_cwd(tmp_path, monkeypatch, capsy
     assert "current directory" in capsys.readouterr().err
     assert main(["codegen", "--out", "x", "--controllers", "fl,mpc"]) == 2
     assert "--controllers" in capsys.readouterr().err
+    assert main(["codegen", "--out", "x", "--params", "missing.yaml"]) == 2
+    assert "missing.yaml" in capsys.readouterr().err
+    assert main(["bench", "--controllers", "fl,foo"]) == 2
+    assert "--controllers: foo" in capsys.readouterr().err
+    assert main(["bench", "--scenario", "missing.yaml"]) == 2
     assert list(tmp_path.iterdir()) == []
 
 

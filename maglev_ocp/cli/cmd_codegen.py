@@ -18,15 +18,15 @@ def register(sub) -> None:
         sub, "codegen", help="generate self-contained C of the controllers' steps (+ header, harness, Makefile)",
         description=(
             "Generate, with CasADi's code generator, plain C (libm only, no malloc in a step) of one\n"
-            "control step of each controller: the NMPC (observer, planner, RTI linearization,\n"
-            "condensing, ADMM QP, fallback, warm-start shift), feedback linearization (observer +\n"
-            "law) and the observer alone; plus maglev_controller.h (memory layout, inputs, outputs,\n"
+            "control step of each controller: the NMPC (observer, planner, RTI linearization, QP\n"
+            "solve by fixed-budget ADMM, fallback, warm-start shift), feedback linearization\n"
+            "(observer + law) and the observer alone; plus maglev_controller.h (memory layout, inputs, outputs,\n"
             "units), main.c (a harness that runs a controller over a rig-log CSV), a Makefile and a\n"
             "CMakeLists.txt. Controller settings come from a scenario (its controller block and\n"
             "controller_params) or a parameter file; the other controllers use their defaults.\n"
             "--out is required: nothing is written into the current directory by accident."
         ),
-        example="maglev codegen --out build/controller_c --scenario scenarios/envelope_tour.yaml --make",
+        example="maglev codegen --out build/controller_c --scenario scenarios/tour_nmpc.yaml --make",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (created; files replaced)")
     src = p.add_mutually_exclusive_group()

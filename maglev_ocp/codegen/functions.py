@@ -251,7 +251,7 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
         (Port("state", lay.size, 1, "mixed", "initial controller memory", state_pieces),),
     )
     step_unit = CodeUnit(
-        step, "one NMPC period: observer update, planner, RTI linearization, condensing, "
+        step, "one NMPC period: observer update, planner, RTI linearization, QP solve by "
         f"{settings.iterations} ADMM iterations, checks and fallback, warm-start shift",
         (state_port, meas_port, ref_port, p_port),
         (_u_port(), Port("state_out", lay.size, 1, "mixed", "controller memory for the next call", state_pieces),
