@@ -142,6 +142,28 @@ class ChannelView:
 
 
 @dataclass
+class HeldOut:
+    """The held-out data of a diagnosis, for scoring other models on the same samples (self-check).
+
+    Attributes
+    ----------
+    runs : list of PreparedRun
+        Held-out runs.
+    u : list of ndarray
+        Their commanded currents.
+    floors : ndarray
+        Channel floors used for normalization [m/s^2].
+    baseline : list of Residual
+        Baseline residuals of the held-out runs.
+    """
+
+    runs: list
+    u: list
+    floors: np.ndarray
+    baseline: list
+
+
+@dataclass
 class Diagnosis:
     """Everything a diagnosis found (see :mod:`.report` for the files it writes).
 
@@ -199,6 +221,7 @@ class Diagnosis:
     final_model: str = "baseline"
     settings: DiagnoseSettings | None = None
     quantization_floor: float = math.nan
+    heldout: HeldOut | None = None
 
     def to_json(self) -> dict:
         """The ``report.json`` content."""
@@ -357,6 +380,7 @@ def diagnose(
     rng = np.random.default_rng(np.random.SeedSequence(st.seed))
     timing: dict[str, float] = {}
     t_all = time.perf_counter()
+    cpu_all = time.process_time()
 
     runs = runs_from_dataset(dataset)
     Ts = float(dataset.sample_time)
@@ -533,6 +557,7 @@ def diagnose(
         traj = compare_trajectories(test_in, models, pvecs, horizon=st.horizon_s)
     timing["quantify_s"] = time.perf_counter() - t0
     timing["total_s"] = time.perf_counter() - t_all
+    timing["cpu_s"] = time.process_time() - cpu_all
     return Diagnosis(
         verdict=verdict, scores=rank(scores), floors=floors, remaining=rem, baseline_params=base_params,
         baseline_mode="given" if given else "calibrated", baseline_stderr=base_stderr,
@@ -540,7 +565,7 @@ def diagnose(
         trajectories=traj, train=[r.name for r in train_in], test=[r.name for r in test_in], timing=timing,
         residuals_before=all_before, residuals_after=all_after,
         final_model=show_spec.name if show_fit is not None else "baseline", settings=st,
-        quantization_floor=q_floor,
+        quantization_floor=q_floor, heldout=HeldOut(test, u_test, fvec, b_test),
     )
 
 

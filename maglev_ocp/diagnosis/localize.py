@@ -17,7 +17,8 @@ rates). The statistics account for the residual's autocorrelation: a bin of
 - **structure test**: the held-out gain of those maps, ``1 - SSE(r - map) /
   SSE(r)``, against its null distribution obtained by circularly shifting the
   training residual against its features (same autocorrelation, no link to
-  the state).
+  the state); a gap needs a significant *and* positive gain (at least 1 % of
+  the held-out variance predicted).
 - **spectrum**: Welch PSD per channel; narrow peaks above a running-median
   baseline are reported as bands.
 - **period scan**: least-squares fit of ``a cos(2 pi d / P) + b sin(2 pi d / P)``
@@ -307,7 +308,8 @@ class ChannelFloor:
 
 
 def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: int, quantization: float,
-                  rng: np.random.Generator, n_null: int = 12, z_crit: float = 4.0) -> ChannelFloor | None:
+                  rng: np.random.Generator, n_null: int = 12, z_crit: float = 4.0,
+                  min_gain: float = 0.01) -> ChannelFloor | None:
     """Noise floor and structure test of one channel (None if the channel has no data).
 
     Parameters
@@ -324,6 +326,10 @@ def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: 
         Number of null draws.
     z_crit : float
         Threshold on the gain's z-score.
+    min_gain : float
+        The maps must also predict at least this fraction of the held-out
+        variance: structure that does not predict held-out runs is no gap
+        (the null's mean gain is negative, the price of fitting noise).
     """
     tr, te = pool(train, channel), pool(test, channel)
     if tr.n < 50 or te.n < 50:
@@ -337,7 +343,7 @@ def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: 
     floor = float(np.sqrt(np.mean(e**2)))
     infl = autocorr_factor(e)
     return ChannelFloor(CHANNELS[channel], rms, min(floor, rms), quantization, infl, gain, mu, sd, z,
-                        bool(z > z_crit), te.n)
+                        bool(z > z_crit and gain > min_gain), te.n)
 
 
 # ----------------------------------------------------------------------- spectrum

@@ -1,0 +1,225 @@
+"""``maglev diagnose``: where the model and the rig part, which effect causes it, how far it shrinks."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from ..errors import UserError
+
+DESCRIPTION = """\
+Diagnose the sim-to-real gap of a rig-log dataset (maglev-rig-log/1, closed- or
+open-loop, any controller, locked axes allowed):
+
+  baseline      the nominal model without cogging, C1..C4 calibrated on the training
+                runs (or --params as given); whole runs are held out for scoring
+  residuals     filtered equation error: the same zero-phase FIR on the measured
+                accelerations and on the model's (every current-carrying regressor),
+                noise floor from the data (held-out runs, circular-shift null)
+  localization  residual binned over gap x position, velocities, currents, current
+                rates; Welch spectrum; least-squares period scan in d; regions
+  attribution   every library effect fitted as a CasADi NLP on the shared model, scored
+                on the held-out runs (reduction, significance, information criterion
+                with the effective sample size); confusable sets reported together
+  verdict       none | <effect> | a|b (confusable) | a+b (two effects) | unexplained
+
+Writes DIR/report.json, DIR/report.md and figures.
+
+Other modes:
+  --selftest N --seed S   blind self-check on N generated datasets (confusion matrix,
+                          localization accuracy, reduction vs the ideal one)
+  --generate DIR          write a diagnosis dataset from the plant (--effect, --seed)
+  --scenario FILE --effect NAME
+                          closed-loop view: the scenario on the model, on the rig with
+                          the effect, and with the controller's model carrying the
+                          fitted effect (settling time, steady error)
+"""
+
+
+def register(sub) -> None:
+    """Add the ``diagnose`` subcommand."""
+    from . import add_command
+
+    p = add_command(
+        sub, "diagnose", help="find, attribute and quantify the gap between model and data",
+        description=DESCRIPTION,
+        example="maglev diagnose data/rig --out results/diagnosis   |   maglev diagnose --selftest 30 --seed 1",
+    )
+    p.add_argument("dataset", nargs="?", help="rig-log dataset folder (with dataset.yaml)")
+    p.add_argument("--out", metavar="DIR", help="output folder (report.json, report.md, figures)")
+    p.add_argument("--params", metavar="FILE", help="parameter YAML: test this model as given (no calibration)")
+    p.add_argument("--candidates", nargs="+", metavar="EFFECT", help="restrict the candidate library")
+    p.add_argument("--seed", type=int, default=0, help="seed of the null draws / self-check / generation (default 0)")
+    p.add_argument("--fc", type=float, default=15.0, metavar="HZ", help="residual filter cut-off (default 15 Hz)")
+    p.add_argument("--no-figures", action="store_true", help="write report.json and report.md only")
+    p.add_argument("--selftest", type=int, metavar="N", help="run the blind self-check on N generated datasets")
+    p.add_argument("--baseline", choices=("given", "calibrated"), default="given",
+                   help="self-check: hand the nominal model to the diagnosis, or let it calibrate (default given)")
+    p.add_argument("--runs", type=int, default=6, metavar="N", help="generated datasets: runs (default 6)")
+    p.add_argument("--duration", type=float, default=10.0, metavar="S",
+                   help="generated datasets: seconds per run (default 10)")
+    p.add_argument("--keep-reports", action="store_true", help="self-check: write every dataset's report")
+    p.add_argument("--generate", metavar="DIR", help="write a diagnosis dataset from the plant into DIR")
+    p.add_argument("--effect", metavar="NAME", help="library effect for --generate / --scenario")
+    p.add_argument("--effect-param", nargs="+", default=[], metavar="KEY=VALUE",
+                   help="effect parameters in the plant (e.g. xi0=5 ell=0.004)")
+    p.add_argument("--scenario", metavar="FILE", help="closed-loop view on this scenario (needs --effect)")
+    p.add_argument("--fitted-from", metavar="REPORT",
+                   help="closed-loop view: take the fitted effect from this report.json (default: fit it)")
+    p.set_defaults(handler=run)
+
+
+def _kv(items: list[str]) -> dict[str, float]:
+    out = {}
+    for it in items:
+        if "=" not in it:
+            raise UserError(f"--effect-param: expected KEY=VALUE, got {it!r}")
+        key, val = it.split("=", 1)
+        try:
+            v = float(val)
+        except ValueError:
+            raise UserError(f"--effect-param: {key}: not a number: {val!r}") from None
+        if not math.isfinite(v):
+            raise UserError(f"--effect-param: {key}: must be finite")
+        out[key.strip()] = v
+    return out
+
+
+def _check_effect(name: str | None, allow_none: bool = False) -> None:
+    from ..effects import EFFECTS
+
+    if name is None:
+        return
+    if allow_none and name == "none":
+        return
+    if name not in EFFECTS:
+        raise UserError(f"--effect: unknown effect {name!r}; choose from {', '.join(EFFECTS)}"
+                        + (", none" if allow_none else ""))
+
+
+def _settings(args, **kw):
+    from ..diagnosis.diagnose import LIBRARY, DiagnoseSettings
+
+    if not (math.isfinite(args.fc) and 0.5 < args.fc <= 200):
+        raise UserError(f"--fc: {args.fc} Hz is outside (0.5, 200]")
+    if args.candidates:
+        bad = [c for c in args.candidates if c not in LIBRARY]
+        if bad:
+            raise UserError(f"--candidates: unknown {bad}; choose from {', '.join(LIBRARY)}")
+    return DiagnoseSettings(fc_hz=args.fc, candidates=args.candidates, seed=args.seed, **kw)
+
+
+def _generator(args):
+    from ..diagnosis.generate import GeneratorSettings
+
+    if not 2 <= args.runs <= 100:
+        raise UserError(f"--runs: {args.runs} is outside 2..100")
+    if not (math.isfinite(args.duration) and 2.0 <= args.duration <= 600.0):
+        raise UserError(f"--duration: {args.duration} s is outside 2..600 s")
+    return GeneratorSettings(n_runs=args.runs, run_duration=args.duration)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``maglev diagnose``."""
+    if args.seed < 0:
+        raise UserError(f"--seed: must be >= 0, got {args.seed}")
+    modes = [m for m in ("dataset", "selftest", "generate", "scenario") if getattr(args, m) is not None]
+    if len(modes) != 1:
+        raise UserError("give exactly one of DATASET, --selftest N, --generate DIR, --scenario FILE")
+    mode = modes[0]
+    if mode == "selftest":
+        return _selftest(args)
+    if mode == "generate":
+        return _generate(args)
+    if mode == "scenario":
+        return _scenario(args)
+    return _dataset(args)
+
+
+def _dataset(args) -> int:
+    from ..diagnosis import diagnose
+    from ..params import load_params
+    from ..riglog import read_dataset
+
+    if not args.out:
+        raise UserError("--out DIR is required")
+    folder = Path(args.dataset)
+    if not (folder / "dataset.yaml").is_file():
+        raise UserError(f"{folder}: not a dataset folder (no dataset.yaml)")
+    params = load_params(args.params) if args.params else None
+    st = _settings(args)
+    ds = read_dataset(folder)
+    d = diagnose(ds, params=params, settings=st, progress=True)
+    print(d.table())
+    if args.no_figures:
+        from ..diagnosis.report import write_report
+
+        write_report(d, args.out, figures=False)
+    else:
+        d.save(args.out)
+    print(f"report: {Path(args.out) / 'report.md'}")
+    return 0
+
+
+def _selftest(args) -> int:
+    from ..diagnosis.selftest import SelftestSettings, run_selftest
+
+    if args.selftest < 1:
+        raise UserError(f"--selftest: N must be >= 1, got {args.selftest}")
+    st = SelftestSettings(n=args.selftest, seed=args.seed, baseline=args.baseline, generator=_generator(args),
+                          diagnose=_settings(args, simulate=False))
+    res = run_selftest(st, progress=True, out_dir=args.out, keep_reports=args.keep_reports)
+    print(res.table())
+    if args.out:
+        print(f"written: {Path(args.out) / 'selftest.md'}")
+    return 0
+
+
+def _generate(args) -> int:
+    import numpy as np
+
+    from ..diagnosis.generate import generate_dataset
+    from ..diagnosis.selftest import selftest_plant
+    from ..params import NOMINAL
+
+    _check_effect(args.effect, allow_none=True)
+    eff = _kv(args.effect_param)
+    params = NOMINAL.without_cogging()
+    effects: dict = {}
+    if args.effect and args.effect != "none":
+        if args.effect == "cogging" and set(eff) <= {"xi0", "ell"}:
+            params = params.with_(xi0=eff.get("xi0", 4.0), ell=eff.get("ell", 3.6e-3))
+        else:
+            from ..effects import EFFECTS
+
+            bad = set(eff) - set(EFFECTS[args.effect].param_names())
+            if bad:
+                raise UserError(f"--effect-param: {args.effect} has no parameters {sorted(bad)}")
+            effects = {args.effect: {"enabled": True, **eff}}
+    cfg = selftest_plant("given", effects)
+    gen = generate_dataset(cfg, params, seed=np.random.SeedSequence(args.seed), settings=_generator(args),
+                           progress=True)
+    gen.save(args.generate)
+    print(gen.dataset.table())
+    print(f"written: {args.generate}")
+    return 0
+
+
+def _scenario(args) -> int:
+    from ..diagnosis.closed_loop import closed_loop_view, fitted_from_report
+    from ..diagnosis.generate import GeneratorSettings
+
+    if not args.effect:
+        raise UserError("--scenario needs --effect NAME")
+    _check_effect(args.effect)
+    if not Path(args.scenario).is_file():
+        raise UserError(f"{args.scenario}: no such scenario file")
+    fitted = fitted_from_report(args.fitted_from, args.effect) if args.fitted_from else None
+    view = closed_loop_view(args.scenario, args.effect, _kv(args.effect_param), fitted, progress=True,
+                            fit_settings=GeneratorSettings(n_runs=max(args.runs, 3), run_duration=args.duration))
+    print(view.table())
+    if args.out:
+        view.save(args.out)
+        print(f"written: {Path(args.out) / 'closed_loop.md'}")
+    return 0

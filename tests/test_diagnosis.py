@@ -1,0 +1,196 @@
+"""Sim-to-real gap diagnosis: residual machinery, floor, period scan, verdicts on plant datasets."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from maglev_ocp import constants as k
+from maglev_ocp.diagnosis import DiagnoseSettings, diagnose
+from maglev_ocp.diagnosis.candidates import CandidateSpec, residuals_with
+from maglev_ocp.diagnosis.generate import GeneratorSettings, generate_dataset, vibration_force
+from maglev_ocp.diagnosis.localize import Samples, channel_floor, period_scan
+from maglev_ocp.diagnosis.residuals import ResidualSettings, RunInput, ZeroPhaseFilter, prepare_run
+from maglev_ocp.diagnosis.selftest import selftest_plant
+from maglev_ocp.params import NOMINAL
+
+SMALL = GeneratorSettings(n_runs=4, run_duration=7.0)
+BASE = NOMINAL.without_cogging()
+
+
+def _zoh_run(model, p, n=3000, seed=0, q=0.0):
+    """A ZOH trajectory of the shared model (fine RK4) under a PD-stabilized random current, quantized by q."""
+    rng = np.random.default_rng(seed)
+    F = model.step(k.Ts, 20)
+    x = np.array([0.018, 0.0, 0.0, 0.0])
+    u_eq = np.asarray(model.u_eq(0.018, 0.0, p)).ravel()
+    Y, U = np.zeros((n, 2)), np.zeros((n, 2))
+    for i in range(n):
+        Y[i] = x[[0, 2]] if q == 0 else np.round(x[[0, 2]] / q) * q
+        t = i * k.Ts
+        g_ref, d_ref = 0.018 + 0.002 * math.sin(2 * math.pi * 0.7 * t), 0.02 * math.sin(2 * math.pi * 0.4 * t)
+        i_d = u_eq[1] + 900 * (x[0] - g_ref) * 0.5 + 12 * x[1] + 0.05 * rng.standard_normal()
+        i_q = 2.0 * (x[2] - d_ref) * 40 + 4 * x[3] + 0.05 * rng.standard_normal()
+        U[i] = [i_q, i_d]
+        x = np.asarray(F(x, U[i], p)).ravel()
+    return RunInput("synthetic", k.Ts, Y, U)
+
+
+def test_residual_of_exact_model_is_zero(model):
+    """Noise-free ZOH data of the model itself: the filtered equation error vanishes (the D2/K alignment is exact)."""
+    p = BASE.vector()
+    run = _zoh_run(model, p)
+    filt = ZeroPhaseFilter(ResidualSettings())
+    pr = prepare_run(run, filt)
+    res = residuals_with(CandidateSpec("baseline"), None, [pr], p)[0]
+    scale = np.sqrt(np.mean(pr.meas**2, axis=0))
+    assert scale.min() > 0.05  # the trajectory does accelerate
+    rms = np.sqrt(np.mean(res.r**2, axis=0))
+    assert np.all(rms < 2e-3 * scale), (rms, scale)
+    # A half-period timing error (what an uncompensated ZOH would give) is far above that.
+    shifted = RunInput("shifted", k.Ts, run.y[1:], run.u[:-1])
+    res2 = residuals_with(CandidateSpec("baseline"), None, [prepare_run(shifted, filt)], p)[0]
+    assert np.sqrt(np.mean(res2.r**2)) > 20 * np.sqrt(np.mean(res.r**2))
+
+
+def test_quantization_floor_matches_the_residual_of_quantized_data(model):
+    """10 um encoders: the residual's rms is the analytic quantization floor (within a factor 2)."""
+    p = BASE.vector()
+    run = _zoh_run(model, p, q=k.encoder_resolution, n=6000)
+    filt = ZeroPhaseFilter(ResidualSettings())
+    pr = prepare_run(run, filt)
+    res = residuals_with(CandidateSpec("baseline"), None, [pr], p)[0]
+    rms = float(np.sqrt(np.mean(res.r**2)))
+    q = filt.quantization_floor()
+    assert 1e-4 < q < 1e-2
+    assert 0.3 * q < rms < 2.0 * q, (rms, q)
+
+
+def _noise_residuals(n_runs, n, rng, signal=None):
+    from maglev_ocp.diagnosis.residuals import PreparedRun, Residual
+
+    out = []
+    for i in range(n_runs):
+        t = np.arange(n) * 0.008
+        g = 0.018 + 0.005 * np.sin(2 * np.pi * 0.05 * t + i)
+        d = 0.045 * np.sin(2 * np.pi * 0.11 * t + 2 * i)
+        feat = {"t": t, "g": g, "d": d, "g_dot": np.gradient(g, t), "d_dot": np.gradient(d, t),
+                "i_q": 0.1 * np.sin(t), "i_d": 1 + 0.1 * np.cos(t), "di_q": np.cos(t), "di_d": np.sin(t)}
+        r = 0.01 * rng.standard_normal((n, 2))
+        if signal is not None:
+            r[:, 1] += signal(g, d)
+        pr = PreparedRun(f"r{i}", (), np.array([True, True]), np.zeros((0, 8)), None, np.zeros((n, 2)),
+                         np.arange(n), feat)
+        out.append(Residual(pr, r, np.zeros((n, 2))))
+    return out
+
+
+def test_noise_floor_and_structure_test():
+    """Pure noise: floor = rms and no structure; a state-dependent term: structure, floor below the rms."""
+    rng = np.random.default_rng(1)
+    noise = _noise_residuals(6, 1500, rng)
+    fl = channel_floor(noise[:4], noise[4:], 1, 1e-3, rng)
+    assert not fl.significant
+    assert fl.floor == pytest.approx(fl.rms, rel=0.05)
+    assert fl.floor == pytest.approx(0.01, rel=0.1)
+    gap = _noise_residuals(6, 1500, rng, signal=lambda g, d: 0.02 * np.sin(np.pi * d / k.t1))
+    fl2 = channel_floor(gap[:4], gap[4:], 1, 1e-3, rng)
+    assert fl2.significant
+    assert fl2.floor < 0.8 * fl2.rms
+    assert fl2.floor == pytest.approx(0.01, rel=0.3)
+
+
+def test_period_scan_finds_a_planted_period():
+    """A sinusoid in d with a 13.3 mm period: the scan finds it within 2 %; on noise it finds nothing."""
+    rng = np.random.default_rng(3)
+    P = 13.3e-3
+    d = np.concatenate([0.045 * np.sin(np.linspace(0, 20, 4000) + j) for j in range(3)])
+    g = 0.018 + 0.004 * np.sin(np.linspace(0, 7, len(d)))
+    run = np.repeat(np.arange(3), 4000)
+    feat = {"g": g, "d": d}
+    s = Samples(0.02 * np.sin(2 * np.pi * d / P + 0.4) + 0.02 * rng.standard_normal(len(d)), feat, run)
+    ps = period_scan(s, rng)
+    assert ps.significant
+    assert ps.best_period == pytest.approx(P, rel=0.02)
+    assert ps.best_amplitude == pytest.approx(0.02, rel=0.2)
+    s0 = Samples(0.02 * rng.standard_normal(len(d)), feat, run)
+    assert not period_scan(s0, rng).significant
+
+
+@pytest.fixture(scope="module")
+def clean_dataset():
+    cfg = selftest_plant("given", {})
+    return generate_dataset(cfg, BASE, seed=11, settings=SMALL)
+
+
+@pytest.fixture(scope="module")
+def cogging_dataset():
+    cfg = selftest_plant("given", {})
+    return generate_dataset(cfg, BASE.with_(xi0=3.0, ell=4.2e-3), seed=12, settings=SMALL)
+
+
+def test_verdict_none_on_a_clean_dataset(clean_dataset, tmp_path):
+    """Noise, quantization and limits only: verdict none, no region, no effect selected."""
+    d = diagnose(clean_dataset.dataset, params=BASE, settings=DiagnoseSettings(simulate=False))
+    assert d.verdict.verdict == "none", d.table()
+    assert not d.regions
+    assert not any(s.selected for s in d.scores)
+    # The residual is at the floor: the floor is a few times the quantization floor at most.
+    for f in d.floors.values():
+        assert not f.significant
+        assert f.floor < 0.05
+    d.save(tmp_path)
+    rep = json.loads((tmp_path / "report.json").read_text())
+    assert rep["verdict"] == "none"
+    for key in ("effects", "regions", "noise_floor", "baseline_params"):
+        assert key in rep
+
+
+def test_cogging_is_attributed_with_its_parameters(cogging_dataset, tmp_path):
+    """The seed's cogging law in the plant, a cogging-free model: verdict cogging, xi0 and ell recovered."""
+    d = diagnose(cogging_dataset.dataset, params=BASE, settings=DiagnoseSettings())
+    assert d.verdict.verdict == "cogging", d.table()
+    top = d.scores[0]
+    assert top.name == "cogging" and top.selected
+    assert top.reduction > 0.8
+    assert top.params["xi0"] == pytest.approx(3.0, rel=0.1)
+    assert top.params["ell"] == pytest.approx(4.2e-3, rel=0.1)
+    assert top.stderr["xi0"] is not None and top.stderr["xi0"] < 0.3
+    # The cogging gap lives at small gaps; the period scan sees the slot pitch in the vertical channel.
+    assert d.regions and min(r.g_range_m[0] for r in d.regions) < 0.014
+    assert d.views_before["vertical"].period.match in ("t1", "t1/2")
+    # The augmented model's short simulated windows follow the held-out runs better.
+    tr = d.trajectories.rms
+    assert tr["augmented"]["g"] < tr["baseline"]["g"]
+    d.save(tmp_path)
+    for f in ("report.md", "report.json", "residual_maps.png", "spectra.png", "overlay.png"):
+        assert (tmp_path / f).is_file()
+
+
+def test_out_of_library_effect_is_unexplained():
+    """A 7.3 Hz vertical vibration (not in the library): unexplained, vertical channel, band around 7.3 Hz."""
+    cfg = selftest_plant("given", {})
+    gen = generate_dataset(cfg, BASE, seed=13, settings=SMALL, extra_force=vibration_force(0.4, 7.3, "g"))
+    d = diagnose(gen.dataset, params=BASE, settings=DiagnoseSettings(simulate=False))
+    assert d.verdict.verdict == "unexplained", d.table()
+    regs = d.remaining_regions or d.regions
+    vert = [r for r in regs if r.channel == "vertical" and r.freq_band_hz]
+    assert vert, regs
+    assert any(r.freq_band_hz[0] - 0.3 <= 7.3 <= r.freq_band_hz[1] + 0.3 for r in vert)
+
+
+def test_cli_errors_are_one_line(tmp_path, capsys):
+    """Bad input: exit code 2 and one line naming the problem."""
+    from maglev_ocp.cli import main
+
+    assert main(["diagnose", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "dataset.yaml" in err[0]
+    assert main(["diagnose", "--selftest", "0"]) == 2
+    assert main(["diagnose", "--scenario", "scenarios/tour_fl.yaml", "--effect", "gremlins"]) == 2
+    assert "unknown effect" in capsys.readouterr().err
+    assert main(["diagnose", "--generate", str(tmp_path / "g"), "--effect", "friction", "--effect-param", "x"]) == 2
+    assert main(["diagnose"]) == 2
