@@ -200,6 +200,10 @@ def test_scheduler_address_equals_in_process_and_failures_are_recorded(camp_dir:
 
     md = markdown_table({"toy": r2})
     assert md.count("\n| toy | c") == n_cases(camp) and "success [%]" in md
+    from maglev_ocp.campaign.report import executions_table
+
+    ex = executions_table(camp_dir, ("one", "two"))
+    assert f"| two | {len(t)} | 2 |" in ex and f"| one | {len(t)} | 1 |" in ex
 
 
 def test_stop_and_resume_matches_uninterrupted(camp_dir: Path) -> None:

@@ -47,6 +47,27 @@ def markdown_table(results: dict[str, CampaignResult]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def executions_table(campaigns_dir: Path, names: tuple[str, ...]) -> str:
+    """Markdown: every invocation that ran something (runs, workers, wall time, CPU efficiency, load).
+
+    Step times in the tables are wall-clock measurements of the controller's
+    computation: on a machine busy with other work (load average above the
+    number of CPUs) they are inflated, which this table makes visible.
+    """
+    import json
+
+    lines = ["| campaign | runs executed | workers | wall time [s] | CPU efficiency | load average (1 min) |",
+             "|---|---:|---:|---:|---:|---:|"]
+    for name in names:
+        p = Path(campaigns_dir) / name / "executions.jsonl"
+        for line in (p.read_text().splitlines() if p.is_file() else []):
+            e = json.loads(line)
+            if e.get("ran", 0) > 0:
+                lines.append(f"| {name} | {e['ran']} | {e['workers']} | {e['wall_s']:.0f} "
+                             f"| {e.get('efficiency', float('nan')):.2f} | {e.get('load_avg_1m', float('nan')):.1f} |")
+    return "\n".join(lines) + f"\n\n({os.cpu_count()} CPUs on the machine that wrote this.)\n"
+
+
 def run_shipped(results_dir: str | os.PathLike, names: tuple[str, ...] = ROBUSTNESS, workers: int = 2,
                 progress: bool = True) -> dict[str, CampaignResult]:
     """Run (or resume) shipped campaigns into ``<results_dir>/campaigns/<name>`` and write ``robustness.md``.
@@ -74,7 +95,7 @@ def run_shipped(results_dir: str | os.PathLike, names: tuple[str, ...] = ROBUSTN
     text = (
         "# Campaign results\n\nSuccess: every target settled within 0.1 mm on both axes (true state) and "
         "no stop hit.\nRegenerate with `maglev campaign campaigns/<name>.yaml --out results/campaigns/<name> "
-        f"--workers {workers}`.\n\n" + markdown_table(results)
+        f"--workers {workers}`.\n\n" + markdown_table(results) + "\n" + executions_table(out, names)
     )
     atomic_write_text(out / ("robustness.md" if set(names) <= set(ROBUSTNESS) else "campaigns.md"), text)
     return results
