@@ -35,7 +35,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.stats as st
 
 from .candidates import FitResult
 from .residuals import Residual, autocorr_factor
@@ -65,69 +64,33 @@ def raw_rms(res: Sequence[Residual], channel: int | None = None) -> float:
     return float(np.sqrt(np.mean(x**2)))
 
 
-def sample_loss(res: Sequence[Residual], floors: np.ndarray, block_s: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
-    """Per-sample loss (sum over valid channels of the floor-normalized squared residual) and block ids.
+def paired_z(e_a: np.ndarray, e_b: np.ndarray) -> float:
+    """Significance that model b fits the held-out samples better than model a (larger z: b better).
 
-    Blocks are ``block_s`` long pieces of each run; samples of different runs
-    never share a block. The same held-out runs give aligned arrays for every
-    model, so losses can be compared sample by sample.
+    ``e_a``, ``e_b``: aligned floor-normalized residuals of the two models on
+    the same held-out samples, ``delta = e_a - e_b`` the difference of the two
+    models' predictions. If b's extra structure were fitted noise, ``delta``
+    would be independent of the held-out noise ``e_b``, and
+    ``mean(e_a^2) - mean(e_b^2) = 2 mean(e_b delta) + mean(delta^2)`` would have
+    mean ``-mean(delta^2)`` or less and standard deviation
+    ``2 sigma rms(delta) sqrt(inflation / n)``, with ``sigma`` and the
+    autocorrelation inflation measured on ``e_b``. So
+
+    ``z = (mean(e_a^2) - mean(e_b^2)) / (2 sigma rms(delta) sqrt(inflation / n))``
+
+    is conservative under "no difference", and grows as ``rms(delta) sqrt(n_eff) / (2 sigma)``
+    when b captures a real gap of size ``rms(delta)``.
     """
-    loss, ids = [], []
-    nb = 0
-    for r in res:
-        n = r.run.n
-        if n == 0:
-            continue
-        e = np.zeros(n)
-        for c in range(2):
-            if r.run.valid[c]:
-                e += (r.r[:, c] / floors[c]) ** 2
-        t = r.run.feat["t"]
-        dt = float(np.median(np.diff(t))) if n > 1 else 1.0
-        per = max(round(block_s / dt), 1)
-        b = np.arange(n) // per
-        loss.append(e)
-        ids.append(b + nb)
-        nb += int(b.max()) + 1
-    if not loss:
-        return np.zeros(0), np.zeros(0, int)
-    return np.concatenate(loss), np.concatenate(ids)
-
-
-def paired_z(loss_a: np.ndarray, loss_b: np.ndarray, blocks: np.ndarray) -> float:
-    """Significance that model b has a smaller held-out loss than model a (larger z: b better).
-
-    Two tests valid under "no difference", the larger z is kept:
-
-    - Diebold-Mariano: the mean loss difference over its autocorrelation-corrected
-      standard error (``1 + 2 sum rho_k`` of the difference itself); conservative
-      when the improvement is strongly structured;
-    - Wilcoxon signed-rank over blocks of the loss difference (0.5 s blocks are
-      far longer than the residual's noise correlation, so they are nearly
-      independent under the null); robust to improvements that differ a lot
-      from block to block (a gap that lives only at small gaps).
-    """
-    q = loss_a - loss_b
-    n = len(q)
-    if n < 10:
+    n = len(e_b)
+    if n < 10 or len(e_a) != n:
         return 0.0
-    sd = float(np.std(q, ddof=1))
-    z_dm = 0.0
-    if sd > 0:
-        z_dm = float(np.mean(q) / (sd * math.sqrt(autocorr_factor(q) / n)))
-    nb = int(blocks.max()) + 1 if len(blocks) else 0
-    z_w = 0.0
-    if nb >= 6:
-        dq = np.bincount(blocks, weights=q, minlength=nb)
-        dq = dq[dq != 0]
-        m = len(dq)
-        if m >= 6:
-            ranks = st.rankdata(np.abs(dq))
-            w_plus = float(ranks[dq > 0].sum())
-            mu = m * (m + 1) / 4
-            sig = math.sqrt(m * (m + 1) * (2 * m + 1) / 24)
-            z_w = (w_plus - mu) / sig
-    return max(z_dm, z_w)
+    delta = e_a - e_b
+    rd = float(np.sqrt(np.mean(delta**2)))
+    if rd == 0:
+        return 0.0
+    sig = float(np.sqrt(np.mean(e_b**2)))
+    infl = autocorr_factor(e_b)
+    return float((np.mean(e_a**2) - np.mean(e_b**2)) / (2 * sig * rd * math.sqrt(infl / n)))
 
 
 @dataclass
@@ -179,8 +142,7 @@ class EffectScore:
     selected: bool = False
     confusable_with: list[str] = field(default_factory=list)
     note: str = ""
-    loss_after: np.ndarray | None = None  # per-sample held-out loss (for paired comparisons)
-    blocks: np.ndarray | None = None
+    e_after: np.ndarray | None = None  # floor-normalized held-out residual (for paired comparisons)
     r2_after: float = math.nan  # mean floor-normalized squared held-out residual (1 = at the floor)
 
     def to_dict(self) -> dict:
@@ -227,9 +189,7 @@ def score(name: str, fit: FitResult | None, base_fit: FitResult, before: Sequenc
     Rb2, Ra2 = float(np.mean(eb**2)), float(np.mean(ea**2))
     gap = Rb2 - 1.0
     closes = (Rb2 - Ra2) / max(gap, Rb2 - Ra2, 1e-12)
-    lb, blocks = sample_loss(before, floors)
-    la, _ = sample_loss(after, floors)
-    z = paired_z(lb, la, blocks)
+    z = paired_z(eb, ea)
     rb, ra = raw_rms(before), raw_rms(after)
     chans = {}
     for c, cname in enumerate(("vertical", "horizontal")):
@@ -239,7 +199,7 @@ def score(name: str, fit: FitResult | None, base_fit: FitResult, before: Sequenc
     dbic = (fit.bic() - base_fit.bic()) if fit is not None else 0.0
     sig = bool(z >= rules.z_min and dbic <= -rules.bic_margin)
     return EffectScore(name, fit, params, stderr, rb, ra, chans, 1 - ra / rb if rb > 0 else 0.0,
-                       float(np.clip(closes, -1.0, 1.0)), z, dbic, sig, note=note, loss_after=la, blocks=blocks,
+                       float(np.clip(closes, -1.0, 1.0)), z, dbic, sig, note=note, e_after=ea,
                        r2_after=Ra2)
 
 
@@ -288,7 +248,7 @@ def decide(scores: Sequence[EffectScore], gap_detected: bool, rules: VerdictRule
     for s in sig:
         if s is best or s.closes < rules.closes_min:
             continue
-        zc = paired_z(s.loss_after, best.loss_after, best.blocks) if s.loss_after is not None else 0.0
+        zc = paired_z(s.e_after, best.e_after) if s.e_after is not None else 0.0
         if zc < rules.confusable_z:
             conf.append(s.name)
             reasons.append(f"{s.name} explains the held-out runs as well (paired z = {zc:.1f}): confusable")
@@ -305,5 +265,5 @@ def rank(scores: Sequence[EffectScore]) -> list[EffectScore]:
     return sorted(scores, key=lambda s: (not s.significant, -s.reduction, s.delta_bic))
 
 
-__all__ = ["EffectScore", "Verdict", "VerdictRules", "decide", "paired_z", "rank", "raw_rms", "sample_loss", "score",
+__all__ = ["EffectScore", "Verdict", "VerdictRules", "decide", "paired_z", "rank", "raw_rms", "score",
            "stack"]

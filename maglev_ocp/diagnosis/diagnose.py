@@ -87,7 +87,7 @@ class DiagnoseSettings(Strict):
     z_min, bic_margin, closes_min, confusable_z, second_min : float
         Verdict thresholds (see :class:`~.attribution.VerdictRules`).
     n_null : int
-        Null draws of the structure test.
+        Null draws (circular shifts) of the period scan's threshold.
     seed : int
         Seed of the null draws and subsampling (same seed, same report).
     horizon_s : float
@@ -422,7 +422,7 @@ def diagnose(
     q_floor = filt.quantization_floor()
     floors: dict[str, ChannelFloor] = {}
     for c in range(2):
-        fl = channel_floor(b_train, b_test, c, q_floor, rng, st.n_null)
+        fl = channel_floor(b_train, b_test, c, q_floor)
         if fl is not None:
             floors[CHANNELS[c]] = fl
     fvec = np.array([floors[ch].floor if ch in floors else 1.0 for ch in CHANNELS])
@@ -449,10 +449,14 @@ def diagnose(
         if fl.significant:
             evidence.append(f"{ch}: the residual has state structure beyond the floor (held-out map gain "
                             f"{fl.gain:.1%}, z = {fl.z:.1f})")
+    for c, ch in enumerate(CHANNELS):
+        # A spectral line counts as a gap only if the training and the held-out runs both show it.
+        lines = _consistent_lines(b_train, b_test, c, fs, st.fc_hz)
+        if lines:
+            pk = lines[0]
+            evidence.append(f"{ch}: spectral line at {pk['peak_hz']:.2f} Hz ({pk['ratio']:.0f}x the PSD around it, "
+                            "in training and held-out runs)")
     for ch, v in views_before.items():
-        if v.spectrum is not None and v.spectrum.peaks:
-            pk = v.spectrum.peaks[0]
-            evidence.append(f"{ch}: spectral line at {pk['peak_hz']:.2f} Hz ({pk['ratio']:.0f}x the baseline PSD)")
         if v.period is not None and v.period.significant:
             evidence.append(f"{ch}: periodic in d with period {v.period.best_period * 1e3:.2f} mm"
                             + (f" (= {v.period.match})" if v.period.match else ""))
@@ -487,7 +491,7 @@ def diagnose(
         a_train = residuals_with(final_spec, final_fit, train, p_base, u_train)
         a_test = residuals_with(final_spec, final_fit, test, p_base, u_test)
         rem = {CHANNELS[c]: fl for c in range(2)
-               if (fl := channel_floor(a_train, a_test, c, q_floor, rng, st.n_null)) is not None}
+               if (fl := channel_floor(a_train, a_test, c, q_floor)) is not None}
         still = any(f.significant for f in rem.values())
         if still and best.closes < 0.9:
             others = [s for s in rank(scores) if s.significant and s.name != best.name
@@ -501,7 +505,7 @@ def diagnose(
                 ps = score(spec.name, fit, base_fit, b_test, after, fvec, rules, vals, errs, spec.note)
                 Ra_best2, Ra_pair2 = best.r2_after, ps.r2_after
                 extra = (Ra_best2 - Ra_pair2) / max(Ra_best2 - 1.0, Ra_best2 - Ra_pair2, 1e-12)
-                zp = paired_z(best.loss_after, ps.loss_after, best.blocks)
+                zp = paired_z(best.e_after, ps.e_after)
                 pair_scores.append((extra, zp, ps, spec, fit))
                 scores.append(ps)
             good = [t for t in pair_scores if t[1] >= rules.z_min and t[0] >= rules.second_min]
@@ -518,7 +522,7 @@ def diagnose(
                     a_train = residuals_with(final_spec, final_fit, train, p_base, u_train)
                     a_test = residuals_with(final_spec, final_fit, test, p_base, u_test)
                     rem = {CHANNELS[c]: fl for c in range(2)
-                           if (fl := channel_floor(a_train, a_test, c, q_floor, rng, st.n_null)) is not None}
+                           if (fl := channel_floor(a_train, a_test, c, q_floor)) is not None}
         if verdict.verdict == "unexplained":
             verdict.reasons.append("no candidate, alone or with a second one, closes "
                                    f"{rules.closes_min:.0%} of the gap: unexplained")
@@ -567,6 +571,23 @@ def diagnose(
         final_model=show_spec.name if show_fit is not None else "baseline", settings=st,
         quantization_floor=q_floor, heldout=HeldOut(test, u_test, fvec, b_test),
     )
+
+
+def _consistent_lines(train: Sequence[Residual], test: Sequence[Residual], c: int, fs: float,
+                      fmax: float) -> list[dict]:
+    """Spectral lines found in both the training and the held-out residuals (each at 1 % false alarm)."""
+    a = spectrum(train, c, fs, fmax, false_alarm=1e-2)
+    b = spectrum(test, c, fs, fmax, false_alarm=1e-2)
+    if a is None or b is None:
+        return []
+    out = []
+    for pa in a.peaks:
+        for pb in b.peaks:
+            if pa["band_hz"][0] <= pb["peak_hz"] <= pa["band_hz"][1] or pb["band_hz"][0] <= pa["peak_hz"] <= \
+                    pb["band_hz"][1]:
+                out.append(pa)
+                break
+    return out
 
 
 def _rms_channel(res: Sequence[Residual], c: int) -> float:

@@ -14,11 +14,16 @@ rates). The statistics account for the residual's autocorrelation: a bin of
   systematic part the maps miss), which makes "exceeds the floor" a
   conservative statement. The quantization-only floor of the filter is
   reported beside it.
-- **structure test**: the held-out gain of those maps, ``1 - SSE(r - map) /
-  SSE(r)``, against its null distribution obtained by circularly shifting the
-  training residual against its features (same autocorrelation, no link to
-  the state); a gap needs a significant *and* positive gain (at least 1 % of
-  the held-out variance predicted).
+- **structure test**: the held-out gain of those maps, ``1 - SSE(r - m) /
+  SSE(r) = (2 r.m - m.m) / r.r`` with ``m`` the training maps' prediction on
+  the held-out samples. Without state structure ``m`` is fitted noise,
+  independent of the held-out ``r``: the gain's mean is ``-m.m / r.r < 0`` and
+  the spread of ``2 r.m`` is ``2 |m| sigma sqrt(inflation)``, so
+  ``z = gain / (2 rms(m) sigma sqrt(inflation / n) / rms(r)^2)`` is
+  conservative (``sigma`` and the inflation from ``r - m``, the held-out
+  residual without its structure). A gap needs a
+  significant *and* positive gain (at least 1 % of the held-out variance
+  predicted).
 - **spectrum**: Welch PSD per channel; narrow peaks above a running-median
   baseline are reported as bands.
 - **period scan**: least-squares fit of ``a cos(2 pi d / P) + b sin(2 pi d / P)``
@@ -188,13 +193,15 @@ class AdditiveMap:
     tables: dict[tuple[str, ...], np.ndarray] = field(default_factory=dict)
 
     @classmethod
-    def fit(cls, s: Samples, n_bins_2d: int = 10, n_bins_1d: int = 12, sweeps: int = 4,
+    def fit(cls, s: Samples, n_bins_g: int = 8, n_bins_d: int = 18, n_bins_1d: int = 12, sweeps: int = 4,
             min_count: int = 15) -> AdditiveMap:
-        """Backfit the maps on ``s``."""
+        """Backfit the maps on ``s`` (the d bins resolve a slot pitch over the stroke: 5 mm for +-45 mm)."""
         edges = {}
         for grp in MAP_GROUPS:
-            nb = n_bins_2d if len(grp) == 2 else n_bins_1d
-            edges[grp] = [edges_for(s.feat[n], nb) for n in grp]
+            if len(grp) == 2:
+                edges[grp] = [edges_for(s.feat["g"], n_bins_g), edges_for(s.feat["d"], n_bins_d)]
+            else:
+                edges[grp] = [edges_for(s.feat[grp[0]], n_bins_1d)]
         m = cls(edges)
         if s.n == 0:
             return m
@@ -232,7 +239,7 @@ class AdditiveMap:
 
 
 def _shift(s: Samples, rng: np.random.Generator) -> Samples:
-    """``s`` with the residual circularly shifted within each run (features unchanged)."""
+    """``s`` with the residual circularly shifted within each run (features unchanged): the period scan's null."""
     r = s.r.copy()
     for i in np.unique(s.run):
         sel = np.flatnonzero(s.run == i)
@@ -242,14 +249,21 @@ def _shift(s: Samples, rng: np.random.Generator) -> Samples:
     return Samples(r, s.feat, s.run)
 
 
-def _gain(train: Samples, test: Samples) -> tuple[float, AdditiveMap]:
+def _gain(train: Samples, test: Samples) -> tuple[float, float, AdditiveMap]:
+    """Held-out gain of the training maps and its z-score (see the module docstring)."""
     m = AdditiveMap.fit(train)
     pred = m.predict(test)
     sse0 = float(test.r @ test.r)
     if sse0 <= 0:
-        return 0.0, m
+        return 0.0, 0.0, m
     e = test.r - pred
-    return 1.0 - float(e @ e) / sse0, m
+    gain = 1.0 - float(e @ e) / sse0
+    n = len(test.r)
+    rm = float(np.sqrt(np.mean(pred**2)))
+    # Noise level and autocorrelation from what the maps leave (the structure itself would inflate both).
+    sig = float(np.sqrt(np.mean(e**2)))
+    sd = 2 * rm * sig * math.sqrt(autocorr_factor(e) / n) / (sse0 / n) if rm > 0 else math.inf
+    return gain, gain / sd, m
 
 
 @dataclass
@@ -270,10 +284,8 @@ class ChannelFloor:
         Autocorrelation inflation ``n / n_eff``.
     gain : float
         Held-out gain of the maps.
-    null_mean, null_std : float
-        Mean and spread of the gain under the null (shifted residuals).
     z : float
-        ``(gain - null_mean) / null_std``.
+        Significance of the gain (see the module docstring).
     significant : bool
         The residual has state structure beyond the floor (``z > z_crit``).
     n : int
@@ -286,8 +298,6 @@ class ChannelFloor:
     quantization: float
     inflation: float
     gain: float
-    null_mean: float
-    null_std: float
     z: float
     significant: bool
     n: int
@@ -301,15 +311,13 @@ class ChannelFloor:
         """JSON-ready view."""
         return {
             "rms_m_s2": self.rms, "floor_m_s2": self.floor, "quantization_m_s2": self.quantization,
-            "excess_m_s2": self.excess, "autocorr_inflation": self.inflation, "map_gain": self.gain,
-            "null_gain_mean": self.null_mean, "null_gain_std": self.null_std, "z": self.z,
+            "excess_m_s2": self.excess, "autocorr_inflation": self.inflation, "map_gain": self.gain, "z": self.z,
             "significant": self.significant, "n_samples": self.n,
         }
 
 
 def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: int, quantization: float,
-                  rng: np.random.Generator, n_null: int = 12, z_crit: float = 4.0,
-                  min_gain: float = 0.01) -> ChannelFloor | None:
+                  z_crit: float = 4.0, min_gain: float = 0.01) -> ChannelFloor | None:
     """Noise floor and structure test of one channel (None if the channel has no data).
 
     Parameters
@@ -320,10 +328,6 @@ def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: 
         0 vertical, 1 horizontal.
     quantization : float
         Quantization-only rms of the filter.
-    rng : numpy Generator
-        For the circular shifts of the null distribution.
-    n_null : int
-        Number of null draws.
     z_crit : float
         Threshold on the gain's z-score.
     min_gain : float
@@ -334,15 +338,12 @@ def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: 
     tr, te = pool(train, channel), pool(test, channel)
     if tr.n < 50 or te.n < 50:
         return None
-    gain, m = _gain(tr, te)
-    null = np.array([_gain(_shift(tr, rng), te)[0] for _ in range(n_null)])
-    mu, sd = float(null.mean()), float(max(null.std(ddof=1), 1e-4))
-    z = (gain - mu) / sd
+    gain, z, m = _gain(tr, te)
     rms = float(np.sqrt(np.mean(te.r**2)))
     e = te.r - m.predict(te)
     floor = float(np.sqrt(np.mean(e**2)))
     infl = autocorr_factor(e)
-    return ChannelFloor(CHANNELS[channel], rms, min(floor, rms), quantization, infl, gain, mu, sd, z,
+    return ChannelFloor(CHANNELS[channel], rms, min(floor, rms), quantization, infl, gain, z,
                         bool(z > z_crit and gain > min_gain), te.n)
 
 
@@ -471,8 +472,8 @@ class PeriodScan:
     best_period, best_amplitude, best_explained : float
         The best period [m], its amplitude [m/s^2] and explained fraction.
     threshold : float
-        Explained fraction that noise alone exceeds with probability 1e-3
-        (from circular shifts).
+        Explained fraction that noise alone hardly reaches: mean + 4 standard
+        deviations of the best fraction over circularly shifted residuals.
     significant : bool
         ``best_explained > threshold``.
     match : str or None
@@ -550,7 +551,7 @@ def period_scan(s: Samples, rng: np.random.Generator, p_min: float = 4e-3, p_max
     for _ in range(n_null):
         sh = _shift(sub, rng)
         null_max.append(float(np.max(_scan(d[sel], sh.r[sel], periods[::3]))))
-    thr = float(np.mean(null_max) + 3 * np.std(null_max, ddof=1)) if n_null > 1 else float(np.max(null_max))
+    thr = float(np.mean(null_max) + 4 * np.std(null_max, ddof=1)) if n_null > 1 else float(np.max(null_max))
     j = int(np.argmax(expl))
     P = float(periods[j])
     ph = 2 * math.pi * d / P
