@@ -141,7 +141,7 @@ class NMPCSettings(Strict):
         )
 
 
-@functools.lru_cache(maxsize=8)
+@functools.lru_cache(maxsize=32)
 def step_functions(cfg: StepConfig) -> tuple[Any, Any, StepBuilder]:
     """Build (once per design) ``nmpc_init`` and ``nmpc_step`` and the builder holding the layout."""
     b = StepBuilder(cfg)

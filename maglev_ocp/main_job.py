@@ -82,6 +82,18 @@ def _min_time_task(out_dir: str) -> dict[str, Any]:
         return {"ok": False, "error": f"{type(err).__name__}: {err}", "wall_s": time.perf_counter() - t0}
 
 
+def _calibration_task(out_dir: str) -> dict[str, Any]:
+    """Worker: the seed's calibration experiments on the default rig, then ``maglev calibrate`` on them."""
+    t0 = time.perf_counter()
+    try:
+        from .estimation.calibrate import regenerate_results
+
+        res = regenerate_results(out_dir, progress=False)
+        return {"ok": True, "table": res.table(), "wall_s": time.perf_counter() - t0}
+    except Exception as err:
+        return {"ok": False, "error": f"{type(err).__name__}: {err}", "wall_s": time.perf_counter() - t0}
+
+
 def write_model_table(out: Path) -> str:
     """``model_table.{txt,json,png}`` via ``maglev model``'s functions; returns the text table."""
     from .cli.cmd_model import format_table, plot_table, table
@@ -174,6 +186,8 @@ def summary_markdown(results: dict[str, dict[str, Any]], bounds: dict[str, Any] 
             mean = (lambda v: sum(v) / len(v) if v else None)  # noqa: E731
             lines.append(f"| {c} | cogging-{mdl} | {_fmt(mean(rg), 1e6, 2)} | {_fmt(mean(rd), 1e6, 2)} | "
                          f"{_fmt(max(rg) if rg else None, 1e6, 2)} | {_fmt(max(rd) if rd else None, 1e6, 2)} |")
+    lines += ["", "Calibration on a simulated seed-calibration dataset (the seed's section V, `maglev calibrate`): "
+              "[calibration/README.md](calibration/README.md).", ""]
     lines += ["", "Files: `model_table.{txt,json,png}`, `simulate/` (rig-log dataset of a 2 s excitation run), "
               "`min_time/`, and per scenario `log.csv`, `timing.csv`, `metrics.json`, `scenario.yaml`, "
               "`positions.png`, `currents.png`, `solver_time.png`.", "",
@@ -192,6 +206,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenarios", nargs="+", default=None, metavar="NAME",
                     help=f"run only these headline scenarios (default: all {len(HEADLINE)})")
     ap.add_argument("--no-min-time", action="store_true", help="skip the minimum-time OCP")
+    ap.add_argument("--no-calibration", action="store_true",
+                    help="skip the calibration on a simulated seed-calibration dataset (results/calibration)")
     a = ap.parse_args(argv)
     from tqdm.auto import tqdm
 
@@ -214,11 +230,14 @@ def main(argv: list[str] | None = None) -> int:
     rc_sim = write_simulation(out)
     results: dict[str, dict[str, Any]] = {}
     bounds: dict[str, Any] | None = None
+    calib: dict[str, Any] | None = None
     # fresh worker processes (spawn): a forked CasADi cannot load its IPOPT plugin here
     with ProcessPoolExecutor(max_workers=a.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
         futs = {}
         if not a.no_min_time:
             futs[pool.submit(_min_time_task, str(out / "min_time"))] = "__min_time__"
+        if not a.no_calibration:
+            futs[pool.submit(_calibration_task, str(out / "calibration"))] = "__calibration__"
         for n in names:
             futs[pool.submit(_run_scenario_task, str(SCENARIO_DIR / f"{n}.yaml"), str(out / n))] = n
         for fut in tqdm(as_completed(futs), total=len(futs), desc="headline", unit="task"):
@@ -226,11 +245,15 @@ def main(argv: list[str] | None = None) -> int:
             r = fut.result()
             if name == "__min_time__":
                 bounds = r
+            elif name == "__calibration__":
+                calib = r
             else:
                 results[name] = r
     ordered = {n: results[n] for n in names}
     if bounds and bounds.get("ok"):
         print(bounds["table"])
+    if calib is not None:
+        print(calib["table"] if calib.get("ok") else f"calibration failed: {calib.get('error')}")
     from .runner import summary_table
 
     class _R:  # adapter: summary_table wants objects with .metrics
@@ -248,6 +271,7 @@ def main(argv: list[str] | None = None) -> int:
          "min_time": bounds, "wall_s": wall}, indent=1, default=str) + "\n")
     print(f"wrote {out}/summary.md ({wall:.0f} s)")
     ok = all(r.get("ok") and r["metrics"]["passed"] for r in ordered.values()) and rc_sim == 0
+    ok = ok and (calib is None or bool(calib.get("ok")))
     return 0 if ok else 1
 
 
