@@ -10,6 +10,10 @@ Per target (the target is active from its switch time for its ``hold``):
 ``rms_error_g_m``, ``rms_error_d_m``
     RMS error of the true state over the settled part; ``*_enc_m`` the same on
     the encoder readings (what the rig would report).
+``rms_tracking_error_g_m``, ``rms_tracking_error_d_m``
+    RMS error of the true state against the planned reference over the whole
+    hold, the move included (where model errors such as cogging show before
+    the disturbance observer has absorbed them).
 ``max_current_A``
     Largest commanded current amplitude ``sqrt(i_q^2 + i_d^2)`` during the hold.
 
@@ -69,6 +73,8 @@ class TargetMetrics:
     max_current_A: float
     max_abs_i_q_A: float
     max_abs_i_d_A: float
+    rms_tracking_error_g_m: float | None = None
+    rms_tracking_error_d_m: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict for ``metrics.json``."""
@@ -153,6 +159,7 @@ class Metrics:
 def target_metrics(
     index: int, t: np.ndarray, x_true: np.ndarray, y_enc: np.ndarray, u: np.ndarray, target: Any,
     t_switch: float, move_time: float, tolerance: float, min_settled_s: float, Ts: float = k.Ts,
+    ref: np.ndarray | None = None,
 ) -> TargetMetrics:
     """Metrics of one target from the samples of its hold (see the module docstring).
 
@@ -171,6 +178,8 @@ def target_metrics(
         Positioning tolerance [m] and the shortest settled part that counts [s].
     Ts : float
         Sample period [s].
+    ref : ndarray, optional
+        Planned reference positions ``(g, d)`` at ``t`` (N, 2), for the tracking error.
     """
     n = len(t)
     nan = math.nan
@@ -202,6 +211,8 @@ def target_metrics(
         final_error_g_m=float(eg[-1]), final_error_d_m=float(ed[-1]),
         max_current_A=float(np.max(amp)), max_abs_i_q_A=float(np.max(np.abs(u[:, 0]))),
         max_abs_i_d_A=float(np.max(np.abs(u[:, 1]))),
+        rms_tracking_error_g_m=None if ref is None else float(np.sqrt(np.mean((x_true[:, 0] - ref[:, 0]) ** 2))),
+        rms_tracking_error_d_m=None if ref is None else float(np.sqrt(np.mean((x_true[:, 2] - ref[:, 1]) ** 2))),
     )
 
 
@@ -246,8 +257,9 @@ def compute_metrics(
         t0 = float(plan.switch_times[i])
         t1 = t0 + tg.hold
         sel = (t >= t0 - 1e-9) & (t < t1 - 1e-9)
+        ref = plan.sample(t[sel])[:, [0, 3]] if sel.any() else None
         tms.append(target_metrics(i, t[sel], x_true[sel], y_enc[sel], u[sel], tg, t0, plan.moves[i].T, tolerance,
-                                  checks.min_settled_s, Ts))
+                                  checks.min_settled_s, Ts, ref=ref))
     n = len(t)
     fail = np.zeros(n, bool)
     inacc = np.zeros(n, bool)
