@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 
 from . import constants as k
@@ -168,3 +169,55 @@ def estimate_states(
     for i in range(1, len(y)):
         out[i] = obs.step(y[i], u[i - 1])
     return out
+
+
+def observer_update(x_hat, dist, u_prev, y, p, L, Ts: float, disturbance: bool, skip_nonfinite: bool = False):
+    """Symbolic predictor-corrector update of :class:`HighGainObserver` (SX or MX).
+
+    The one symbolic form of the observer, used by the code generator, the
+    NMPC step Function and the vectorized offline observer of the estimator.
+    The arithmetic is in the same order as :meth:`HighGainObserver.step`, so
+    the numeric and symbolic observers agree to rounding (bit for bit in practice).
+
+    Parameters
+    ----------
+    x_hat : casadi.SX, shape (4,)
+        Estimate after the previous update ``(g, g_dot, d, d_dot)``.
+    dist : casadi.SX, shape (2,)
+        Acceleration disturbance estimate ``(a_g, a_d)`` [m/s^2] (ignored without ``disturbance``).
+    u_prev : casadi.SX, shape (2,)
+        Currents ``(i_q, i_d)`` held over the last period [A].
+    y : casadi.SX, shape (2,)
+        Encoder readings ``(g, d)`` [m].
+    p : casadi.SX
+        Model parameter vector.
+    L : array_like
+        Observer gain (position, velocity[, disturbance]), :attr:`HighGainObserver.L`.
+    Ts : float
+        Sample period [s].
+    disturbance : bool
+        Extended-state observer (a constant acceleration disturbance per axis).
+    skip_nonfinite : bool
+        Treat a non-finite (or absurd, > 1 km) reading as missing: prediction only.
+
+    Returns
+    -------
+    x_next, dist_next : casadi.SX
+        Updated estimate and disturbance.
+    """
+    xp = get_model().step(Ts, 1)(x_hat, u_prev, p)
+    if disturbance:
+        # constant-acceleration disturbance over one period: Ts^2/2 on position, Ts on velocity
+        xp = xp + ca.vertcat(dist[0] * Ts**2 / 2, dist[0] * Ts, dist[1] * Ts**2 / 2, dist[1] * Ts)
+    e_g = y[0] - xp[0]
+    e_d = y[1] - xp[2]
+    if skip_nonfinite:
+        ok = ca.fabs(y[0]) + ca.fabs(y[1]) < 1e3
+        e_g = ca.if_else(ok, e_g, 0)
+        e_d = ca.if_else(ok, e_d, 0)
+    x_next = ca.vertcat(xp[0] + L[0] * e_g, xp[1] + L[1] * e_g, xp[2] + L[0] * e_d, xp[3] + L[1] * e_d)
+    if disturbance:
+        d_next = ca.vertcat(dist[0] + L[2] * e_g, dist[1] + L[2] * e_d)
+    else:
+        d_next = dist * 0 if isinstance(dist, ca.MX) else ca.SX.zeros(2)
+    return x_next, d_next

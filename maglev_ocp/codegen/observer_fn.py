@@ -18,7 +18,7 @@ import casadi as ca
 
 from .. import constants as k
 from ..model import get_model
-from ..observers import HighGainObserver, ObserverSettings
+from ..observers import HighGainObserver, ObserverSettings, observer_update
 from ..params import NOMINAL
 
 #: Names of the inputs and outputs of :func:`observer_step_function`.
@@ -32,49 +32,6 @@ def observer_gain(settings: ObserverSettings, Ts: float = k.Ts):
     Built by constructing the Python observer, so there is exactly one gain design.
     """
     return HighGainObserver(NOMINAL, settings, Ts).L.copy()
-
-
-def observer_update(x_hat, dist, u_prev, y, p, L, Ts: float, disturbance: bool):
-    """Symbolic predictor-corrector update of :class:`HighGainObserver` (SX or MX).
-
-    Parameters
-    ----------
-    x_hat : casadi.SX, shape (4,)
-        Estimate after the previous update ``(g, g_dot, d, d_dot)``.
-    dist : casadi.SX, shape (2,)
-        Acceleration disturbance estimate ``(a_g, a_d)`` [m/s^2] (ignored without ``disturbance``).
-    u_prev : casadi.SX, shape (2,)
-        Currents ``(i_q, i_d)`` held over the last period [A].
-    y : casadi.SX, shape (2,)
-        Encoder readings ``(g, d)`` [m].
-    p : casadi.SX
-        Model parameter vector.
-    L : array_like
-        Observer gain (position, velocity[, disturbance]).
-    Ts : float
-        Sample period [s].
-    disturbance : bool
-        Extended-state observer (a constant acceleration disturbance per axis).
-
-    Returns
-    -------
-    x_next, dist_next : casadi.SX
-        Updated estimate and disturbance.
-    """
-    F = get_model().step(Ts, 1)
-    xp = F(x_hat, u_prev, p)
-    if disturbance:
-        # constant-acceleration disturbance over one period: Ts^2/2 on position, Ts on velocity
-        # (written in the Python observer's order of operations, so the rounding is the same)
-        xp = xp + ca.vertcat(dist[0] * Ts**2 / 2, dist[0] * Ts, dist[1] * Ts**2 / 2, dist[1] * Ts)
-    e_g = y[0] - xp[0]
-    e_d = y[1] - xp[2]
-    x_next = ca.vertcat(xp[0] + L[0] * e_g, xp[1] + L[1] * e_g, xp[2] + L[0] * e_d, xp[3] + L[1] * e_d)
-    if disturbance:
-        d_next = ca.vertcat(dist[0] + L[2] * e_g, dist[1] + L[2] * e_d)
-    else:
-        d_next = dist * 0 if isinstance(dist, ca.MX) else ca.SX.zeros(2)
-    return x_next, d_next
 
 
 def observer_step_function(settings: ObserverSettings | None = None, Ts: float = k.Ts,

@@ -22,7 +22,7 @@ import numpy as np
 from .. import constants as k
 from ..errors import DataError
 from ..model import get_model
-from ..observers import HighGainObserver, ObserverSettings
+from ..observers import HighGainObserver, ObserverSettings, observer_update
 from ..params import NOMINAL, Params
 
 #: Index of each axis' position and velocity in the state ``x = [g, g_dot, d, d_dot]``.
@@ -135,26 +135,15 @@ def eval_samples(fn: ca.Function, *args: np.ndarray) -> list[np.ndarray]:
 def _observer_chain(Ts: float, disturbance: bool, n: int) -> ca.Function:
     """``mapaccum`` of one observer update over ``n`` samples (CasADi SX, cached)."""
     m = get_model()
-    F = m.step(Ts, 1)
     xh = ca.SX.sym("xh", 4)
     dist = ca.SX.sym("dist", 2)
     y = ca.SX.sym("y", 2)
     u = ca.SX.sym("u", 2)
     p = ca.SX.sym("p", m.np_)
     L = ca.SX.sym("L", 3)
-    xp = F(xh, u, p)
-    if disturbance:
-        xp = xp + ca.vertcat(dist[0] * Ts**2 / 2, dist[0] * Ts, dist[1] * Ts**2 / 2, dist[1] * Ts)
-    out = [None] * 4
-    dn = [dist[0], dist[1]]
-    for axis, (ip, iv) in enumerate(((0, 1), (2, 3))):
-        e = y[axis] - xp[ip]
-        out[ip] = xp[ip] + L[0] * e
-        out[iv] = xp[iv] + L[1] * e
-        if disturbance:
-            dn[axis] = dist[axis] + L[2] * e
+    xn, dn = observer_update(xh, dist, u, y, p, L, Ts, disturbance)
     z = ca.vertcat(xh, dist)
-    zn = ca.vertcat(*out, *dn)
+    zn = ca.vertcat(xn, dn)
     one = ca.Function("observer_update", [z, y, u, p, L], [zn])
     return one.mapaccum("observer_chain", n, [0], [0])
 
