@@ -444,7 +444,7 @@ def read_run(
             if required:
                 r = _first_bad(raw)
                 raise DataError(
-                    f"{path}: row {r + 1} (line {r + 2}), column {name!r}: not a number: {raw[r]!r}") from None
+                    f"{path}: row {r + 1} (line {r + 2}), column {name!r}: not a number: {str(raw[r])!r}") from None
             columns[name] = raw  # free-text extra column (flags, notes), kept as text
             continue
         if required:
