@@ -25,10 +25,12 @@
    duals.
 
 The state vector layout is described by :class:`StateLayout`. The Function is
-an MX graph of a few SX Functions (observer/planner, per-node and per-stage
-maps, factorization, one ADMM iteration called ``n_iter`` times, post), so the
-generated C is compact, branch-free in its loop counts, and needs only fixed
-work arrays.
+an MX graph of small SX Functions (observer/planner, per-node and per-stage
+maps, and every recursion over the horizon as a chain of calls of one blocked
+stage Function, :func:`controllers.nmpc_riccati.stage_chain`: factorization,
+the ADMM iteration called ``n_iter`` times, the prediction of the new plan), so
+the generated C holds each stage's code once (it stays in the instruction
+cache), is branch-free in its loop counts, and needs only fixed work arrays.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ from maglev_ocp.params import NOMINAL
 
 from .nmpc_plan import half_duration, move_at, thrust_accel_available, u_for_accel
 from .nmpc_qp import ADMMSettings, admm_iteration, admm_rho, chol_sx, condensed_qp, project_disk
-from .nmpc_riccati import factor_function, iteration_function
+from .nmpc_riccati import factor_function, iteration_function, stage_chain
 
 NX, NU = 4, 2
 N_MEAS = 3  #: meas = (g, d, fault)  [m, m, -]
@@ -314,7 +316,8 @@ class StepBuilder:
         x, u, xn, p, w = (ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("x_next", NX), ca.SX.sym("p", m.np_),
                           ca.SX.sym("w", 2))
         xe, A, B = self.FJ(x, u, p, w)
-        return ca.Function("nmpc_stage", [x, u, xn, p, w], [A, B, xe - xn], ["x", "u", "x_next", "p", "w"],
+        # B dense (its structural zero would make every consumer re-densify the stacked Bs)
+        return ca.Function("nmpc_stage", [x, u, xn, p, w], [A, ca.densify(B), xe - xn], ["x", "u", "x_next", "p", "w"],
                            ["A", "B", "c"], {"cse": True})
 
     def _fn_condense(self) -> ca.Function:
@@ -399,18 +402,47 @@ class StepBuilder:
         return ca.Function("nmpc_prep", [st, meas, ref, p], outs, ["state", "meas", "ref", "p"], names)
 
     def build_post(self) -> ca.Function:
-        """Checks, fallback and warm-start shift (one SX Function)."""
+        """Checks, fallback and warm-start shift.
+
+        An MX Function: the prediction of the new plan is a
+        :func:`~controllers.nmpc_riccati.stage_chain` of :meth:`_fn_pred_stage`,
+        the rest one SX Function (:meth:`_fn_post_tail`).
+        """
+        cfg, m = self.cfg, self.model
+        N, nv, ng = cfg.N, cfg.N * NU, cfg.n_gap
+        sym = ca.MX.sym
+        v, y, ub = sym("v", nv), sym("y", nv + ng), sym("ubar", nv)
+        xhat, dist, plan = sym("xhat", NX), sym("dist", 2), sym("plan", 7)
+        As, Bs, cs, dx0 = sym("As", NX, NX * N), sym("Bs", NX, NU * N), sym("cs", NX, N), sym("dx0", NX)
+        Xb, Xref, Uref = sym("Xbar", NX, N + 1), sym("Xref", NX, N + 1), sym("Uref", NU, N)
+        w, p = sym("w", 2), sym("p", m.np_)
+        r_prim, r_dual, iters_to_tol, nfail = sym("r_prim"), sym("r_dual"), sym("iters_to_tol"), sym("nfail")
+        # new plan: the linear prediction of the corrections on top of the shooting nodes
+        _, (Xn,) = stage_chain(self._fn_pred_stage(), N, [dx0], [As, Bs, ca.reshape(v, NU, N), cs, Xb[:, 1:]])
+        u, state, stats = self._fn_post_tail()(v, y, ub, xhat, dist, plan, ca.horzcat(Xb[:, 0] + dx0, Xn), Xref, Uref,
+                                               w, p, r_prim, r_dual, iters_to_tol, nfail)
+        names = ["v", "y", "ubar", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w", "p",
+                 "r_prim", "r_dual", "iters_to_tol", "nfail"]
+        ins = [v, y, ub, xhat, dist, plan, As, Bs, cs, dx0, Xb, Xref, Uref, w, p, r_prim, r_dual, iters_to_tol, nfail]
+        return ca.Function("nmpc_post", ins, [u, state, stats, xhat], names, ["u", "state", "stats", "x_hat"])
+
+    def _fn_pred_stage(self) -> ca.Function:
+        """Linear prediction of one stage (SX): ``(dx, A, B, v, c, xbar_next) -> (dx_next, x_next)``."""
+        dx, A, B, v, c, xbn = (ca.SX.sym("dx", NX), ca.SX.sym("A", NX, NX), ca.SX.sym("B", NX, NU),
+                               ca.SX.sym("v", NU), ca.SX.sym("c", NX), ca.SX.sym("xbar_next", NX))
+        dxn = ca.mtimes(A, dx) + ca.mtimes(B, v) + c
+        return ca.Function("nmpc_pred_stage", [dx, A, B, v, c, xbn], [dxn, xbn + dxn],
+                           ["dx", "A", "B", "v", "c", "xbar_next"], ["dx_next", "x_next"])
+
+    def _fn_post_tail(self) -> ca.Function:
+        """Checks, fallback and warm-start shift given the predicted plan ``X`` (SX)."""
         cfg, m = self.cfg, self.model
         N, nv, ng = cfg.N, cfg.N * NU, cfg.n_gap
         v = ca.SX.sym("v", nv)  # projected input corrections (the z of the input rows)
         y = ca.SX.sym("y", nv + ng)
         ub = ca.SX.sym("ubar", nv)
         xhat, dist, plan = ca.SX.sym("xhat", NX), ca.SX.sym("dist", 2), ca.SX.sym("plan", 7)
-        As = ca.SX.sym("As", NX, NX * N)
-        Bs = ca.SX.sym("Bs", NX, NU * N)
-        cs = ca.SX.sym("cs", NX, N)
-        dx0 = ca.SX.sym("dx0", NX)
-        Xb = ca.SX.sym("Xbar", NX, N + 1)
+        Xm = ca.SX.sym("X", NX, N + 1)
         Xref = ca.SX.sym("Xref", NX, N + 1)
         Uref = ca.SX.sym("Uref", NU, N)
         w = ca.SX.sym("w", 2)
@@ -419,14 +451,7 @@ class StepBuilder:
         nfail = ca.SX.sym("nfail")
 
         U = ub + v
-        # new plan: the linear prediction of the corrections on top of the shooting nodes
-        dx = dx0
-        Xcols = [Xb[:, 0] + dx]
-        for j in range(N):
-            Aj, Bj = As[:, j * NX:(j + 1) * NX], Bs[:, j * NU:(j + 1) * NU]
-            dx = ca.mtimes(Aj, dx) + ca.mtimes(Bj, v[j * NU:(j + 1) * NU]) + cs[:, j]
-            Xcols.append(Xb[:, j + 1] + dx)
-        X = ca.vertcat(*Xcols)
+        X = ca.vec(Xm)
         # a sum propagates NaN (fmax/fmin and the disk projection would swallow it)
         finite = ca.sum1(ca.fabs(ca.vertcat(U, X, y))) < 1e12
         u_opt = project_disk(U[:NU], cfg.i_max, cfg.i_box)
@@ -437,7 +462,6 @@ class StepBuilder:
         status = ca.if_else(finite, ca.if_else(accurate, STATUS_OK, STATUS_INACCURATE), STATUS_FALLBACK)
 
         # Warm start: shift nodes, inputs and duals by one period; on fallback restart from the reference.
-        Xm = ca.horzcat(*Xcols)
         Um = ca.reshape(U, NU, N)
         x_end = self.F(Xm[:, N], Um[:, N - 1], p, w)
         X_sh = ca.vec(ca.horzcat(Xm[:, 1:], x_end))
@@ -457,10 +481,10 @@ class StepBuilder:
             status, 1 - finite, cfg.n_iter, iters_to_tol, r_prim, r_dual, plan[4], 2 * plan[5], dist[0], dist[1],
             nfail_new,
         )
-        names = ["v", "y", "ubar", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w", "p",
-                 "r_prim", "r_dual", "iters_to_tol", "nfail"]
-        ins = [v, y, ub, xhat, dist, plan, As, Bs, cs, dx0, Xb, Xref, Uref, w, p, r_prim, r_dual, iters_to_tol, nfail]
-        return ca.Function("nmpc_post", ins, [u, state, stats, xhat], names, ["u", "state", "stats", "x_hat"])
+        names = ["v", "y", "ubar", "xhat", "dist", "plan", "X", "Xref", "Uref", "w", "p", "r_prim", "r_dual",
+                 "iters_to_tol", "nfail"]
+        ins = [v, y, ub, xhat, dist, plan, Xm, Xref, Uref, w, p, r_prim, r_dual, iters_to_tol, nfail]
+        return ca.Function("nmpc_post_tail", ins, [u, state, stats], names, ["u", "state", "stats"])
 
     def _checkpoints(self) -> list[int]:
         cfg = self.cfg

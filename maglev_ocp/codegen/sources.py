@@ -48,7 +48,18 @@ def generate_function_source(fn: ca.Function) -> tuple[str, str]:
         cg.generate(tmp + os.sep)
         c = Path(tmp, f"{fn.name()}.c").read_text()
         h = Path(tmp, f"{fn.name()}.h").read_text()
-    return c, h
+    return _static_helpers(c), h
+
+
+def _static_helpers(src: str) -> str:
+    """Give CasADi's auxiliary routines (``casadi_sq``, ``casadi_fmax``, ``casadi_copy``, ...) internal linkage.
+
+    The code generator defines them with external linkage (under a per-file
+    prefix); compiled with ``-fPIC`` into the shared library, every call of
+    such a one-line helper then goes through the PLT and cannot be inlined.
+    ``static`` changes nothing computed, and lets any compiler inline them.
+    """
+    return re.sub(r"^(casadi_real|casadi_int|void|int) (casadi_\w+\()", r"static \1 \2", src, flags=re.M)
 
 
 def _port_doc(fn_macro: str, direction: str, idx: int, port: Port) -> list[str]:
