@@ -44,7 +44,7 @@ import scipy.linalg
 
 from maglev_ocp import constants as k
 from maglev_ocp.model import get_model
-from maglev_ocp.observers import HighGainObserver, ObserverSettings
+from maglev_ocp.observers import HighGainObserver, ObserverSettings, observer_update
 from maglev_ocp.params import NOMINAL
 
 from .nmpc_plan import half_duration, move_at, thrust_accel_available, u_for_accel
@@ -216,19 +216,14 @@ class StepBuilder:
             Ad = ca.DM.eye(NX) + Ac * T + A2 * (T**2 / 2) + ca.mtimes(A2, Ac) * (T**3 / 6)
             Bd = ca.mtimes(ca.DM.eye(NX) * T + Ac * (T**2 / 2) + A2 * (T**3 / 6), Bc)
         self.FJ = ca.Function("nmpc_pred_jac", [x, u, p, w], [xk, Ad, Bd])
-        self.F_obs = m.step(cfg.Ts, 1)
 
     def _observer(self, xhat, dist, u_prev, y, p):
-        """Predictor-corrector update of :class:`~maglev_ocp.observers.HighGainObserver`, symbolic."""
-        Ts, L = self.cfg.Ts, self.L_obs
-        xp = self.F_obs(xhat, u_prev, p)
-        xp = xp + ca.vertcat(dist[0] * Ts**2 / 2, dist[0] * Ts, dist[1] * Ts**2 / 2, dist[1] * Ts)
-        ok = ca.fabs(y[0]) + ca.fabs(y[1]) < 1e3  # a non-finite reading is skipped (prediction only)
-        e_g = ca.if_else(ok, y[0] - xp[0], 0)
-        e_d = ca.if_else(ok, y[1] - xp[2], 0)
-        x_new = ca.vertcat(xp[0] + L[0] * e_g, xp[1] + L[1] * e_g, xp[2] + L[0] * e_d, xp[3] + L[1] * e_d)
-        d_new = ca.vertcat(dist[0] + L[2] * e_g, dist[1] + L[2] * e_d)
-        return x_new, d_new
+        """Predictor-corrector update of :class:`~maglev_ocp.observers.HighGainObserver`, symbolic.
+
+        A non-finite reading is skipped (prediction only).
+        """
+        return observer_update(xhat, dist, u_prev, y, p, self.L_obs, self.cfg.Ts, disturbance=True,
+                               skip_nonfinite=True)
 
     def _plan(self, g_s, d_s, g_t, d_t, p, w_g):
         """Duration of a synchronized rest-to-rest move from ``(g_s, d_s)`` to ``(g_t, d_t)``."""
