@@ -201,16 +201,25 @@ def library_specs() -> dict[str, CandidateSpec]:
     return {s.name: s for s in specs}
 
 
-def calibration_free(params: Params, vertical: bool, horizontal: bool) -> tuple[Free, ...]:
-    """Free entries C1..C4 of ``p`` for a calibration on data with the given channels."""
+def calibration_free(params: Params, vertical: bool, horizontal: bool, ref: Params | None = None) -> tuple[Free, ...]:
+    """Free entries C1..C4 of ``p`` for a calibration on data with the given channels.
+
+    Starts at ``params``; the bounds are relative to ``ref`` (default: the nominal
+    set), so that a joint re-fit can undo what a biased calibration absorbed
+    (in closed loop an unmodelled force that the controller fights drags the
+    thrust constant towards zero).
+    """
+    from ..params import NOMINAL
+
+    ref = ref or NOMINAL
     out = []
     if horizontal:
-        out.append(Free("p.C1", 0.3 * params.C1, 3.0 * params.C1, params.C1, params.C1))
+        out.append(Free("p.C1", 0.2 * ref.C1, 3.0 * ref.C1, params.C1, ref.C1))
     if vertical:
         out += [
-            Free("p.C2", 0.3 * params.C2, 3.0 * params.C2, params.C2, params.C2),
-            Free("p.C3", 0.0, 5.0 * max(params.C3, 1.0), params.C3, max(params.C3, 1.0)),
-            Free("p.C4", 0.0, 20.0 * max(params.C4, 0.05), params.C4, max(params.C4, 0.05)),
+            Free("p.C2", 0.3 * ref.C2, 3.0 * ref.C2, params.C2, ref.C2),
+            Free("p.C3", 0.0, 5.0 * max(ref.C3, 1.0), params.C3, max(ref.C3, 1.0)),
+            Free("p.C4", 0.0, 20.0 * max(ref.C4, 0.05), params.C4, max(ref.C4, 0.05)),
         ]
     return tuple(out)
 

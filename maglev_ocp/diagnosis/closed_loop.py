@@ -13,13 +13,12 @@ Three runs of one scenario (:func:`maglev_ocp.runner.run_scenario`, same seed):
     *fitted* effect.
 
 How the controller's model carries an effect without touching the
-controller: :class:`EffectCompensation` wraps any controller; after the
-controller has chosen ``u_c`` for its model ``a_M(x, u_c)``, the wrapper
-solves ``a_M(x_hat, u_c) + Delta(x_hat, u) = a_M(x_hat, u)`` ... precisely,
-it finds the current ``u`` for which the augmented model (the same
-candidate expressions the diagnosis fitted) gives the acceleration the
-controller asked of its own model, ``a_aug(x_hat, u) = a_M(x_hat, u_c)``,
-by Newton's method on the 2x2 system (a CasADi Function). For a feedback-
+controller: :class:`EffectCompensation` wraps any controller. After the
+controller has chosen ``u_c`` for its own model, the wrapper finds the
+current ``u`` for which the augmented model (the same candidate expressions
+the diagnosis fitted) gives the acceleration the controller asked of its
+model, ``a_aug(x_hat, u) = a_M(x_hat, u_c)``, by Newton's method on the 2x2
+system (a CasADi Function). For a feedback-
 linearizing controller this is exactly the inverse of the augmented model;
 for the others it makes the rig behave like their model. The amplifier lag
 is carried by a first-order lead of the fitted effective delay (the inverse

@@ -604,13 +604,13 @@ class Region:
 
 
 def regions_from_map(bs: BinStats, channel: str, band: list[float] | None, alpha: float = 0.01,
-                     max_regions: int = 3) -> list[Region]:
-    """Connected groups of bins whose mean exceeds the floor (|z| above a Bonferroni threshold)."""
+                     max_regions: int = 6) -> list[Region]:
+    """Connected groups (8-neighbourhood) of bins whose mean exceeds the floor (|z| above a Bonferroni threshold)."""
     finite = np.isfinite(bs.z)
     n_bins = max(int(finite.sum()), 1)
     z_crit = float(st.norm.isf(alpha / (2 * n_bins)))
     sig = finite & (np.abs(np.where(finite, bs.z, 0.0)) > z_crit)
-    lab, n_lab = ndi.label(sig)
+    lab, n_lab = ndi.label(sig, structure=np.ones((3, 3), int))
     out = []
     for j in range(1, n_lab + 1):
         ii, jj = np.nonzero(lab == j)

@@ -64,7 +64,8 @@ class TrajectoryComparison:
     rms : dict
         ``{model: {"g": rms_m, "d": rms_m}}`` over all windows (locked axes omitted).
     examples : dict
-        ``{model: list of (t, X_sim[4 x n])}`` for a few windows of the first run (for overlays).
+        ``{model: list of (t, X_sim[4 x n])}`` for the windows of the first run where the
+        baseline errs most (for overlays).
     measured : list of (t, y)
         The measured readings of those windows.
     """
@@ -114,6 +115,9 @@ def compare_trajectories(
     out = TrajectoryComparison(horizon)
     sq: dict[str, np.ndarray] = {lab: np.zeros(2) for lab in models}
     cnt = np.zeros(2)
+    window_err: dict[str, list[float]] = {}
+    window_sim: dict[str, list] = {}
+    window_meas: list = []
     for ri, run in enumerate(runs):
         N = len(run.y)
         if N < n + 100:
@@ -144,12 +148,20 @@ def compare_trajectories(
                 meas = run.y[s + 1:s + 1 + n]
                 err = np.column_stack([blk[0] - meas[:, 0], blk[2] - meas[:, 1]])
                 sq[lab] += np.sum(err**2, axis=0) * free
-                if ri == 0 and j < n_examples:
-                    out.examples.setdefault(lab, []).append(((s + 1 + np.arange(n)) * run.Ts + run.t0, blk))
-        for j, s in enumerate(starts):
-            if ri == 0 and j < n_examples:
-                out.measured.append(((s + 1 + np.arange(n)) * run.Ts + run.t0, run.y[s + 1:s + 1 + n]))
+                if ri == 0:
+                    window_err.setdefault(lab, []).append(float(np.sum(err**2 * free)))
+                    window_sim.setdefault(lab, []).append(((s + 1 + np.arange(n)) * run.Ts + run.t0, blk))
+        if ri == 0:
+            for s in starts:
+                window_meas.append(((s + 1 + np.arange(n)) * run.Ts + run.t0, run.y[s + 1:s + 1 + n]))
         cnt += len(starts) * n * free
+    # Overlay examples: the windows of the first held-out run where the first model (the baseline) errs most.
+    if window_meas:
+        first = next(iter(models))
+        pick = np.argsort(window_err[first])[::-1][:n_examples]
+        pick = np.sort(pick)
+        out.measured = [window_meas[i] for i in pick]
+        out.examples = {lab: [window_sim[lab][i] for i in pick] for lab in models}
     for lab in models:
         out.rms[lab] = {ax: (float(np.sqrt(sq[lab][i] / cnt[i])) if cnt[i] else None)
                         for i, ax in enumerate(("g", "d"))}
