@@ -74,6 +74,13 @@ def load_model(cls: type[M], path: str | os.PathLike) -> M:
     return parse_model(cls, data, str(path))
 
 
+def _umask_mode() -> int:
+    """File mode an ordinary ``open(..., "w")`` would give (``mkstemp`` makes files 0600)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     """Write ``text`` to ``path`` via a temporary file and rename.
 
@@ -86,6 +93,7 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     try:
         with os.fdopen(fd, "w") as fh:
             fh.write(text)
+        os.chmod(tmp, _umask_mode())
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -110,6 +118,7 @@ def atomic_write_bytes(path: str | os.PathLike, fig_or_bytes: Any, **savefig_kw:
             else:
                 fig_or_bytes.savefig(fh, format=(path.suffix.lstrip(".") or "png"), dpi=savefig_kw.pop("dpi", 110),
                                      **savefig_kw)
+        os.chmod(tmp, _umask_mode())
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
