@@ -336,18 +336,27 @@ def _views(res: Sequence[Residual], floors: np.ndarray, infl: np.ndarray, fs: fl
 
 
 def _regions(views: dict[str, ChannelView], floors: dict[str, ChannelFloor]) -> list[Region]:
+    """Regions per channel: significant gap x position bins; else, for a gap the bins cannot show (a
+    spectral line, a period finer than the bins, a dependence on velocity or current rate), the visited
+    range with the band, the period and the excess."""
     out: list[Region] = []
     for ch, v in views.items():
         band = v.spectrum.peaks[0]["band_hz"] if v.spectrum is not None and v.spectrum.peaks else v.band
-        regs = regions_from_map(v.map_gd, ch, band)
         fl = floors.get(ch)
+        sigma = fl.floor if fl is not None and fl.floor > 0 else 1.0
+        period = v.period.best_period if v.period is not None and v.period.significant else None
+        regs = regions_from_map(v.map_gd, ch, band, sigma)
+        for r in regs:
+            r.period_m = period
+        eg, ed = v.map_gd.edges
+        whole = ([float(eg[0]), float(eg[-1])], [float(ed[0]), float(ed[-1])])
         if not regs and v.spectrum is not None and v.spectrum.peaks:
-            # A gap without state structure (a spectral line): the whole visited region, its band.
-            eg, ed = v.map_gd.edges
             pk = v.spectrum.peaks[0]
-            ratio = math.sqrt(max(pk["power_m2_s4"], 0.0)) / fl.floor if fl is not None and fl.floor > 0 else math.nan
-            regs = [Region(ch, [float(eg[0]), float(eg[-1])], [float(ed[0]), float(ed[-1])], pk["band_hz"],
-                           float(ratio), math.sqrt(max(pk["power_m2_s4"], 0.0)), 0)]
+            amp = math.sqrt(max(pk["power_m2_s4"], 0.0))
+            regs = [Region(ch, *whole, pk["band_hz"], float(amp / sigma), amp, 0, float(pk["ratio"]), period)]
+        if not regs and ((fl is not None and fl.significant) or period is not None):
+            exc = fl.excess if fl is not None else 0.0
+            regs = [Region(ch, *whole, v.band, float(exc / sigma), exc, 0, float(fl.z) if fl else math.nan, period)]
         out += regs
     return out
 
@@ -526,7 +535,9 @@ def diagnose(
         if verdict.verdict == "unexplained":
             verdict.reasons.append("no candidate, alone or with a second one, closes "
                                    f"{rules.closes_min:.0%} of the gap: unexplained")
-    else:
+    if verdict.verdict in ("none", "unexplained"):
+        # No effect is claimed: the final model is the baseline, and the gap that remains is its gap.
+        final_spec, final_fit = base_spec, None
         rem = floors
     in_verdict = set(verdict.verdict.replace("|", "+").split("+"))
     for s in scores:
@@ -543,7 +554,7 @@ def diagnose(
     regions = _regions(views_before, floors) if gap_detected else []
     remaining_regions = _regions(views_after, rem) if any(f.significant for f in rem.values()) else []
     if verdict.verdict == "unexplained":
-        # Where the unexplained gap is: after the best candidate if one helped, else the baseline's.
+        # Where the unexplained gap is (the baseline's: no candidate closes it).
         regions_unexpl = remaining_regions or regions
         if regions_unexpl:
             verdict.reasons.append("unexplained gap: " + "; ".join(

@@ -578,12 +578,16 @@ class Region:
     freq_band_hz : list of float or None
         Band of the residual's excess power (spectrum) in this channel.
     excess_over_floor : float
-        Rms of the bin means in the region divided by the bins' floor (standard error): how many
-        floors the residual stands above noise.
+        Size of the gap there relative to the noise: rms of the region's bin means (or the
+        amplitude of a spectral line) divided by the channel's noise floor rms.
     mean_abs_m_s2 : float
         Mean |bin mean| in the region [m/s^2].
     n_bins : int
-        Bins in the region.
+        Bins in the region (0 for a spectral line, which has no place in gap x position).
+    z : float
+        Significance: rms of the bins' mean / standard error (for a line, the PSD ratio).
+    period_m : float or None
+        Period in d of the channel's residual, when the period scan finds one.
     """
 
     channel: str
@@ -593,17 +597,19 @@ class Region:
     excess_over_floor: float
     mean_abs_m_s2: float
     n_bins: int
+    z: float = math.nan
+    period_m: float | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready view (the issue's ``regions`` entries)."""
         return {
             "channel": self.channel, "g_range_m": self.g_range_m, "d_range_m": self.d_range_m,
             "freq_band_hz": self.freq_band_hz, "excess_over_floor": self.excess_over_floor,
-            "mean_abs_m_s2": self.mean_abs_m_s2, "n_bins": self.n_bins,
+            "mean_abs_m_s2": self.mean_abs_m_s2, "n_bins": self.n_bins, "z": self.z, "period_m": self.period_m,
         }
 
 
-def regions_from_map(bs: BinStats, channel: str, band: list[float] | None, alpha: float = 0.01,
+def regions_from_map(bs: BinStats, channel: str, band: list[float] | None, floor: float, alpha: float = 0.01,
                      max_regions: int = 6) -> list[Region]:
     """Connected groups (8-neighbourhood) of bins whose mean exceeds the floor (|z| above a Bonferroni threshold)."""
     finite = np.isfinite(bs.z)
@@ -616,11 +622,13 @@ def regions_from_map(bs: BinStats, channel: str, band: list[float] | None, alpha
         ii, jj = np.nonzero(lab == j)
         eg, ed = bs.edges
         zz = bs.z[ii, jj]
+        mm = bs.mean[ii, jj]
         out.append(Region(
             channel, [float(eg[ii.min()]), float(eg[ii.max() + 1])], [float(ed[jj.min()]), float(ed[jj.max() + 1])],
-            band, float(np.sqrt(np.mean(zz**2))), float(np.mean(np.abs(bs.mean[ii, jj]))), len(ii),
+            band, float(np.sqrt(np.mean(mm**2)) / floor), float(np.mean(np.abs(mm))), len(ii),
+            float(np.sqrt(np.mean(zz**2))),
         ))
-    out.sort(key=lambda r_: -r_.excess_over_floor * r_.n_bins)
+    out.sort(key=lambda r_: -r_.excess_over_floor**2 * r_.n_bins)
     return out[:max_regions]
 
 

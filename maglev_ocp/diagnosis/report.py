@@ -111,7 +111,7 @@ def summary_table(d: Diagnosis) -> str:
             band = f", band {r.freq_band_hz[0]:.2f}..{r.freq_band_hz[1]:.2f} Hz" if r.freq_band_hz else ""
             lines.append(f"  {r.channel:<10} g {r.g_range_m[0] * 1e3:6.2f}..{r.g_range_m[1] * 1e3:6.2f} mm, "
                          f"d {r.d_range_m[0] * 1e3:7.2f}..{r.d_range_m[1] * 1e3:7.2f} mm{band}, "
-                         f"{r.excess_over_floor:.1f} floors")
+                         f"{r.excess_over_floor:.2f} x floor (z {r.z:.1f})")
     if d.trajectories is not None:
         lines.append("")
         lines.append(f"simulated {d.trajectories.horizon * 1e3:.0f} ms windows on held-out runs, rms error [mm]:")
@@ -314,14 +314,14 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
                 for k, v in s.params.items()) + f". {s.note}.")
     if d.regions or d.remaining_regions:
         md.append("\n## Regions\n")
-        md.append("| model | channel | g [mm] | d [mm] | band [Hz] | floors |")
-        md.append("|---|---|---|---|---|---|")
+        md.append("| model | channel | g [mm] | d [mm] | band [Hz] | excess / floor | z |")
+        md.append("|---|---|---|---|---|---|---|")
         for lab, regs in (("baseline", d.regions), (d.final_model, d.remaining_regions)):
             for r in regs:
                 band = f"{r.freq_band_hz[0]:.2f}..{r.freq_band_hz[1]:.2f}" if r.freq_band_hz else "-"
                 md.append(f"| {lab} | {r.channel} | {r.g_range_m[0] * 1e3:.1f}..{r.g_range_m[1] * 1e3:.1f} | "
                           f"{r.d_range_m[0] * 1e3:.0f}..{r.d_range_m[1] * 1e3:.0f} | {band} | "
-                          f"{r.excess_over_floor:.1f} |")
+                          f"{r.excess_over_floor:.2f} | {r.z:.1f} |")
     md.append("\n## Localization\n")
     for ch, v in j["localization"].items():
         ps = v["period_scan"]

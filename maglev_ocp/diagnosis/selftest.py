@@ -445,7 +445,13 @@ def run_case(index: int, truth: str, seed: np.random.SeedSequence, settings: Sel
     reduction = sel[0].reduction if sel else 0.0
     name = extra or truth
     right = diag.verdict.verdict == ("unexplained" if extra else truth)
-    loc, chans = _localized(diag, "none" if truth == "none" and not extra else name, t_res, diag.heldout.baseline)
+    if extra:
+        # Out of the library: right when the channel it acts on carries the unexplained gap.
+        ch = OUT_OF_LIBRARY[extra][1]
+        regs = diag.remaining_regions or diag.regions
+        loc, chans = any(r.channel == ch for r in regs), [ch]
+    else:
+        loc, chans = _localized(diag, truth, t_res, diag.heldout.baseline)
     params = {"params": p_over, "effects": {k_: v for k_, v in true_eff.items()}, "extra": extra_info}
     return Case(index, name, params, diag.verdict.verdict, right, float(reduction), float(ideal), bool(loc), secs,
                 t_gen, chans), diag
