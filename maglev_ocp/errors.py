@@ -2,14 +2,31 @@
 
 from __future__ import annotations
 
+#: Longest message a :class:`UserError` carries (the rest is elided).
+MAX_MESSAGE: int = 600
+
+
+def one_line(text: str, limit: int = MAX_MESSAGE) -> str:
+    """Make ``text`` a single line of at most ``limit`` characters.
+
+    Line breaks (which can come from the user's own data, e.g. a quoted CSV
+    cell) are shown as ``\\n``, so an error always stays one line.
+    """
+    text = text.replace("\r", "\\r").replace("\n", "\\n")
+    return text if len(text) <= limit else text[: limit - 5] + " ..."
+
 
 class UserError(Exception):
     """An error caused by the user's input (file, key, value), not by a bug.
 
-    The CLI prints ``str(err)`` on one line and exits with code 2.
+    The CLI prints ``str(err)`` on one line and exits with code 2; the message
+    is made one line (see :func:`one_line`) whatever the data put into it.
     """
 
     exit_code: int = 2
+
+    def __init__(self, message: object = "") -> None:
+        super().__init__(one_line(str(message)))
 
 
 class ConfigError(UserError):

@@ -86,3 +86,19 @@ def test_quantized_values_survive_csv_exactly(tmp_path_factory, values, res):
     for c in run.names:
         assert np.array_equal(back[c], run[c])
     assert np.array_equal(np.round(back["g"] / res) * res, back["g"])
+
+
+def test_quoted_header_cell_spanning_lines_still_gives_one_line_error(tmp_path):
+    """A stray quote in the header makes csv read the whole file as one cell: the error stays one line."""
+    from maglev_ocp.errors import DataError
+
+    (tmp_path / "dataset.yaml").write_text(
+        f"format: {FORMAT}\nsample_time: 0.001\nencoder_resolution: 1.0e-05\n"
+        "runs:\n  - {file: free.csv, locked: []}\n"
+    )
+    rows = "\n".join(f"{k * 1e-3},0.02,0.0,0.0,1.0" for k in range(20))
+    (tmp_path / "free.csv").write_text('",g,d,i_q,i_d\n' + rows + "\n")
+    with pytest.raises(DataError) as err:
+        read_dataset(tmp_path)
+    msg = str(err.value)
+    assert "\n" not in msg and "free.csv" in msg and len(msg) <= 600
