@@ -706,15 +706,7 @@ def residuals_with(spec: CandidateSpec, fit: FitResult | None, runs: Sequence[Pr
     return out
 
 
-def physical_params(fit: FitResult, base: Params) -> dict[str, float]:
-    """The fitted values as ``{name: value}`` with readable names (``C1``, ``xi0``, ``h2``, ...)."""
-    out = {}
-    for key, v in fit.params().items():
-        out[key.split(".", 1)[1] if key.startswith("p.") else key] = v
-    return out
-
-
 __all__ = [
     "CandidateFitter", "CandidateSpec", "Dataset", "FitResult", "Free", "accel_series", "calibration_free",
-    "fit_candidate", "lag_Z", "lag_features", "library_specs", "physical_params", "residuals_with",
+    "fit_candidate", "lag_Z", "lag_features", "library_specs", "residuals_with",
 ]

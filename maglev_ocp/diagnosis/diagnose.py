@@ -106,7 +106,7 @@ class DiagnoseSettings(Strict):
     closes_min: float = Field(0.5, gt=0, le=1)
     confusable_z: float = Field(2.0, ge=0)
     second_min: float = Field(0.5, gt=0, le=1)
-    n_null: int = Field(12, ge=3, le=200)
+    n_null: int = Field(8, ge=3, le=200)
     seed: int = Field(0, ge=0)
     horizon_s: float = Field(0.05, gt=0.002, le=1.0)
     simulate: bool = True
@@ -319,7 +319,7 @@ def combine(a: CandidateSpec, b: CandidateSpec) -> CandidateSpec:
 
 
 def _views(res: Sequence[Residual], floors: np.ndarray, infl: np.ndarray, fs: float, fmax: float,
-           rng: np.random.Generator) -> dict[str, ChannelView]:
+           rng: np.random.Generator, n_null: int = 12) -> dict[str, ChannelView]:
     out = {}
     for c, ch in enumerate(CHANNELS):
         s = pool(res, c)
@@ -330,7 +330,7 @@ def _views(res: Sequence[Residual], floors: np.ndarray, infl: np.ndarray, fs: fl
         bins = {n: bin_stats(s, (n,), (edges_for(s.feat[n], 16),), floors[c], infl[c])
                 for n in ("g", "d", "g_dot", "d_dot", "i_q", "i_d", "di_q", "di_d")}
         sp = spectrum(res, c, fs, fmax)
-        ps = period_scan(s, rng)
+        ps = period_scan(s, rng, n_null=n_null)
         out[ch] = ChannelView(mp, bins, sp, ps, dominant_band(sp) if sp is not None else None)
     return out
 
@@ -429,9 +429,11 @@ def diagnose(
     b_train = residuals_with(base_spec, None, train, p_base)
     b_test = residuals_with(base_spec, None, test, p_base)
     q_floor = filt.quantization_floor()
+    # The residual's noise is correlated over the filter's main lobe: 2 fs / fc decimated samples.
+    noise_lag = max(4, math.ceil(2.0 / (st.fc_hz * Ts * st.decimate)))
     floors: dict[str, ChannelFloor] = {}
     for c in range(2):
-        fl = channel_floor(b_train, b_test, c, q_floor)
+        fl = channel_floor(b_train, b_test, c, q_floor, max_lag=noise_lag)
         if fl is not None:
             floors[CHANNELS[c]] = fl
     fvec = np.array([floors[ch].floor if ch in floors else 1.0 for ch in CHANNELS])
@@ -452,7 +454,7 @@ def diagnose(
     fs = 1.0 / (Ts * st.decimate)
     infl = np.array([floors[ch].inflation if ch in floors else 1.0 for ch in CHANNELS])
     all_before = b_train + b_test
-    views_before = _views(all_before, fvec, infl, fs, st.fc_hz, rng)
+    views_before = _views(all_before, fvec, infl, fs, st.fc_hz, rng, st.n_null)
     evidence = []
     for ch, fl in floors.items():
         if fl.significant:
@@ -500,7 +502,7 @@ def diagnose(
         a_train = residuals_with(final_spec, final_fit, train, p_base, u_train)
         a_test = residuals_with(final_spec, final_fit, test, p_base, u_test)
         rem = {CHANNELS[c]: fl for c in range(2)
-               if (fl := channel_floor(a_train, a_test, c, q_floor)) is not None}
+               if (fl := channel_floor(a_train, a_test, c, q_floor, max_lag=noise_lag)) is not None}
         still = any(f.significant for f in rem.values())
         if still and best.closes < 0.9:
             others = [s for s in rank(scores) if s.significant and s.name != best.name
@@ -531,7 +533,7 @@ def diagnose(
                     a_train = residuals_with(final_spec, final_fit, train, p_base, u_train)
                     a_test = residuals_with(final_spec, final_fit, test, p_base, u_test)
                     rem = {CHANNELS[c]: fl for c in range(2)
-                           if (fl := channel_floor(a_train, a_test, c, q_floor)) is not None}
+                           if (fl := channel_floor(a_train, a_test, c, q_floor, max_lag=noise_lag)) is not None}
         if verdict.verdict == "unexplained":
             verdict.reasons.append("no candidate, alone or with a second one, closes "
                                    f"{rules.closes_min:.0%} of the gap: unexplained")
@@ -550,7 +552,7 @@ def diagnose(
     show_spec, show_fit = (final_spec, final_fit)
     all_after = (residuals_with(show_spec, show_fit, train, p_base, u_train)
                  + residuals_with(show_spec, show_fit, test, p_base, u_test))
-    views_after = _views(all_after, fvec, infl, fs, st.fc_hz, rng)
+    views_after = _views(all_after, fvec, infl, fs, st.fc_hz, rng, st.n_null)
     regions = _regions(views_before, floors) if gap_detected else []
     remaining_regions = _regions(views_after, rem) if any(f.significant for f in rem.values()) else []
     if verdict.verdict == "unexplained":

@@ -249,7 +249,7 @@ def _shift(s: Samples, rng: np.random.Generator) -> Samples:
     return Samples(r, s.feat, s.run)
 
 
-def _gain(train: Samples, test: Samples) -> tuple[float, float, AdditiveMap]:
+def _gain(train: Samples, test: Samples, max_lag: int = 200) -> tuple[float, float, AdditiveMap]:
     """Held-out gain of the training maps and its z-score (see the module docstring)."""
     m = AdditiveMap.fit(train)
     pred = m.predict(test)
@@ -262,7 +262,7 @@ def _gain(train: Samples, test: Samples) -> tuple[float, float, AdditiveMap]:
     rm = float(np.sqrt(np.mean(pred**2)))
     # Noise level and autocorrelation from what the maps leave (the structure itself would inflate both).
     sig = float(np.sqrt(np.mean(e**2)))
-    sd = 2 * rm * sig * math.sqrt(autocorr_factor(e) / n) / (sse0 / n) if rm > 0 else math.inf
+    sd = 2 * rm * sig * math.sqrt(autocorr_factor(e, max_lag) / n) / (sse0 / n) if rm > 0 else math.inf
     return gain, gain / sd, m
 
 
@@ -317,7 +317,7 @@ class ChannelFloor:
 
 
 def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: int, quantization: float,
-                  z_crit: float = 4.0, min_gain: float = 0.01) -> ChannelFloor | None:
+                  z_crit: float = 4.0, min_gain: float = 0.01, max_lag: int = 200) -> ChannelFloor | None:
     """Noise floor and structure test of one channel (None if the channel has no data).
 
     Parameters
@@ -334,15 +334,20 @@ def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: 
         The maps must also predict at least this fraction of the held-out
         variance: structure that does not predict held-out runs is no gap
         (the null's mean gain is negative, the price of fitting noise).
+    max_lag : int
+        Longest lag of the noise's autocorrelation (samples). The noise of a
+        filtered residual is correlated over about the filter's main lobe
+        (``2 fs / fc``); longer correlations belong to structure the maps
+        missed and would wrongly inflate the noise.
     """
     tr, te = pool(train, channel), pool(test, channel)
     if tr.n < 50 or te.n < 50:
         return None
-    gain, z, m = _gain(tr, te)
+    gain, z, m = _gain(tr, te, max_lag)
     rms = float(np.sqrt(np.mean(te.r**2)))
     e = te.r - m.predict(te)
     floor = float(np.sqrt(np.mean(e**2)))
-    infl = autocorr_factor(e)
+    infl = autocorr_factor(e, max_lag)
     return ChannelFloor(CHANNELS[channel], rms, min(floor, rms), quantization, infl, gain, z,
                         bool(z > z_crit and gain > min_gain), te.n)
 

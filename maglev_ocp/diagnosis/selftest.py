@@ -26,9 +26,9 @@ constants, on the same held-out samples).
 Localization is right when the channel where the true effect is largest is
 flagged (a reported region, or state structure beyond its floor), and, for
 effects that live in the gap x position plane (whose binned map holds at
-least 30 % of the effect's energy there), the reported regions of that
-channel hold at least half of that map's energy; on ``none`` datasets it is
-right when nothing is flagged.
+least 30 % of the effect's energy there), the box around that channel's
+reported regions holds at least half of that map's energy; on ``none``
+datasets it is right when nothing is flagged.
 """
 
 from __future__ import annotations
@@ -407,10 +407,10 @@ def _localized(diag: Diagnosis, truth: str, effect_res: list, base_res: list) ->
         return False, [ch]
     gi, di = np.meshgrid(np.arange(len(eg) - 1), np.arange(len(ed) - 1), indexing="ij")
     gc, dc = (eg[gi] + eg[gi + 1]) / 2, (ed[di] + ed[di + 1]) / 2
-    inside = np.zeros(m2.shape, bool)
-    for r in regs:
-        inside |= ((gc >= r.g_range_m[0] - 1e-9) & (gc <= r.g_range_m[1] + 1e-9) & (dc >= r.d_range_m[0] - 1e-9)
-                   & (dc <= r.d_range_m[1] + 1e-9))
+    # The extent the report gives for the channel: the box around its regions.
+    g0, g1 = min(r.g_range_m[0] for r in regs), max(r.g_range_m[1] for r in regs)
+    d0, d1 = min(r.d_range_m[0] for r in regs), max(r.d_range_m[1] for r in regs)
+    inside = (gc >= g0 - 1e-9) & (gc <= g1 + 1e-9) & (dc >= d0 - 1e-9) & (dc <= d1 + 1e-9)
     return bool(m2[inside].sum() >= 0.5 * m2.sum()), [ch]
 
 
