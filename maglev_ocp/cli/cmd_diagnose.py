@@ -60,6 +60,8 @@ def register(sub) -> None:
     p.add_argument("--duration", type=float, default=10.0, metavar="S",
                    help="generated datasets: seconds per run (default 10)")
     p.add_argument("--keep-reports", action="store_true", help="self-check: write every dataset's report")
+    p.add_argument("--truths", nargs="+", metavar="NAME",
+                   help="self-check: draw only these truths (library effects and/or none; default all)")
     p.add_argument("--generate", metavar="DIR", help="write a diagnosis dataset from the plant into DIR")
     p.add_argument("--effect", metavar="NAME", help="library effect for --generate / --scenario")
     p.add_argument("--effect-param", nargs="+", default=[], metavar="KEY=VALUE",
@@ -163,12 +165,18 @@ def _dataset(args) -> int:
 
 
 def _selftest(args) -> int:
-    from ..diagnosis.selftest import SelftestSettings, run_selftest
+    from ..diagnosis.selftest import DRAWS, SelftestSettings, run_selftest
 
     if args.selftest < 1:
         raise UserError(f"--selftest: N must be >= 1, got {args.selftest}")
+    if args.truths:
+        bad = [t for t in args.truths if t not in DRAWS]
+        if bad:
+            raise UserError(f"--truths: unknown {bad}; choose from {', '.join(DRAWS)}")
+        if args.baseline == "calibrated" and set(args.truths) == {"parameter_error"}:
+            raise UserError("--truths: parameter_error is absorbed by a calibrated baseline; use --baseline given")
     st = SelftestSettings(n=args.selftest, seed=args.seed, baseline=args.baseline, generator=_generator(args),
-                          diagnose=_settings(args, simulate=False))
+                          diagnose=_settings(args, simulate=False), truths=args.truths)
     res = run_selftest(st, progress=True, out_dir=args.out, keep_reports=args.keep_reports)
     print(res.table())
     if args.out:
