@@ -66,6 +66,8 @@ def register(sub) -> None:
     p.add_argument("--effect", metavar="NAME", help="library effect for --generate / --scenario")
     p.add_argument("--effect-param", nargs="+", default=[], metavar="KEY=VALUE",
                    help="effect parameters in the plant (e.g. xi0=5 ell=0.004)")
+    p.add_argument("--extra", choices=("vibration", "guide_ripple"),
+                   help="--generate: add an effect outside the library (7.3 Hz vibration, 8.6 mm guide ripple)")
     p.add_argument("--scenario", metavar="FILE", help="closed-loop view on this scenario (needs --effect)")
     p.add_argument("--fitted-from", metavar="REPORT",
                    help="closed-loop view: take the fitted effect from this report.json (default: fit it)")
@@ -206,8 +208,13 @@ def _generate(args) -> int:
                 raise UserError(f"--effect-param: {args.effect} has no parameters {sorted(bad)}")
             effects = {args.effect: {"enabled": True, **eff}}
     cfg = selftest_plant("given", effects)
+    force, info = None, None
+    if args.extra:
+        from ..diagnosis.generate import OUT_OF_LIBRARY
+
+        force, info = OUT_OF_LIBRARY[args.extra][0](), {"name": args.extra}
     gen = generate_dataset(cfg, params, seed=np.random.SeedSequence(args.seed), settings=_generator(args),
-                           progress=True)
+                           extra_force=force, extra_info=info, progress=True)
     gen.save(args.generate)
     print(gen.dataset.table())
     print(f"written: {args.generate}")
