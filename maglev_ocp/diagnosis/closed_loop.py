@@ -303,8 +303,6 @@ def closed_loop_view(
     if bad:
         raise UserError(f"--effect-param: {effect} has no parameters {sorted(bad)}; it has "
                         f"{', '.join(EFFECTS[effect].param_names())}")
-    base = sc.model_dump(mode="python")
-    plant_over = dict(base.get("plant") or {})
     # The model's world: the scenario's plant with its extra effects off and the model's own parameters.
     off = {n: {"enabled": False} for n in EFFECTS}
     model_sc = _with_plant(sc, {"effects": off})
@@ -316,11 +314,12 @@ def closed_loop_view(
     else:
         rig_sc = _with_plant(sc, {"effects": {**off, effect: {"enabled": True, **{
             kk: v for kk, v in eff.items() if kk in EFFECTS[effect].param_names()}}}})
-    del plant_over
     ctrl_params = sc.controller_model_params()
-    if ctrl_params.xi0 > 0 and effect == "cogging":
+    if effect == "cogging":
+        # The cogging under study is what the controller's model lacks, in all three runs.
         ctrl_params = ctrl_params.without_cogging()
-        model_sc = model_sc.model_copy(update={})
+        model_sc = _with(model_sc, {"controller_params": {"xi0": 0.0}})
+        rig_sc = _with(rig_sc, {"controller_params": {"xi0": 0.0}})
     spec = library_specs()[effect]
     p_base = ctrl_params.without_cogging().vector() if effect == "cogging" else ctrl_params.vector()
     if fitted is None:
@@ -345,16 +344,18 @@ def closed_loop_view(
     return ClosedLoopView(sc.name, effect, eff, fitted, results, logs)
 
 
-def _with_plant(sc, over: dict):
-    """Scenario copy with plant-file keys merged into its ``plant`` block."""
+def _with(sc, over: dict):
+    """Scenario copy with ``over`` merged into its resolved settings (nested mappings merge)."""
     from ..plant.config import deep_merge
     from ..scenario import scenario_from_dict
 
-    data = sc.resolved() if hasattr(sc, "resolved") else sc.model_dump()
-    data = json.loads(json.dumps(data, default=_jsonable))
-    plant = data.get("plant") or {}
-    data["plant"] = deep_merge(plant, over)
-    return scenario_from_dict(data, source=sc.source, root_dir=sc.root_dir)
+    data = json.loads(json.dumps(sc.resolved(), default=_jsonable))
+    return scenario_from_dict(deep_merge(data, over), source=sc.source, root_dir=sc.root_dir)
+
+
+def _with_plant(sc, over: dict):
+    """Scenario copy with plant-file keys merged into its ``plant`` block."""
+    return _with(sc, {"plant": over})
 
 
 __all__ = ["ClosedLoopView", "EffectCompensation", "closed_loop_view", "fitted_from_report"]
