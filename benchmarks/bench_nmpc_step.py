@@ -59,8 +59,9 @@ def _stats(a: np.ndarray) -> dict:
     return {"median_us": float(np.median(a)), "p99_us": float(np.percentile(a, 99)), "max_us": float(a.max())}
 
 
-def bench(scenarios: list[Path], backend: str = "python", horizon: int | None = None, warmup: int = 50,
-          progress: bool = True) -> dict:
+def bench(
+    scenarios: list[Path], backend: str = "python", horizon: int | None = None, warmup: int = 50, progress: bool = True
+) -> dict:
     """Run the scenarios with the NMPC and return step-time statistics [us].
 
     Returns
@@ -90,19 +91,34 @@ def bench(scenarios: list[Path], backend: str = "python", horizon: int | None = 
         times.append(st)
         cpus.append(cpu)
         kers.append(ker)
-        per[res.scenario.name] = {"n_steps": int(st.size), **_stats(st), "cpu": _stats(cpu), "kernel": _stats(ker),
-                                  "passed": bool(res.passed)}
+        per[res.scenario.name] = {
+            "n_steps": int(st.size),
+            **_stats(st),
+            "cpu": _stats(cpu),
+            "kernel": _stats(ker),
+            "passed": bool(res.passed),
+        }
     allt, allc, allk = np.concatenate(times), np.concatenate(cpus), np.concatenate(kers)
-    return {"backend": backend, "horizon": horizon or 20, "n_steps": int(allt.size), **_stats(allt),
-            "cpu": _stats(allc), "kernel": _stats(allk), "load_avg_1min": os.getloadavg()[0], "per_scenario": per}
+    return {
+        "backend": backend,
+        "horizon": horizon or 20,
+        "n_steps": int(allt.size),
+        **_stats(allt),
+        "cpu": _stats(allc),
+        "kernel": _stats(allk),
+        "load_avg_1min": os.getloadavg()[0],
+        "per_scenario": per,
+    }
 
 
 def table(r: dict) -> str:
     """Text view of :func:`bench`'s result."""
-    lines = [f"NMPC step time, backend {r['backend']}, horizon {r['horizon']} "
-             f"(1-min load average {r['load_avg_1min']:.2f} on {os.cpu_count()} cores)",
-             "median / p99 / max [us] of: the whole step (wall), its CPU time, the step Function call alone (wall)",
-             f"{'scenario':<22} {'steps':>6} {'step (wall)':>22} {'step (CPU)':>22} {'kernel (wall)':>22}"]
+    lines = [
+        f"NMPC step time, backend {r['backend']}, horizon {r['horizon']} "
+        f"(1-min load average {r['load_avg_1min']:.2f} on {os.cpu_count()} cores)",
+        "median / p99 / max [us] of: the whole step (wall), its CPU time, the step Function call alone (wall)",
+        f"{'scenario':<22} {'steps':>6} {'step (wall)':>22} {'step (CPU)':>22} {'kernel (wall)':>22}",
+    ]
 
     def fmt(d: dict) -> str:
         return f"{d['median_us']:.0f} / {d['p99_us']:.0f} / {d['max_us']:.0f}"
@@ -119,8 +135,13 @@ def table(r: dict) -> str:
 def main(argv: list[str] | None = None) -> int:
     """Command line of the benchmark."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenario", action="append", default=None, metavar="YAML",
-                    help="scenario(s) with controller type nmpc (default: traverse_20mm_nmpc, tour_nmpc)")
+    ap.add_argument(
+        "--scenario",
+        action="append",
+        default=None,
+        metavar="YAML",
+        help="scenario(s) with controller type nmpc (default: traverse_20mm_nmpc, tour_nmpc)",
+    )
     ap.add_argument("--backend", choices=("python", "c"), default="python")
     ap.add_argument("--horizon", type=int, default=None)
     ap.add_argument("--warmup", type=int, default=50, help="steps dropped at the start of each run")

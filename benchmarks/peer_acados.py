@@ -89,8 +89,12 @@ def setup_acados() -> str | None:
 def summary(us: np.ndarray) -> dict[str, float]:
     """Median, p99 and max of a timing series [us]."""
     us = np.asarray(us, dtype=float)
-    return {"median_us": float(np.median(us)), "p99_us": float(np.percentile(us, 99)), "max_us": float(us.max()),
-            "n": int(us.size)}
+    return {
+        "median_us": float(np.median(us)),
+        "p99_us": float(np.percentile(us, 99)),
+        "max_us": float(us.max()),
+        "n": int(us.size),
+    }
 
 
 @dataclass
@@ -124,21 +128,29 @@ class PeerResult:
 
     def table(self) -> str:
         """Text table of the comparison."""
-        rows = [("ours: C step, wall", self.ours), ("acados: solve(), wall", self.acados_wall),
-                ("acados: time_tot", self.acados_internal), ("ours: C step, CPU", self.ours_cpu),
-                ("acados: solve(), CPU", self.acados_cpu)]
+        rows = [
+            ("ours: C step, wall", self.ours),
+            ("acados: solve(), wall", self.acados_wall),
+            ("acados: time_tot", self.acados_internal),
+            ("ours: C step, CPU", self.ours_cpu),
+            ("acados: solve(), CPU", self.acados_cpu),
+        ]
         s = self.settings
-        lines = [f"N = {s['N']}, {s['steps']} steps after {s['warmup']} warm-up, interleaved every "
-                 f"{s.get('block', 1)} step(s), "
-                 f"acados {s['qp_solver']} ({s['hpipm_mode']}), ours {s['admm_iterations']} ADMM iterations "
-                 f"({s['cflags']}), load average {s['loadavg']}, "
-                 f"{'SCHED_FIFO' if s.get('realtime') else 'normal priority'}",
-                 f"{'':<26} {'median [us]':>12} {'p99 [us]':>10} {'max [us]':>10}"]
+        lines = [
+            f"N = {s['N']}, {s['steps']} steps after {s['warmup']} warm-up, interleaved every "
+            f"{s.get('block', 1)} step(s), "
+            f"acados {s['qp_solver']} ({s['hpipm_mode']}), ours {s['admm_iterations']} ADMM iterations "
+            f"({s['cflags']}), load average {s['loadavg']}, "
+            f"{'SCHED_FIFO' if s.get('realtime') else 'normal priority'}",
+            f"{'':<26} {'median [us]':>12} {'p99 [us]':>10} {'max [us]':>10}",
+        ]
         for name, d in rows:
             lines.append(f"{name:<26} {d['median_us']:12.1f} {d['p99_us']:10.1f} {d['max_us']:10.1f}")
-        lines.append(f"ratio ours / acados (wall): median {self.ratio_median:.2f}, p99 {self.ratio_p99:.2f}; "
-                     f"(CPU): median {self.ours_cpu['median_us'] / self.acados_cpu['median_us']:.2f}, "
-                     f"p99 {self.ours_cpu['p99_us'] / self.acados_cpu['p99_us']:.2f}")
+        lines.append(
+            f"ratio ours / acados (wall): median {self.ratio_median:.2f}, p99 {self.ratio_p99:.2f}; "
+            f"(CPU): median {self.ours_cpu['median_us'] / self.acados_cpu['median_us']:.2f}, "
+            f"p99 {self.ours_cpu['p99_us'] / self.acados_cpu['p99_us']:.2f}"
+        )
         u = self.u_diff_A
         lines.append(f"|u_ours - u_acados| [A]: median {u['median']:.3g}, p99 {u['p99']:.3g}, max {u['max']:.3g}")
         return "\n".join(lines)
@@ -151,8 +163,9 @@ class PeerResult:
         return Path(path)
 
 
-def build_acados(builder, p_vec: np.ndarray, build_dir: Path, qp_solver: str, hpipm_mode: str,
-                 qp_iter_max: int, warm_start: int):
+def build_acados(
+    builder, p_vec: np.ndarray, build_dir: Path, qp_solver: str, hpipm_mode: str, qp_iter_max: int, warm_start: int
+):
     """An acados SQP_RTI solver for the OCP of ``builder`` (a :class:`controllers.nmpc_step.StepBuilder`)."""
     import casadi as ca
     from acados.acados_template import AcadosModel, AcadosOcp, AcadosOcpSolver
@@ -190,8 +203,12 @@ def build_acados(builder, p_vec: np.ndarray, build_dir: Path, qp_solver: str, hp
     c.idxbx, c.lbx, c.ubx, c.idxsbx = np.array([0]), np.array([cfg.gap_lo]), np.array([cfg.gap_hi]), np.array([0])
     ocp.cost.zl = ocp.cost.zu = np.array([w1]) / Ts
     ocp.cost.Zl = ocp.cost.Zu = np.array([w2]) / Ts
-    c.idxbx_e, c.lbx_e, c.ubx_e, c.idxsbx_e = (np.array([0]), np.array([cfg.gap_lo]), np.array([cfg.gap_hi]),
-                                                np.array([0]))
+    c.idxbx_e, c.lbx_e, c.ubx_e, c.idxsbx_e = (
+        np.array([0]),
+        np.array([cfg.gap_lo]),
+        np.array([cfg.gap_hi]),
+        np.array([0]),
+    )
     ocp.cost.zl_e = ocp.cost.zu_e = np.array([w1])
     ocp.cost.Zl_e = ocp.cost.Zu_e = np.array([w2])
     ocp.parameter_values = np.concatenate([p_vec, [0.0, 0.0]])
@@ -224,8 +241,14 @@ def build_acados(builder, p_vec: np.ndarray, build_dir: Path, qp_solver: str, hp
     return solver
 
 
-DEFAULT_TOUR = [(0.020, 0.000, 0.10), (0.016, 0.045, 0.25), (0.024, -0.045, 0.25), (0.015, 0.000, 0.20),
-                (0.025, 0.050, 0.25), (0.020, 0.000, 0.20)]
+DEFAULT_TOUR = [
+    (0.020, 0.000, 0.10),
+    (0.016, 0.045, 0.25),
+    (0.024, -0.045, 0.25),
+    (0.015, 0.000, 0.20),
+    (0.025, 0.050, 0.25),
+    (0.020, 0.000, 0.20),
+]
 
 
 def record_loop(ours, prep, io: dict, N: int, seed: int, progress: bool) -> dict[str, np.ndarray]:
@@ -271,8 +294,9 @@ def record_loop(ours, prep, io: dict, N: int, seed: int, progress: bool) -> dict
     return data
 
 
-def replay_interleaved(fn, solver, data: dict, p_vec: np.ndarray, N: int, realtime: bool, progress: bool,
-                       block: int = 1) -> dict[str, np.ndarray]:
+def replay_interleaved(
+    fn, solver, data: dict, p_vec: np.ndarray, N: int, realtime: bool, progress: bool, block: int = 1
+) -> dict[str, np.ndarray]:
     """Phase 2: every recorded instance solved by both, alternating which goes first; both timed.
 
     ``fn`` is our compiled ``nmpc_step`` (:class:`maglev_ocp.codegen.loader.CompiledFunction`), fed the
@@ -349,10 +373,21 @@ def replay_interleaved(fn, solver, data: dict, p_vec: np.ndarray, N: int, realti
     return out
 
 
-def run(N: int = 20, qp_solver: str = "FULL_CONDENSING_HPIPM", hpipm_mode: str = "SPEED",
-        qp_iter_max: int = 50, warm_start: int = 1, warmup: int = 50, build_dir: str | None = None,
-        iterations: int | None = None, progress: bool = True, seed: int = 7, realtime: bool = False,
-        cflags: str | None = None, block: int = 1) -> PeerResult:
+def run(
+    N: int = 20,
+    qp_solver: str = "FULL_CONDENSING_HPIPM",
+    hpipm_mode: str = "SPEED",
+    qp_iter_max: int = 50,
+    warm_start: int = 1,
+    warmup: int = 50,
+    build_dir: str | None = None,
+    iterations: int | None = None,
+    progress: bool = True,
+    seed: int = 7,
+    realtime: bool = False,
+    cflags: str | None = None,
+    block: int = 1,
+) -> PeerResult:
     """Record the closed loop, then replay it interleaved (see the module docstring and
     :func:`replay_interleaved` for ``block``)."""
     from controllers.nmpc import NMPCSettings, step_functions
@@ -390,14 +425,30 @@ def run(N: int = 20, qp_solver: str = "FULL_CONDENSING_HPIPM", hpipm_mode: str =
     from maglev_ocp import constants as k
 
     return PeerResult(
-        ours=o, ours_cpu=oc, acados_wall=a, acados_cpu=ac, acados_internal=ai,
-        ratio_median=o["median_us"] / a["median_us"], ratio_p99=o["p99_us"] / a["p99_us"],
+        ours=o,
+        ours_cpu=oc,
+        acados_wall=a,
+        acados_cpu=ac,
+        acados_internal=ai,
+        ratio_median=o["median_us"] / a["median_us"],
+        ratio_p99=o["p99_us"] / a["p99_us"],
         u_diff_A={"median": float(np.median(ud)), "p99": float(np.percentile(ud, 99)), "max": float(ud.max())},
-        settings={"N": N, "driver": "ours (recorded), replayed interleaved", "block": block, "qp_solver": qp_solver,
-                  "hpipm_mode": hpipm_mode, "qp_iter_max": qp_iter_max, "qp_warm_start": warm_start,
-                  "admm_iterations": settings.iterations, "steps": len(r["t_ours"]) - warmup, "warmup": warmup,
-                  "cflags": ours.builds["plan"].cflags, "loadavg": [round(v, 2) for v in os.getloadavg()],
-                  "tour": DEFAULT_TOUR, "realtime": bool(r["realtime"])},
+        settings={
+            "N": N,
+            "driver": "ours (recorded), replayed interleaved",
+            "block": block,
+            "qp_solver": qp_solver,
+            "hpipm_mode": hpipm_mode,
+            "qp_iter_max": qp_iter_max,
+            "qp_warm_start": warm_start,
+            "admm_iterations": settings.iterations,
+            "steps": len(r["t_ours"]) - warmup,
+            "warmup": warmup,
+            "cflags": ours.builds["plan"].cflags,
+            "loadavg": [round(v, 2) for v in os.getloadavg()],
+            "tour": DEFAULT_TOUR,
+            "realtime": bool(r["realtime"]),
+        },
         settled=bool(float(data["final_error_m"]) < 2 * k.position_tolerance),
     )
 
@@ -406,13 +457,18 @@ def main(argv=None) -> int:
     """Command line of the peer comparison."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--horizon", "-N", type=int, default=20)
-    ap.add_argument("--qp-solver", default="FULL_CONDENSING_HPIPM",
-                    choices=("PARTIAL_CONDENSING_HPIPM", "FULL_CONDENSING_HPIPM"))
+    ap.add_argument(
+        "--qp-solver", default="FULL_CONDENSING_HPIPM", choices=("PARTIAL_CONDENSING_HPIPM", "FULL_CONDENSING_HPIPM")
+    )
     ap.add_argument("--hpipm-mode", default="SPEED", choices=("SPEED_ABS", "SPEED", "BALANCE", "ROBUST"))
     ap.add_argument("--iterations", type=int, default=None, help="ADMM iterations of our step (default: settings)")
     ap.add_argument("--realtime", action="store_true", help="time the loop under SCHED_FIFO (as on a rig; root)")
-    ap.add_argument("--block", type=int, default=1,
-                    help="alternate the solvers every BLOCK steps (1: every step, caches cold for both)")
+    ap.add_argument(
+        "--block",
+        type=int,
+        default=1,
+        help="alternate the solvers every BLOCK steps (1: every step, caches cold for both)",
+    )
     ap.add_argument("--cflags", default=None, help="compiler flags of our step (default: the C backend's)")
     ap.add_argument("--json", default=None, metavar="FILE", help="also write the result as JSON")
     ap.add_argument("--no-progress", action="store_true")
@@ -424,9 +480,16 @@ def main(argv=None) -> int:
     if not math.isfinite(args.horizon) or not 4 <= args.horizon <= 80:
         print("peer_acados: --horizon must be in 4..80", file=sys.stderr)
         return 2
-    res = run(N=args.horizon, qp_solver=args.qp_solver, hpipm_mode=args.hpipm_mode,
-              iterations=args.iterations, progress=not args.no_progress, realtime=args.realtime,
-              cflags=args.cflags, block=args.block)
+    res = run(
+        N=args.horizon,
+        qp_solver=args.qp_solver,
+        hpipm_mode=args.hpipm_mode,
+        iterations=args.iterations,
+        progress=not args.no_progress,
+        realtime=args.realtime,
+        cflags=args.cflags,
+        block=args.block,
+    )
     print(res.table())
     if args.json:
         res.save(args.json)

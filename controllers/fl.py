@@ -278,14 +278,25 @@ class FeedbackLinearization:
         self._z = z_next
         self._u_prev = u
         stats = {
-            "unreachable": int(fl[0]), "sat_g": int(fl[1]), "sat_d": int(fl[2]),
-            "v_g": float(v[0]), "v_d": float(v[1]), "dist_g": float(dist[0]), "dist_d": float(dist[1]),
-            "solver_failure": 0, "fallback": 0,
+            "unreachable": int(fl[0]),
+            "sat_g": int(fl[1]),
+            "sat_d": int(fl[2]),
+            "v_g": float(v[0]),
+            "v_d": float(v[1]),
+            "dist_g": float(dist[0]),
+            "dist_d": float(dist[1]),
+            "solver_failure": 0,
+            "fallback": 0,
         }
         return ControlOutput(u=u, x_hat=x_hat, stats=stats)
 
 
 __all__ = [
-    "FLAG_FIELDS", "GAIN_FIELDS", "REF_FIELDS", "FLSettings", "FeedbackLinearization", "fl_law_function",
+    "FLAG_FIELDS",
+    "GAIN_FIELDS",
+    "REF_FIELDS",
+    "FLSettings",
+    "FeedbackLinearization",
+    "fl_law_function",
     "model_inverse_function",
 ]

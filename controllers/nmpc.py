@@ -114,7 +114,8 @@ class NMPCSettings(Strict):
     weights: NMPCWeights = Field(default_factory=NMPCWeights)
     solver: Literal["admm"] = "admm"
     qp: Literal["riccati", "dense"] = Field(
-        "riccati", description="ADMM x-update: stage-wise Riccati recursion (O(N)) or dense condensed Cholesky")
+        "riccati", description="ADMM x-update: stage-wise Riccati recursion (O(N)) or dense condensed Cholesky"
+    )
     iterations: int = Field(20, ge=1, le=500, description="ADMM iterations per step (fixed)")
     admm: ADMMOptions = Field(default_factory=ADMMOptions)
     soft_gap: SoftGap = Field(default_factory=SoftGap)
@@ -130,14 +131,32 @@ class NMPCSettings(Strict):
         """The numeric design of the step Function for reference mode ``mode`` (``plan``/``preview``)."""
         w, a, sg, pl = self.weights, self.admm, self.soft_gap, self.plan
         return StepConfig(
-            N=self.horizon, Ts=k.Ts, n_sub=self.n_sub, Q=(w.g, w.g_dot, w.d, w.d_dot), R=(w.i_q, w.i_d),
-            terminal_scale=w.terminal_scale, n_iter=self.iterations,
+            N=self.horizon,
+            Ts=k.Ts,
+            n_sub=self.n_sub,
+            Q=(w.g, w.g_dot, w.d, w.d_dot),
+            R=(w.i_q, w.i_d),
+            terminal_scale=w.terminal_scale,
+            n_iter=self.iterations,
             admm=ADMMSettings(rho_scale=a.rho_scale, rho_g_rel=a.rho_g_rel, sigma=a.sigma, alpha=a.alpha),
-            i_max=self.current_limit, i_box=min(k.i_axis_max, self.current_limit), gap_lo=sg.g_min,
-            gap_hi=sg.g_max, gap_stride=sg.stride, soft_w1=sg.w_linear, soft_w2=sg.w_quadratic,
-            obs_eps=self.observer_eps, offset_free=self.offset_free, reference=mode,
-            accel_margin=pl.accel_margin, gap_accel=pl.gap_accel, jerk_time=pl.jerk_time,
-            tol_prim=a.tol_prim, tol_dual=a.tol_dual, jacobian=self.jacobian, check_every=a.check_every, qp=self.qp,
+            i_max=self.current_limit,
+            i_box=min(k.i_axis_max, self.current_limit),
+            gap_lo=sg.g_min,
+            gap_hi=sg.g_max,
+            gap_stride=sg.stride,
+            soft_w1=sg.w_linear,
+            soft_w2=sg.w_quadratic,
+            obs_eps=self.observer_eps,
+            offset_free=self.offset_free,
+            reference=mode,
+            accel_margin=pl.accel_margin,
+            gap_accel=pl.gap_accel,
+            jerk_time=pl.jerk_time,
+            tol_prim=a.tol_prim,
+            tol_dual=a.tol_dual,
+            jacobian=self.jacobian,
+            check_every=a.check_every,
+            qp=self.qp,
         )
 
 
@@ -222,10 +241,16 @@ class NMPC:
         if self._plan_obj is not None:
             return self._preview(t)
         s = Ts * np.arange(N + 1)
-        return np.vstack([
-            ref.g + ref.g_dot * s + ref.g_ddot * s**2 / 2, ref.g_dot + ref.g_ddot * s, np.full(N + 1, ref.g_ddot),
-            ref.d + ref.d_dot * s + ref.d_ddot * s**2 / 2, ref.d_dot + ref.d_ddot * s, np.full(N + 1, ref.d_ddot),
-        ])
+        return np.vstack(
+            [
+                ref.g + ref.g_dot * s + ref.g_ddot * s**2 / 2,
+                ref.g_dot + ref.g_ddot * s,
+                np.full(N + 1, ref.g_ddot),
+                ref.d + ref.d_dot * s + ref.d_ddot * s**2 / 2,
+                ref.d_dot + ref.d_ddot * s,
+                np.full(N + 1, ref.d_ddot),
+            ]
+        )
 
     _CHUNK = 512  #: periods of the runner's plan sampled at once (the plan is read ahead in blocks)
 
@@ -242,7 +267,7 @@ class NMPC:
         if c is None or not (c[0] <= kk and kk + N < c[0] + len(c[1])):
             grid = (kk + np.arange(self._CHUNK + N + 1)) * Ts
             c = self._pcache = (kk, plan.sample(grid))
-        cols = c[1][kk - c[0]:kk - c[0] + N + 1].copy()
+        cols = c[1][kk - c[0] : kk - c[0] + N + 1].copy()
         sw = np.asarray(getattr(plan, "switch_times", []), dtype=float)
         later = sw[sw > t + 1e-9]
         if later.size:

@@ -84,8 +84,9 @@ def chol_solve_sx(L: ca.SX, dinv: ca.SX, b: ca.SX) -> ca.SX:
     return ca.vertcat(*x)
 
 
-def condensed_qp(As: list, Bs: list, cs: list, dx0: ca.SX, E: list, Ws: list, gap_stages: tuple[int, ...],
-                 gbar: list) -> dict[str, ca.SX]:
+def condensed_qp(
+    As: list, Bs: list, cs: list, dx0: ca.SX, E: list, Ws: list, gap_stages: tuple[int, ...], gbar: list
+) -> dict[str, ca.SX]:
     """Condense the linearized shooting constraints and the tracking cost into a dense QP in ``v``.
 
     Dynamics ``dx_{k+1} = A_k dx_k + B_k v_k + c_k`` (``c_k`` the shooting
@@ -227,8 +228,17 @@ def prox_soft_bound(v: ca.SX, lb: ca.SX, ub: ca.SX, w1: float, w2: float, rho: c
     return ca.if_else(v > ub, hi, ca.if_else(v < lb, lo, v))
 
 
-def admm_iteration(nv: int, ng: int, nu: int, radius: float, box: float, soft_w1: float, soft_w2: float,
-                   s: ADMMSettings, residuals: bool = True) -> ca.Function:
+def admm_iteration(
+    nv: int,
+    ng: int,
+    nu: int,
+    radius: float,
+    box: float,
+    soft_w1: float,
+    soft_w2: float,
+    s: ADMMSettings,
+    residuals: bool = True,
+) -> ca.Function:
     """One ADMM iteration as an SX Function (called ``n_iter`` times in the step).
 
     Inputs: ``x (nv), z (nv + ng), y (nv + ng), L (nv x nv), dinv (nv), q (nv),

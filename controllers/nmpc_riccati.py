@@ -50,8 +50,9 @@ def open_loop_stage() -> ca.Function:
     Sn, trn, A, B, W = _sx(NX, NX, "S_next"), _sx(1, 1, "tr_next"), _sx(NX, NX, "A"), _sx(NX, NU, "B"), _sx(NX, NX, "W")
     S = W + ca.mtimes([A.T, Sn, A])
     tr = trn + ca.trace(ca.mtimes([B.T, Sn, B]))
-    return ca.Function("nmpc_ol_stage", [Sn, trn, A, B, W], [S, tr], ["S_next", "tr_next", "A", "B", "W"],
-                       ["S", "tr"], {"cse": True})
+    return ca.Function(
+        "nmpc_ol_stage", [Sn, trn, A, B, W], [S, tr], ["S_next", "tr_next", "A", "B", "W"], ["S", "tr"], {"cse": True}
+    )
 
 
 def riccati_stage() -> ca.Function:
@@ -61,8 +62,14 @@ def riccati_stage() -> ca.Function:
     B' P_next B``, ``K = -S^-1 B' P_next A``, ``P = Wq + A' P_next (A + B K)``;
     ``Wq`` is the state weight of this node including the gap-row penalty.
     """
-    Pn, A, B, c, Wq, Rt = (_sx(NX, NX, "P_next"), _sx(NX, NX, "A"), _sx(NX, NU, "B"), _sx(NX, 1, "c"),
-                           _sx(NX, NX, "Wq"), _sx(NU, 1, "Rt"))
+    Pn, A, B, c, Wq, Rt = (
+        _sx(NX, NX, "P_next"),
+        _sx(NX, NX, "A"),
+        _sx(NX, NU, "B"),
+        _sx(NX, 1, "c"),
+        _sx(NX, NX, "Wq"),
+        _sx(NU, 1, "Rt"),
+    )
     PB = ca.mtimes(Pn, B)
     PA = ca.mtimes(Pn, A)
     S = ca.diag(Rt) + ca.mtimes(B.T, PB)
@@ -71,8 +78,14 @@ def riccati_stage() -> ca.Function:
     K = -ca.mtimes(Sinv, ca.mtimes(B.T, PA))
     P = Wq + ca.mtimes(A.T, PA) + ca.mtimes(ca.mtimes(A.T, PB), K)
     P = (P + P.T) / 2
-    return ca.Function("nmpc_ric_stage", [Pn, A, B, c, Wq, Rt], [P, K, Sinv, PB, ca.mtimes(Pn, c)],
-                       ["P_next", "A", "B", "c", "Wq", "Rt"], ["P", "K", "Sinv", "PB", "Pc"], {"cse": True})
+    return ca.Function(
+        "nmpc_ric_stage",
+        [Pn, A, B, c, Wq, Rt],
+        [P, K, Sinv, PB, ca.mtimes(Pn, c)],
+        ["P_next", "A", "B", "c", "Wq", "Rt"],
+        ["P", "K", "Sinv", "PB", "Pc"],
+        {"cse": True},
+    )
 
 
 def backward_stage() -> ca.Function:
@@ -80,13 +93,26 @@ def backward_stage() -> ca.Function:
 
     ``s = p_next + P_next c``, ``kff = -S^-1 (r + B' s)``, ``p = q + A' (s + P_next B kff)``.
     """
-    pn, Sinv, PB, Pc, A, B, r, q = (_sx(NX, 1, "p_next"), _sx(NU, NU, "Sinv"), _sx(NX, NU, "PB"), _sx(NX, 1, "Pc"),
-                                    _sx(NX, NX, "A"), _sx(NX, NU, "B"), _sx(NU, 1, "r"), _sx(NX, 1, "q"))
+    pn, Sinv, PB, Pc, A, B, r, q = (
+        _sx(NX, 1, "p_next"),
+        _sx(NU, NU, "Sinv"),
+        _sx(NX, NU, "PB"),
+        _sx(NX, 1, "Pc"),
+        _sx(NX, NX, "A"),
+        _sx(NX, NU, "B"),
+        _sx(NU, 1, "r"),
+        _sx(NX, 1, "q"),
+    )
     s = pn + Pc
     kff = -ca.mtimes(Sinv, r + ca.mtimes(B.T, s))
     p = q + ca.mtimes(A.T, s + ca.mtimes(PB, kff))
-    return ca.Function("nmpc_bwd_stage", [pn, Sinv, PB, Pc, A, B, r, q], [p, kff],
-                       ["p_next", "Sinv", "PB", "Pc", "A", "B", "r", "q"], ["p", "kff"])
+    return ca.Function(
+        "nmpc_bwd_stage",
+        [pn, Sinv, PB, Pc, A, B, r, q],
+        [p, kff],
+        ["p_next", "Sinv", "PB", "Pc", "A", "B", "r", "q"],
+        ["p", "kff"],
+    )
 
 
 def forward_stage() -> ca.Function:
@@ -94,12 +120,23 @@ def forward_stage() -> ca.Function:
 
     ``dx_next`` twice: as the carried state and as the stage's output of a :func:`stage_chain`.
     """
-    dx, K, kff, A, B, c = (_sx(NX, 1, "dx"), _sx(NU, NX, "K"), _sx(NU, 1, "kff"), _sx(NX, NX, "A"),
-                           _sx(NX, NU, "B"), _sx(NX, 1, "c"))
+    dx, K, kff, A, B, c = (
+        _sx(NX, 1, "dx"),
+        _sx(NU, NX, "K"),
+        _sx(NU, 1, "kff"),
+        _sx(NX, NX, "A"),
+        _sx(NX, NU, "B"),
+        _sx(NX, 1, "c"),
+    )
     du = ca.mtimes(K, dx) + kff
     dxn = ca.mtimes(A, dx) + ca.mtimes(B, du) + c
-    return ca.Function("nmpc_fwd_stage", [dx, K, kff, A, B, c], [dxn, dxn, du],
-                       ["dx", "K", "kff", "A", "B", "c"], ["dx_next", "dx_out", "du"])
+    return ca.Function(
+        "nmpc_fwd_stage",
+        [dx, K, kff, A, B, c],
+        [dxn, dxn, du],
+        ["dx", "K", "kff", "A", "B", "c"],
+        ["dx_next", "dx_out", "du"],
+    )
 
 
 STAGES_PER_CALL = 4  #: stages unrolled in one call of a blocked stage Function (code size vs call count)
@@ -116,23 +153,37 @@ def _blocked(stage: ca.Function, n_stages: int, n_carry: int, n_shared: int, rev
     n_in, n_out = stage.n_in(), stage.n_out()
     n_ps = n_in - n_carry - n_shared
     carry = [ca.SX.sym(stage.name_in(i), stage.sparsity_in(i)) for i in range(n_carry)]
-    ps = [ca.SX.sym(stage.name_in(i), stage.size1_in(i), stage.size2_in(i) * n_stages)
-          for i in range(n_carry, n_carry + n_ps)]
+    ps = [
+        ca.SX.sym(stage.name_in(i), stage.size1_in(i), stage.size2_in(i) * n_stages)
+        for i in range(n_carry, n_carry + n_ps)
+    ]
     widths = [stage.size2_in(i) for i in range(n_carry, n_carry + n_ps)]
     sh = [ca.SX.sym(stage.name_in(i), stage.sparsity_in(i)) for i in range(n_carry + n_ps, n_in)]
     outs = [[None] * n_stages for _ in range(n_out - n_carry)]
     cur = carry
-    for k in (range(n_stages - 1, -1, -1) if reverse else range(n_stages)):
-        res = stage.call([*cur, *[M[:, k * w:(k + 1) * w] for M, w in zip(ps, widths, strict=True)], *sh])
+    for k in range(n_stages - 1, -1, -1) if reverse else range(n_stages):
+        res = stage.call([*cur, *[M[:, k * w : (k + 1) * w] for M, w in zip(ps, widths, strict=True)], *sh])
         cur = res[:n_carry]
         for i, o in enumerate(res[n_carry:]):
             outs[i][k] = o
-    return ca.Function(f"{stage.name()}_x{n_stages}", carry + ps + sh, cur + [ca.horzcat(*o) for o in outs],
-                       [stage.name_in(i) for i in range(n_in)], [stage.name_out(i) for i in range(n_out)])
+    return ca.Function(
+        f"{stage.name()}_x{n_stages}",
+        carry + ps + sh,
+        cur + [ca.horzcat(*o) for o in outs],
+        [stage.name_in(i) for i in range(n_in)],
+        [stage.name_out(i) for i in range(n_out)],
+    )
 
 
-def stage_chain(stage: ca.Function, N: int, carry: list, per_stage: list, shared: list = (),
-                reverse: bool = False, block: int | None = None) -> tuple[list, list]:
+def stage_chain(
+    stage: ca.Function,
+    N: int,
+    carry: list,
+    per_stage: list,
+    shared: list = (),
+    reverse: bool = False,
+    block: int | None = None,
+) -> tuple[list, list]:
     """A recursion over the ``N`` stages of the horizon as a chain of calls (MX).
 
     ``stage`` as in :func:`_blocked`; ``per_stage`` are MX matrices with the
@@ -153,20 +204,27 @@ def stage_chain(stage: ca.Function, N: int, carry: list, per_stage: list, shared
     widths = [stage.size2_in(n_carry + i) for i in range(len(per_stage))]
     starts = list(range(0, N, block))
     got, fns = {}, {}
-    for st in (reversed(starts) if reverse else starts):
+    for st in reversed(starts) if reverse else starts:
         n = min(block, N - st)
         if n not in fns:
             fns[n] = _blocked(stage, n, n_carry, len(shared), reverse)
         f = fns[n]
-        res = f.call([*carry, *[M[:, st * w:(st + n) * w] for M, w in zip(per_stage, widths, strict=True)],
-                      *shared])
+        res = f.call([*carry, *[M[:, st * w : (st + n) * w] for M, w in zip(per_stage, widths, strict=True)], *shared])
         carry, got[st] = res[:n_carry], res[n_carry:]
     outs = [ca.horzcat(*[got[st][i] for st in starts]) for i in range(stage.n_out() - n_carry)]
     return list(carry), outs
 
 
-def factor_function(N: int, gap_stages: tuple[int, ...], Q: np.ndarray, P: np.ndarray, R: tuple[float, float],
-                    admm, gap_lo: float, gap_hi: float) -> ca.Function:
+def factor_function(
+    N: int,
+    gap_stages: tuple[int, ...],
+    Q: np.ndarray,
+    P: np.ndarray,
+    R: tuple[float, float],
+    admm,
+    gap_lo: float,
+    gap_hi: float,
+) -> ca.Function:
     """Per-step preparation of the Riccati ADMM (MX of stage chains and SX Functions).
 
     ``(As, Bs, cs, dx0, Xbar, Xref, Ubar, Uref, fault) -> (K, Sinv, PB, Pc, rho, qW, rbase, glb, gub, zg0)``:
@@ -188,15 +246,17 @@ def factor_function(N: int, gap_stages: tuple[int, ...], Q: np.ndarray, P: np.nd
     Ub, Ur, fault = ca.MX.sym("Ubar", NU, N), ca.MX.sym("Uref", NU, N), ca.MX.sym("fault")
     Wc, Pt = ca.DM(Q), ca.DM(P)
     # trace of the condensed Hessian: N tr(R) + sum_j tr(B_j' S_{j+1} B_j), S_k = W_k + A_k' S_{k+1} A_k
-    (_, tr), _ = stage_chain(open_loop_stage(), N, [ca.MX(Pt), ca.MX(N * float(sum(R)))], [As, Bs], [ca.MX(Wc)],
-                             reverse=True)
+    (_, tr), _ = stage_chain(
+        open_loop_stage(), N, [ca.MX(Pt), ca.MX(N * float(sum(R)))], [As, Bs], [ca.MX(Wc)], reverse=True
+    )
     # penalty, input weight of the x-update (NaN on a forced failure, for tests), gap-row weight
     trs, fs = _sx(1, 1, "trace"), _sx(1, 1, "fault")
     rho = rho_from_trace(trs, NU * N, min(R), admm)
     Rt = ca.DM(R) + admm.sigma + rho + ca.if_else(fs > 0.5, np.nan, 0)
     gam = admm.rho_g_rel * rho * 1e6  # gap rows are 1e3 dx[0]: weight rho_g (1e3)^2 on dx[0]^2
-    pen = ca.Function("nmpc_ric_penalty", [trs, fs], [Rt, gam, ca.vertcat(rho, 1 / rho)],
-                      ["trace", "fault"], ["Rt", "gam", "rho"])
+    pen = ca.Function(
+        "nmpc_ric_penalty", [trs, fs], [Rt, gam, ca.vertcat(rho, 1 / rho)], ["trace", "fault"], ["Rt", "gam", "rho"]
+    )
     Rt, gam, rho2 = pen(tr, fault)
     e11 = ca.DM.zeros(NX, NX)
     e11[0, 0] = 1
@@ -208,9 +268,13 @@ def factor_function(N: int, gap_stages: tuple[int, ...], Q: np.ndarray, P: np.nd
     _, (g_free,) = stage_chain(free_stage(), N, [dx0], [As, cs])
     qW, rbase, glb, gub, zg0 = linear_terms_function(N, gap_stages, Q, P, R, gap_lo, gap_hi)(Xb, Xr, Ub, Ur, g_free)
     outs = [K, Sinv, PB, Pc, rho2, qW, rbase, glb, gub, zg0]
-    return ca.Function("nmpc_ric_factor", [As, Bs, cs, dx0, Xb, Xr, Ub, Ur, fault], outs,
-                       ["As", "Bs", "cs", "dx0", "Xbar", "Xref", "Ubar", "Uref", "fault"],
-                       ["K", "Sinv", "PB", "Pc", "rho", "qW", "rbase", "glb", "gub", "zg0"])
+    return ca.Function(
+        "nmpc_ric_factor",
+        [As, Bs, cs, dx0, Xb, Xr, Ub, Ur, fault],
+        outs,
+        ["As", "Bs", "cs", "dx0", "Xbar", "Xref", "Ubar", "Uref", "fault"],
+        ["K", "Sinv", "PB", "Pc", "rho", "qW", "rbase", "glb", "gub", "zg0"],
+    )
 
 
 def free_stage() -> ca.Function:
@@ -220,8 +284,15 @@ def free_stage() -> ca.Function:
     return ca.Function("nmpc_free_stage", [xi, A, c], [xn, xn[0]], ["xi", "A", "c"], ["xi_next", "g"])
 
 
-def linear_terms_function(N: int, gap_stages: tuple[int, ...], Q: np.ndarray, P: np.ndarray, R: tuple[float, float],
-                          gap_lo: float, gap_hi: float) -> ca.Function:
+def linear_terms_function(
+    N: int,
+    gap_stages: tuple[int, ...],
+    Q: np.ndarray,
+    P: np.ndarray,
+    R: tuple[float, float],
+    gap_lo: float,
+    gap_hi: float,
+) -> ca.Function:
     """Constant linear terms of the x-update, soft gap bounds and free gap rows (SX).
 
     ``(Xbar, Xref, Ubar, Uref, g_free) -> (qW, rbase, glb, gub, zg0)``; ``g_free``
@@ -236,13 +307,19 @@ def linear_terms_function(N: int, gap_stages: tuple[int, ...], Q: np.ndarray, P:
     glb = ca.vertcat(*[1e3 * (gap_lo - Xb[0, j]) for j in gap_stages]) if ng else ca.SX(0, 1)
     gub = ca.vertcat(*[1e3 * (gap_hi - Xb[0, j]) for j in gap_stages]) if ng else ca.SX(0, 1)
     zg0 = ca.vertcat(*[1e3 * gf[j - 1] for j in gap_stages]) if ng else ca.SX(0, 1)
-    return ca.Function("nmpc_ric_linear", [Xb, Xr, Ub, Ur, gf], [qW, rbase, glb, gub, zg0],
-                       ["Xbar", "Xref", "Ubar", "Uref", "g_free"], ["qW", "rbase", "glb", "gub", "zg0"],
-                       {"cse": True})
+    return ca.Function(
+        "nmpc_ric_linear",
+        [Xb, Xr, Ub, Ur, gf],
+        [qW, rbase, glb, gub, zg0],
+        ["Xbar", "Xref", "Ubar", "Uref", "g_free"],
+        ["qW", "rbase", "glb", "gub", "zg0"],
+        {"cse": True},
+    )
 
 
-def iteration_function(N: int, gap_stages: tuple[int, ...], radius: float, box: float, soft_w1: float,
-                       soft_w2: float, admm) -> ca.Function:
+def iteration_function(
+    N: int, gap_stages: tuple[int, ...], radius: float, box: float, soft_w1: float, soft_w2: float, admm
+) -> ca.Function:
     """One ADMM iteration with the Riccati x-update (MX of stage chains and SX Functions).
 
     ``(x, z, y, K, Sinv, PB, Pc, As, Bs, cs, dx0, qW, rbase, ubar, glb, gub, rho) -> (x, z, y, r_prim, r_dual)``.
@@ -262,9 +339,13 @@ def iteration_function(N: int, gap_stages: tuple[int, ...], radius: float, box: 
     _, (dxs, dus) = stage_chain(forward_stage(), N, [dx0], [K, kff, As, Bs, cs])
     upd = admm_update(N, gap_stages, radius, box, soft_w1, soft_w2, admm.alpha, admm.rho_g_rel)
     outs = upd(ca.vec(dus), dxs, x, z, y, ubar, glb, gub, rho)
-    return ca.Function("nmpc_ric_iter", [x, z, y, K, Sinv, PB, Pc, As, Bs, cs, dx0, qW, rbase, ubar, glb, gub, rho],
-                       list(outs), ["x", "z", "y", "K", "Sinv", "PB", "Pc", "As", "Bs", "cs", "dx0", "qW", "rbase",
-                                    "ubar", "glb", "gub", "rho"], ["x_out", "z_out", "y_out", "r_prim", "r_dual"])
+    return ca.Function(
+        "nmpc_ric_iter",
+        [x, z, y, K, Sinv, PB, Pc, As, Bs, cs, dx0, qW, rbase, ubar, glb, gub, rho],
+        list(outs),
+        ["x", "z", "y", "K", "Sinv", "PB", "Pc", "As", "Bs", "cs", "dx0", "qW", "rbase", "ubar", "glb", "gub", "rho"],
+        ["x_out", "z_out", "y_out", "r_prim", "r_dual"],
+    )
 
 
 def admm_terms(N: int, gap_stages: tuple[int, ...], sigma: float, rho_g_rel: float) -> ca.Function:
@@ -284,12 +365,25 @@ def admm_terms(N: int, gap_stages: tuple[int, ...], sigma: float, rho_g_rel: flo
     qcols = [qW[:, j] for j in range(N + 1)]
     for i, j in enumerate(gap_stages):
         qcols[j] = qcols[j] + ca.vertcat(1e3 * (y[nv + i] - rho_g * z[nv + i]), 0, 0, 0)
-    return ca.Function("nmpc_admm_terms", [x, z, y, rbase, qW, rho], [r, ca.horzcat(*qcols[:N]), qcols[N]],
-                       ["x", "z", "y", "rbase", "qW", "rho"], ["r", "q", "q_last"])
+    return ca.Function(
+        "nmpc_admm_terms",
+        [x, z, y, rbase, qW, rho],
+        [r, ca.horzcat(*qcols[:N]), qcols[N]],
+        ["x", "z", "y", "rbase", "qW", "rho"],
+        ["r", "q", "q_last"],
+    )
 
 
-def admm_update(N: int, gap_stages: tuple[int, ...], radius: float, box: float, soft_w1: float, soft_w2: float,
-                alpha: float, rho_g_rel: float) -> ca.Function:
+def admm_update(
+    N: int,
+    gap_stages: tuple[int, ...],
+    radius: float,
+    box: float,
+    soft_w1: float,
+    soft_w2: float,
+    alpha: float,
+    rho_g_rel: float,
+) -> ca.Function:
     """Relaxation, proximal steps and dual update of one ADMM iteration (MX of two SX Functions).
 
     ``(xt, dx, x, z, y, ubar, glb, gub, rho) -> (x, z, y, r_prim, r_dual)`` where
@@ -304,15 +398,19 @@ def admm_update(N: int, gap_stages: tuple[int, ...], radius: float, box: float, 
     xt, dx, x, z, y = _mx(nv, 1, "xt"), _mx(NX, N, "dx"), _mx(nv, 1, "x"), _mx(nv + ng, 1, "z"), _mx(nv + ng, 1, "y")
     ubar, glb, gub, rho = _mx(nv, 1, "ubar"), _mx(ng, 1, "glb"), _mx(ng, 1, "gub"), _mx(2, 1, "rho")
     rs = lambda v: ca.reshape(v, NU, N)  # noqa: E731
-    _, (x_new, zu_new, yu_new, rp, rd) = stage_chain(disk_update_stage(radius, box, alpha), N, [],
-                                                     [rs(xt), rs(x), rs(z[:nv]), rs(y[:nv]), rs(ubar)], [rho])
+    _, (x_new, zu_new, yu_new, rp, rd) = stage_chain(
+        disk_update_stage(radius, box, alpha), N, [], [rs(xt), rs(x), rs(z[:nv]), rs(y[:nv]), rs(ubar)], [rho]
+    )
     zg_new, yg_new, r_prim, r_dual = gap_update(N, gap_stages, soft_w1, soft_w2, alpha, rho_g_rel)(
-        dx, z[nv:], y[nv:], glb, gub, rho, rp, rd)
-    return ca.Function("nmpc_admm_update", [xt, dx, x, z, y, ubar, glb, gub, rho],
-                       [ca.vec(x_new), ca.vertcat(ca.vec(zu_new), zg_new), ca.vertcat(ca.vec(yu_new), yg_new),
-                        r_prim, r_dual],
-                       ["xt", "dx", "x", "z", "y", "ubar", "glb", "gub", "rho"],
-                       ["x_out", "z_out", "y_out", "r_prim", "r_dual"])
+        dx, z[nv:], y[nv:], glb, gub, rho, rp, rd
+    )
+    return ca.Function(
+        "nmpc_admm_update",
+        [xt, dx, x, z, y, ubar, glb, gub, rho],
+        [ca.vec(x_new), ca.vertcat(ca.vec(zu_new), zg_new), ca.vertcat(ca.vec(yu_new), yg_new), r_prim, r_dual],
+        ["xt", "dx", "x", "z", "y", "ubar", "glb", "gub", "rho"],
+        ["x_out", "z_out", "y_out", "r_prim", "r_dual"],
+    )
 
 
 def disk_update_stage(radius: float, box: float, alpha: float) -> ca.Function:
@@ -323,21 +421,32 @@ def disk_update_stage(radius: float, box: float, alpha: float) -> ca.Function:
     """
     from .nmpc_qp import project_disk
 
-    xt, x, zu, yu, ubar, rho = (_sx(NU, 1, "xt"), _sx(NU, 1, "x"), _sx(NU, 1, "zu"), _sx(NU, 1, "yu"),
-                                _sx(NU, 1, "ubar"), _sx(2, 1, "rho"))
+    xt, x, zu, yu, ubar, rho = (
+        _sx(NU, 1, "xt"),
+        _sx(NU, 1, "x"),
+        _sx(NU, 1, "zu"),
+        _sx(NU, 1, "yu"),
+        _sx(NU, 1, "ubar"),
+        _sx(2, 1, "rho"),
+    )
     rho_u, rho_u_inv = rho[0], rho[1]
     a = alpha
     x_new = a * xt + (1 - a) * x
     vu = a * xt + (1 - a) * zu
     zu_new = project_disk(ubar + (vu + yu * rho_u_inv), radius, box) - ubar
     yu_new = yu + rho_u * (vu - zu_new)
-    return ca.Function("nmpc_disk_update", [xt, x, zu, yu, ubar, rho],
-                       [x_new, zu_new, yu_new, ca.mmax(ca.fabs(xt - zu_new)), ca.mmax(ca.fabs(zu_new - zu))],
-                       ["xt", "x", "zu", "yu", "ubar", "rho"], ["x_out", "zu_out", "yu_out", "rp", "rd"])
+    return ca.Function(
+        "nmpc_disk_update",
+        [xt, x, zu, yu, ubar, rho],
+        [x_new, zu_new, yu_new, ca.mmax(ca.fabs(xt - zu_new)), ca.mmax(ca.fabs(zu_new - zu))],
+        ["xt", "x", "zu", "yu", "ubar", "rho"],
+        ["x_out", "zu_out", "yu_out", "rp", "rd"],
+    )
 
 
-def gap_update(N: int, gap_stages: tuple[int, ...], soft_w1: float, soft_w2: float, alpha: float,
-               rho_g_rel: float) -> ca.Function:
+def gap_update(
+    N: int, gap_stages: tuple[int, ...], soft_w1: float, soft_w2: float, alpha: float, rho_g_rel: float
+) -> ca.Function:
     """ADMM update of the soft gap rows and the residuals (SX).
 
     ``(dx, zg, yg, glb, gub, rho, rp, rd) -> (zg, yg, r_prim, r_dual)``; ``rp``, ``rd``
@@ -346,8 +455,14 @@ def gap_update(N: int, gap_stages: tuple[int, ...], soft_w1: float, soft_w2: flo
     from .nmpc_qp import prox_soft_bound
 
     ng = len(gap_stages)
-    dx, zg, yg, glb, gub, rho = (_sx(NX, N, "dx"), _sx(ng, 1, "zg"), _sx(ng, 1, "yg"), _sx(ng, 1, "glb"),
-                                 _sx(ng, 1, "gub"), _sx(2, 1, "rho"))
+    dx, zg, yg, glb, gub, rho = (
+        _sx(NX, N, "dx"),
+        _sx(ng, 1, "zg"),
+        _sx(ng, 1, "yg"),
+        _sx(ng, 1, "glb"),
+        _sx(ng, 1, "gub"),
+        _sx(2, 1, "rho"),
+    )
     rp, rd = _sx(1, N, "rp"), _sx(1, N, "rd")
     rho_u, rho_u_inv = rho[0], rho[1]
     rho_g, rho_g_inv = rho_g_rel * rho_u, rho_u_inv / rho_g_rel
@@ -362,5 +477,10 @@ def gap_update(N: int, gap_stages: tuple[int, ...], soft_w1: float, soft_w2: flo
     else:
         zg_new, yg_new = ca.SX(0, 1), ca.SX(0, 1)
         r_prim, r_dual = ca.mmax(rp), rho_u * ca.mmax(rd)
-    return ca.Function("nmpc_gap_update", [dx, zg, yg, glb, gub, rho, rp, rd], [zg_new, yg_new, r_prim, r_dual],
-                       ["dx", "zg", "yg", "glb", "gub", "rho", "rp", "rd"], ["zg_out", "yg_out", "r_prim", "r_dual"])
+    return ca.Function(
+        "nmpc_gap_update",
+        [dx, zg, yg, glb, gub, rho, rp, rd],
+        [zg_new, yg_new, r_prim, r_dual],
+        ["dx", "zg", "yg", "glb", "gub", "rho", "rp", "rd"],
+        ["zg_out", "yg_out", "r_prim", "r_dual"],
+    )

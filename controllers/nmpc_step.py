@@ -56,8 +56,17 @@ N_MEAS = 3  #: meas = (g, d, fault)  [m, m, -]
 REF_ROWS = ("g", "g_dot", "g_ddot", "d", "d_dot", "d_ddot")  #: rows of the ref input, one column per node
 STATUS_OK, STATUS_INACCURATE, STATUS_FALLBACK = 0, 1, 2
 STATS_NAMES: tuple[str, ...] = (
-    "status", "fallback", "iterations", "iters_to_tol", "qp_r_prim", "qp_r_dual",
-    "plan_t", "plan_T", "dist_g", "dist_d", "n_fail",
+    "status",
+    "fallback",
+    "iterations",
+    "iters_to_tol",
+    "qp_r_prim",
+    "qp_r_dual",
+    "plan_t",
+    "plan_T",
+    "dist_g",
+    "dist_d",
+    "n_fail",
 )
 
 
@@ -128,8 +137,15 @@ class StateLayout:
     def pieces(self) -> tuple[tuple[str, int], ...]:
         """Names and sizes in order."""
         return (
-            ("xhat", NX), ("dist", 2), ("u_prev", NU), ("fresh", 1), ("plan", 7),
-            ("X", (self.N + 1) * NX), ("U", self.N * NU), ("y", self.N * NU + self.n_gap), ("nfail", 1),
+            ("xhat", NX),
+            ("dist", 2),
+            ("u_prev", NU),
+            ("fresh", 1),
+            ("plan", 7),
+            ("X", (self.N + 1) * NX),
+            ("U", self.N * NU),
+            ("y", self.N * NU + self.n_gap),
+            ("nfail", 1),
         )
 
     @property
@@ -222,8 +238,7 @@ class StepBuilder:
 
         A non-finite reading is skipped (prediction only).
         """
-        return observer_update(xhat, dist, u_prev, y, p, self.L_obs, self.cfg.Ts, disturbance=True,
-                               skip_nonfinite=True)
+        return observer_update(xhat, dist, u_prev, y, p, self.L_obs, self.cfg.Ts, disturbance=True, skip_nonfinite=True)
 
     def _plan(self, g_s, d_s, g_t, d_t, p, w_g):
         """Duration of a synchronized rest-to-rest move from ``(g_s, d_s)`` to ``(g_t, d_t)``."""
@@ -255,7 +270,14 @@ class StepBuilder:
         dts = ca.DM(np.arange(N + 1) * cfg.Ts).T
         R, U = self._fn_node().map(N + 1, "serial")(dts, plan, ref, p, ca.MX.zeros(2))
         state = ca.vertcat(
-            xhat, ca.MX.zeros(2), u_prev, 1, plan, ca.vec(R), ca.vec(U[:, :N]), ca.MX.zeros(lay.N * NU + lay.n_gap),
+            xhat,
+            ca.MX.zeros(2),
+            u_prev,
+            1,
+            plan,
+            ca.vec(R),
+            ca.vec(U[:, :N]),
+            ca.MX.zeros(lay.N * NU + lay.n_gap),
             0,
         )
         assert state.shape[0] == lay.size
@@ -264,8 +286,12 @@ class StepBuilder:
     def _fn_head(self) -> ca.Function:
         """Observer update and planner (SX): ``(state, meas, target, p) -> (xhat, dist, plan, w)``."""
         cfg, lay, m = self.cfg, self.layout, self.model
-        st, meas, tgt, p = (ca.SX.sym("state", lay.size), ca.SX.sym("meas", N_MEAS), ca.SX.sym("target", 2),
-                            ca.SX.sym("p", m.np_))
+        st, meas, tgt, p = (
+            ca.SX.sym("state", lay.size),
+            ca.SX.sym("meas", N_MEAS),
+            ca.SX.sym("target", 2),
+            ca.SX.sym("p", m.np_),
+        )
         S = lay.split(st)
         fresh = S["fresh"][0] > 0.5
         xo, do = self._observer(S["xhat"], S["dist"], S["u_prev"], meas[:2], p)
@@ -286,14 +312,25 @@ class StepBuilder:
             ca.vertcat(xhat[0], xhat[2], g_t, d_t, 0, h_new, tj_new),
             ca.vertcat(pl[0], pl[1], pl[2], pl[3], ca.fmin(t_adv, 2 * pl[5] + 1.0), pl[5], pl[6]),
         )
-        return ca.Function("nmpc_head", [st, meas, tgt, p], [xhat, dist, plan, w],
-                           ["state", "meas", "target", "p"], ["xhat", "dist", "plan", "w"], {"cse": True})
+        return ca.Function(
+            "nmpc_head",
+            [st, meas, tgt, p],
+            [xhat, dist, plan, w],
+            ["state", "meas", "target", "p"],
+            ["xhat", "dist", "plan", "w"],
+            {"cse": True},
+        )
 
     def _fn_node(self) -> ca.Function:
         """Reference node (SX, mapped over the horizon): ``(dt, plan, refcol, p, w) -> (r, uref)``."""
         cfg, m = self.cfg, self.model
-        dt, plan, rc, p, w = (ca.SX.sym("dt"), ca.SX.sym("plan", 7), ca.SX.sym("refcol", 6), ca.SX.sym("p", m.np_),
-                              ca.SX.sym("w", 2))
+        dt, plan, rc, p, w = (
+            ca.SX.sym("dt"),
+            ca.SX.sym("plan", 7),
+            ca.SX.sym("refcol", 6),
+            ca.SX.sym("p", m.np_),
+            ca.SX.sym("w", 2),
+        )
         g_s, d_s, g_t, d_t, t0, h, tj = (plan[i] for i in range(7))
         if cfg.reference == "plan":
             pg, vg, ag = move_at(t0 + dt, g_t - g_s, h, tj)
@@ -302,18 +339,35 @@ class StepBuilder:
         else:
             r, a = ca.vertcat(rc[0], rc[1], rc[3], rc[4]), ca.vertcat(rc[2], rc[5])
         uref = project_disk(u_for_accel(r, a, p, w), cfg.i_max, cfg.i_box)
-        return ca.Function("nmpc_node", [dt, plan, rc, p, w], [r, uref], ["dt", "plan", "refcol", "p", "w"],
-                           ["r", "uref"], {"cse": True})
+        return ca.Function(
+            "nmpc_node",
+            [dt, plan, rc, p, w],
+            [r, uref],
+            ["dt", "plan", "refcol", "p", "w"],
+            ["r", "uref"],
+            {"cse": True},
+        )
 
     def _fn_stage(self) -> ca.Function:
         """RTI linearization of one shooting interval (SX, mapped): ``(x, u, x_next, p, w) -> (A, B, c)``."""
         m = self.model
-        x, u, xn, p, w = (ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("x_next", NX), ca.SX.sym("p", m.np_),
-                          ca.SX.sym("w", 2))
+        x, u, xn, p, w = (
+            ca.SX.sym("x", NX),
+            ca.SX.sym("u", NU),
+            ca.SX.sym("x_next", NX),
+            ca.SX.sym("p", m.np_),
+            ca.SX.sym("w", 2),
+        )
         xe, A, B = self.FJ(x, u, p, w)
         # B dense (its structural zero would make every consumer re-densify the stacked Bs)
-        return ca.Function("nmpc_stage", [x, u, xn, p, w], [A, ca.densify(B), xe - xn], ["x", "u", "x_next", "p", "w"],
-                           ["A", "B", "c"], {"cse": True})
+        return ca.Function(
+            "nmpc_stage",
+            [x, u, xn, p, w],
+            [A, ca.densify(B), xe - xn],
+            ["x", "u", "x_next", "p", "w"],
+            ["A", "B", "c"],
+            {"cse": True},
+        )
 
     def _fn_condense(self) -> ca.Function:
         """Condensed QP (SX): ``(As, Bs, cs, dx0, Xbar, Xref, Ubar, Uref, u_prev, fault) -> (H, q, G, glb, gub)``."""
@@ -321,10 +375,14 @@ class StepBuilder:
         N, nv = cfg.N, cfg.N * NU
         As, Bs, cs = ca.SX.sym("As", NX, NX * N), ca.SX.sym("Bs", NX, NU * N), ca.SX.sym("cs", NX, N)
         dx0, Xb, Xr = ca.SX.sym("dx0", NX), ca.SX.sym("Xbar", NX, N + 1), ca.SX.sym("Xref", NX, N + 1)
-        Ub, Ur, u_prev, fault = (ca.SX.sym("Ubar", NU, N), ca.SX.sym("Uref", NU, N), ca.SX.sym("u_prev", NU),
-                                 ca.SX.sym("fault"))
-        Al = [As[:, j * NX:(j + 1) * NX] for j in range(N)]
-        Bl = [Bs[:, j * NU:(j + 1) * NU] for j in range(N)]
+        Ub, Ur, u_prev, fault = (
+            ca.SX.sym("Ubar", NU, N),
+            ca.SX.sym("Uref", NU, N),
+            ca.SX.sym("u_prev", NU),
+            ca.SX.sym("fault"),
+        )
+        Al = [As[:, j * NX : (j + 1) * NX] for j in range(N)]
+        Bl = [Bs[:, j * NU : (j + 1) * NU] for j in range(N)]
         cl = [cs[:, j] for j in range(N)]
         # Cost: sum_k |x_k - r_k|_Q (P at N) + |u_k - uref_k|_R.
         Ws = [ca.DM(np.diag(cfg.Q))] * N + [ca.DM(self.P)]
@@ -340,10 +398,14 @@ class StepBuilder:
         G = 1e3 * qp["G"]
         glb = 1e3 * (cfg.gap_lo - qp["gfree"])
         gub = 1e3 * (cfg.gap_hi - qp["gfree"])
-        return ca.Function("nmpc_condense", [As, Bs, cs, dx0, Xb, Xr, Ub, Ur, u_prev, fault],
-                           [ca.densify(H), q, G, glb, gub],
-                           ["As", "Bs", "cs", "dx0", "Xbar", "Xref", "Ubar", "Uref", "u_prev", "fault"],
-                           ["H", "q", "G", "glb", "gub"], {"cse": True})
+        return ca.Function(
+            "nmpc_condense",
+            [As, Bs, cs, dx0, Xb, Xr, Ub, Ur, u_prev, fault],
+            [ca.densify(H), q, G, glb, gub],
+            ["As", "Bs", "cs", "dx0", "Xbar", "Xref", "Ubar", "Uref", "u_prev", "fault"],
+            ["H", "q", "G", "glb", "gub"],
+            {"cse": True},
+        )
 
     def _fn_kkt(self) -> ca.Function:
         """ADMM penalty and Cholesky factor of the KKT matrix (SX): ``(H, G) -> (L, dinv, rho)``."""
@@ -356,8 +418,7 @@ class StepBuilder:
         if ng:
             Mk = Mk + s.rho_g_rel * rho * ca.mtimes(G.T, G)
         Lc, dinv = chol_sx(ca.densify(Mk))
-        return ca.Function("nmpc_kkt", [H, G], [Lc, dinv, ca.vertcat(rho, 1 / rho)], ["H", "G"],
-                           ["L", "dinv", "rho"])
+        return ca.Function("nmpc_kkt", [H, G], [Lc, dinv, ca.vertcat(rho, 1 / rho)], ["H", "G"], ["L", "dinv", "rho"])
 
     def _common(self, st, meas, ref, p) -> dict:
         """Observer, planner, references and RTI linearization (MX calls of the SX pieces)."""
@@ -371,9 +432,23 @@ class StepBuilder:
         Xb = ca.reshape(S["X"], NX, N + 1)
         Ub = ca.reshape(S["U"], NU, N)
         As, Bs, cs = self._fn_stage().map(N, "serial")(Xb[:, :N], Ub, Xb[:, 1:], p, w)
-        return {"ubar": ca.vec(Ub), "Ubar": Ub, "y0": S["y"], "u_prev": S["u_prev"], "xhat": xhat, "dist": dist,
-                "plan": plan, "As": As, "Bs": Bs, "cs": cs, "dx0": xhat - Xb[:, 0], "Xbar": Xb, "Xref": R,
-                "Uref": Uref, "w": w}
+        return {
+            "ubar": ca.vec(Ub),
+            "Ubar": Ub,
+            "y0": S["y"],
+            "u_prev": S["u_prev"],
+            "xhat": xhat,
+            "dist": dist,
+            "plan": plan,
+            "As": As,
+            "Bs": Bs,
+            "cs": cs,
+            "dx0": xhat - Xb[:, 0],
+            "Xbar": Xb,
+            "Xref": R,
+            "Uref": Uref,
+            "w": w,
+        }
 
     def build_prep(self) -> ca.Function:
         """Observer, planner, RTI linearization and (dense path) condensing and KKT factorization.
@@ -383,14 +458,19 @@ class StepBuilder:
         """
         cfg, lay, m = self.cfg, self.layout, self.model
         N = cfg.N
-        st, meas, ref, p = (ca.MX.sym("state", lay.size), ca.MX.sym("meas", N_MEAS),
-                            ca.MX.sym("ref", 6, N + 1), ca.MX.sym("p", m.np_))
+        st, meas, ref, p = (
+            ca.MX.sym("state", lay.size),
+            ca.MX.sym("meas", N_MEAS),
+            ca.MX.sym("ref", 6, N + 1),
+            ca.MX.sym("p", m.np_),
+        )
         o = self._common(st, meas, ref, p)
         names = ["ubar", "y0", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w"]
         outs = [o[n] for n in names]
         if cfg.qp == "dense":
-            H, q, G, glb, gub = self._fn_condense()(o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"],
-                                                    o["Ubar"], o["Uref"], o["u_prev"], meas[2])
+            H, q, G, glb, gub = self._fn_condense()(
+                o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], o["u_prev"], meas[2]
+            )
             Lc, dinv, rho = self._fn_kkt()(H, G)
             names = ["L", "dinv", "q", "G", "glb", "gub", "rho", *names]
             outs = [Lc, dinv, q, G, glb, gub, rho, *outs]
@@ -414,20 +494,65 @@ class StepBuilder:
         r_prim, r_dual, iters_to_tol, nfail = sym("r_prim"), sym("r_dual"), sym("iters_to_tol"), sym("nfail")
         # new plan: the linear prediction of the corrections on top of the shooting nodes
         _, (Xn,) = stage_chain(self._fn_pred_stage(), N, [dx0], [As, Bs, ca.reshape(v, NU, N), cs, Xb[:, 1:]])
-        u, state, stats = self._fn_post_tail()(v, y, ub, xhat, dist, plan, ca.horzcat(Xb[:, 0] + dx0, Xn), Xref, Uref,
-                                               w, p, r_prim, r_dual, iters_to_tol, nfail)
-        names = ["v", "y", "ubar", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w", "p",
-                 "r_prim", "r_dual", "iters_to_tol", "nfail"]
+        u, state, stats = self._fn_post_tail()(
+            v,
+            y,
+            ub,
+            xhat,
+            dist,
+            plan,
+            ca.horzcat(Xb[:, 0] + dx0, Xn),
+            Xref,
+            Uref,
+            w,
+            p,
+            r_prim,
+            r_dual,
+            iters_to_tol,
+            nfail,
+        )
+        names = [
+            "v",
+            "y",
+            "ubar",
+            "xhat",
+            "dist",
+            "plan",
+            "As",
+            "Bs",
+            "cs",
+            "dx0",
+            "Xbar",
+            "Xref",
+            "Uref",
+            "w",
+            "p",
+            "r_prim",
+            "r_dual",
+            "iters_to_tol",
+            "nfail",
+        ]
         ins = [v, y, ub, xhat, dist, plan, As, Bs, cs, dx0, Xb, Xref, Uref, w, p, r_prim, r_dual, iters_to_tol, nfail]
         return ca.Function("nmpc_post", ins, [u, state, stats, xhat], names, ["u", "state", "stats", "x_hat"])
 
     def _fn_pred_stage(self) -> ca.Function:
         """Linear prediction of one stage (SX): ``(dx, A, B, v, c, xbar_next) -> (dx_next, x_next)``."""
-        dx, A, B, v, c, xbn = (ca.SX.sym("dx", NX), ca.SX.sym("A", NX, NX), ca.SX.sym("B", NX, NU),
-                               ca.SX.sym("v", NU), ca.SX.sym("c", NX), ca.SX.sym("xbar_next", NX))
+        dx, A, B, v, c, xbn = (
+            ca.SX.sym("dx", NX),
+            ca.SX.sym("A", NX, NX),
+            ca.SX.sym("B", NX, NU),
+            ca.SX.sym("v", NU),
+            ca.SX.sym("c", NX),
+            ca.SX.sym("xbar_next", NX),
+        )
         dxn = ca.mtimes(A, dx) + ca.mtimes(B, v) + c
-        return ca.Function("nmpc_pred_stage", [dx, A, B, v, c, xbn], [dxn, xbn + dxn],
-                           ["dx", "A", "B", "v", "c", "xbar_next"], ["dx_next", "x_next"])
+        return ca.Function(
+            "nmpc_pred_stage",
+            [dx, A, B, v, c, xbn],
+            [dxn, xbn + dxn],
+            ["dx", "A", "B", "v", "c", "xbar_next"],
+            ["dx_next", "x_next"],
+        )
 
     def _fn_post_tail(self) -> ca.Function:
         """Checks, fallback and warm-start shift given the predicted plan ``X`` (SX)."""
@@ -462,9 +587,9 @@ class StepBuilder:
         X_sh = ca.vec(ca.horzcat(Xm[:, 1:], x_end))
         U_sh = ca.vec(ca.horzcat(Um[:, 1:], Um[:, N - 1]))
         yu = y[:nv]
-        y_sh = ca.vertcat(yu[NU:], yu[nv - NU:])
+        y_sh = ca.vertcat(yu[NU:], yu[nv - NU :])
         if ng:
-            y_sh = ca.vertcat(y_sh, y[nv:] if cfg.gap_stride != 1 else ca.vertcat(y[nv + 1:], y[nv + ng - 1]))
+            y_sh = ca.vertcat(y_sh, y[nv:] if cfg.gap_stride != 1 else ca.vertcat(y[nv + 1 :], y[nv + ng - 1]))
         X_fb = ca.vec(ca.horzcat(Xref[:, 1:], Xref[:, N]))
         U_fb = ca.vec(ca.horzcat(Uref[:, 1:], Uref[:, N - 1]))
         X_new = ca.if_else(finite, X_sh, X_fb)
@@ -473,11 +598,35 @@ class StepBuilder:
         nfail_new = ca.if_else(finite, 0, nfail + 1)
         state = ca.vertcat(xhat, dist, u, 0, plan, X_new, U_new, y_new, nfail_new)
         stats = ca.vertcat(
-            status, 1 - finite, cfg.n_iter, iters_to_tol, r_prim, r_dual, plan[4], 2 * plan[5], dist[0], dist[1],
+            status,
+            1 - finite,
+            cfg.n_iter,
+            iters_to_tol,
+            r_prim,
+            r_dual,
+            plan[4],
+            2 * plan[5],
+            dist[0],
+            dist[1],
             nfail_new,
         )
-        names = ["v", "y", "ubar", "xhat", "dist", "plan", "X", "Xref", "Uref", "w", "p", "r_prim", "r_dual",
-                 "iters_to_tol", "nfail"]
+        names = [
+            "v",
+            "y",
+            "ubar",
+            "xhat",
+            "dist",
+            "plan",
+            "X",
+            "Xref",
+            "Uref",
+            "w",
+            "p",
+            "r_prim",
+            "r_dual",
+            "iters_to_tol",
+            "nfail",
+        ]
         ins = [v, y, ub, xhat, dist, plan, Xm, Xref, Uref, w, p, r_prim, r_dual, iters_to_tol, nfail]
         return ca.Function("nmpc_post_tail", ins, [u, state, stats], names, ["u", "state", "stats"])
 
@@ -506,8 +655,9 @@ class StepBuilder:
         track = {"rp": ca.MX(0), "rd": ca.MX(0), "iters": ca.MX(self._checkpoints()[0])}
         for i in range(1, cfg.n_iter + 1):
             it = it_res if i in self._checkpoints() else it_fast
-            x, z, yv, rp_i, rd_i = it(x, z, yv, o["L"], o["dinv"], o["q"], o["G"], o["ubar"], o["glb"], o["gub"],
-                                      o["rho"])
+            x, z, yv, rp_i, rd_i = it(
+                x, z, yv, o["L"], o["dinv"], o["q"], o["G"], o["ubar"], o["glb"], o["gub"], o["rho"]
+            )
             self._track(i, rp_i, rd_i, track)
         return z, yv, track
 
@@ -517,15 +667,17 @@ class StepBuilder:
         N, nv = cfg.N, cfg.N * NU
         fac = factor_function(N, cfg.gap_stages, np.diag(cfg.Q), self.P, cfg.R, cfg.admm, cfg.gap_lo, cfg.gap_hi)
         it = iteration_function(N, cfg.gap_stages, cfg.i_max, cfg.i_box, cfg.soft_w1, cfg.soft_w2, cfg.admm)
-        K, Sinv, PB, Pc, rho, qW, rbase, glb, gub, zg0 = fac(o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"],
-                                                              o["Xref"], o["Ubar"], o["Uref"], fault)
+        K, Sinv, PB, Pc, rho, qW, rbase, glb, gub, zg0 = fac(
+            o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], fault
+        )
         # warm start: zero correction (the linearization point is the shifted plan), gap rows at the free
         # response, shifted duals
         x, z, yv = ca.MX.zeros(nv), ca.vertcat(ca.MX.zeros(nv), zg0), o["y0"]
         track = {"rp": ca.MX(0), "rd": ca.MX(0), "iters": ca.MX(self._checkpoints()[0])}
         for i in range(1, cfg.n_iter + 1):
-            x, z, yv, rp_i, rd_i = it(x, z, yv, K, Sinv, PB, Pc, o["As"], o["Bs"], o["cs"], o["dx0"], qW, rbase,
-                                      o["ubar"], glb, gub, rho)
+            x, z, yv, rp_i, rd_i = it(
+                x, z, yv, K, Sinv, PB, Pc, o["As"], o["Bs"], o["cs"], o["dx0"], qW, rbase, o["ubar"], glb, gub, rho
+            )
             self._track(i, rp_i, rd_i, track)
         return z, yv, track
 
@@ -534,8 +686,12 @@ class StepBuilder:
         cfg, lay, m = self.cfg, self.layout, self.model
         nv = cfg.N * NU
         post = self.build_post()
-        st, meas, ref, p = (ca.MX.sym("state_in", lay.size), ca.MX.sym("meas", N_MEAS),
-                            ca.MX.sym("ref", 6, cfg.N + 1), ca.MX.sym("p", m.np_))
+        st, meas, ref, p = (
+            ca.MX.sym("state_in", lay.size),
+            ca.MX.sym("meas", N_MEAS),
+            ca.MX.sym("ref", 6, cfg.N + 1),
+            ca.MX.sym("p", m.np_),
+        )
         if cfg.qp == "dense":
             o = self.build_prep()(state=st, meas=meas, ref=ref, p=p)
             z, yv, tr = self._admm_dense(o)
@@ -543,10 +699,31 @@ class StepBuilder:
             o = self._common(st, meas, ref, p)
             z, yv, tr = self._admm_riccati(o, meas[2])
         nfail = st[lay.slices()["nfail"]]
-        r = post(v=z[:nv], y=yv, ubar=o["ubar"], xhat=o["xhat"], dist=o["dist"], plan=o["plan"], As=o["As"],
-                 Bs=o["Bs"], cs=o["cs"], dx0=o["dx0"], Xbar=o["Xbar"], Xref=o["Xref"], Uref=o["Uref"], w=o["w"],
-                 p=p, r_prim=tr["rp"], r_dual=tr["rd"], iters_to_tol=tr["iters"], nfail=nfail)
+        r = post(
+            v=z[:nv],
+            y=yv,
+            ubar=o["ubar"],
+            xhat=o["xhat"],
+            dist=o["dist"],
+            plan=o["plan"],
+            As=o["As"],
+            Bs=o["Bs"],
+            cs=o["cs"],
+            dx0=o["dx0"],
+            Xbar=o["Xbar"],
+            Xref=o["Xref"],
+            Uref=o["Uref"],
+            w=o["w"],
+            p=p,
+            r_prim=tr["rp"],
+            r_dual=tr["rd"],
+            iters_to_tol=tr["iters"],
+            nfail=nfail,
+        )
         return ca.Function(
-            "nmpc_step", [st, meas, ref, p], [r["u"], r["state"], r["stats"], r["x_hat"]],
-            ["state_in", "meas", "ref", "p"], ["u", "state_out", "stats", "x_hat"],
+            "nmpc_step",
+            [st, meas, ref, p],
+            [r["u"], r["state"], r["stats"], r["x_hat"]],
+            ["state_in", "meas", "ref", "p"],
+            ["u", "state_out", "stats", "x_hat"],
         )

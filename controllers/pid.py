@@ -83,8 +83,9 @@ def _schedule_function() -> ca.Function:
     u_eq = m.u_eq(g, d, p)
     u0 = m.u_eq(g, 0, p)  # linearize at the d = 0 hover, where cogging vanishes
     A, B = m.linearization(ca.vertcat(g, 0, 0, 0), u0, p)
-    return ca.Function("pid_schedule", [g, d, p], [u_eq, B[1, 1], A[1, 0], -B[3, 0]],
-                       ["g", "d", "p"], ["u_eq", "b_v", "a21", "L1"])
+    return ca.Function(
+        "pid_schedule", [g, d, p], [u_eq, B[1, 1], A[1, 0], -B[3, 0]], ["g", "d", "p"], ["u_eq", "b_v", "a21", "L1"]
+    )
 
 
 class PIDController:

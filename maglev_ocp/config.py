@@ -116,8 +116,9 @@ def atomic_write_bytes(path: str | os.PathLike, fig_or_bytes: Any, **savefig_kw:
             if isinstance(fig_or_bytes, (bytes, bytearray)):
                 fh.write(fig_or_bytes)
             else:
-                fig_or_bytes.savefig(fh, format=(path.suffix.lstrip(".") or "png"), dpi=savefig_kw.pop("dpi", 110),
-                                     **savefig_kw)
+                fig_or_bytes.savefig(
+                    fh, format=(path.suffix.lstrip(".") or "png"), dpi=savefig_kw.pop("dpi", 110), **savefig_kw
+                )
         os.chmod(tmp, _umask_mode())
         os.replace(tmp, path)
     except BaseException:

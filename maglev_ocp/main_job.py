@@ -40,13 +40,25 @@ SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
 
 #: The headline scenarios, in the order of the summary (files ``scenarios/<name>.yaml``).
 HEADLINE: tuple[str, ...] = (
-    "tour_nmpc", "tour_fl", "tour_pid",
-    "traverse_15mm_nmpc", "traverse_20mm_nmpc", "traverse_25mm_nmpc",
-    "traverse_15mm_fl", "traverse_20mm_fl", "traverse_25mm_fl",
-    "gap_steps_nmpc", "gap_steps_fl",
-    "cogging_aware_nmpc", "cogging_blind_nmpc", "cogging_aware_fl", "cogging_blind_fl",
-    "mismatch_nmpc", "mismatch_fl",
-    "random_nmpc", "random_fl",
+    "tour_nmpc",
+    "tour_fl",
+    "tour_pid",
+    "traverse_15mm_nmpc",
+    "traverse_20mm_nmpc",
+    "traverse_25mm_nmpc",
+    "traverse_15mm_fl",
+    "traverse_20mm_fl",
+    "traverse_25mm_fl",
+    "gap_steps_nmpc",
+    "gap_steps_fl",
+    "cogging_aware_nmpc",
+    "cogging_blind_nmpc",
+    "cogging_aware_fl",
+    "cogging_blind_fl",
+    "mismatch_nmpc",
+    "mismatch_fl",
+    "random_nmpc",
+    "random_fl",
 )
 
 #: Gaps of the traverse comparison [mm].
@@ -75,8 +87,15 @@ def _min_time_task(out_dir: str) -> dict[str, Any]:
 
         b = traverse_bounds(tuple(g * 1e-3 for g in TRAVERSE_GAPS), progress=False)
         b.save(out_dir)
-        rows = [{"g_mm": round(r.start[0] * 1e3, 3), "T_min_s": float(r.T), "success": bool(r.success),
-                 "status": str(r.status)} for r in b.results]
+        rows = [
+            {
+                "g_mm": round(r.start[0] * 1e3, 3),
+                "T_min_s": float(r.T),
+                "success": bool(r.success),
+                "status": str(r.status),
+            }
+            for r in b.results
+        ]
         return {"ok": True, "rows": rows, "table": b.table(), "wall_s": time.perf_counter() - t0}
     except Exception as err:
         return {"ok": False, "error": f"{type(err).__name__}: {err}", "wall_s": time.perf_counter() - t0}
@@ -111,16 +130,30 @@ def write_simulation(out: Path) -> int:
     """A 2 s plant simulation: the seed's excitation experiment (PID regulators), via ``maglev simulate``."""
     from .cli import main as cli_main
 
-    return cli_main(["simulate", "--experiment", "excitation", "--duration", "2", "--seed", "1",
-                     "--out", str(out / "simulate"), "--plot", "--no-progress"])
+    return cli_main(
+        [
+            "simulate",
+            "--experiment",
+            "excitation",
+            "--duration",
+            "2",
+            "--seed",
+            "1",
+            "--out",
+            str(out / "simulate"),
+            "--plot",
+            "--no-progress",
+        ]
+    )
 
 
 def _fmt(v: float | None, scale: float = 1.0, nd: int = 3) -> str:
     return "–" if v is None else f"{v * scale:.{nd}f}"
 
 
-def summary_markdown(results: dict[str, dict[str, Any]], bounds: dict[str, Any] | None, out: Path,
-                     wall_s: float) -> str:
+def summary_markdown(
+    results: dict[str, dict[str, Any]], bounds: dict[str, Any] | None, out: Path, wall_s: float
+) -> str:
     """The ``summary.md`` text (tables with units, links to the figures, the commands)."""
     lines = [
         "# Headline results",
@@ -152,11 +185,16 @@ def summary_markdown(results: dict[str, dict[str, Any]], bounds: dict[str, Any] 
             f"{m['fallbacks']} | {m['max_current_A']:.2f} | {tm} | {'PASS' if m['passed'] else 'FAIL'} |"
         )
     # Traverse against the minimum-time bound.
-    lines += ["", "## 100 mm traverse against the minimum-time bound", "",
-              "Settle time of each direction of the traverse (d = −50 → +50 → −50 mm) and the minimum time "
-              "of the same move from the optimal-control problem on the shared model (`min_time/`).", "",
-              "| gap [mm] | minimum time [s] | NMPC settle [s] | NMPC / bound | FL settle [s] | FL / bound |",
-              "|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "## 100 mm traverse against the minimum-time bound",
+        "",
+        "Settle time of each direction of the traverse (d = −50 → +50 → −50 mm) and the minimum time "
+        "of the same move from the optimal-control problem on the shared model (`min_time/`).",
+        "",
+        "| gap [mm] | minimum time [s] | NMPC settle [s] | NMPC / bound | FL settle [s] | FL / bound |",
+        "|---|---|---|---|---|---|",
+    ]
     tmin = {}
     if bounds and bounds.get("ok"):
         tmin = {round(r["g_mm"]): r["T_min_s"] for r in bounds["rows"] if r["success"]}
@@ -172,12 +210,17 @@ def summary_markdown(results: dict[str, dict[str, Any]], bounds: dict[str, Any] 
     if bounds and not bounds.get("ok"):
         lines.append(f"\nminimum-time bound failed: {bounds.get('error')}")
     # Cogging-aware against cogging-blind.
-    lines += ["", "## Cogging in the controller's model (g = 15..16 mm, d at odd multiples of t1/2)", "",
-              "Steady-state RMS over the settled part, and tracking RMS against the planned reference over "
-              "the whole hold (moves included), true state.", "",
-              "| controller | model | mean RMS g [µm] | mean RMS d [µm] | max RMS g [µm] | max RMS d [µm] | "
-              "tracking RMS g [µm] | tracking RMS d [µm] |",
-              "|---|---|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "## Cogging in the controller's model (g = 15..16 mm, d at odd multiples of t1/2)",
+        "",
+        "Steady-state RMS over the settled part, and tracking RMS against the planned reference over "
+        "the whole hold (moves included), true state.",
+        "",
+        "| controller | model | mean RMS g [µm] | mean RMS d [µm] | max RMS g [µm] | max RMS d [µm] | "
+        "tracking RMS g [µm] | tracking RMS d [µm] |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for c in ("nmpc", "fl"):
         for mdl in ("aware", "blind"):
             r = results.get(f"cogging_{mdl}_{c}", {})
@@ -186,34 +229,58 @@ def summary_markdown(results: dict[str, dict[str, Any]], bounds: dict[str, Any] 
             tg = r["metrics"]["targets"]
             rg = [t["rms_error_g_m"] for t in tg if t["rms_error_g_m"] is not None]
             rd = [t["rms_error_d_m"] for t in tg if t["rms_error_d_m"] is not None]
-            mean = (lambda v: sum(v) / len(v) if v else None)  # noqa: E731
-            trk = [mean([t.get(f"rms_tracking_error_{a}_m") for t in tg
-                         if t.get(f"rms_tracking_error_{a}_m") is not None]) for a in ("g", "d")]
-            lines.append(f"| {c} | cogging-{mdl} | {_fmt(mean(rg), 1e6, 2)} | {_fmt(mean(rd), 1e6, 2)} | "
-                         f"{_fmt(max(rg) if rg else None, 1e6, 2)} | {_fmt(max(rd) if rd else None, 1e6, 2)} | "
-                         f"{_fmt(trk[0], 1e6, 2)} | {_fmt(trk[1], 1e6, 2)} |")
-    lines += ["", "Calibration on a simulated seed-calibration dataset (the seed's section V, `maglev calibrate`): "
-              "[calibration/README.md](calibration/README.md).", ""]
-    lines += ["", "Files: `model_table.{txt,json,png}`, `simulate/` (rig-log dataset of a 2 s excitation run), "
-              "`min_time/`, and per scenario `log.csv`, `timing.csv`, `metrics.json`, `scenario.yaml`, "
-              "`positions.png`, `currents.png`, `solver_time.png`.", "",
-              "Reproduce one scenario: `maglev run scenarios/<name>.yaml --out results/run`.", "",
-              f"Wall time of this job: {wall_s:.0f} s.", ""]
+            mean = lambda v: sum(v) / len(v) if v else None  # noqa: E731
+            trk = [
+                mean([t.get(f"rms_tracking_error_{a}_m") for t in tg if t.get(f"rms_tracking_error_{a}_m") is not None])
+                for a in ("g", "d")
+            ]
+            lines.append(
+                f"| {c} | cogging-{mdl} | {_fmt(mean(rg), 1e6, 2)} | {_fmt(mean(rd), 1e6, 2)} | "
+                f"{_fmt(max(rg) if rg else None, 1e6, 2)} | {_fmt(max(rd) if rd else None, 1e6, 2)} | "
+                f"{_fmt(trk[0], 1e6, 2)} | {_fmt(trk[1], 1e6, 2)} |"
+            )
+    lines += [
+        "",
+        "Calibration on a simulated seed-calibration dataset (the seed's section V, `maglev calibrate`): "
+        "[calibration/README.md](calibration/README.md).",
+        "",
+    ]
+    lines += [
+        "",
+        "Files: `model_table.{txt,json,png}`, `simulate/` (rig-log dataset of a 2 s excitation run), "
+        "`min_time/`, and per scenario `log.csv`, `timing.csv`, `metrics.json`, `scenario.yaml`, "
+        "`positions.png`, `currents.png`, `solver_time.png`.",
+        "",
+        "Reproduce one scenario: `maglev run scenarios/<name>.yaml --out results/run`.",
+        "",
+        f"Wall time of this job: {wall_s:.0f} s.",
+        "",
+    ]
     return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m maglev_ocp.main_job``."""
-    ap = argparse.ArgumentParser(prog="python -m maglev_ocp.main_job",
-                                 description="Regenerate results/: model table, a plant simulation, the "
-                                             "minimum-time bounds and the headline closed-loop scenarios.")
+    ap = argparse.ArgumentParser(
+        prog="python -m maglev_ocp.main_job",
+        description="Regenerate results/: model table, a plant simulation, the "
+        "minimum-time bounds and the headline closed-loop scenarios.",
+    )
     ap.add_argument("--out", default="results", metavar="DIR", help="results folder (default: results)")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes for the scenarios (default 2)")
-    ap.add_argument("--scenarios", nargs="+", default=None, metavar="NAME",
-                    help=f"run only these headline scenarios (default: all {len(HEADLINE)})")
+    ap.add_argument(
+        "--scenarios",
+        nargs="+",
+        default=None,
+        metavar="NAME",
+        help=f"run only these headline scenarios (default: all {len(HEADLINE)})",
+    )
     ap.add_argument("--no-min-time", action="store_true", help="skip the minimum-time OCP")
-    ap.add_argument("--no-calibration", action="store_true",
-                    help="skip the calibration on a simulated seed-calibration dataset (results/calibration)")
+    ap.add_argument(
+        "--no-calibration",
+        action="store_true",
+        help="skip the calibration on a simulated seed-calibration dataset (results/calibration)",
+    )
     a = ap.parse_args(argv)
     from tqdm.auto import tqdm
 
@@ -272,9 +339,19 @@ def main(argv: list[str] | None = None) -> int:
     print(summary_table([(n, _R(r["metrics"]) if r.get("ok") else None, r.get("error")) for n, r in ordered.items()]))
     wall = time.perf_counter() - t0
     atomic_write_text(out / "summary.md", summary_markdown(ordered, bounds, out, wall))
-    atomic_write_text(out / "summary.json", json.dumps(
-        {"scenarios": {n: r.get("metrics", {"error": r.get("error")}) for n, r in ordered.items()},
-         "min_time": bounds, "wall_s": wall}, indent=1, default=str) + "\n")
+    atomic_write_text(
+        out / "summary.json",
+        json.dumps(
+            {
+                "scenarios": {n: r.get("metrics", {"error": r.get("error")}) for n, r in ordered.items()},
+                "min_time": bounds,
+                "wall_s": wall,
+            },
+            indent=1,
+            default=str,
+        )
+        + "\n",
+    )
     print(f"wrote {out}/summary.md ({wall:.0f} s)")
     ok = all(r.get("ok") and r["metrics"]["passed"] for r in ordered.values()) and rc_sim == 0
     ok = ok and (calib is None or bool(calib.get("ok")))

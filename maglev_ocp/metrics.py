@@ -128,8 +128,10 @@ class Metrics:
 
     def table(self) -> str:
         """Text view: one row per target, then the overall figures."""
-        head = (f"{'#':>3} {'g [mm]':>7} {'d [mm]':>8} {'settled':>7} {'t_s [s]':>8} {'rms g [um]':>10} "
-                f"{'rms d [um]':>10} {'enc g [um]':>10} {'enc d [um]':>10} {'max |i| [A]':>11}")
+        head = (
+            f"{'#':>3} {'g [mm]':>7} {'d [mm]':>8} {'settled':>7} {'t_s [s]':>8} {'rms g [um]':>10} "
+            f"{'rms d [um]':>10} {'enc g [um]':>10} {'enc d [um]':>10} {'max |i| [A]':>11}"
+        )
         lines = [f"scenario {self.scenario} (controller {self.controller}, seed {self.seed})", head, "-" * len(head)]
 
         def um(v: float | None) -> str:
@@ -157,8 +159,17 @@ class Metrics:
 
 
 def target_metrics(
-    index: int, t: np.ndarray, x_true: np.ndarray, y_enc: np.ndarray, u: np.ndarray, target: Any,
-    t_switch: float, move_time: float, tolerance: float, min_settled_s: float, Ts: float = k.Ts,
+    index: int,
+    t: np.ndarray,
+    x_true: np.ndarray,
+    y_enc: np.ndarray,
+    u: np.ndarray,
+    target: Any,
+    t_switch: float,
+    move_time: float,
+    tolerance: float,
+    min_settled_s: float,
+    Ts: float = k.Ts,
     ref: np.ndarray | None = None,
 ) -> TargetMetrics:
     """Metrics of one target from the samples of its hold (see the module docstring).
@@ -184,8 +195,27 @@ def target_metrics(
     n = len(t)
     nan = math.nan
     if n == 0:
-        return TargetMetrics(index, target.g, target.d, target.hold, t_switch, move_time, False, None, None, None,
-                             None, None, None, None, nan, nan, nan, nan, nan)
+        return TargetMetrics(
+            index,
+            target.g,
+            target.d,
+            target.hold,
+            t_switch,
+            move_time,
+            False,
+            None,
+            None,
+            None,
+            None,
+            None,
+            None,
+            None,
+            nan,
+            nan,
+            nan,
+            nan,
+            nan,
+        )
     eg, ed = x_true[:, 0] - target.g, x_true[:, 2] - target.d
     inside = (np.abs(eg) <= tolerance) & (np.abs(ed) <= tolerance)
     bad = np.flatnonzero(~inside)
@@ -204,12 +234,24 @@ def target_metrics(
         mx = [None, None]
         ts = None
     return TargetMetrics(
-        index=index, g=float(target.g), d=float(target.d), hold=float(target.hold), t_switch=float(t_switch),
-        move_time_s=float(move_time), settled=bool(settled), settle_time_s=ts,
-        rms_error_g_m=rms[0], rms_error_d_m=rms[1], rms_error_g_enc_m=rms[2], rms_error_d_enc_m=rms[3],
-        max_abs_error_g_settled_m=mx[0], max_abs_error_d_settled_m=mx[1],
-        final_error_g_m=float(eg[-1]), final_error_d_m=float(ed[-1]),
-        max_current_A=float(np.max(amp)), max_abs_i_q_A=float(np.max(np.abs(u[:, 0]))),
+        index=index,
+        g=float(target.g),
+        d=float(target.d),
+        hold=float(target.hold),
+        t_switch=float(t_switch),
+        move_time_s=float(move_time),
+        settled=bool(settled),
+        settle_time_s=ts,
+        rms_error_g_m=rms[0],
+        rms_error_d_m=rms[1],
+        rms_error_g_enc_m=rms[2],
+        rms_error_d_enc_m=rms[3],
+        max_abs_error_g_settled_m=mx[0],
+        max_abs_error_d_settled_m=mx[1],
+        final_error_g_m=float(eg[-1]),
+        final_error_d_m=float(ed[-1]),
+        max_current_A=float(np.max(amp)),
+        max_abs_i_q_A=float(np.max(np.abs(u[:, 0]))),
         max_abs_i_d_A=float(np.max(np.abs(u[:, 1]))),
         rms_tracking_error_g_m=None if ref is None else float(np.sqrt(np.mean((x_true[:, 0] - ref[:, 0]) ** 2))),
         rms_tracking_error_d_m=None if ref is None else float(np.sqrt(np.mean((x_true[:, 2] - ref[:, 1]) ** 2))),
@@ -217,10 +259,24 @@ def target_metrics(
 
 
 def compute_metrics(
-    *, scenario: str, controller: str, seed: int, t: np.ndarray, x_true: np.ndarray, y_enc: np.ndarray,
-    u: np.ndarray, plan: Any, tolerance: float, checks: Any, stats: dict[str, np.ndarray],
-    step_time_us: np.ndarray, stop_events: list[Any], error: str | None = None, Ts: float = k.Ts,
-    i_axis_max: float = k.i_axis_max, i_amp_max: float = k.i_amp_max,
+    *,
+    scenario: str,
+    controller: str,
+    seed: int,
+    t: np.ndarray,
+    x_true: np.ndarray,
+    y_enc: np.ndarray,
+    u: np.ndarray,
+    plan: Any,
+    tolerance: float,
+    checks: Any,
+    stats: dict[str, np.ndarray],
+    step_time_us: np.ndarray,
+    stop_events: list[Any],
+    error: str | None = None,
+    Ts: float = k.Ts,
+    i_axis_max: float = k.i_axis_max,
+    i_amp_max: float = k.i_amp_max,
 ) -> Metrics:
     """Compute every metric of a run.
 
@@ -258,8 +314,22 @@ def compute_metrics(
         t1 = t0 + tg.hold
         sel = (t >= t0 - 1e-9) & (t < t1 - 1e-9)
         ref = plan.sample(t[sel])[:, [0, 3]] if sel.any() else None
-        tms.append(target_metrics(i, t[sel], x_true[sel], y_enc[sel], u[sel], tg, t0, plan.moves[i].T, tolerance,
-                                  checks.min_settled_s, Ts, ref=ref))
+        tms.append(
+            target_metrics(
+                i,
+                t[sel],
+                x_true[sel],
+                y_enc[sel],
+                u[sel],
+                tg,
+                t0,
+                plan.moves[i].T,
+                tolerance,
+                checks.min_settled_s,
+                Ts,
+                ref=ref,
+            )
+        )
     n = len(t)
     fail = np.zeros(n, bool)
     inacc = np.zeros(n, bool)
@@ -288,14 +358,29 @@ def compute_metrics(
     rg = [tm.rms_error_g_m for tm in tms if tm.rms_error_g_m is not None]
     rd = [tm.rms_error_d_m for tm in tms if tm.rms_error_d_m is not None]
     m = Metrics(
-        scenario=scenario, controller=controller, seed=int(seed), tolerance_m=float(tolerance),
-        duration_s=float(n * Ts), n_steps=n, targets=tms, all_settled=settled_all,
-        stop_hits=len(stop_events), stop_events=[str(e) for e in stop_events],
-        solver_failures=int(fail.sum()), solver_inaccurate=int(inacc.sum()), fallbacks=int(fb.sum()),
-        unreachable_steps=int(unr.sum()), step_time_us=step, max_current_A=max_amp, max_abs_i_q_A=max_q,
-        max_abs_i_d_A=max_d, currents_within_limits=bool(within),
+        scenario=scenario,
+        controller=controller,
+        seed=int(seed),
+        tolerance_m=float(tolerance),
+        duration_s=float(n * Ts),
+        n_steps=n,
+        targets=tms,
+        all_settled=settled_all,
+        stop_hits=len(stop_events),
+        stop_events=[str(e) for e in stop_events],
+        solver_failures=int(fail.sum()),
+        solver_inaccurate=int(inacc.sum()),
+        fallbacks=int(fb.sum()),
+        unreachable_steps=int(unr.sum()),
+        step_time_us=step,
+        max_current_A=max_amp,
+        max_abs_i_q_A=max_q,
+        max_abs_i_d_A=max_d,
+        currents_within_limits=bool(within),
         max_settle_time_s=max(sts) if sts and settled_all else None,
-        max_rms_error_g_m=max(rg) if rg else None, max_rms_error_d_m=max(rd) if rd else None, error=error,
+        max_rms_error_g_m=max(rg) if rg else None,
+        max_rms_error_d_m=max(rd) if rd else None,
+        error=error,
     )
     m.failed_checks = failed_checks(m, checks)
     return m
@@ -314,14 +399,16 @@ def failed_checks(m: Metrics, checks: Any) -> list[str]:
     if checks.currents_within_limits and not m.currents_within_limits:
         out.append(f"currents beyond the limits (max |i| {m.max_current_A:.3f} A)")
     if checks.max_settle_time_s is not None:
-        slow = [f"{t.index} ({t.settle_time_s:.3f} s)" for t in m.targets
-                if t.settle_time_s is not None and t.settle_time_s > checks.max_settle_time_s]
+        slow = [
+            f"{t.index} ({t.settle_time_s:.3f} s)"
+            for t in m.targets
+            if t.settle_time_s is not None and t.settle_time_s > checks.max_settle_time_s
+        ]
         if slow:
             out.append(f"settle time above {checks.max_settle_time_s:g} s: {', '.join(slow)}")
     if checks.max_rms_error_m is not None:
         lim = checks.max_rms_error_m
-        big = [str(t.index) for t in m.targets
-               if (t.rms_error_g_m or 0) > lim or (t.rms_error_d_m or 0) > lim]
+        big = [str(t.index) for t in m.targets if (t.rms_error_g_m or 0) > lim or (t.rms_error_d_m or 0) > lim]
         if big:
             out.append(f"steady-state RMS error above {lim * 1e6:g} um: targets {', '.join(big)}")
     return out

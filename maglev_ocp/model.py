@@ -54,8 +54,7 @@ def shape_expressions(g: ca.SX) -> dict[str, ca.SX]:
     Kc = k.t1 / (k.t1 - gam * g)  # Carter's coefficient
     a = math.pi * (k.hm + g) / k.tau
     B = (
-        (4 / math.pi) * k.Br * math.sin(math.pi * k.taup / (2 * k.tau))
-        * math.sinh(math.pi * k.hm / k.tau) / ca.sinh(a)
+        (4 / math.pi) * k.Br * math.sin(math.pi * k.taup / (2 * k.tau)) * math.sinh(math.pi * k.hm / k.tau) / ca.sinh(a)
     )  # fundamental of the PM field B_pmy1 [T]
     coth = ca.cosh(a) / ca.sinh(a)
     return {
@@ -125,8 +124,11 @@ class MaglevModel:
         gs = ca.SX.sym("g")
         sg = shape_expressions(gs)
         self.shape = ca.Function(
-            "shape", [gs], [sg[n] for n in ("lam", "Kc", "B", "f1", "f2", "f3", "f4")],
-            ["g"], ["lam", "Kc", "B", "f1", "f2", "f3", "f4"],
+            "shape",
+            [gs],
+            [sg[n] for n in ("lam", "Kc", "B", "f1", "f2", "f3", "f4")],
+            ["g"],
+            ["lam", "Kc", "B", "f1", "f2", "f3", "f4"],
         )
         ds = ca.SX.sym("d")
         cog = ca.substitute([Fx_cog, Fn_cog], [g, d], [gs, ds])
@@ -150,8 +152,11 @@ class MaglevModel:
         self.i_d_eq = ca.Function("i_d_eq", [gs, p], [id0], ["g", "p"], ["i_d"])
 
         self.linearization = ca.Function(
-            "linearization", [x, u, p], [ca.jacobian(x_dot, x), ca.jacobian(x_dot, u)],
-            ["x", "u", "p"], ["A", "B"],
+            "linearization",
+            [x, u, p],
+            [ca.jacobian(x_dot, x), ca.jacobian(x_dot, u)],
+            ["x", "u", "p"],
+            ["A", "B"],
         )
 
     # ------------------------------------------------------------------ builders
@@ -213,9 +218,7 @@ class MaglevModel:
         zero = ca.SX.zeros(len(idx))
         b = ca.substitute(self._x_dot, theta, zero)
         A = ca.substitute(A, theta, zero)
-        return ca.Function(
-            "lip_" + "_".join(names), [self.x, self.u, self.p], [A, b], ["x", "u", "p"], ["A", "b"]
-        )
+        return ca.Function("lip_" + "_".join(names), [self.x, self.u, self.p], [A, b], ["x", "u", "p"], ["A", "b"])
 
     # ------------------------------------------------------------ numeric helpers
     def operating_point(self, g: float, params: Params = NOMINAL) -> dict[str, float]:
@@ -231,8 +234,13 @@ class MaglevModel:
         a21 = float(np.asarray(A)[1, 0])
         pole = math.sqrt(a21) if a21 > 0 else -math.sqrt(-a21)
         return {
-            "g_mm": g * 1e3, "lam": lam, "Kc": Kc, "B_T": B, "i_d_eq_A": i_d,
-            "L1": params.C1 * f1, "pole_rad_s": pole,
+            "g_mm": g * 1e3,
+            "lam": lam,
+            "Kc": Kc,
+            "B_T": B,
+            "i_d_eq_A": i_d,
+            "L1": params.C1 * f1,
+            "pole_rad_s": pole,
         }
 
 

@@ -141,7 +141,10 @@ class HighGainObserver:
 
 
 def estimate_states(
-    y: np.ndarray, u: np.ndarray, params: Params = NOMINAL, settings: ObserverSettings | None = None,
+    y: np.ndarray,
+    u: np.ndarray,
+    params: Params = NOMINAL,
+    settings: ObserverSettings | None = None,
     Ts: float = k.Ts,
 ) -> np.ndarray:
     """Run the observer over a logged run (offline use, e.g. the estimator).

@@ -26,8 +26,9 @@ def _target_track(t: np.ndarray, plan: Any) -> np.ndarray:
     return np.array([[plan.targets[i].g, plan.targets[i].d] for i in idx]).reshape(len(t), 2)
 
 
-def plot_positions(path: str | os.PathLike, cols: dict[str, np.ndarray], plan: Any, tolerance: float,
-                   title: str = "") -> None:
+def plot_positions(
+    path: str | os.PathLike, cols: dict[str, np.ndarray], plan: Any, tolerance: float, title: str = ""
+) -> None:
     """Positions (true, encoder, reference, target) and the errors with the tolerance band.
 
     Top row: ``g`` and ``d`` [mm] with the planned reference and the target;
@@ -42,8 +43,15 @@ def plot_positions(path: str | os.PathLike, cols: dict[str, np.ndarray], plan: A
         a.plot(t, cols[name] * 1e3, color="0.6", lw=0.8, label="encoder")
         a.plot(t, cols[f"{name}_true"] * 1e3, color="tab:blue", lw=1.0, label="true")
         a.plot(t, cols[f"{name}_ref"] * 1e3, color="tab:orange", lw=1.0, ls="--", label="reference")
-        a.fill_between(t, (tgt[:, col] - tolerance) * 1e3, (tgt[:, col] + tolerance) * 1e3, step="post",
-                       color="tab:green", alpha=0.25, label=f"target ±{tolerance * 1e3:g} mm")
+        a.fill_between(
+            t,
+            (tgt[:, col] - tolerance) * 1e3,
+            (tgt[:, col] + tolerance) * 1e3,
+            step="post",
+            color="tab:green",
+            alpha=0.25,
+            label=f"target ±{tolerance * 1e3:g} mm",
+        )
         a.set_ylabel(f"{name} [mm]")
         a.grid(True, alpha=0.3)
         a.legend(loc="best", fontsize=8)
@@ -65,8 +73,13 @@ def plot_positions(path: str | os.PathLike, cols: dict[str, np.ndarray], plan: A
     plt.close(fig)
 
 
-def plot_currents(path: str | os.PathLike, cols: dict[str, np.ndarray], title: str = "",
-                  i_axis_max: float = k.i_axis_max, i_amp_max: float = k.i_amp_max) -> None:
+def plot_currents(
+    path: str | os.PathLike,
+    cols: dict[str, np.ndarray],
+    title: str = "",
+    i_axis_max: float = k.i_axis_max,
+    i_amp_max: float = k.i_amp_max,
+) -> None:
     """Commanded currents ``i_q``, ``i_d`` and their amplitude [A] with the amplifier limits."""
     t = cols["t"]
     fig, ax = plt.subplots(2, 1, figsize=(12, 6), sharex=True)
@@ -90,8 +103,9 @@ def plot_currents(path: str | os.PathLike, cols: dict[str, np.ndarray], title: s
     plt.close(fig)
 
 
-def plot_solver_time(path: str | os.PathLike, t: np.ndarray, step_time_us: np.ndarray, title: str = "",
-                     period_us: float = k.Ts * 1e6) -> None:
+def plot_solver_time(
+    path: str | os.PathLike, t: np.ndarray, step_time_us: np.ndarray, title: str = "", period_us: float = k.Ts * 1e6
+) -> None:
     """Controller computation time per step [us] over time and its histogram, with the 1 ms period."""
     fig, ax = plt.subplots(1, 2, figsize=(12, 4), gridspec_kw={"width_ratios": [3, 1]})
     ax[0].plot(t, step_time_us, lw=0.6)
@@ -103,8 +117,12 @@ def plot_solver_time(path: str | os.PathLike, t: np.ndarray, step_time_us: np.nd
     ax[0].legend(loc="best", fontsize=8)
     finite = step_time_us[np.isfinite(step_time_us)]
     if finite.size:
-        ax[1].hist(finite, bins=np.geomspace(max(finite.min(), 1.0), max(finite.max(), 2.0), 40),
-                   orientation="horizontal", color="tab:blue")
+        ax[1].hist(
+            finite,
+            bins=np.geomspace(max(finite.min(), 1.0), max(finite.max(), 2.0), 40),
+            orientation="horizontal",
+            color="tab:blue",
+        )
         for q, ls in ((50, "-"), (99, "--")):
             ax[1].axhline(np.percentile(finite, q), color="k", ls=ls, lw=0.8, label=f"p{q}")
     ax[1].set_yscale("log")
@@ -117,8 +135,14 @@ def plot_solver_time(path: str | os.PathLike, t: np.ndarray, step_time_us: np.nd
     plt.close(fig)
 
 
-def plot_run(out_dir: str | os.PathLike, cols: dict[str, np.ndarray], step_time_us: np.ndarray, plan: Any,
-             tolerance: float, name: str) -> list[Path]:
+def plot_run(
+    out_dir: str | os.PathLike,
+    cols: dict[str, np.ndarray],
+    step_time_us: np.ndarray,
+    plan: Any,
+    tolerance: float,
+    name: str,
+) -> list[Path]:
     """All figures of a run into ``out_dir``; returns their paths."""
     out = Path(out_dir)
     paths = [out / "positions.png", out / "currents.png", out / "solver_time.png"]

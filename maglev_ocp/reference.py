@@ -160,9 +160,7 @@ class Move:
         return out
 
 
-def _limits_ok(
-    samples: np.ndarray, params: Params, fraction: float, i_axis: float, i_amp: float
-) -> bool:
+def _limits_ok(samples: np.ndarray, params: Params, fraction: float, i_axis: float, i_amp: float) -> bool:
     """Do the model-inverse currents along ``samples`` (rows of :meth:`Move.sample`) fit the limits?"""
     from controllers.fl import model_inverse_function
 
@@ -184,8 +182,14 @@ def _mapped_inverse(fn, n: int):
 
 
 def plan_move(
-    p0: Sequence[float], p1: Sequence[float], params: Params = NOMINAL, settings: ReferenceSettings | None = None,
-    t0: float = 0.0, n_check: int = 161, i_axis: float = k.i_axis_max, i_amp: float = k.i_amp_max,
+    p0: Sequence[float],
+    p1: Sequence[float],
+    params: Params = NOMINAL,
+    settings: ReferenceSettings | None = None,
+    t0: float = 0.0,
+    n_check: int = 161,
+    i_axis: float = k.i_axis_max,
+    i_amp: float = k.i_amp_max,
 ) -> Move:
     """Plan the shortest current-feasible move from ``p0`` to ``p1`` (see the module docstring).
 
@@ -347,8 +351,12 @@ class ReferencePlan:
 
 
 def plan_targets(
-    start: Sequence[float], targets: Sequence[Target], params: Params = NOMINAL,
-    settings: ReferenceSettings | None = None, t_start: float = 0.0, source: str = "targets",
+    start: Sequence[float],
+    targets: Sequence[Target],
+    params: Params = NOMINAL,
+    settings: ReferenceSettings | None = None,
+    t_start: float = 0.0,
+    source: str = "targets",
 ) -> ReferencePlan:
     """Plan the reference of a scenario: from ``start`` through every target in order.
 
@@ -399,6 +407,12 @@ def plan_targets(
 
 
 __all__ = [
-    "Move", "ReferencePlan", "ReferenceSettings", "Target", "peak_acceleration_factor", "plan_move",
-    "plan_targets", "unit_profile",
+    "Move",
+    "ReferencePlan",
+    "ReferenceSettings",
+    "Target",
+    "peak_acceleration_factor",
+    "plan_move",
+    "plan_targets",
+    "unit_profile",
 ]

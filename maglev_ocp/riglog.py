@@ -134,8 +134,7 @@ class RunLog:
 
     def renamed(self, file: str, locked: Iterable[str] | None = None, **meta: Any) -> RunLog:
         """Copy with a new file name (and optionally locked axes / extra metadata)."""
-        return RunLog(file, dict(self.columns), tuple(self.locked if locked is None else locked),
-                      {**self.meta, **meta})
+        return RunLog(file, dict(self.columns), tuple(self.locked if locked is None else locked), {**self.meta, **meta})
 
     # ----------------------------------------------------------------- output
     def to_csv_text(self) -> str:
@@ -162,8 +161,7 @@ class RunLog:
         n = len(self)
         idx = list(range(n)) if n <= max_rows else [*range(max_rows // 2), -1, *range(n - max_rows // 2, n)]
         width = {c: max(len(c), 12) for c in names}
-        lines = [f"{self.file}  ({n} rows, locked {list(self.locked)})",
-                 "  ".join(f"{c:>{width[c]}}" for c in names)]
+        lines = [f"{self.file}  ({n} rows, locked {list(self.locked)})", "  ".join(f"{c:>{width[c]}}" for c in names)]
         for i in idx:
             if i < 0:
                 lines.append("  ".join(f"{'...':>{width[c]}}" for c in names))
@@ -227,10 +225,16 @@ class Dataset:
 
     def table(self) -> str:
         """Summary: one line per run (file, locked, rows, duration, ranges of g and d)."""
-        head = (f"{'file':<32} {'locked':>6} {'rows':>7} {'T [s]':>8} {'g min..max [mm]':>17} "
-                f"{'d min..max [mm]':>17} {'|i| max [A]':>11}")
-        lines = [f"dataset {self.folder or ''} ({FORMAT}, Ts = {self.sample_time:g} s, "
-                 f"encoder {self.encoder_resolution:g} m)", head, "-" * len(head)]
+        head = (
+            f"{'file':<32} {'locked':>6} {'rows':>7} {'T [s]':>8} {'g min..max [mm]':>17} "
+            f"{'d min..max [mm]':>17} {'|i| max [A]':>11}"
+        )
+        lines = [
+            f"dataset {self.folder or ''} ({FORMAT}, Ts = {self.sample_time:g} s, "
+            f"encoder {self.encoder_resolution:g} m)",
+            head,
+            "-" * len(head),
+        ]
         for r in self.runs:
             g, d = r["g"] * 1e3, r["d"] * 1e3
             imax = float(np.max(np.hypot(r["i_q"], r["i_d"])))
@@ -318,8 +322,11 @@ def write_dataset(
         if r.meta:
             entry["meta"] = _plain(r.meta)
         entries.append(entry)
-    doc: dict[str, Any] = {"format": FORMAT, "sample_time": float(sample_time),
-                           "encoder_resolution": float(encoder_resolution)}
+    doc: dict[str, Any] = {
+        "format": FORMAT,
+        "sample_time": float(sample_time),
+        "encoder_resolution": float(encoder_resolution),
+    }
     if description:
         doc["description"] = description
     if meta:
@@ -444,7 +451,8 @@ def read_run(
             if required:
                 r = _first_bad(raw)
                 raise DataError(
-                    f"{path}: row {r + 1} (line {r + 2}), column {name!r}: not a number: {str(raw[r])!r}") from None
+                    f"{path}: row {r + 1} (line {r + 2}), column {name!r}: not a number: {str(raw[r])!r}"
+                ) from None
             columns[name] = raw  # free-text extra column (flags, notes), kept as text
             continue
         if required:
@@ -458,20 +466,25 @@ def read_run(
     bad = np.flatnonzero(dt <= 0)
     if bad.size:
         r = int(bad[0]) + 1
-        raise DataError(f"{path}: row {r + 1} (line {r + 2}), column 't': time does not increase "
-                        f"({t[r - 1]!r} then {t[r]!r})")
+        raise DataError(
+            f"{path}: row {r + 1} (line {r + 2}), column 't': time does not increase ({t[r - 1]!r} then {t[r]!r})"
+        )
     bad = np.flatnonzero(np.abs(dt - sample_time) > SAMPLE_TIME_TOLERANCE * sample_time)
     if bad.size:
         r = int(bad[0]) + 1
-        raise DataError(f"{path}: row {r + 1} (line {r + 2}), column 't': time step {dt[r - 1]:.6g} s differs "
-                        f"from sample_time {sample_time:g} s")
+        raise DataError(
+            f"{path}: row {r + 1} (line {r + 2}), column 't': time step {dt[r - 1]:.6g} s differs "
+            f"from sample_time {sample_time:g} s"
+        )
     for ax in locked:
         v = columns[ax]
         bad = np.flatnonzero(v != v[0])
         if bad.size:
             r = int(bad[0])
-            raise DataError(f"{path}: row {r + 1} (line {r + 2}), column {ax!r}: axis {ax} is locked but its "
-                            f"reading changes ({v[0]!r} then {v[r]!r})")
+            raise DataError(
+                f"{path}: row {r + 1} (line {r + 2}), column {ax!r}: axis {ax} is locked but its "
+                f"reading changes ({v[0]!r} then {v[r]!r})"
+            )
     return RunLog(path.name, columns, locked, dict(meta or {}))
 
 

@@ -165,14 +165,20 @@ class RunResult:
         files = []
         if log:
             files.append(self.log.save(out / "log.csv"))
-            dump_yaml(out / "dataset.yaml", {
-                "format": "maglev-rig-log/1", "sample_time": k.Ts, "encoder_resolution": k.encoder_resolution,
-                "description": f"closed-loop run of scenario {self.scenario.name} (maglev run)",
-                "runs": [{"file": "log.csv", "locked": []}],
-            })
+            dump_yaml(
+                out / "dataset.yaml",
+                {
+                    "format": "maglev-rig-log/1",
+                    "sample_time": k.Ts,
+                    "encoder_resolution": k.encoder_resolution,
+                    "description": f"closed-loop run of scenario {self.scenario.name} (maglev run)",
+                    "runs": [{"file": "log.csv", "locked": []}],
+                },
+            )
             files.append(out / "dataset.yaml")
-            lines = ["t,step_time_us"] + [f"{t!r},{s!r}" for t, s in
-                                         zip(self.columns["t"].tolist(), self.step_time_us.tolist(), strict=True)]
+            lines = ["t,step_time_us"] + [
+                f"{t!r},{s!r}" for t, s in zip(self.columns["t"].tolist(), self.step_time_us.tolist(), strict=True)
+            ]
             atomic_write_text(out / "timing.csv", "\n".join(lines) + "\n")
             files.append(out / "timing.csv")
         atomic_write_text(out / "metrics.json", json.dumps(self.metrics.to_dict(), indent=2) + "\n")
@@ -181,8 +187,9 @@ class RunResult:
         if figures and len(self.columns["t"]):
             from .plots import plot_run
 
-            files += plot_run(out, self.columns, self.step_time_us, self.plan, self.scenario.tolerance,
-                              self.scenario.name)
+            files += plot_run(
+                out, self.columns, self.step_time_us, self.plan, self.scenario.tolerance, self.scenario.name
+            )
         self.files = files
         return out
 
@@ -196,8 +203,12 @@ def _stat_value(v: Any) -> Any:
 
 
 def run_scenario(
-    scenario: Scenario | dict | str | os.PathLike, out_dir: str | os.PathLike | None = None, seed: int | None = None,
-    progress: bool = True, controller: Controller | None = None, cache: MutableMapping[str, Any] | None = None,
+    scenario: Scenario | dict | str | os.PathLike,
+    out_dir: str | os.PathLike | None = None,
+    seed: int | None = None,
+    progress: bool = True,
+    controller: Controller | None = None,
+    cache: MutableMapping[str, Any] | None = None,
     figures: bool = True,
 ) -> RunResult:
     """Run one scenario in closed loop against the plant simulator.
@@ -234,8 +245,9 @@ def run_scenario(
     sc = _as_scenario(scenario).with_seed(seed)
     Ts = k.Ts
     ctrl_params = sc.controller_model_params()
-    plan = plan_targets((sc.start.g, sc.start.d), sc.target_list(), ctrl_params, sc.reference,
-                        source=f"{sc.source}: targets")
+    plan = plan_targets(
+        (sc.start.g, sc.start.d), sc.target_list(), ctrl_params, sc.reference, source=f"{sc.source}: targets"
+    )
     ctrl = controller if controller is not None else cached_controller(sc, cache)
     ss_plant, _ = sc.seed_sequences()
     plant = Plant(sc.plant_config(), params=sc.plant_params(), seed=ss_plant, Ts=Ts)
@@ -306,12 +318,30 @@ def run_scenario(
 
     sl = slice(0, done)
     cols: dict[str, np.ndarray] = {
-        "t": tgrid[sl], "g": Y[sl, 0], "d": Y[sl, 1], "i_q": U[sl, 0], "i_d": U[sl, 1],
-        "g_ref": refs[sl, 0], "d_ref": refs[sl, 3], "g_dot_ref": refs[sl, 1], "d_dot_ref": refs[sl, 4],
-        "g_ddot_ref": refs[sl, 2], "d_ddot_ref": refs[sl, 5], "g_target": tg_arr[sl, 0], "d_target": tg_arr[sl, 1],
-        "g_true": X[sl, 0], "g_dot_true": X[sl, 1], "d_true": X[sl, 2], "d_dot_true": X[sl, 3],
-        "g_hat": XH[sl, 0], "g_dot_hat": XH[sl, 1], "d_hat": XH[sl, 2], "d_dot_hat": XH[sl, 3],
-        "i_q_applied": UA[sl, 0], "i_d_applied": UA[sl, 1], "limited": LIM[sl],
+        "t": tgrid[sl],
+        "g": Y[sl, 0],
+        "d": Y[sl, 1],
+        "i_q": U[sl, 0],
+        "i_d": U[sl, 1],
+        "g_ref": refs[sl, 0],
+        "d_ref": refs[sl, 3],
+        "g_dot_ref": refs[sl, 1],
+        "d_dot_ref": refs[sl, 4],
+        "g_ddot_ref": refs[sl, 2],
+        "d_ddot_ref": refs[sl, 5],
+        "g_target": tg_arr[sl, 0],
+        "d_target": tg_arr[sl, 1],
+        "g_true": X[sl, 0],
+        "g_dot_true": X[sl, 1],
+        "d_true": X[sl, 2],
+        "d_dot_true": X[sl, 3],
+        "g_hat": XH[sl, 0],
+        "g_dot_hat": XH[sl, 1],
+        "d_hat": XH[sl, 2],
+        "d_dot_hat": XH[sl, 3],
+        "i_q_applied": UA[sl, 0],
+        "i_d_applied": UA[sl, 1],
+        "limited": LIM[sl],
     }
     stat_cols: dict[str, np.ndarray] = {}
     for key, vals in stats.items():
@@ -325,9 +355,21 @@ def run_scenario(
     cols.update(stat_cols)
     step_time = STT[sl]
     metrics = compute_metrics(
-        scenario=sc.name, controller=sc.controller.type, seed=sc.seed, t=cols["t"],
-        x_true=X[sl], y_enc=Y[sl], u=U[sl], plan=plan, tolerance=sc.tolerance, checks=sc.checks,
-        stats=stat_cols, step_time_us=step_time, stop_events=list(plant.events), error=error, Ts=Ts,
+        scenario=sc.name,
+        controller=sc.controller.type,
+        seed=sc.seed,
+        t=cols["t"],
+        x_true=X[sl],
+        y_enc=Y[sl],
+        u=U[sl],
+        plan=plan,
+        tolerance=sc.tolerance,
+        checks=sc.checks,
+        stats=stat_cols,
+        step_time_us=step_time,
+        stop_events=list(plant.events),
+        error=error,
+        Ts=Ts,
     )
     if error is None and done < n:  # pragma: no cover - loop always completes without an error
         metrics.error = "run ended early"
@@ -345,13 +387,17 @@ def summary_table(results: list[tuple[str, RunResult | None, str | None]]) -> st
     results : list of (name, RunResult or None, error or None)
         ``None`` result with an error message: the scenario failed to run.
     """
-    head = (f"{'scenario':<28} {'ctrl':>5} {'settled':>8} {'max t_s [s]':>11} {'rms g [um]':>10} "
-            f"{'rms d [um]':>10} {'stops':>5} {'fail/fb':>7} {'max|i| [A]':>10} {'med/p99 [us]':>13} {'result':>6}")
+    head = (
+        f"{'scenario':<28} {'ctrl':>5} {'settled':>8} {'max t_s [s]':>11} {'rms g [um]':>10} "
+        f"{'rms d [um]':>10} {'stops':>5} {'fail/fb':>7} {'max|i| [A]':>10} {'med/p99 [us]':>13} {'result':>6}"
+    )
     lines = [head, "-" * len(head)]
     for name, res, err in results:
         if res is None:
-            lines.append(f"{name:<28} {'':>5} {'':>8} {'':>11} {'':>10} {'':>10} {'':>5} {'':>7} {'':>10} "
-                         f"{'':>13} {'ERROR':>6}  {err}")
+            lines.append(
+                f"{name:<28} {'':>5} {'':>8} {'':>11} {'':>10} {'':>10} {'':>5} {'':>7} {'':>10} "
+                f"{'':>13} {'ERROR':>6}  {err}"
+            )
             continue
         m = res.metrics
         n_ok = sum(t.settled for t in m.targets)

@@ -148,8 +148,11 @@ class ControllerSpec(BaseModel):
     def to_dict(self) -> dict[str, Any]:
         """``type``, ``backend`` and every setting (defaults filled in)."""
         s = self._settings.model_dump(mode="json") if self._settings is not None else {}
-        return {"type": self.type, "backend": self.backend, **{k_: v for k_, v in s.items()
-                                                             if k_ not in ("type", "backend")}}
+        return {
+            "type": self.type,
+            "backend": self.backend,
+            **{k_: v for k_, v in s.items() if k_ not in ("type", "backend")},
+        }
 
 
 class ControllerParams(ParamOverrides):
@@ -461,6 +464,16 @@ def load_scenario(path: str | os.PathLike) -> Scenario:
 
 
 __all__ = [
-    "CONTROLLERS", "Checks", "ControllerParams", "ControllerSpec", "PlantSpec", "RandomTargets", "Scenario",
-    "StartSpec", "TargetSpec", "controller_classes", "load_scenario", "scenario_from_dict",
+    "CONTROLLERS",
+    "Checks",
+    "ControllerParams",
+    "ControllerSpec",
+    "PlantSpec",
+    "RandomTargets",
+    "Scenario",
+    "StartSpec",
+    "TargetSpec",
+    "controller_classes",
+    "load_scenario",
+    "scenario_from_dict",
 ]

@@ -65,8 +65,9 @@ BAD_PLANT_YAML = [
 def test_bad_plant_yaml_is_one_line_and_exit_2(tmp_path, capsys, text, expect):
     f = tmp_path / "bad.yaml"
     f.write_text(text)
-    code, err = run_cli(capsys, "simulate", "--plant", str(f), "--duration", "0.01", "--out", str(tmp_path / "o"),
-                        "--no-progress")
+    code, err = run_cli(
+        capsys, "simulate", "--plant", str(f), "--duration", "0.01", "--out", str(tmp_path / "o"), "--no-progress"
+    )
     assert code == 2
     assert "\n" not in err and str(f) in err and expect in err, err
     assert not (tmp_path / "o").exists()  # nothing written
@@ -87,12 +88,34 @@ def test_empty_plant_file_means_the_default_profile(tmp_path):
     assert load_plant_config(f) == PlantConfig.from_profile("default")
 
 
-_scalars = st.one_of(st.none(), st.booleans(), st.integers(-10**6, 10**6),
-                     st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=8))
-_junk = st.recursive(_scalars, lambda c: st.one_of(st.lists(c, max_size=3),
-                                                   st.dictionaries(st.text(max_size=6), c, max_size=3)), max_leaves=8)
-_sections = st.sampled_from(["profile", "mismatch", "process_noise", "current_noise", "measurement_noise",
-                             "quantization", "current_limits", "stops", "lock", "effects", "integrator", "other"])
+_scalars = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(10**6), 10**6),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=8),
+)
+_junk = st.recursive(
+    _scalars,
+    lambda c: st.one_of(st.lists(c, max_size=3), st.dictionaries(st.text(max_size=6), c, max_size=3)),
+    max_leaves=8,
+)
+_sections = st.sampled_from(
+    [
+        "profile",
+        "mismatch",
+        "process_noise",
+        "current_noise",
+        "measurement_noise",
+        "quantization",
+        "current_limits",
+        "stops",
+        "lock",
+        "effects",
+        "integrator",
+        "other",
+    ]
+)
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -110,8 +133,10 @@ def test_any_yaml_is_a_config_or_a_one_line_config_error(tmp_path, section, junk
 
 
 @settings(max_examples=60, deadline=None)
-@given(key=st.sampled_from(["g", "d"]), value=st.one_of(st.floats(), st.text(max_size=5), st.none(), st.lists(
-    st.floats(), max_size=3)))
+@given(
+    key=st.sampled_from(["g", "d"]),
+    value=st.one_of(st.floats(), st.text(max_size=5), st.none(), st.lists(st.floats(), max_size=3)),
+)
 def test_any_override_value_is_validated(key, value):
     try:
         cfg = PlantConfig.from_profile("default", {"process_noise": {key: value}})
@@ -123,33 +148,39 @@ def test_any_override_value_is_validated(key, value):
 
 
 # ------------------------------------------------------------------------------- CLI values
-@pytest.mark.parametrize(("args", "expect"), [
-    (["--duration", "-1"], "--duration"),
-    (["--duration", "nan"], "--duration"),
-    (["--g", "100"], "--g"),
-    (["--g", "35"], "--g"),  # inside 5..40 but beyond the stops of the default rig
-    (["--d", "-70"], "--d"),
-    (["--seed", "-3"], "--seed"),
-    (["--constant", "1e9", "0"], "--constant"),
-    (["--profile", "fancy"], "unknown plant profile"),
-    (["--params", "/nonexistent/params.yaml"], "cannot read"),
-    (["--experiment", "hover", "--constant", "0", "0"], "--experiment"),
-])
+@pytest.mark.parametrize(
+    ("args", "expect"),
+    [
+        (["--duration", "-1"], "--duration"),
+        (["--duration", "nan"], "--duration"),
+        (["--g", "100"], "--g"),
+        (["--g", "35"], "--g"),  # inside 5..40 but beyond the stops of the default rig
+        (["--d", "-70"], "--d"),
+        (["--seed", "-3"], "--seed"),
+        (["--constant", "1e9", "0"], "--constant"),
+        (["--profile", "fancy"], "unknown plant profile"),
+        (["--params", "/nonexistent/params.yaml"], "cannot read"),
+        (["--experiment", "hover", "--constant", "0", "0"], "--experiment"),
+    ],
+)
 def test_bad_cli_values_are_one_line_and_exit_2(tmp_path, capsys, args, expect):
     code, err = run_cli(capsys, "simulate", "--no-progress", "--out", str(tmp_path / "o"), *args)
     assert code == 2 and "\n" not in err and expect in err, err
 
 
-@pytest.mark.parametrize(("text", "expect"), [
-    ("", "empty file"),
-    ("t,i_q\n0,1\n", "missing column 'i_d'"),
-    ("t,i_q,i_d\n0,1,x\n", "row 1 (line 2), column 'i_d'"),
-    ("t,i_q,i_d\n0,1,2\n0.1,1,inf\n", "row 2 (line 3), column 'i_d': non-finite"),
-    ("t,i_q,i_d\n0,1,2\n0,1,2\n", "row 2 (line 3), column 't'"),
-    ("t,i_q,i_d\n-1,1,2\n", "column 't'"),
-    ("t,i_q,i_d\n0,1\n", "row 1 (line 2): 2 fields"),
-    ("t,i_q,i_d\n", "no data rows"),
-])
+@pytest.mark.parametrize(
+    ("text", "expect"),
+    [
+        ("", "empty file"),
+        ("t,i_q\n0,1\n", "missing column 'i_d'"),
+        ("t,i_q,i_d\n0,1,x\n", "row 1 (line 2), column 'i_d'"),
+        ("t,i_q,i_d\n0,1,2\n0.1,1,inf\n", "row 2 (line 3), column 'i_d': non-finite"),
+        ("t,i_q,i_d\n0,1,2\n0,1,2\n", "row 2 (line 3), column 't'"),
+        ("t,i_q,i_d\n-1,1,2\n", "column 't'"),
+        ("t,i_q,i_d\n0,1\n", "row 1 (line 2): 2 fields"),
+        ("t,i_q,i_d\n", "no data rows"),
+    ],
+)
 def test_bad_current_files(tmp_path, capsys, text, expect):
     f = tmp_path / "cur.csv"
     f.write_text(text)
@@ -161,10 +192,15 @@ def test_bad_current_files(tmp_path, capsys, text, expect):
 def _good_dataset(folder, n: int = 20):
     t = np.arange(n) * 1e-3
     runs = [
-        RunLog("free.csv", {"t": t, "g": np.full(n, 0.02), "d": np.linspace(0, 1e-3, n), "i_q": np.zeros(n),
-                            "i_d": np.ones(n)}),
-        RunLog("hover.csv", {"t": t, "g": np.linspace(0.02, 0.021, n), "d": np.zeros(n), "i_q": np.zeros(n),
-                             "i_d": np.ones(n)}, ("d",)),
+        RunLog(
+            "free.csv",
+            {"t": t, "g": np.full(n, 0.02), "d": np.linspace(0, 1e-3, n), "i_q": np.zeros(n), "i_d": np.ones(n)},
+        ),
+        RunLog(
+            "hover.csv",
+            {"t": t, "g": np.linspace(0.02, 0.021, n), "d": np.zeros(n), "i_q": np.zeros(n), "i_d": np.ones(n)},
+            ("d",),
+        ),
     ]
     write_dataset(folder, runs)
     return folder
@@ -205,21 +241,25 @@ BAD_DATASETS = [
     ("text-sample-time", lambda f: _edit_yaml(f, _set("sample_time", "fast")), "sample_time"),
     ("unknown-key", lambda f: _edit_yaml(f, _set("colour", "red")), "colour: unknown key"),
     ("empty-runs", lambda f: _edit_yaml(f, _set("runs", [])), "runs"),
-    ("locked-both", lambda f: _edit_yaml(f, lambda d: d["runs"][0].__setitem__("locked", ["g", "d"])),
-     "runs.0.locked"),
+    ("locked-both", lambda f: _edit_yaml(f, lambda d: d["runs"][0].__setitem__("locked", ["g", "d"])), "runs.0.locked"),
     ("locked-x", lambda f: _edit_yaml(f, lambda d: d["runs"][0].__setitem__("locked", ["x"])), "runs.0.locked"),
     ("locked-str", lambda f: _edit_yaml(f, lambda d: d["runs"][0].__setitem__("locked", "g")), "runs.0.locked"),
     ("locked-missing", lambda f: _edit_yaml(f, lambda d: d["runs"][1].pop("locked")), "runs.1.locked"),
     ("run-file-missing", lambda f: (f / "hover.csv").unlink(), "'hover.csv' does not exist"),
-    ("run-file-escape", lambda f: _edit_yaml(f, lambda d: d["runs"][0].__setitem__("file", "../x.csv")),
-     "runs.0.file"),
+    ("run-file-escape", lambda f: _edit_yaml(f, lambda d: d["runs"][0].__setitem__("file", "../x.csv")), "runs.0.file"),
     ("run-twice", lambda f: _edit_yaml(f, lambda d: d["runs"].append(dict(d["runs"][0]))), "listed twice"),
     ("csv-empty", lambda f: (f / "free.csv").write_text(""), "free.csv: empty file"),
     ("csv-header-only", lambda f: (f / "free.csv").write_text("t,g,d,i_q,i_d\n"), "at least 2 data rows"),
-    ("csv-missing-col", lambda f: (f / "free.csv").write_text("t,g,d,i_q\n0,1,1,1\n0.001,1,1,1\n"),
-     "missing column 'i_d'"),
-    ("csv-dup-col", lambda f: (f / "free.csv").write_text("t,g,d,i_q,i_d,g\n0,1,1,1,1,1\n0.001,1,1,1,1,1\n"),
-     "'g' appears twice"),
+    (
+        "csv-missing-col",
+        lambda f: (f / "free.csv").write_text("t,g,d,i_q\n0,1,1,1\n0.001,1,1,1\n"),
+        "missing column 'i_d'",
+    ),
+    (
+        "csv-dup-col",
+        lambda f: (f / "free.csv").write_text("t,g,d,i_q,i_d,g\n0,1,1,1,1,1\n0.001,1,1,1,1,1\n"),
+        "'g' appears twice",
+    ),
     ("csv-ragged", lambda f: _edit_csv(f, "free.csv", 5, "i_d", "1,2"), "free.csv: row 5 (line 6): 6 fields"),
     ("csv-text", lambda f: _edit_csv(f, "free.csv", 7, "g", "abc"), "free.csv: row 7 (line 8), column 'g': not a num"),
     ("csv-blank-cell", lambda f: _edit_csv(f, "free.csv", 3, "i_q", ""), "row 3 (line 4), column 'i_q'"),
@@ -228,8 +268,11 @@ BAD_DATASETS = [
     ("csv-time-back", lambda f: _edit_csv(f, "free.csv", 10, "t", "0.001"), "row 10 (line 11), column 't': time does"),
     ("csv-time-uneven", lambda f: _edit_csv(f, "free.csv", 20, "t", "0.0195"), "row 20 (line 21), column 't': time st"),
     ("csv-locked-moves", lambda f: _edit_csv(f, "hover.csv", 6, "d", "0.001"), "row 6 (line 7), column 'd': axis d"),
-    ("csv-blank-line", lambda f: (f / "free.csv").write_text("t,g,d,i_q,i_d\n0,1,1,1,1\n\n0.001,1,1,1,1\n"),
-     "row 2 (line 3): 0 fields"),
+    (
+        "csv-blank-line",
+        lambda f: (f / "free.csv").write_text("t,g,d,i_q,i_d\n0,1,1,1,1\n\n0.001,1,1,1,1\n"),
+        "row 2 (line 3): 0 fields",
+    ),
     ("csv-binary", lambda f: (f / "free.csv").write_bytes(b"\x89PNG\r\n\x1a\n\xff\xff"), "not a text file"),
 ]
 
@@ -276,7 +319,8 @@ def test_any_cell_edit_gives_a_dataset_or_a_data_error(tmp_path_factory, row, co
 def test_console_command_prints_one_line_without_traceback(tmp_path):
     f = tmp_path / "bad.yaml"
     f.write_text("process_noise: {g: -1}\n")
-    proc = subprocess.run([sys.executable, "-m", "maglev_ocp", "simulate", "--plant", str(f)],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "maglev_ocp", "simulate", "--plant", str(f)], capture_output=True, text=True, timeout=120
+    )
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr and "process_noise.g" in proc.stderr

@@ -41,10 +41,13 @@ def plant_config():
     """Default rig noise and quantization; the draws are the only parameter error; no extra effects."""
     from maglev_ocp.plant import PlantConfig
 
-    return PlantConfig.from_profile("default", overrides={
-        "mismatch": {"relative": {n: 0.0 for n in ("C1", "C2", "C3", "C4")}},
-        "effects": {"friction": {"enabled": False}, "amplifier_lag": {"enabled": False}},
-    })
+    return PlantConfig.from_profile(
+        "default",
+        overrides={
+            "mismatch": {"relative": {n: 0.0 for n in ("C1", "C2", "C3", "C4")}},
+            "effects": {"friction": {"enabled": False}, "amplifier_lag": {"enabled": False}},
+        },
+    )
 
 
 SMALL = SeedCalibrationDesign(
@@ -58,8 +61,14 @@ SMALL = SeedCalibrationDesign(
 def small(tmp_path_factory):
     """A small seed-calibration dataset with random constants, and its calibration."""
     true = draw_true(7)
-    folder = generate_seed_calibration(tmp_path_factory.mktemp("ds") / "small", seed=11, plant_config=plant_config(),
-                                       params=true, design=SMALL, progress=False)
+    folder = generate_seed_calibration(
+        tmp_path_factory.mktemp("ds") / "small",
+        seed=11,
+        plant_config=plant_config(),
+        params=true,
+        design=SMALL,
+        progress=False,
+    )
     res = calibrate(folder, progress=False)
     return true, folder, res
 
@@ -109,8 +118,13 @@ def test_outputs_are_written_and_readable(small, tmp_path):
     assert all(data["procedures"][k]["ran"] for k in data["procedures"])
     assert data["correlation"]["names"] == list(NAMES)
     pngs = {q.name for q in written if q.suffix == ".png"}
-    assert {"fig4_L1_fixed_gaps.png", "fig5_equilibrium_d0.png", "fig6_cogging_peak.png",
-            "fig8_L1_full_span.png", "fig9_equilibrium_full_span.png"} <= pngs
+    assert {
+        "fig4_L1_fixed_gaps.png",
+        "fig5_equilibrium_d0.png",
+        "fig6_cogging_peak.png",
+        "fig8_L1_full_span.png",
+        "fig9_equilibrium_full_span.png",
+    } <= pngs
     assert (tmp_path / "cal" / "tables" / "table_II.csv").read_text().count("\n") == 4
     assert "| C4 |" in res.table()
 
@@ -128,8 +142,10 @@ def test_only_free_runs_skip_the_locked_procedures(small, tmp_path):
 
 def test_cli_calibrate_and_its_errors(small, tmp_path, capsys):
     _, folder, _ = small
-    assert main(["calibrate", str(folder), "--out", str(tmp_path / "o"), "--no-figures", "--no-progress",
-                 "--eps", "0.01"]) == 0
+    assert (
+        main(["calibrate", str(folder), "--out", str(tmp_path / "o"), "--no-figures", "--no-progress", "--eps", "0.01"])
+        == 0
+    )
     out = capsys.readouterr().out
     assert "| C1 |" in out and "calibration took" in out
     assert (tmp_path / "o" / "params.yaml").is_file()
@@ -148,8 +164,9 @@ def test_cli_calibrate_and_its_errors(small, tmp_path, capsys):
 def test_acceptance_full_seed_calibration_with_random_constants(tmp_path):
     """Issue 3 acceptance: C1..C3 within 1 %, xi0 and ell within 10 %, C4 within two of its standard errors."""
     true = draw_true(2024)
-    folder = generate_seed_calibration(tmp_path / "seed_cal", seed=5, plant_config=plant_config(), params=true,
-                                       progress=False)
+    folder = generate_seed_calibration(
+        tmp_path / "seed_cal", seed=5, plant_config=plant_config(), params=true, progress=False
+    )
     t0 = time.perf_counter()
     res = calibrate(folder, progress=False)
     res.save(tmp_path / "out")
@@ -169,7 +186,9 @@ def test_acceptance_full_seed_calibration_with_random_constants(tmp_path):
     for n in ("C2", "C3"):
         assert abs(vb.final[n] / getattr(true, n) - 1) < 0.01
     # ... and worse as eps grows (seed V.A, Fig. 4): mean error of L1 over the locked gaps
-    err = {e: np.mean([abs(r["L1_npfisi"][e] / (true.C1 * r["L1_model"] / NOMINAL.C1) - 1) for r in res.va.rows])
-           for e in (0.001, 0.01, 0.05)}
+    err = {
+        e: np.mean([abs(r["L1_npfisi"][e] / (true.C1 * r["L1_model"] / NOMINAL.C1) - 1) for r in res.va.rows])
+        for e in (0.001, 0.01, 0.05)
+    }
     assert err[0.001] < err[0.01] < err[0.05]
     assert elapsed < 90.0  # under a minute on an idle 2-core machine; margin for a busy one

@@ -60,14 +60,25 @@ def toy_run(scenario: dict, seed: int, workdir: Path, save) -> dict:
     targets = []
     for t in scenario["targets"]:
         st = abs(t["d"]) * c1 / gain + 0.01 * rng.random()
-        targets.append({"settled": bool(st < 0.5), "settle_time_s": st if st < 0.5 else None,
-                        "rms_error_g_m": 1e-6 * rng.random(), "rms_error_d_m": 1e-6 * rng.random(),
-                        "max_current_A": 3.0})
+        targets.append(
+            {
+                "settled": bool(st < 0.5),
+                "settle_time_s": st if st < 0.5 else None,
+                "rms_error_g_m": 1e-6 * rng.random(),
+                "rms_error_d_m": 1e-6 * rng.random(),
+                "max_current_A": 3.0,
+            }
+        )
     built = worker_cache(("toy", gain), lambda: os.getpid())  # once per process and setting
     (workdir / "log.csv").write_text("t,g\n0.0,0.02\n")
-    return {"all_settled": all(t["settled"] for t in targets), "stop_hits": 0, "solver_failures": 0,
-            "step_time_us": {"median": 5.0 + rng.random(), "p99": 20.0}, "targets": targets,
-            "built_by_pid": built}
+    return {
+        "all_settled": all(t["settled"] for t in targets),
+        "stop_hits": 0,
+        "solver_failures": 0,
+        "step_time_us": {"median": 5.0 + rng.random(), "p99": 20.0},
+        "targets": targets,
+        "built_by_pid": built,
+    }
 
 
 @pytest.fixture()
@@ -106,9 +117,9 @@ def test_expansion_is_deterministic_and_seeded_by_spawn(camp_dir: Path) -> None:
         assert abs(s.deviations["plant.C1"]) <= 10.0
         assert abs(s.deviations["plant.xi0"]) <= 2 * 5.0
         assert s.overrides["plant.mismatch.overrides.C1"] == pytest.approx(
-            NOMINAL.C1 * (1 + s.deviations["plant.C1"] / 100))
-        assert s.overrides["controller_params.C2"] == pytest.approx(
-            NOMINAL.C2 * (1 + s.deviations["belief.C2"] / 100))
+            NOMINAL.C1 * (1 + s.deviations["plant.C1"] / 100)
+        )
+        assert s.overrides["controller_params.C2"] == pytest.approx(NOMINAL.C2 * (1 + s.deviations["belief.C2"] / 100))
         for t in s.overrides["targets"]:
             assert k.g_envelope[0] <= t["g"] <= k.g_envelope[1]
             assert k.d_envelope[0] <= t["d"] <= k.d_envelope[1]
@@ -169,10 +180,12 @@ def test_scheduler_address_equals_in_process_and_failures_are_recorded(camp_dir:
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
     camp = load_campaign(camp_dir / "camp.yaml")
     r1 = run_campaign(camp, camp_dir / "one", workers=1, run_fn=toy_run, progress=False, figures=False)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=":0") as cluster:
-        r2 = run_campaign(camp, camp_dir / "two", scheduler=cluster.scheduler_address, run_fn=toy_run,
-                          progress=False, figures=True)
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=":0"
+    ) as cluster:
+        r2 = run_campaign(
+            camp, camp_dir / "two", scheduler=cluster.scheduler_address, run_fn=toy_run, progress=False, figures=True
+        )
     assert r1.report.workers == 1 and r2.report.workers == 2 and r2.report.scheduler.startswith("tcp://127.0.0.1")
     a, b = _summary_det(camp_dir / "one"), _summary_det(camp_dir / "two")
     assert list(a.columns) == list(b.columns)
@@ -192,8 +205,16 @@ def test_scheduler_address_equals_in_process_and_failures_are_recorded(camp_dir:
     assert t.loc[failing, "error"].str.contains("RuntimeError: toy failure").all()
     assert not t.loc[failing, "success"].any()
     assert r2.report.ran == len(t) and r2.report.remaining == 0
-    for name in ("summary.csv", "summary.parquet", "by_case.csv", "success_rate.png", "settle_time.png",
-                 "vs_dev_plant_C1.png", "vs_grid_controller_gain.png", "tradeoff.png"):
+    for name in (
+        "summary.csv",
+        "summary.parquet",
+        "by_case.csv",
+        "success_rate.png",
+        "settle_time.png",
+        "vs_dev_plant_C1.png",
+        "vs_grid_controller_gain.png",
+        "tradeoff.png",
+    ):
         assert (camp_dir / "two" / name).is_file(), name
     assert r2.summary.by_case()["runs"].sum() == len(t)
     from maglev_ocp.campaign.report import markdown_table
@@ -296,8 +317,13 @@ def test_smoke_campaign_real_runner_dask_resume_equals_in_process(tmp_path: Path
 
 def test_explicit_runs_multiply_the_cases_and_case_order(camp_dir: Path) -> None:
     p = camp_dir / "runs.yaml"
-    p.write_text(CAMPAIGN.replace("n_runs: 6", "n_runs: 2\norder: cases\nruns:\n  - {}\n"
-                                  "  - {plant.process_noise.g: 0.0, controller_params.cogging: false}"))
+    p.write_text(
+        CAMPAIGN.replace(
+            "n_runs: 6",
+            "n_runs: 2\norder: cases\nruns:\n  - {}\n"
+            "  - {plant.process_noise.g: 0.0, controller_params.cogging: false}",
+        )
+    )
     camp = load_campaign(p)
     specs = expand(camp)
     assert n_cases(camp) == 2 * 2 * 2 and len(specs) == 16

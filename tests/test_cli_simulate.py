@@ -47,8 +47,28 @@ def test_open_loop_constant_current_at_locked_gap_is_the_seed_parabola(tmp_path)
     params = tmp_path / "p.yaml"
     NOMINAL.without_cogging().save(params)
     out = tmp_path / "par"
-    assert sim("--constant", "-0.5", "0", "--lock", "g", "--g", "22.5", "--d", "-50", "--duration", "0.2",
-               "--profile", "ideal", "--params", str(params), "--out", str(out)) == 0
+    assert (
+        sim(
+            "--constant",
+            "-0.5",
+            "0",
+            "--lock",
+            "g",
+            "--g",
+            "22.5",
+            "--d",
+            "-50",
+            "--duration",
+            "0.2",
+            "--profile",
+            "ideal",
+            "--params",
+            str(params),
+            "--out",
+            str(out),
+        )
+        == 0
+    )
     (run,) = read_dataset(out).runs
     assert run.locked == ("g",) and np.all(run["g"] == 0.0225)
     assert np.all(run["i_q"] == -0.5) and np.all(run["i_d"] == 0.0)
@@ -72,8 +92,21 @@ def test_open_loop_current_file_zoh_and_stop_event(tmp_path, capsys):
 
 def test_lock_d_excitation_sweeps_only_the_gap(tmp_path):
     out = tmp_path / "v"
-    assert sim("--experiment", "excitation", "--lock", "d", "--d", str(3 * k.t1 / 2 * 1e3), "--duration", "1.5",
-               "--out", str(out)) == 0
+    assert (
+        sim(
+            "--experiment",
+            "excitation",
+            "--lock",
+            "d",
+            "--d",
+            str(3 * k.t1 / 2 * 1e3),
+            "--duration",
+            "1.5",
+            "--out",
+            str(out),
+        )
+        == 0
+    )
     (run,) = read_dataset(out).runs
     assert run.locked == ("d",) and len(np.unique(run["d"])) == 1
     assert np.all(run["i_q"] == 0.0)  # the seed sets u1 = 0 with d locked

@@ -35,8 +35,11 @@ def _assert_tolerances(res, rms_max: float | None = None):
         assert t.max_abs_error_g_settled_m <= k.position_tolerance
         assert t.max_abs_error_d_settled_m <= k.position_tolerance
         if rms_max is not None:
-            assert t.rms_error_g_m <= rms_max and t.rms_error_d_m <= rms_max, (t.index, t.rms_error_g_m,
-                                                                                t.rms_error_d_m)
+            assert t.rms_error_g_m <= rms_max and t.rms_error_d_m <= rms_max, (
+                t.index,
+                t.rms_error_g_m,
+                t.rms_error_d_m,
+            )
     assert m.passed, m.failed_checks
 
 
@@ -73,8 +76,9 @@ def test_parameter_mismatch_leaves_no_offset():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["gap_steps_fl", "cogging_aware_fl", "cogging_blind_fl", "traverse_15mm_fl",
-                                  "traverse_25mm_fl"])
+@pytest.mark.parametrize(
+    "name", ["gap_steps_fl", "cogging_aware_fl", "cogging_blind_fl", "traverse_15mm_fl", "traverse_25mm_fl"]
+)
 def test_shipped_fl_scenarios(name):
     res = run_scenario(SCEN / f"{name}.yaml", progress=False)
     _assert_tolerances(res)

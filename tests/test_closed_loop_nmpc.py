@@ -63,8 +63,11 @@ def test_traverse_100mm_settles_within_120ms(gap_mm):
 def test_traverse_with_internal_planner_and_step_reference(reference):
     """With set-point steps (no planned reference) the NMPC plans the move itself and still meets 0.12 s."""
     sc = {
-        "name": f"traverse_step_{reference}", "seed": 21, "controller": {"type": "nmpc", "reference": reference},
-        "plant": {"profile": "default"}, "start": {"g": 0.020, "d": -0.050},
+        "name": f"traverse_step_{reference}",
+        "seed": 21,
+        "controller": {"type": "nmpc", "reference": reference},
+        "plant": {"profile": "default"},
+        "start": {"g": 0.020, "d": -0.050},
         "reference": {"shaping": "step" if reference == "plan" else "trajectory", "current_fraction": 0.9},
         "targets": [{"g": 0.020, "d": 0.050, "hold": 0.3}],
     }
@@ -88,15 +91,21 @@ def test_cogging_model_gain_at_15mm():
     err = {}
     for cog in (True, False):
         sc = {
-            "name": f"cogging_move_{cog}", "seed": 3, "controller": {"type": "nmpc"},
-            "controller_params": {"cogging": cog}, "plant": {"profile": "default"},
-            "start": {"g": 0.015, "d": -1.5 * T1}, "reference": {"current_fraction": 0.8},
+            "name": f"cogging_move_{cog}",
+            "seed": 3,
+            "controller": {"type": "nmpc"},
+            "controller_params": {"cogging": cog},
+            "plant": {"profile": "default"},
+            "start": {"g": 0.015, "d": -1.5 * T1},
+            "reference": {"current_fraction": 0.8},
             "targets": [{"g": 0.015, "d": 1.5 * T1, "hold": 0.3}, {"g": 0.015, "d": -1.5 * T1, "hold": 0.3}],
         }
         res = run_scenario(sc, progress=False)
         _check(res)
         err[cog] = _moving_error(res)
-        print(f"cogging in the model: {cog}: tracking error of d during the moves: RMS {err[cog][0] * 1e6:.1f} um, "
-              f"max {err[cog][1] * 1e6:.1f} um")
+        print(
+            f"cogging in the model: {cog}: tracking error of d during the moves: RMS {err[cog][0] * 1e6:.1f} um, "
+            f"max {err[cog][1] * 1e6:.1f} um"
+        )
     assert err[True][1] < k.position_tolerance  # the move itself stays within 0.1 mm of the reference
     assert err[True][0] < 0.8 * err[False][0] and err[True][1] < 0.8 * err[False][1], err

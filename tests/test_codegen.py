@@ -38,7 +38,10 @@ TEST_CFLAGS = "-O0 -fno-math-errno"  # correctness only: fastest to compile
 
 #: Short closed loop: hover, then a diagonal move and hold.
 SCENARIO = {
-    "name": "codegen_check", "seed": 5, "controller": {"type": "nmpc"}, "plant": {"profile": "default"},
+    "name": "codegen_check",
+    "seed": 5,
+    "controller": {"type": "nmpc"},
+    "plant": {"profile": "default"},
     "targets": [{"g": 0.020, "d": 0.000, "hold": 0.06}, {"g": 0.018, "d": 0.012, "hold": 0.16}],
 }
 
@@ -48,8 +51,12 @@ def _scenario(ctype: str, shaping: str = "trajectory", **controller) -> dict:
     inputs (targets) a rig log holds exactly; in preview mode the NMPC reads the plan's point accelerations
     ahead, which a log does not hold (it stores their mean over each period), so its harness replay is exact
     only in plan mode."""
-    return {**SCENARIO, "name": f"codegen_{ctype}", "controller": {"type": ctype, **controller},
-            "reference": {"shaping": shaping}}
+    return {
+        **SCENARIO,
+        "name": f"codegen_{ctype}",
+        "controller": {"type": ctype, **controller},
+        "reference": {"shaping": shaping},
+    }
 
 
 # ----------------------------------------------------------------------------- no compiler needed
@@ -128,8 +135,11 @@ def test_codegen_of_all_controllers_is_fast_documented_and_malloc_free():
     n = codes["nmpc"].defines["HORIZON"]
     assert n >= 20 and f"#define NMPC_STATE_SIZE {codes['nmpc'].step.inputs[0].size}" in hdr
     mk = files["Makefile"]
-    assert all(f"{fn}.c" in mk for fn in src.functions) and "CFLAGS ?=" in mk and "-ffast-math" not in mk.split(
-        "CFLAGS ?=")[1].splitlines()[0]
+    assert (
+        all(f"{fn}.c" in mk for fn in src.functions)
+        and "CFLAGS ?=" in mk
+        and "-ffast-math" not in mk.split("CFLAGS ?=")[1].splitlines()[0]
+    )
     man = json.loads(files["manifest.json"])
     assert set(man["controllers"]) == set(KINDS) and len(man["sources"]) == len(src.functions)
     assert src.digest == generate_controllers(KINDS).digest  # deterministic: same design, same files
@@ -164,8 +174,9 @@ def nmpc_runs():
 
     sc = scenario_from_dict(_scenario("nmpc", shaping="step"))
     py = run_scenario(sc, progress=False, figures=False)
-    ctrl = build_c_controller("nmpc", sc.controller.settings, sc.controller_model_params(), cflags=TEST_CFLAGS,
-                              progress=False)
+    ctrl = build_c_controller(
+        "nmpc", sc.controller.settings, sc.controller_model_params(), cflags=TEST_CFLAGS, progress=False
+    )
     c = run_scenario(sc, controller=ctrl, progress=False, figures=False)
     return py, c, ctrl
 
@@ -192,8 +203,12 @@ def test_nmpc_harness_built_with_make_reproduces_logged_run(nmpc_runs, tmp_path)
     assert r.returncode == 0, r.stdout + r.stderr
     py.save(tmp_path / "run", figures=False)
     out = tmp_path / "c.csv"
-    r = subprocess.run([str(folder / HARNESS), "nmpc", str(tmp_path / "run" / "log.csv"), "-o", str(out)],
-                       capture_output=True, text=True, timeout=120)
+    r = subprocess.run(
+        [str(folder / HARNESS), "nmpc", str(tmp_path / "run" / "log.csv"), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 0, r.stderr
     assert "wall median" in r.stderr and "cpu median" in r.stderr
     got = np.genfromtxt(out, delimiter=",", names=True)
@@ -212,8 +227,9 @@ def test_fl_and_observer_compiled_and_harness(tmp_path):
 
     sc = scenario_from_dict(_scenario("fl", integral=True))
     py = run_scenario(sc, progress=False, figures=False)
-    ctrl = build_c_controller("fl", sc.controller.settings, sc.controller_model_params(), cflags=TEST_CFLAGS,
-                              progress=False)
+    ctrl = build_c_controller(
+        "fl", sc.controller.settings, sc.controller_model_params(), cflags=TEST_CFLAGS, progress=False
+    )
     c = run_scenario(sc, controller=ctrl, progress=False, figures=False)
     for col in ("i_q", "i_d"):
         assert np.max(np.abs(py.columns[col] - c.columns[col])) <= I_TOL
@@ -224,26 +240,31 @@ def test_fl_and_observer_compiled_and_harness(tmp_path):
     scen = tmp_path / "sc.yaml"
     scen.write_text(json.dumps(_scenario("fl", integral=True)))
     out = tmp_path / "gen"
-    assert main(["codegen", "--out", str(out), "--scenario", str(scen), "--controllers", "fl,observer",
-                 "--make"]) == 0
+    assert main(["codegen", "--out", str(out), "--scenario", str(scen), "--controllers", "fl,observer", "--make"]) == 0
     assert (out / "maglev_controller.h").exists() and (out / HARNESS).exists()
     py.save(tmp_path / "run", figures=False)
     log = tmp_path / "run" / "log.csv"
-    r = subprocess.run([str(out / HARNESS), "fl", str(log), "-o", str(tmp_path / "fl.csv")], capture_output=True,
-                       text=True, timeout=60)
+    r = subprocess.run(
+        [str(out / HARNESS), "fl", str(log), "-o", str(tmp_path / "fl.csv")], capture_output=True, text=True, timeout=60
+    )
     assert r.returncode == 0, r.stderr
     got = np.genfromtxt(tmp_path / "fl.csv", delimiter=",", names=True)
     for col in ("i_q", "i_d"):
         assert np.max(np.abs(got[col] - py.columns[col])) <= I_TOL
     # the observer alone replays the log's own currents, as estimate_states does
-    r = subprocess.run([str(out / HARNESS), "observer", str(log), "-o", str(tmp_path / "obs.csv")],
-                       capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        [str(out / HARNESS), "observer", str(log), "-o", str(tmp_path / "obs.csv")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert r.returncode == 0, r.stderr
     got = np.genfromtxt(tmp_path / "obs.csv", delimiter=",", names=True)
     y = np.column_stack([py.columns["g"], py.columns["d"]])
     u = np.column_stack([py.columns["i_q"], py.columns["i_d"]])
-    ref = estimate_states(y, u, sc.controller_model_params(),
-                          ObserverSettings(eps=fl_s.observer_eps, disturbance=fl_s.disturbance))
+    ref = estimate_states(
+        y, u, sc.controller_model_params(), ObserverSettings(eps=fl_s.observer_eps, disturbance=fl_s.disturbance)
+    )
     est = np.column_stack([got["g_hat"], got["g_dot_hat"], got["d_hat"], got["d_dot_hat"]])
     assert np.max(np.abs(est - ref)) <= 1e-12
     # a CSV with a missing column is refused with the file and the column named

@@ -78,13 +78,23 @@ def _noise_residuals(n_runs, n, rng, signal=None):
         t = np.arange(n) * 0.008
         g = 0.018 + 0.005 * np.sin(2 * np.pi * 0.05 * t + i)
         d = 0.045 * np.sin(2 * np.pi * 0.11 * t + 2 * i)
-        feat = {"t": t, "g": g, "d": d, "g_dot": np.gradient(g, t), "d_dot": np.gradient(d, t),
-                "i_q": 0.1 * np.sin(t), "i_d": 1 + 0.1 * np.cos(t), "di_q": np.cos(t), "di_d": np.sin(t)}
+        feat = {
+            "t": t,
+            "g": g,
+            "d": d,
+            "g_dot": np.gradient(g, t),
+            "d_dot": np.gradient(d, t),
+            "i_q": 0.1 * np.sin(t),
+            "i_d": 1 + 0.1 * np.cos(t),
+            "di_q": np.cos(t),
+            "di_d": np.sin(t),
+        }
         r = 0.01 * rng.standard_normal((n, 2))
         if signal is not None:
             r[:, 1] += signal(g, d)
-        pr = PreparedRun(f"r{i}", (), np.array([True, True]), np.zeros((0, 8)), None, np.zeros((n, 2)),
-                         np.arange(n), feat)
+        pr = PreparedRun(
+            f"r{i}", (), np.array([True, True]), np.zeros((0, 8)), None, np.zeros((n, 2)), np.arange(n), feat
+        )
         out.append(Residual(pr, r, np.zeros((n, 2))))
     return out
 

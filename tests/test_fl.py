@@ -33,8 +33,12 @@ def _law(x, a_ref, p, gains, dist=(0.0, 0.0), z=(0.0, 0.0)):
     """Evaluate the law with the reference at the state (pure feedforward ``a_ref``)."""
     ref = [x[0], x[1], a_ref[0], x[2], x[3], a_ref[1]]
     u, z_next, v, flags = fl_law_function()(x, list(dist), ref, list(z), p, gains)
-    return (np.asarray(u).ravel(), np.asarray(z_next).ravel(), np.asarray(v).ravel(),
-            dict(zip(FLAG_FIELDS, np.asarray(flags).ravel(), strict=True)))
+    return (
+        np.asarray(u).ravel(),
+        np.asarray(z_next).ravel(),
+        np.asarray(v).ravel(),
+        dict(zip(FLAG_FIELDS, np.asarray(flags).ravel(), strict=True)),
+    )
 
 
 @pytest.mark.parametrize("g", [0.015, 0.020, 0.025])
@@ -49,8 +53,13 @@ def test_inverse_at_rest_is_the_models_hover_current(model, p_nom, g, d):
 
 @settings(max_examples=60, deadline=None)
 @given(
-    g=st.floats(0.012, 0.028), gd=st.floats(-0.3, 0.3), d=st.floats(-0.055, 0.055), dd=st.floats(-2, 2),
-    ag=st.floats(-30, 20), ad=st.floats(-60, 60), cog=st.booleans(),
+    g=st.floats(0.012, 0.028),
+    gd=st.floats(-0.3, 0.3),
+    d=st.floats(-0.055, 0.055),
+    dd=st.floats(-2, 2),
+    ag=st.floats(-30, 20),
+    ad=st.floats(-60, 60),
+    cog=st.booleans(),
 )
 def test_inverse_is_exact_including_cogging(model, g, gd, d, dd, ag, ad, cog):
     """The model driven by the inverse's currents produces exactly the demanded accelerations."""
@@ -101,7 +110,10 @@ def test_unreachable_attraction_is_flagged_and_clipped(p_nom):
 
 @settings(max_examples=80, deadline=None)
 @given(
-    g=st.floats(0.010, 0.030), d=st.floats(-0.05, 0.05), ag=st.floats(-500, 500), ad=st.floats(-500, 500),
+    g=st.floats(0.010, 0.030),
+    d=st.floats(-0.05, 0.05),
+    ag=st.floats(-500, 500),
+    ad=st.floats(-500, 500),
     i_max=st.floats(2.0, 8.0),
 )
 def test_law_respects_current_limits(p_nom, g, d, ag, ad, i_max):
@@ -136,8 +148,10 @@ def test_law_is_pd_with_feedforward_on_the_linearized_outputs(model, p_nom):
     ref = np.array([0.020, 0.0, 1.0, 0.0, 0.0, -3.0])
     u, _, v, flags = fl_law_function()(x, [0.0, 0.0], ref, [0.0, 0.0], p_nom, gains)
     r = dict(zip(REF_FIELDS, ref, strict=True))
-    v_expect = [r["g_ddot"] + gd["kp_g"] * (r["g"] - x[0]) + gd["kd_g"] * (r["g_dot"] - x[1]),
-                r["d_ddot"] + gd["kp_d"] * (r["d"] - x[2]) + gd["kd_d"] * (r["d_dot"] - x[3])]
+    v_expect = [
+        r["g_ddot"] + gd["kp_g"] * (r["g"] - x[0]) + gd["kd_g"] * (r["g_dot"] - x[1]),
+        r["d_ddot"] + gd["kp_d"] * (r["d"] - x[2]) + gd["kd_d"] * (r["d_dot"] - x[3]),
+    ]
     np.testing.assert_allclose(np.asarray(v).ravel(), v_expect, rtol=1e-12)
     a = _accel(model, x, np.asarray(u).ravel(), p_nom)
     np.testing.assert_allclose(a, v_expect, rtol=0, atol=1e-9)

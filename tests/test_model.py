@@ -72,8 +72,9 @@ def test_linear_split_reconstructs_f(model, p_nom):
         u = rng.uniform(-8, 8, 2)
         A, b = (np.asarray(M) for M in lip(x, u, p_nom))
         theta = np.array([getattr(NOMINAL, n) for n in names])
-        np.testing.assert_allclose(A @ theta + b.ravel(), np.asarray(model.f(x, u, p_nom)).ravel(), rtol=1e-12,
-                                   atol=1e-12)
+        np.testing.assert_allclose(
+            A @ theta + b.ravel(), np.asarray(model.f(x, u, p_nom)).ravel(), rtol=1e-12, atol=1e-12
+        )
         # b does not depend on theta
         p2 = NOMINAL.scaled({n: 1.7 for n in names}).vector()
         np.testing.assert_allclose(np.asarray(lip(x, u, p2)[1]), b, atol=1e-12)
@@ -106,8 +107,9 @@ def test_discrete_step_matches_high_accuracy_integrator(model, p_nom):
     xk = x.copy()
     for _ in range(20):
         xk = np.asarray(step(xk, u, p_nom)).ravel()
-    sol = solve_ivp(lambda t, z: np.asarray(model.f(z, u, p_nom)).ravel(), (0, 0.02), x, rtol=1e-12, atol=1e-14,
-                    method="DOP853")
+    sol = solve_ivp(
+        lambda t, z: np.asarray(model.f(z, u, p_nom)).ravel(), (0, 0.02), x, rtol=1e-12, atol=1e-14, method="DOP853"
+    )
     np.testing.assert_allclose(xk, sol.y[:, -1], rtol=0, atol=1e-9)
 
 

@@ -135,14 +135,23 @@ def test_admm_converges_to_the_qp_solution_with_active_disks():
     # the estimate is 3 mm and 0.3 m/s off the plan: the correction saturates the current disks
     s0[b.layout.slices()["xhat"]] = [0.0205, 0.0, -0.047, 0.3]
     o = dict(zip(prep.name_out(), prep(s0, [0.02, -0.05, 0], ref, p), strict=True))
-    L, dinv, q, G, ubar, glb, gub, rho = (np.asarray(ca.densify(o[n])) for n in
-                                          ("L", "dinv", "q", "G", "ubar", "glb", "gub", "rho"))
+    L, dinv, q, G, ubar, glb, gub, rho = (
+        np.asarray(ca.densify(o[n])) for n in ("L", "dinv", "q", "G", "ubar", "glb", "gub", "rho")
+    )
     q, ubar, glb, gub, rho = (v.ravel() for v in (q, ubar, glb, gub, rho))
     nv, ng = len(q), G.shape[0]
     a = st.admm
     H = L @ L.T - (a.sigma + rho[0]) * np.eye(nv) - a.rho_g_rel * rho[0] * G.T @ G
-    it = admm_iteration(nv, ng, 2, 4.0, 4.0, st.soft_gap.w_linear, st.soft_gap.w_quadratic,
-                        ADMMSettings(a.rho_scale, a.rho_g_rel, a.sigma, a.alpha))
+    it = admm_iteration(
+        nv,
+        ng,
+        2,
+        4.0,
+        4.0,
+        st.soft_gap.w_linear,
+        st.soft_gap.w_quadratic,
+        ADMMSettings(a.rho_scale, a.rho_g_rel, a.sigma, a.alpha),
+    )
 
     def run(n):
         x, z, y = np.zeros(nv), np.zeros(nv + ng), np.zeros(nv + ng)
@@ -162,7 +171,7 @@ def test_admm_converges_to_the_qp_solution_with_active_disks():
     yu = y_ex[:nv]
     assert np.max(np.abs(H @ v_ex + q + yu)) < 1e-6 * max(1.0, np.max(np.abs(q)))
     for j in range(nv // 2):
-        yj, uj = yu[2 * j:2 * j + 2], u_ex[2 * j:2 * j + 2]
+        yj, uj = yu[2 * j : 2 * j + 2], u_ex[2 * j : 2 * j + 2]
         if active[j]:
             mu = yj @ uj / (uj @ uj)
             assert mu >= -1e-9 and np.allclose(yj, mu * uj, atol=1e-6)
@@ -200,8 +209,9 @@ def test_warm_start_is_the_shifted_plan():
     np.testing.assert_array_equal(plan["U"][-1], plan["U"][-2])
     np.testing.assert_allclose(plan["X"][0], plant.x, atol=1e-7)
     # at rest the next step applies what the shifted plan predicted (to 1 mA)
-    y = Measurement(plant.t, plant.quantize(plant.x[0]) * np.array([1, 0]) + plant.quantize(plant.x[2]) * np.array(
-        [0, 1]), plant.x)
+    y = Measurement(
+        plant.t, plant.quantize(plant.x[0]) * np.array([1, 0]) + plant.quantize(plant.x[2]) * np.array([0, 1]), plant.x
+    )
     u_next = ctrl.step(y, Reference(0.02, 0.0)).u
     np.testing.assert_allclose(u_next, plan["U"][0], atol=1e-3)
 

@@ -98,8 +98,9 @@ def test_npfisi_integration_is_converged_in_the_step_count(model):
     run = locked_gap_run(model, p, 0.02, -0.5, 400)
     est = NPFISI(NPFISISettings(names=("C1",), eps=0.01), prior=NOMINAL.without_cogging())
     auto = est.run([run])
-    fine = NPFISI(NPFISISettings(names=("C1",), eps=0.01, n_sub=4 * auto.n_sub),
-                  prior=NOMINAL.without_cogging()).run([run])
+    fine = NPFISI(NPFISISettings(names=("C1",), eps=0.01, n_sub=4 * auto.n_sub), prior=NOMINAL.without_cogging()).run(
+        [run]
+    )
     assert abs(auto.final["C1"] / fine.final["C1"] - 1) < 1e-5
 
 

@@ -43,8 +43,15 @@ def test_ideal_plant_is_the_shared_model_integrated_accurately(model):
     xs = np.column_stack([log["g_true"], log["g_dot_true"], log["d_true"], log["d_dot_true"]])
     xs = np.vstack([xs, plant.x])
 
-    sol = solve_ivp(lambda t, x: np.asarray(model.f(x, u, P_NOM)).ravel(), (0, n * k.Ts), x0,
-                    t_eval=np.arange(n + 1) * k.Ts, method="DOP853", rtol=1e-12, atol=1e-15)
+    sol = solve_ivp(
+        lambda t, x: np.asarray(model.f(x, u, P_NOM)).ravel(),
+        (0, n * k.Ts),
+        x0,
+        t_eval=np.arange(n + 1) * k.Ts,
+        method="DOP853",
+        rtol=1e-12,
+        atol=1e-15,
+    )
     ref = sol.y.T
     assert abs(ref[-1, 0] - x0[0]) > 1e-4  # it really moved (unstable gap)
     np.testing.assert_allclose(xs[:, [0, 2]], ref[:, [0, 2]], rtol=0, atol=1e-10)  # positions to 0.1 nm
@@ -89,8 +96,7 @@ def test_default_profile_positions_are_exact_multiples_of_10um_after_csv(tmp_pat
 def test_same_seed_same_data_different_seed_different(tmp_path):
     def dataset(seed: int, folder):
         plant = Plant(PlantConfig.from_profile("default"), NOMINAL, seed=seed)
-        log = run_closed_loop(plant, PIDController(NOMINAL), lambda t: Reference(g=0.018, d=0.001), 0.2,
-                              file="r.csv")
+        log = run_closed_loop(plant, PIDController(NOMINAL), lambda t: Reference(g=0.018, d=0.001), 0.2, file="r.csv")
         write_dataset(folder, [log], meta={"true": plant.true_params.as_dict()})
         return (folder / "r.csv").read_bytes(), (folder / "dataset.yaml").read_bytes(), plant.true_params
 
@@ -121,8 +127,9 @@ def test_seed_sequence_is_not_consumed_and_runs_are_independent_of_earlier_lengt
 
 
 def test_mismatch_draws_within_spread_and_overrides_win():
-    cfg = PlantConfig.from_profile("ideal", {"mismatch": {"relative": {"C1": 0.05, "C3": 0.05},
-                                                          "overrides": {"C2": 800.0}}})
+    cfg = PlantConfig.from_profile(
+        "ideal", {"mismatch": {"relative": {"C1": 0.05, "C3": 0.05}, "overrides": {"C2": 800.0}}}
+    )
     seen = set()
     for seed in range(20):
         tp = Plant(cfg, NOMINAL, seed=seed).true_params
@@ -274,8 +281,10 @@ def test_friction_decelerates_both_axes():
         assert np.all(np.sign(a1 - a0) == -np.sign(v))
     # on the plant: a mover coasting horizontally (gap locked) stops sooner with friction
     out = []
-    for cfg in (ideal(lock={"axis": "g", "value": 0.02}),
-                ideal(lock={"axis": "g", "value": 0.02}, effects={"friction": {"enabled": True}})):
+    for cfg in (
+        ideal(lock={"axis": "g", "value": 0.02}),
+        ideal(lock={"axis": "g", "value": 0.02}, effects={"friction": {"enabled": True}}),
+    ):
         plant = Plant(cfg, NOMINAL.without_cogging(), seed=0)
         plant.reset(np.array([0.02, 0, 0.0, 0.05]), u0=np.zeros(2))
         for _ in range(300):
@@ -324,8 +333,10 @@ def test_end_effect_ripple_has_the_pole_pitch_and_overhang_loses_thrust():
 
 def test_amplifier_lag_and_delay_on_the_plant():
     bw, delay = 500.0, 2
-    cfg = ideal(lock={"axis": "g", "value": 0.02},
-                effects={"amplifier_lag": {"enabled": True, "bandwidth_hz": bw, "delay_samples": delay}})
+    cfg = ideal(
+        lock={"axis": "g", "value": 0.02},
+        effects={"amplifier_lag": {"enabled": True, "bandwidth_hz": bw, "delay_samples": delay}},
+    )
     plant = Plant(cfg, NOMINAL, seed=0)
     plant.reset(u0=np.zeros(2))
     applied = [plant.step([1.0, 0.0]).info["i_q_applied"] for _ in range(6)]
@@ -333,8 +344,9 @@ def test_amplifier_lag_and_delay_on_the_plant():
     expected = [0.0, 0.0] + [1 - a ** (n + 1) for n in range(4)]
     np.testing.assert_allclose(applied, expected, rtol=1e-12, atol=1e-15)
     # the offline filter gives the period means of the same law
-    means = AmplifierLag.filter_currents(np.tile([1.0, 0.0], (6, 1)), {"bandwidth_hz": bw, "delay_samples": delay},
-                                         i0=np.zeros(2))
+    means = AmplifierLag.filter_currents(
+        np.tile([1.0, 0.0], (6, 1)), {"bandwidth_hz": bw, "delay_samples": delay}, i0=np.zeros(2)
+    )
     assert means[0, 0] == 0.0 and means[1, 0] == 0.0
     assert means[2, 0] == pytest.approx(1 - (1 - a) / (2 * math.pi * bw * k.Ts), rel=1e-12)
     assert np.all(means[2:, 0] < np.array(expected[2:]))  # a mean lags the end-of-period value
@@ -397,8 +409,7 @@ def test_plant_file_overlays_its_profile(tmp_path):
 
 def test_too_stiff_friction_is_refused():
     with pytest.raises(ConfigError, match="v_reg"):
-        PlantConfig.from_profile("ideal", {"effects": {"friction": {"enabled": True, "v_reg": 1e-6,
-                                                                    "coulomb_d": 5.0}}})
+        PlantConfig.from_profile("ideal", {"effects": {"friction": {"enabled": True, "v_reg": 1e-6, "coulomb_d": 5.0}}})
 
 
 # --------------------------------------------------------------------- closed loop, speed
@@ -406,8 +417,9 @@ def test_too_stiff_friction_is_refused():
 def test_pid_stabilizes_the_gap_anywhere_in_10_to_27_5_mm(g_mm):
     plant = Plant(PlantConfig.from_profile("default"), NOMINAL, seed=2)
     g = g_mm * 1e-3
-    log = run_closed_loop(plant, PIDController(NOMINAL), lambda t: Reference(g=g, d=0.0), 1.0,
-                          x0=np.array([g + 0.5e-3, 0, 0.002, 0]))  # start off the set-point
+    log = run_closed_loop(
+        plant, PIDController(NOMINAL), lambda t: Reference(g=g, d=0.0), 1.0, x0=np.array([g + 0.5e-3, 0, 0.002, 0])
+    )  # start off the set-point
     settled = slice(500, None)
     assert np.abs(log["g_true"][settled] - g).max() < 1e-4  # holds 0.1 mm
     assert np.abs(log["d_true"][settled]).max() < 2e-4

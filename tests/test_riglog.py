@@ -20,16 +20,28 @@ def make_run(file: str = "run.csv", n: int = 50, locked=(), seed: int = 0, Ts: f
         g[:] = 0.015
     if "d" in locked:
         d[:] = 0.0
-    return RunLog(file, {"t": t, "g": g, "d": d, "i_q": rng.normal(0, 0.3, n), "i_d": 1.5 + rng.normal(0, 0.1, n),
-                         "g_ref": np.full(n, 0.02)}, tuple(locked))
+    return RunLog(
+        file,
+        {
+            "t": t,
+            "g": g,
+            "d": d,
+            "i_q": rng.normal(0, 0.3, n),
+            "i_d": 1.5 + rng.normal(0, 0.1, n),
+            "g_ref": np.full(n, 0.02),
+        },
+        tuple(locked),
+    )
 
 
 def test_round_trip_is_bit_for_bit_with_extras_and_locks(tmp_path):
-    runs = [make_run("free.csv"), make_run("hover_d0.csv", locked=("d",), seed=1),
-            make_run("parabola.csv", locked=("g",), seed=2)]
+    runs = [
+        make_run("free.csv"),
+        make_run("hover_d0.csv", locked=("d",), seed=1),
+        make_run("parabola.csv", locked=("g",), seed=2),
+    ]
     runs[0] = runs[0].with_columns(flag=np.array(["ok"] * 49 + ["late"]), sparse=np.r_[np.nan, np.ones(49)])
-    write_dataset(tmp_path, runs, meta={"seed": 3, "true_params": {"C1": np.float64(14.3)}},
-                  description="unit test")
+    write_dataset(tmp_path, runs, meta={"seed": 3, "true_params": {"C1": np.float64(14.3)}}, description="unit test")
     ds = read_dataset(tmp_path)
     assert isinstance(ds, Dataset) and len(ds) == 3 and ds.sample_time == 1e-3 and ds.encoder_resolution == 1e-5
     assert ds.meta == {"seed": 3, "true_params": {"C1": 14.3}}
@@ -72,15 +84,18 @@ def test_writer_refuses_inconsistent_runs(tmp_path):
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.lists(st.floats(min_value=-0.1, max_value=0.1, allow_nan=False), min_size=2, max_size=30),
-       st.sampled_from([1e-5, 1e-6, 2.5e-5]))
+@given(
+    st.lists(st.floats(min_value=-0.1, max_value=0.1, allow_nan=False), min_size=2, max_size=30),
+    st.sampled_from([1e-5, 1e-6, 2.5e-5]),
+)
 def test_quantized_values_survive_csv_exactly(tmp_path_factory, values, res):
     """Any quantized value round(v / res) * res reads back bit for bit (repr is round-trip exact)."""
     folder = tmp_path_factory.mktemp("q")
     v = np.round(np.asarray(values) / res) * res
     n = len(v)
-    run = RunLog("q.csv", {"t": np.arange(n) * 1e-3, "g": v, "d": -v, "i_q": np.asarray(values) * 7,
-                           "i_d": np.zeros(n)})
+    run = RunLog(
+        "q.csv", {"t": np.arange(n) * 1e-3, "g": v, "d": -v, "i_q": np.asarray(values) * 7, "i_d": np.zeros(n)}
+    )
     write_dataset(folder, [run], encoder_resolution=res)
     back = read_dataset(folder).run("q.csv")
     for c in run.names:

@@ -41,8 +41,16 @@ def short_run(tmp_path_factory):
 
 def test_files_and_columns(short_run):
     res, out = short_run
-    for name in ("log.csv", "timing.csv", "metrics.json", "scenario.yaml", "dataset.yaml",
-                 "positions.png", "currents.png", "solver_time.png"):
+    for name in (
+        "log.csv",
+        "timing.csv",
+        "metrics.json",
+        "scenario.yaml",
+        "dataset.yaml",
+        "positions.png",
+        "currents.png",
+        "solver_time.png",
+    ):
         assert (out / name).is_file(), name
     header = (out / "log.csv").read_text().splitlines()[0].split(",")
     assert header[:5] == ["t", "g", "d", "i_q", "i_d"]
@@ -55,8 +63,15 @@ def test_files_and_columns(short_run):
     m = json.loads((out / "metrics.json").read_text())
     for key in ("all_settled", "stop_hits", "solver_failures", "fallbacks", "step_time_us", "targets", "passed"):
         assert key in m
-    for key in ("settled", "settle_time_s", "rms_error_g_m", "rms_error_d_m", "rms_error_g_enc_m",
-                "rms_error_d_enc_m", "max_current_A"):
+    for key in (
+        "settled",
+        "settle_time_s",
+        "rms_error_g_m",
+        "rms_error_d_m",
+        "rms_error_g_enc_m",
+        "rms_error_d_enc_m",
+        "max_current_A",
+    ):
         assert key in m["targets"][0]
     assert set(m["step_time_us"]) == {"median", "p99", "max"}
     again = scenario_from_dict(yaml.safe_load((out / "scenario.yaml").read_text()))
@@ -117,12 +132,26 @@ def test_overall_metrics_and_checks():
     x = np.tile([0.02, 0, 0, 0], (n, 1)).astype(float)
     u = np.tile([0.0, 1.5], (n, 1)).astype(float)
     u[10] = [7.0, 5.0]  # 8.6 A: beyond the amplitude limit
-    stats = {"status": np.array(["ok"] * 95 + ["fallback"] * 5, dtype=object),
-             "fallback": np.array([0.0] * 95 + [1.0] * 5)}
+    stats = {
+        "status": np.array(["ok"] * 95 + ["fallback"] * 5, dtype=object),
+        "fallback": np.array([0.0] * 95 + [1.0] * 5),
+    }
     stops = [SimpleNamespace(__str__=lambda self: "stop")]
-    m = compute_metrics(scenario="s", controller="c", seed=1, t=t, x_true=x, y_enc=x[:, [0, 2]], u=u, plan=plan,
-                        tolerance=1e-4, checks=Checks(max_settle_time_s=0.05), stats=stats,
-                        step_time_us=np.arange(n, dtype=float), stop_events=stops)
+    m = compute_metrics(
+        scenario="s",
+        controller="c",
+        seed=1,
+        t=t,
+        x_true=x,
+        y_enc=x[:, [0, 2]],
+        u=u,
+        plan=plan,
+        tolerance=1e-4,
+        checks=Checks(max_settle_time_s=0.05),
+        stats=stats,
+        step_time_us=np.arange(n, dtype=float),
+        stop_events=stops,
+    )
     assert m.solver_failures == 5 and m.fallbacks == 5 and m.stop_hits == 1
     assert not m.currents_within_limits and m.max_current_A == pytest.approx(math.hypot(7, 5))
     assert m.step_time_us["median"] == pytest.approx(49.5) and m.step_time_us["max"] == 99
@@ -156,8 +185,9 @@ class _HoverPD:
         if self.nan_at is not None and self.k > self.nan_at:
             u[0] = math.nan
         fb = self.report_fallback and self.k % 10 == 0
-        return ControlOutput(u=np.clip(u, -5, 5), stats={"status": "fallback" if fb else "ok", "fallback": fb,
-                                                         "solve_us": 1.0})
+        return ControlOutput(
+            u=np.clip(u, -5, 5), stats={"status": "fallback" if fb else "ok", "fallback": fb, "solve_us": 1.0}
+        )
 
 
 def test_runner_accepts_any_controller(tmp_path):
@@ -198,18 +228,25 @@ def test_summary_table_lists_every_scenario(short_run):
 
 
 def _cli(*args, timeout=600):
-    return subprocess.run([sys.executable, "-m", "maglev_ocp", "run", *args], capture_output=True, text=True,
-                          timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "maglev_ocp", "run", *args], capture_output=True, text=True, timeout=timeout
+    )
 
 
 def test_cli_exit_codes(tmp_path):
     ok = tmp_path / "ok.yaml"
     ok.write_text(yaml.safe_dump({**SHORT, "name": "ok"}))
     strict = tmp_path / "strict.yaml"  # a settle-time bound nothing can meet: tolerance check fails -> 1
-    strict.write_text(yaml.safe_dump({**SHORT, "name": "strict",
-                                      "targets": [{"g": 0.020, "d": 0.0, "hold": 0.1},
-                                                  {"g": 0.017, "d": 0.01, "hold": 0.15}],
-                                      "checks": {"max_settle_time_s": 0.001}}))
+    strict.write_text(
+        yaml.safe_dump(
+            {
+                **SHORT,
+                "name": "strict",
+                "targets": [{"g": 0.020, "d": 0.0, "hold": 0.1}, {"g": 0.017, "d": 0.01, "hold": 0.15}],
+                "checks": {"max_settle_time_s": 0.001},
+            }
+        )
+    )
     out = tmp_path / "out"
     r = _cli(str(ok), "--out", str(out), "--no-progress", "--no-figures")
     assert r.returncode == 0, r.stderr
@@ -243,8 +280,16 @@ def test_main_job_writes_results(tmp_path):
     out = tmp_path / "results"
     rc = main(["--out", str(out), "--scenarios", "gap_steps_fl", "--no-min-time", "--jobs", "1"])
     assert rc == 0
-    for f in ("model_table.txt", "model_table.json", "model_table.png", "summary.md", "summary.json",
-              "gap_steps_fl/log.csv", "gap_steps_fl/metrics.json", "gap_steps_fl/positions.png"):
+    for f in (
+        "model_table.txt",
+        "model_table.json",
+        "model_table.png",
+        "summary.md",
+        "summary.json",
+        "gap_steps_fl/log.csv",
+        "gap_steps_fl/metrics.json",
+        "gap_steps_fl/positions.png",
+    ):
         assert (out / f).is_file(), f
     assert (out / "simulate" / "dataset.yaml").is_file()
     text = (out / "summary.md").read_text()

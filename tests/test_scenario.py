@@ -124,8 +124,9 @@ def test_controller_params_belief(tmp_path):
 
 
 def test_plant_block_reaches_the_plant_config():
-    sc = scenario_from_dict({**GOOD, "plant": {"profile": "ideal", "params": {"C2": 800.0},
-                                               "process_noise": {"g": 0.1}}})
+    sc = scenario_from_dict(
+        {**GOOD, "plant": {"profile": "ideal", "params": {"C2": 800.0}, "process_noise": {"g": 0.1}}}
+    )
     cfg = sc.plant_config()
     assert cfg.profile == "ideal" and cfg.process_noise.g == 0.1 and not cfg.quantization.enabled
     assert sc.plant_params().C2 == 800.0
@@ -168,8 +169,12 @@ def test_cli_bad_scenario_exits_2_with_one_line(tmp_path):
     bad = _write(tmp_path, {**GOOD, "targets": [{"g": 0.040, "d": 0.0, "hold": 0.3}]})
     good = _write(tmp_path, GOOD, "good.yaml")
     out = tmp_path / "out"
-    r = subprocess.run([sys.executable, "-m", "maglev_ocp", "run", str(good), str(bad), "--out", str(out)],
-                       capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [sys.executable, "-m", "maglev_ocp", "run", str(good), str(bad), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "targets.0.g" in lines[0] and str(bad) in lines[0]

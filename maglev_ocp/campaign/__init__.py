@@ -54,9 +54,18 @@ class CampaignResult:
         return f"{self.report}\n{self.summary}"
 
 
-def run_campaign(campaign: str | os.PathLike | Campaign, out_dir: str | os.PathLike, *, workers: int = 1,
-                 scheduler: str | None = None, limit: int | None = None, retry_failed: bool = False,
-                 run_fn: RunFn | None = None, progress: bool = True, figures: bool = True) -> CampaignResult:
+def run_campaign(
+    campaign: str | os.PathLike | Campaign,
+    out_dir: str | os.PathLike,
+    *,
+    workers: int = 1,
+    scheduler: str | None = None,
+    limit: int | None = None,
+    retry_failed: bool = False,
+    run_fn: RunFn | None = None,
+    progress: bool = True,
+    figures: bool = True,
+) -> CampaignResult:
     """Execute (or resume) a campaign and write its summary.
 
     Parameters
@@ -77,8 +86,17 @@ def run_campaign(campaign: str | os.PathLike | Campaign, out_dir: str | os.PathL
     """
     camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
     base = camp.base_scenario_dict()
-    report = execute(camp, out_dir, workers=workers, scheduler=scheduler, limit=limit, retry_failed=retry_failed,
-                     run_fn=run_fn, progress=progress, base=base)
+    report = execute(
+        camp,
+        out_dir,
+        workers=workers,
+        scheduler=scheduler,
+        limit=limit,
+        retry_failed=retry_failed,
+        run_fn=run_fn,
+        progress=progress,
+        base=base,
+    )
     summary = summarize(out_dir, expand(camp, base), camp.name)
     result = CampaignResult(report, summary)
     result.save(figures=figures)

@@ -157,14 +157,17 @@ class Campaign(Strict):
     seed: int = Field(ge=0, lt=2**63, description="root of the SeedSequence every draw is spawned from")
     order: Literal["draws", "cases"] = Field(
         "draws",
-        description=("submission order: 'draws' (every case of draw 0, then draw 1, ...: a partial campaign "
-                     "compares cases on the same draws) or 'cases' (all draws of case 0, then case 1, ...: "
-                     "a worker meets the same controller settings in a row, so per-process solver caches hit)"),
+        description=(
+            "submission order: 'draws' (every case of draw 0, then draw 1, ...: a partial campaign "
+            "compares cases on the same draws) or 'cases' (all draws of case 0, then case 1, ...: "
+            "a worker meets the same controller settings in a row, so per-process solver caches hit)"
+        ),
     )
     vary: Vary = Field(default_factory=Vary)
     save: SaveSettings = Field(default_factory=SaveSettings)
-    success_tol_m: float = Field(k.position_tolerance, gt=0, le=1e-2,
-                                 description="tolerance the runner's 'settled' refers to (reported only)")
+    success_tol_m: float = Field(
+        k.position_tolerance, gt=0, le=1e-2, description="tolerance the runner's 'settled' refers to (reported only)"
+    )
 
     #: Folder of the campaign file (set by :func:`load_campaign`; base_scenario is relative to it).
     _root_dir: str = PrivateAttr(".")

@@ -119,8 +119,13 @@ class RunOutcome:
     files: dict[str, bytes] = field(default_factory=dict)
 
 
-def execute_one(spec_d: dict[str, Any], base: dict[str, Any], campaign_name: str, save_d: dict[str, Any],
-                run_fn: RunFn | None = None) -> RunOutcome:
+def execute_one(
+    spec_d: dict[str, Any],
+    base: dict[str, Any],
+    campaign_name: str,
+    save_d: dict[str, Any],
+    run_fn: RunFn | None = None,
+) -> RunOutcome:
     """Execute one run (on a worker or in-process); never raises for a failing run.
 
     Parameters
@@ -156,11 +161,26 @@ def execute_one(spec_d: dict[str, Any], base: dict[str, Any], campaign_name: str
         # The runner ends a run early when the controller raises or returns non-finite currents, and says so.
         err = metrics.get("error") or ("diverged" if metrics.get("diverged") else None)
         status = "failed" if err else "ok"
-        return RunOutcome(spec.run_id, status, metrics=metrics, error=err, wall_s=time.perf_counter() - t0,
-                          cpu_s=time.process_time() - c0, worker=who, files=files)
+        return RunOutcome(
+            spec.run_id,
+            status,
+            metrics=metrics,
+            error=err,
+            wall_s=time.perf_counter() - t0,
+            cpu_s=time.process_time() - c0,
+            worker=who,
+            files=files,
+        )
     except Exception as exc:
-        return RunOutcome(spec.run_id, "failed", error=_one_line(exc), traceback=traceback.format_exc(limit=8),
-                          wall_s=time.perf_counter() - t0, cpu_s=time.process_time() - c0, worker=who)
+        return RunOutcome(
+            spec.run_id,
+            "failed",
+            error=_one_line(exc),
+            traceback=traceback.format_exc(limit=8),
+            wall_s=time.perf_counter() - t0,
+            cpu_s=time.process_time() - c0,
+            worker=who,
+        )
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -208,8 +228,14 @@ def store_outcome(out_dir: Path, spec: RunSpec, outcome: RunOutcome) -> None:
         if outcome.metrics is not None and "metrics.json" not in outcome.files:
             (tmp / "metrics.json").write_text(json.dumps(outcome.metrics, indent=1, default=_json_default))
         record = {
-            "run_id": spec.run_id, "digest": spec.digest(), "status": outcome.status, "error": outcome.error,
-            "traceback": outcome.traceback, "wall_s": outcome.wall_s, "cpu_s": outcome.cpu_s, "worker": outcome.worker,
+            "run_id": spec.run_id,
+            "digest": spec.digest(),
+            "status": outcome.status,
+            "error": outcome.error,
+            "traceback": outcome.traceback,
+            "wall_s": outcome.wall_s,
+            "cpu_s": outcome.cpu_s,
+            "worker": outcome.worker,
             "spec": spec.to_dict(),
         }
         (tmp / "run.json").write_text(json.dumps(record, indent=1, default=_json_default))
@@ -299,10 +325,12 @@ class ExecutionReport:
 
     def __str__(self) -> str:
         where = self.scheduler or (f"LocalCluster x{self.workers}" if self.workers > 1 else "in-process")
-        return (f"{self.total} runs: {self.skipped} already done, {self.ran} ran now ({self.failed} failed), "
-                f"{self.remaining} remaining; {self.wall_s:.1f} s on {where} "
-                f"(runs' CPU {self.cpu_s:.1f} s, efficiency {self.efficiency:.2f}, "
-                f"load average {self.load_avg_1m:.1f} on {os.cpu_count()} CPUs)")
+        return (
+            f"{self.total} runs: {self.skipped} already done, {self.ran} ran now ({self.failed} failed), "
+            f"{self.remaining} remaining; {self.wall_s:.1f} s on {where} "
+            f"(runs' CPU {self.cpu_s:.1f} s, efficiency {self.efficiency:.2f}, "
+            f"load average {self.load_avg_1m:.1f} on {os.cpu_count()} CPUs)"
+        )
 
 
 def _write_plan(out_dir: Path, camp: Campaign, base: dict[str, Any], specs: list[RunSpec]) -> None:
@@ -393,8 +421,9 @@ def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
         finally:
             client.close()
         return
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=logging.ERROR)
+    cluster = LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR
+    )
     client = Client(cluster)
     try:
         client.register_plugin(plugin_cls())
@@ -404,9 +433,18 @@ def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
         cluster.close()
 
 
-def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, scheduler: str | None = None,
-            limit: int | None = None, retry_failed: bool = False, run_fn: RunFn | None = None,
-            progress: bool = True, base: dict[str, Any] | None = None) -> ExecutionReport:
+def execute(
+    camp: Campaign,
+    out_dir: str | os.PathLike,
+    *,
+    workers: int = 1,
+    scheduler: str | None = None,
+    limit: int | None = None,
+    retry_failed: bool = False,
+    run_fn: RunFn | None = None,
+    progress: bool = True,
+    base: dict[str, Any] | None = None,
+) -> ExecutionReport:
     """Run every unfinished run of the campaign; finished ones are skipped.
 
     Parameters
@@ -454,8 +492,14 @@ def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, sch
     save_d = camp.save.model_dump()
     counts = {"ok": n_ok, "failed": n_failed, "ran": 0, "failed_now": 0, "cpu_s": 0.0}
     t0 = time.perf_counter()
-    bar = tqdm(total=len(specs), initial=skipped, desc=f"campaign {camp.name}", unit="run", disable=not progress,
-               dynamic_ncols=True)
+    bar = tqdm(
+        total=len(specs),
+        initial=skipped,
+        desc=f"campaign {camp.name}",
+        unit="run",
+        disable=not progress,
+        dynamic_ncols=True,
+    )
 
     def _record(spec: RunSpec, outcome: RunOutcome) -> None:
         store_outcome(out, spec, outcome)
@@ -487,8 +531,16 @@ def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, sch
                 by_key = {}
                 futures = []
                 for s in todo:
-                    fut = client.submit(execute_one, s.to_dict(), base_f, camp.name, save_d, run_fn,
-                                        key=f"maglev-run-{camp.name}-{s.run_id}-{s.digest()}", pure=False)
+                    fut = client.submit(
+                        execute_one,
+                        s.to_dict(),
+                        base_f,
+                        camp.name,
+                        save_d,
+                        run_fn,
+                        key=f"maglev-run-{camp.name}-{s.run_id}-{s.digest()}",
+                        pure=False,
+                    )
                     by_key[fut.key] = s
                     futures.append(fut)
                 try:
@@ -497,8 +549,12 @@ def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, sch
                         try:
                             outcome = fut.result()
                         except Exception as exc:  # worker lost, unpicklable result, ...
-                            outcome = RunOutcome(s.run_id, "failed", error=f"worker: {_one_line(exc)}",
-                                                 traceback=traceback.format_exc(limit=4))
+                            outcome = RunOutcome(
+                                s.run_id,
+                                "failed",
+                                error=f"worker: {_one_line(exc)}",
+                                traceback=traceback.format_exc(limit=4),
+                            )
                         _record(s, outcome)
                 finally:
                     client.cancel(futures)
@@ -507,9 +563,20 @@ def execute(camp: Campaign, out_dir: str | os.PathLike, *, workers: int = 1, sch
     finally:
         bar.close()
     remaining = len(specs) - counts["ok"] - counts["failed"]
-    report = ExecutionReport(out, len(specs), skipped, counts["ran"], counts["failed_now"], remaining,
-                             time.perf_counter() - t0, 1 if not use_dask else workers, scheduler, interrupted,
-                             counts["cpu_s"], _load())
+    report = ExecutionReport(
+        out,
+        len(specs),
+        skipped,
+        counts["ran"],
+        counts["failed_now"],
+        remaining,
+        time.perf_counter() - t0,
+        1 if not use_dask else workers,
+        scheduler,
+        interrupted,
+        counts["cpu_s"],
+        _load(),
+    )
     report.save()
     if interrupted:
         raise KeyboardInterrupt

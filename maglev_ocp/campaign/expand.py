@@ -203,8 +203,10 @@ def _draw(camp: Campaign, base: dict[str, Any], i: int) -> tuple[dict[str, Any],
             j = PERTURBABLE.index(name)
             rng = np.random.default_rng(draw_seed_sequence(camp.seed, i, stream, j))
             f = _factor(perts[name], rng)
-            nominal = next((v for v in (get_dotted(base, f"{bk}.{name}") for bk in _BASE_KEYS[key])
-                            if v is not None), getattr(NOMINAL, name))
+            nominal = next(
+                (v for v in (get_dotted(base, f"{bk}.{name}") for bk in _BASE_KEYS[key]) if v is not None),
+                getattr(NOMINAL, name),
+            )
             nominal = float(nominal)
             ov[f"{key}.{name}"] = nominal * f
             dev[f"{tag}.{name}"] = (f - 1.0) * 100.0
@@ -238,8 +240,11 @@ def expand(camp: Campaign, base: dict[str, Any] | None = None) -> list[RunSpec]:
     wc = max(2, len(str(len(cases) - 1)))
     wd = max(4, len(str(camp.n_runs - 1)))
     draws = [_draw(camp, base, i) for i in range(camp.n_runs)]
-    pairs = (itertools.product(range(camp.n_runs), range(len(cases))) if camp.order == "draws"
-             else ((i, ci) for ci in range(len(cases)) for i in range(camp.n_runs)))
+    pairs = (
+        itertools.product(range(camp.n_runs), range(len(cases)))
+        if camp.order == "draws"
+        else ((i, ci) for ci in range(len(cases)) for i in range(camp.n_runs))
+    )
     specs: list[RunSpec] = []
     for i, ci in pairs:
         ov_draw, dev, seed = draws[i]

@@ -56,20 +56,25 @@ def executions_table(campaigns_dir: Path, names: tuple[str, ...]) -> str:
     """
     import json
 
-    lines = ["| campaign | runs executed | workers | wall time [s] | CPU efficiency | load average (1 min) |",
-             "|---|---:|---:|---:|---:|---:|"]
+    lines = [
+        "| campaign | runs executed | workers | wall time [s] | CPU efficiency | load average (1 min) |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
     for name in names:
         p = Path(campaigns_dir) / name / "executions.jsonl"
-        for line in (p.read_text().splitlines() if p.is_file() else []):
+        for line in p.read_text().splitlines() if p.is_file() else []:
             e = json.loads(line)
             if e.get("ran", 0) > 0:
-                lines.append(f"| {name} | {e['ran']} | {e['workers']} | {e['wall_s']:.0f} "
-                             f"| {e.get('efficiency', float('nan')):.2f} | {e.get('load_avg_1m', float('nan')):.1f} |")
+                lines.append(
+                    f"| {name} | {e['ran']} | {e['workers']} | {e['wall_s']:.0f} "
+                    f"| {e.get('efficiency', float('nan')):.2f} | {e.get('load_avg_1m', float('nan')):.1f} |"
+                )
     return "\n".join(lines) + f"\n\n({os.cpu_count()} CPUs on the machine that wrote this.)\n"
 
 
-def run_shipped(results_dir: str | os.PathLike, names: tuple[str, ...] = ROBUSTNESS, workers: int = 2,
-                progress: bool = True) -> dict[str, CampaignResult]:
+def run_shipped(
+    results_dir: str | os.PathLike, names: tuple[str, ...] = ROBUSTNESS, workers: int = 2, progress: bool = True
+) -> dict[str, CampaignResult]:
     """Run (or resume) shipped campaigns into ``<results_dir>/campaigns/<name>`` and write ``robustness.md``.
 
     Parameters
@@ -114,10 +119,14 @@ class ScalingResult:
     def table(self) -> str:
         """Markdown table: workers, wall time, speed-up."""
         base = self.wall_s[min(self.wall_s)]
-        rows = ["| workers | wall time [s] | speed-up | CPU efficiency | load average (1 min) |",
-                "|---:|---:|---:|---:|---:|"]
-        rows += [f"| {w} | {t:.1f} | {base / t:.2f} | {self.efficiency[w]:.2f} | {self.load_avg_1m[w]:.1f} |"
-                 for w, t in sorted(self.wall_s.items())]
+        rows = [
+            "| workers | wall time [s] | speed-up | CPU efficiency | load average (1 min) |",
+            "|---:|---:|---:|---:|---:|",
+        ]
+        rows += [
+            f"| {w} | {t:.1f} | {base / t:.2f} | {self.efficiency[w]:.2f} | {self.load_avg_1m[w]:.1f} |"
+            for w, t in sorted(self.wall_s.items())
+        ]
         return f"campaign {self.campaign}, {self.runs} runs\n\n" + "\n".join(rows) + "\n"
 
     def save(self, path: str | os.PathLike) -> None:
@@ -125,8 +134,9 @@ class ScalingResult:
         atomic_write_text(path, self.table())
 
 
-def scaling(name_or_path: str | os.PathLike, workers: tuple[int, ...] = (1, 2), limit: int | None = None,
-            progress: bool = False) -> ScalingResult:
+def scaling(
+    name_or_path: str | os.PathLike, workers: tuple[int, ...] = (1, 2), limit: int | None = None, progress: bool = False
+) -> ScalingResult:
     """Run one campaign afresh (temporary folders) on each number of workers; wall time of each.
 
     The wall time includes the cluster start-up and each worker's first builds,

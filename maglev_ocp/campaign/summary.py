@@ -79,8 +79,12 @@ def _num(v: Any) -> float:
 def run_row(spec: RunSpec, record: dict[str, Any] | None, metrics: dict[str, Any] | None) -> dict[str, Any]:
     """One summary row for a run (``record`` None: not finished yet)."""
     row: dict[str, Any] = {
-        "index": spec.index, "run_id": spec.run_id, "controller": spec.controller, "case": spec.case,
-        "draw": spec.draw, "seed": spec.seed,
+        "index": spec.index,
+        "run_id": spec.run_id,
+        "controller": spec.controller,
+        "case": spec.case,
+        "draw": spec.draw,
+        "seed": spec.seed,
         "status": "pending" if record is None else record.get("status", "failed"),
         "error": (record or {}).get("error") or "",
     }
@@ -170,16 +174,22 @@ class CampaignSummary:
             st = grp["settle_time_max_s"].dropna()
             step = grp["m.step_time_us.median"] if "m.step_time_us.median" in grp else pd.Series(dtype=float)
             p99 = grp["m.step_time_us.p99"] if "m.step_time_us.p99" in grp else pd.Series(dtype=float)
-            rows.append({
-                "case": int(case), "label": self.case_label(grp.iloc[0]), "runs": n,
-                "failed": int((grp["status"] == "failed").sum()),
-                "success_pct": 100.0 * ok / n, "ci95_low_pct": 100 * lo, "ci95_high_pct": 100 * hi,
-                "settle_median_ms": 1e3 * float(st.median()) if len(st) else float("nan"),
-                "settle_p90_ms": 1e3 * float(st.quantile(0.9)) if len(st) else float("nan"),
-                "rms_max_median_um": 1e6 * float(grp["rms_error_max_m"].median()),
-                "step_median_us": float(pd.to_numeric(step, errors="coerce").median()),
-                "step_p99_max_us": float(pd.to_numeric(p99, errors="coerce").max()),
-            })
+            rows.append(
+                {
+                    "case": int(case),
+                    "label": self.case_label(grp.iloc[0]),
+                    "runs": n,
+                    "failed": int((grp["status"] == "failed").sum()),
+                    "success_pct": 100.0 * ok / n,
+                    "ci95_low_pct": 100 * lo,
+                    "ci95_high_pct": 100 * hi,
+                    "settle_median_ms": 1e3 * float(st.median()) if len(st) else float("nan"),
+                    "settle_p90_ms": 1e3 * float(st.quantile(0.9)) if len(st) else float("nan"),
+                    "rms_max_median_um": 1e6 * float(grp["rms_error_max_m"].median()),
+                    "step_median_us": float(pd.to_numeric(step, errors="coerce").median()),
+                    "step_p99_max_us": float(pd.to_numeric(p99, errors="coerce").max()),
+                }
+            )
         return pd.DataFrame(rows)
 
     def __str__(self) -> str:
@@ -203,7 +213,8 @@ class CampaignSummary:
 
             buf = io.BytesIO()
             self.table.astype({c: str for c in self.table.columns if self.table[c].dtype == object}).to_parquet(
-                buf, index=False)
+                buf, index=False
+            )
             atomic_write_bytes(out / "summary.parquet", buf.getvalue())
             written.append(out / "summary.parquet")
         if figures and len(self.finished):
@@ -267,8 +278,7 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
     ax.bar(range(n_g), rates, yerr=errs, capsize=4, color="tab:blue", alpha=0.8)
     for i, (_, g) in enumerate(groups):
         ax.text(i, 2, f"n={len(g)}", ha="center", va="bottom", fontsize=8, color="white")
-    ax.set_xticks(range(n_g), labels, rotation=20 if n_g > 3 else 0, ha="right" if n_g > 3 else "center",
-                  fontsize=8)
+    ax.set_xticks(range(n_g), labels, rotation=20 if n_g > 3 else 0, ha="right" if n_g > 3 else "center", fontsize=8)
     ax.set_ylim(0, 105)
     ax.set_ylabel("success rate [%] (all targets within tolerance, no stop)")
     ax.set_title(f"{s.name}: success rate per case (95 % Wilson interval)")
@@ -287,8 +297,7 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
         data.append(1e3 * vals[np.isfinite(vals)])
     if any(len(d) for d in data):
         ax.violinplot([d if len(d) else [np.nan] for d in data], positions=range(n_g), showmedians=True)
-    ax.set_xticks(range(n_g), labels, rotation=20 if n_g > 3 else 0, ha="right" if n_g > 3 else "center",
-                  fontsize=8)
+    ax.set_xticks(range(n_g), labels, rotation=20 if n_g > 3 else 0, ha="right" if n_g > 3 else "center", fontsize=8)
     ax.set_ylabel("settle time per target [ms]")
     ax.set_title(f"{s.name}: settle-time distribution per case")
     ax.grid(True, axis="y", alpha=0.3)
@@ -318,8 +327,10 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
         plt.close(fig)
 
     # Metrics against each varied quantity.
-    metrics_y = [("settle_time_max_s", 1e3, "slowest settle time [ms]"),
-                 ("rms_error_max_m", 1e6, "worst steady RMS error [um]")]
+    metrics_y = [
+        ("settle_time_max_s", 1e3, "slowest settle time [ms]"),
+        ("rms_error_max_m", 1e6, "worst steady RMS error [um]"),
+    ]
     if "m.step_time_us.p99" in t:
         metrics_y.append(("m.step_time_us.p99", 1.0, "controller step time p99 [us]"))
     for col in [c for c in t.columns if c.startswith(("dev.", "grid."))]:

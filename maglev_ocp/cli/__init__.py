@@ -34,8 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="maglev",
         description=(
-            "maglev-ocp: model, simulate, identify, control and diagnose the 2-DOF "
-            "PMLSM magnetic levitation stage."
+            "maglev-ocp: model, simulate, identify, control and diagnose the 2-DOF PMLSM magnetic levitation stage."
         ),
         epilog=EPILOG,
         formatter_class=_Formatter,
@@ -69,7 +68,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 def add_command(sub, name: str, help: str, description: str, example: str) -> argparse.ArgumentParser:
     """Add a subcommand whose ``--help`` shows what it does and an example."""
     return sub.add_parser(
-        name, help=help, description=description, epilog=f"example:\n  {example}",
+        name,
+        help=help,
+        description=description,
+        epilog=f"example:\n  {example}",
         formatter_class=_Formatter,
     )
 

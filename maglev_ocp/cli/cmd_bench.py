@@ -14,7 +14,9 @@ def register(sub) -> None:
     from . import add_command
 
     p = add_command(
-        sub, "bench", help="time one control step per controller (nmpc, fl, pid) and backend (python, c)",
+        sub,
+        "bench",
+        help="time one control step per controller (nmpc, fl, pid) and backend (python, c)",
         description=(
             "Run a closed-loop scenario once per controller and backend and time every step after a\n"
             "warm-up: median, p99 and max in microseconds of the controller's step() (as the runner\n"
@@ -30,8 +32,11 @@ def register(sub) -> None:
     p.add_argument("--backends", default="python,c", metavar="LIST", help="subset of python,c")
     p.add_argument("--warmup", type=int, default=50, metavar="N", help="steps dropped before timing (default 50)")
     p.add_argument("--cflags", default=None, metavar="FLAGS", help="compiler flags of the C backend")
-    p.add_argument("--realtime", action="store_true",
-                   help="run the loops under SCHED_FIFO, as a rig's control loop (needs root/CAP_SYS_NICE)")
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help="run the loops under SCHED_FIFO, as a rig's control loop (needs root/CAP_SYS_NICE)",
+    )
     p.add_argument("--json", action="store_true", help="print the numbers as JSON instead of the table")
     p.add_argument("--out", default=None, metavar="FILE", help="also write the JSON to FILE")
     p.set_defaults(handler=run)
@@ -53,8 +58,15 @@ def run(args: argparse.Namespace) -> int:
     backends = _subset(args.backends, BACKENDS, "--backends")
     if args.warmup < 0:
         raise UserError(f"--warmup: must be >= 0, got {args.warmup}")
-    res = run_bench(args.scenario, controllers, backends, warmup=args.warmup, cflags=args.cflags,
-                    progress=not args.json, realtime=args.realtime)
+    res = run_bench(
+        args.scenario,
+        controllers,
+        backends,
+        warmup=args.warmup,
+        cflags=args.cflags,
+        progress=not args.json,
+        realtime=args.realtime,
+    )
     if args.realtime and not res.meta.get("realtime"):
         print("maglev bench: warning: SCHED_FIFO not permitted here; timed at normal priority", file=sys.stderr)
     if args.out:

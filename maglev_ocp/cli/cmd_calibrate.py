@@ -14,7 +14,9 @@ def register(sub) -> None:
     from . import add_command
 
     p = add_command(
-        sub, "calibrate", help="calibrate C1..C4, xi0, ell on a rig-log dataset (seed's procedures + batch fit)",
+        sub,
+        "calibrate",
+        help="calibrate C1..C4, xi0, ell on a rig-log dataset (seed's procedures + batch fit)",
         description=(
             "Run the seed's calibration procedures that the dataset's runs allow (V.A parabolas at\n"
             "locked gaps, V.B hover with d locked at 0, V.C cogging with d locked at 3 t1/2, V.D free\n"
@@ -27,8 +29,14 @@ def register(sub) -> None:
     p.add_argument("dataset", metavar="DATASET", help="rig-log dataset folder (maglev-rig-log/1)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--prior", default=None, metavar="FILE", help="parameter YAML to start from (default: Table III)")
-    p.add_argument("--eps", nargs="+", type=float, default=[0.001, 0.01, 0.05], metavar="EPS",
-                   help="NPFISI eps values (must include 0.01; default: 0.001 0.01 0.05)")
+    p.add_argument(
+        "--eps",
+        nargs="+",
+        type=float,
+        default=[0.001, 0.01, 0.05],
+        metavar="EPS",
+        help="NPFISI eps values (must include 0.01; default: 0.001 0.01 0.05)",
+    )
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(handler=run)
@@ -48,6 +56,8 @@ def run(args: argparse.Namespace) -> int:
     res = calibrate(args.dataset, prior=prior, eps_list=tuple(args.eps), progress=not args.no_progress)
     res.save(args.out, figures=not args.no_figures)
     print(res.table())
-    print(f"\ncalibration took {res.timing['total']:.1f} s; wrote {Path(args.out) / 'params.yaml'} and "
-          f"{Path(args.out) / 'calibration.json'}")
+    print(
+        f"\ncalibration took {res.timing['total']:.1f} s; wrote {Path(args.out) / 'params.yaml'} and "
+        f"{Path(args.out) / 'calibration.json'}"
+    )
     return 0

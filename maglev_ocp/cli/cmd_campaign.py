@@ -13,7 +13,9 @@ def register(sub) -> None:
     from . import add_command
 
     p = add_command(
-        sub, "campaign", help="run a campaign of closed-loop runs (robustness, sweeps) on Dask",
+        sub,
+        "campaign",
+        help="run a campaign of closed-loop runs (robustness, sweeps) on Dask",
         description=(
             "Expand CAMPAIGN.yaml (a base scenario and what varies: parameter perturbations,\n"
             "seeds, random targets, controller settings on a grid) into runs, execute them on a\n"
@@ -27,12 +29,26 @@ def register(sub) -> None:
     p.add_argument("campaign", metavar="CAMPAIGN.yaml", help="campaign file")
     p.add_argument("--out", required=True, metavar="DIR", help="campaign folder (created; reused to resume)")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, default=None, metavar="N",
-                       help="worker processes of the local Dask cluster; 1 runs in-process (default: CPU count)")
-    where.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                       help="address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
-    p.add_argument("--limit", type=int, default=None, metavar="K",
-                   help="execute at most K runs now (the rest on a later invocation)")
+    where.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="worker processes of the local Dask cluster; 1 runs in-process (default: CPU count)",
+    )
+    where.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786",
+    )
+    p.add_argument(
+        "--limit",
+        type=int,
+        default=None,
+        metavar="K",
+        help="execute at most K runs now (the rest on a later invocation)",
+    )
     p.add_argument("--retry-failed", action="store_true", help="re-run runs recorded as failed")
     p.add_argument("--plan", action="store_true", help="only print the expansion (cases and runs), run nothing")
     p.add_argument("--no-figures", action="store_true", help="write the summary tables only")
@@ -58,7 +74,15 @@ def run(args: argparse.Namespace) -> int:
             print(f"  case {c}: {ctrl} {grid if grid != '{}' else ''}")
         return 0
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
-    res = run_campaign(camp, args.out, workers=workers, scheduler=args.scheduler, limit=args.limit,
-                       retry_failed=args.retry_failed, progress=not args.quiet, figures=not args.no_figures)
+    res = run_campaign(
+        camp,
+        args.out,
+        workers=workers,
+        scheduler=args.scheduler,
+        limit=args.limit,
+        retry_failed=args.retry_failed,
+        progress=not args.quiet,
+        figures=not args.no_figures,
+    )
     print(res)
     return 0

@@ -15,7 +15,9 @@ def register(sub) -> None:
     from . import add_command
 
     p = add_command(
-        sub, "codegen", help="generate self-contained C of the controllers' steps (+ header, harness, Makefile)",
+        sub,
+        "codegen",
+        help="generate self-contained C of the controllers' steps (+ header, harness, Makefile)",
         description=(
             "Generate, with CasADi's code generator, plain C (libm only, no malloc in a step) of one\n"
             "control step of each controller: the NMPC (observer, planner, RTI linearization, QP\n"
@@ -32,8 +34,12 @@ def register(sub) -> None:
     src = p.add_mutually_exclusive_group()
     src.add_argument("--scenario", default=None, metavar="FILE", help="scenario YAML: controller settings and params")
     src.add_argument("--params", default=None, metavar="FILE", help="parameter YAML (default: seed Table III)")
-    p.add_argument("--controllers", default="nmpc,fl,observer", metavar="LIST",
-                   help="comma-separated subset of nmpc,fl,observer (default: all)")
+    p.add_argument(
+        "--controllers",
+        default="nmpc,fl,observer",
+        metavar="LIST",
+        help="comma-separated subset of nmpc,fl,observer (default: all)",
+    )
     p.add_argument("--cflags", default=None, metavar="FLAGS", help="default CFLAGS written into the Makefile")
     p.add_argument("--make", action="store_true", help="also build (make -j2) in the output folder")
     p.set_defaults(handler=run)
@@ -87,13 +93,17 @@ def run(args: argparse.Namespace) -> int:
     print(src.table())
     nmpc = next((c for c in codes if c.kind == "nmpc"), None)
     if nmpc is not None:
-        print(f"nmpc: horizon {nmpc.defines['HORIZON']}, reference mode "
-              f"{'preview' if nmpc.defines['REF_MODE_PREVIEW'] else 'plan'}")
+        print(
+            f"nmpc: horizon {nmpc.defines['HORIZON']}, reference mode "
+            f"{'preview' if nmpc.defines['REF_MODE_PREVIEW'] else 'plan'}"
+        )
     print(f"code generation of {', '.join(kinds)}: {t_gen:.1f} s (Functions built and C written) -> {out}")
     if args.make:
         res = build_folder(out, jobs=2)
-        print(f"built in {res.seconds:.1f} s: {res.library.name}, {res.harness.name if res.harness else ''} "
-              f"(CFLAGS={res.cflags!r})")
+        print(
+            f"built in {res.seconds:.1f} s: {res.library.name}, {res.harness.name if res.harness else ''} "
+            f"(CFLAGS={res.cflags!r})"
+        )
     else:
         print(f"build: make -C {out} -j2     run: {out}/maglev_harness nmpc LOG.csv -o currents.csv")
     return 0

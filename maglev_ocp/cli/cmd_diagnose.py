@@ -42,7 +42,9 @@ def register(sub) -> None:
     from . import add_command
 
     p = add_command(
-        sub, "diagnose", help="find, attribute and quantify the gap between model and data",
+        sub,
+        "diagnose",
+        help="find, attribute and quantify the gap between model and data",
         description=DESCRIPTION,
         example="maglev diagnose data/rig --out results/diagnosis   |   maglev diagnose --selftest 30 --seed 1",
     )
@@ -54,23 +56,43 @@ def register(sub) -> None:
     p.add_argument("--fc", type=float, default=15.0, metavar="HZ", help="residual filter cut-off (default 15 Hz)")
     p.add_argument("--no-figures", action="store_true", help="write report.json and report.md only")
     p.add_argument("--selftest", type=int, metavar="N", help="run the blind self-check on N generated datasets")
-    p.add_argument("--baseline", choices=("given", "calibrated"), default="given",
-                   help="self-check: hand the nominal model to the diagnosis, or let it calibrate (default given)")
+    p.add_argument(
+        "--baseline",
+        choices=("given", "calibrated"),
+        default="given",
+        help="self-check: hand the nominal model to the diagnosis, or let it calibrate (default given)",
+    )
     p.add_argument("--runs", type=int, default=6, metavar="N", help="generated datasets: runs (default 6)")
-    p.add_argument("--duration", type=float, default=10.0, metavar="S",
-                   help="generated datasets: seconds per run (default 10)")
+    p.add_argument(
+        "--duration", type=float, default=10.0, metavar="S", help="generated datasets: seconds per run (default 10)"
+    )
     p.add_argument("--keep-reports", action="store_true", help="self-check: write every dataset's report")
-    p.add_argument("--truths", nargs="+", metavar="NAME",
-                   help="self-check: draw only these truths (library effects and/or none; default all)")
+    p.add_argument(
+        "--truths",
+        nargs="+",
+        metavar="NAME",
+        help="self-check: draw only these truths (library effects and/or none; default all)",
+    )
     p.add_argument("--generate", metavar="DIR", help="write a diagnosis dataset from the plant into DIR")
     p.add_argument("--effect", metavar="NAME", help="library effect for --generate / --scenario")
-    p.add_argument("--effect-param", nargs="+", default=[], metavar="KEY=VALUE",
-                   help="effect parameters in the plant (e.g. xi0=5 ell=0.004)")
-    p.add_argument("--extra", choices=("vibration", "guide_ripple"),
-                   help="--generate: add an effect outside the library (7.3 Hz vibration, 8.6 mm guide ripple)")
+    p.add_argument(
+        "--effect-param",
+        nargs="+",
+        default=[],
+        metavar="KEY=VALUE",
+        help="effect parameters in the plant (e.g. xi0=5 ell=0.004)",
+    )
+    p.add_argument(
+        "--extra",
+        choices=("vibration", "guide_ripple"),
+        help="--generate: add an effect outside the library (7.3 Hz vibration, 8.6 mm guide ripple)",
+    )
     p.add_argument("--scenario", metavar="FILE", help="closed-loop view on this scenario (needs --effect)")
-    p.add_argument("--fitted-from", metavar="REPORT",
-                   help="closed-loop view: take the fitted effect from this report.json (default: fit it)")
+    p.add_argument(
+        "--fitted-from",
+        metavar="REPORT",
+        help="closed-loop view: take the fitted effect from this report.json (default: fit it)",
+    )
     p.set_defaults(handler=run)
 
 
@@ -98,8 +120,9 @@ def _check_effect(name: str | None, allow_none: bool = False) -> None:
     if allow_none and name == "none":
         return
     if name not in EFFECTS:
-        raise UserError(f"--effect: unknown effect {name!r}; choose from {', '.join(EFFECTS)}"
-                        + (", none" if allow_none else ""))
+        raise UserError(
+            f"--effect: unknown effect {name!r}; choose from {', '.join(EFFECTS)}" + (", none" if allow_none else "")
+        )
 
 
 def _settings(args, **kw):
@@ -177,8 +200,14 @@ def _selftest(args) -> int:
             raise UserError(f"--truths: unknown {bad}; choose from {', '.join(DRAWS)}")
         if args.baseline == "calibrated" and set(args.truths) == {"parameter_error"}:
             raise UserError("--truths: parameter_error is absorbed by a calibrated baseline; use --baseline given")
-    st = SelftestSettings(n=args.selftest, seed=args.seed, baseline=args.baseline, generator=_generator(args),
-                          diagnose=_settings(args, simulate=False), truths=args.truths)
+    st = SelftestSettings(
+        n=args.selftest,
+        seed=args.seed,
+        baseline=args.baseline,
+        generator=_generator(args),
+        diagnose=_settings(args, simulate=False),
+        truths=args.truths,
+    )
     res = run_selftest(st, progress=True, out_dir=args.out, keep_reports=args.keep_reports)
     print(res.table())
     if args.out:
@@ -213,8 +242,15 @@ def _generate(args) -> int:
         from ..diagnosis.generate import OUT_OF_LIBRARY
 
         force, info = OUT_OF_LIBRARY[args.extra][0](), {"name": args.extra}
-    gen = generate_dataset(cfg, params, seed=np.random.SeedSequence(args.seed), settings=_generator(args),
-                           extra_force=force, extra_info=info, progress=True)
+    gen = generate_dataset(
+        cfg,
+        params,
+        seed=np.random.SeedSequence(args.seed),
+        settings=_generator(args),
+        extra_force=force,
+        extra_info=info,
+        progress=True,
+    )
     gen.save(args.generate)
     print(gen.dataset.table())
     print(f"written: {args.generate}")
@@ -231,8 +267,14 @@ def _scenario(args) -> int:
     if not Path(args.scenario).is_file():
         raise UserError(f"{args.scenario}: no such scenario file")
     fitted = fitted_from_report(args.fitted_from, args.effect) if args.fitted_from else None
-    view = closed_loop_view(args.scenario, args.effect, _kv(args.effect_param), fitted, progress=True,
-                            fit_settings=GeneratorSettings(n_runs=max(args.runs, 3), run_duration=args.duration))
+    view = closed_loop_view(
+        args.scenario,
+        args.effect,
+        _kv(args.effect_param),
+        fitted,
+        progress=True,
+        fit_settings=GeneratorSettings(n_runs=max(args.runs, 3), run_duration=args.duration),
+    )
     print(view.table())
     if args.out:
         view.save(args.out)

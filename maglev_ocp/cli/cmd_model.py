@@ -14,7 +14,9 @@ def register(sub) -> None:
     from . import add_command
 
     p = add_command(
-        sub, "model", help="print the model's operating table over the gap",
+        sub,
+        "model",
+        help="print the model's operating table over the gap",
         description=(
             "Print, for each gap, the slot factor lam, Carter's coefficient Kc, the PM\n"
             "field B, the equilibrium current i_d (seed eq. (8), d = 0, no cogging),\n"
@@ -22,8 +24,14 @@ def register(sub) -> None:
         ),
         example="maglev model --gaps 10 15 20 25 --json",
     )
-    p.add_argument("--gaps", nargs="+", type=float, default=[10, 15, 20, 25], metavar="MM",
-                   help="gaps in mm (default: 10 15 20 25)")
+    p.add_argument(
+        "--gaps",
+        nargs="+",
+        type=float,
+        default=[10, 15, 20, 25],
+        metavar="MM",
+        help="gaps in mm (default: 10 15 20 25)",
+    )
     p.add_argument("--params", default=None, metavar="FILE", help="parameter YAML (default: seed Table III)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a text table")
     p.add_argument("--plot", default=None, metavar="PNG", help="also plot the table over 8..32 mm to this PNG")
@@ -41,8 +49,7 @@ def table(gaps_mm, params) -> list[dict[str, float]]:
 def format_table(rows: list[dict[str, float]]) -> str:
     """Fixed-width text table with units."""
     head = (
-        f"{'g [mm]':>7} {'lam':>7} {'Kc':>7} {'B [T]':>7} {'i_d,eq [A]':>11} "
-        f"{'L1 [m/s^2/A]':>13} {'pole [rad/s]':>13}"
+        f"{'g [mm]':>7} {'lam':>7} {'Kc':>7} {'B [T]':>7} {'i_d,eq [A]':>11} {'L1 [m/s^2/A]':>13} {'pole [rad/s]':>13}"
     )
     lines = [head, "-" * len(head)]
     for r in rows:
@@ -67,8 +74,10 @@ def plot_table(path: str, params) -> None:
     rows = table(gs, params)
     fig, ax = plt.subplots(2, 2, figsize=(9, 6), sharex=True)
     for a, key, lab in [
-        (ax[0, 0], "B_T", "B(g) [T]"), (ax[0, 1], "i_d_eq_A", "equilibrium i_d [A]"),
-        (ax[1, 0], "L1", "L1 = C1 f1 [m/s^2/A]"), (ax[1, 1], "pole_rad_s", "open-loop pole [rad/s]"),
+        (ax[0, 0], "B_T", "B(g) [T]"),
+        (ax[0, 1], "i_d_eq_A", "equilibrium i_d [A]"),
+        (ax[1, 0], "L1", "L1 = C1 f1 [m/s^2/A]"),
+        (ax[1, 1], "pole_rad_s", "open-loop pole [rad/s]"),
     ]:
         a.plot(gs, [r[key] for r in rows])
         a.set_ylabel(lab)

@@ -20,7 +20,9 @@ def register(sub) -> None:
     from . import add_command
 
     p = add_command(
-        sub, "run", help="run closed-loop scenarios (YAML) and check their tolerances",
+        sub,
+        "run",
+        help="run closed-loop scenarios (YAML) and check their tolerances",
         description=(
             "Run each scenario in closed loop against the plant simulator (progress bar) and\n"
             "write DIR/<name>/: log.csv (rig-log columns t,g,d,i_q,i_d, then references,\n"
@@ -63,8 +65,14 @@ def run(args: argparse.Namespace) -> int:
     ok = True
     for sc in scenarios:
         try:
-            res = run_scenario(sc, out_dir=out / sc.name, seed=args.seed, progress=not args.no_progress,
-                               cache=cache, figures=not args.no_figures)
+            res = run_scenario(
+                sc,
+                out_dir=out / sc.name,
+                seed=args.seed,
+                progress=not args.no_progress,
+                cache=cache,
+                figures=not args.no_figures,
+            )
         except UserError:
             raise
         except Exception as err:  # one scenario's crash never loses the others' results

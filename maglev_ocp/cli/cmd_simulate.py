@@ -26,7 +26,9 @@ def register(sub) -> None:
     from . import add_command
 
     p = add_command(
-        sub, "simulate", help="run the plant simulator and write a rig-log dataset",
+        sub,
+        "simulate",
+        help="run the plant simulator and write a rig-log dataset",
         description=(
             "Run the plant simulator (the stand-in for the rig: shared model + noise, 10 um\n"
             "encoders, current limits, stops, fixtures and unmodelled effects, per a rig profile\n"
@@ -41,8 +43,12 @@ def register(sub) -> None:
         example=EXAMPLES.split("\n", 1)[1].strip().splitlines()[0].strip(),
     )
     p.epilog = EXAMPLES
-    p.add_argument("--experiment", choices=("hover", "excitation", "seed-calibration"), default=None,
-                   help="closed-loop experiment (default: hover, or open loop with --currents/--constant)")
+    p.add_argument(
+        "--experiment",
+        choices=("hover", "excitation", "seed-calibration"),
+        default=None,
+        help="closed-loop experiment (default: hover, or open loop with --currents/--constant)",
+    )
     src = p.add_mutually_exclusive_group()
     src.add_argument("--currents", metavar="CSV", help="open loop: CSV with columns t,i_q,i_d (ZOH between rows)")
     src.add_argument("--constant", nargs=2, type=float, metavar=("IQ", "ID"), help="open loop: constant currents [A]")
@@ -189,8 +195,10 @@ def run(args: argparse.Namespace) -> int:
             from ..estimation.experiments import generate_seed_calibration
         except ModuleNotFoundError as err:
             if err.name and err.name.startswith("maglev_ocp.estimation"):
-                raise UserError("--experiment seed-calibration needs maglev_ocp/estimation/experiments.py "
-                                "(the calibration issue), which is not installed yet") from None
+                raise UserError(
+                    "--experiment seed-calibration needs maglev_ocp/estimation/experiments.py "
+                    "(the calibration issue), which is not installed yet"
+                ) from None
             raise
         t0 = time.perf_counter()
         path = generate_seed_calibration(out, seed=args.seed, plant_config=cfg, params=params, progress=progress)
@@ -264,8 +272,14 @@ def run(args: argparse.Namespace) -> int:
         "seed": args.seed,
         **plant.dataset_meta(),
     }
-    write_dataset(out, runs, plant.Ts, cfg.quantization.resolution, meta=meta,
-                  description=f"maglev simulate --experiment {experiment}")
+    write_dataset(
+        out,
+        runs,
+        plant.Ts,
+        cfg.quantization.resolution,
+        meta=meta,
+        description=f"maglev simulate --experiment {experiment}",
+    )
     if args.plot:
         for r in runs:
             plot_run(r, out / (Path(r.file).stem + ".png"))

@@ -39,8 +39,13 @@ from .sources import GeneratedSources, generate_sources
 from .templates import DEFAULT_CFLAGS
 
 
-def controller_codes(kinds=KINDS, params: Params = NOMINAL, nmpc_settings: Any = None, fl_settings: Any = None,
-                     shaping: str | None = "trajectory") -> list[ControllerCode]:
+def controller_codes(
+    kinds=KINDS,
+    params: Params = NOMINAL,
+    nmpc_settings: Any = None,
+    fl_settings: Any = None,
+    shaping: str | None = "trajectory",
+) -> list[ControllerCode]:
     """The :class:`ControllerCode` of each controller in ``kinds``.
 
     Parameters
@@ -76,12 +81,16 @@ def controller_codes(kinds=KINDS, params: Params = NOMINAL, nmpc_settings: Any =
     return out
 
 
-def generate_controllers(kinds=KINDS, params: Params = NOMINAL, nmpc_settings: Any = None,
-                         fl_settings: Any = None, shaping: str | None = "trajectory",
-                         cflags: str = DEFAULT_CFLAGS) -> GeneratedSources:
+def generate_controllers(
+    kinds=KINDS,
+    params: Params = NOMINAL,
+    nmpc_settings: Any = None,
+    fl_settings: Any = None,
+    shaping: str | None = "trajectory",
+    cflags: str = DEFAULT_CFLAGS,
+) -> GeneratedSources:
     """Generate the folder's files for ``kinds`` (see :func:`controller_codes`); nothing written yet."""
     return generate_sources(controller_codes(kinds, params, nmpc_settings, fl_settings, shaping), cflags)
 
 
-__all__ = ["DEFAULT_CFLAGS", "KINDS", "ControllerCode", "GeneratedSources", "controller_codes",
-           "generate_controllers"]
+__all__ = ["DEFAULT_CFLAGS", "KINDS", "ControllerCode", "GeneratedSources", "controller_codes", "generate_controllers"]

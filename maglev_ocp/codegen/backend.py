@@ -96,8 +96,7 @@ def _nmpc_class():
 
         backend = "c"
 
-        def __init__(self, settings=None, params: Params = NOMINAL, cflags: str | None = None,
-                     progress: bool = True):
+        def __init__(self, settings=None, params: Params = NOMINAL, cflags: str | None = None, progress: bool = True):
             from controllers.nmpc import NMPCSettings
 
             settings = settings or NMPCSettings()
@@ -139,8 +138,14 @@ def _fl_class():
 
         backend = "c"
 
-        def __init__(self, settings=None, params: Params = NOMINAL, Ts: float = k.Ts, cflags: str | None = None,
-                     progress: bool = True):
+        def __init__(
+            self,
+            settings=None,
+            params: Params = NOMINAL,
+            Ts: float = k.Ts,
+            cflags: str | None = None,
+            progress: bool = True,
+        ):
             super().__init__(settings, params, Ts)
             if abs(Ts - k.Ts) > 1e-15:
                 raise UserError(f"the C backend is generated for Ts = {k.Ts} s, got {Ts}")
@@ -166,9 +171,16 @@ def _fl_class():
             u = u.copy()
             self._u_prev = u
             stats = {
-                "unreachable": int(fl[0]), "sat_g": int(fl[1]), "sat_d": int(fl[2]),
-                "v_g": float(v[0]), "v_d": float(v[1]), "dist_g": float(dist[0]), "dist_d": float(dist[1]),
-                "solver_failure": 0, "fallback": 0, "kernel_us": self._c_step.last_us,
+                "unreachable": int(fl[0]),
+                "sat_g": int(fl[1]),
+                "sat_d": int(fl[2]),
+                "v_g": float(v[0]),
+                "v_d": float(v[1]),
+                "dist_g": float(dist[0]),
+                "dist_d": float(dist[1]),
+                "solver_failure": 0,
+                "fallback": 0,
+                "kernel_us": self._c_step.last_us,
                 "kernel_cpu_us": self._c_step.last_cpu_us,
             }
             return ControlOutput(u=u, x_hat=xh.copy(), stats=stats)
@@ -189,8 +201,14 @@ class CompiledObserver:
         Estimate the acceleration disturbance.
     """
 
-    def __init__(self, params: Params = NOMINAL, eps: float = 4e-3, disturbance: bool = True,
-                 cflags: str | None = None, progress: bool = True):
+    def __init__(
+        self,
+        params: Params = NOMINAL,
+        eps: float = 4e-3,
+        disturbance: bool = True,
+        cflags: str | None = None,
+        progress: bool = True,
+    ):
         self.params = params
         self._p = params.vector()
         self.build = compile_codes([observer_code(eps, disturbance, params)], cflags, progress)
@@ -222,8 +240,7 @@ class CompiledObserver:
         return self._f.last_us
 
 
-def build_c_controller(ctype: str, settings: Any, params: Params, cflags: str | None = None,
-                       progress: bool = True):
+def build_c_controller(ctype: str, settings: Any, params: Params, cflags: str | None = None, progress: bool = True):
     """The runner's hook for ``backend: c``: controller ``ctype`` on its compiled step.
 
     Parameters
@@ -244,8 +261,10 @@ def build_c_controller(ctype: str, settings: Any, params: Params, cflags: str | 
         return _nmpc_class()(settings, params, cflags=cflags, progress=progress)
     if ctype == "fl":
         return _fl_class()(settings, params, cflags=cflags, progress=progress)
-    raise UserError(f"controller.backend: 'c' is available for nmpc and fl, not for {ctype!r} "
-                    "(its law is numeric Python, not a CasADi Function)")
+    raise UserError(
+        f"controller.backend: 'c' is available for nmpc and fl, not for {ctype!r} "
+        "(its law is numeric Python, not a CasADi Function)"
+    )
 
 
 def compile_controller(ctrl, cflags: str | None = None, progress: bool = True):

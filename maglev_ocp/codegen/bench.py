@@ -76,8 +76,11 @@ def stats_us(values: np.ndarray, prefix: str = "") -> dict[str, float]:
     v = v[np.isfinite(v)]
     if v.size == 0:
         return {}
-    return {f"{prefix}median_us": float(np.median(v)), f"{prefix}p99_us": float(np.percentile(v, 99)),
-            f"{prefix}max_us": float(v.max())}
+    return {
+        f"{prefix}median_us": float(np.median(v)),
+        f"{prefix}p99_us": float(np.percentile(v, 99)),
+        f"{prefix}max_us": float(v.max()),
+    }
 
 
 class _Recorder:
@@ -135,8 +138,10 @@ class BenchResult:
 
     def table(self) -> str:
         """Text table: one row per controller and backend."""
-        head = (f"{'controller':<10} {'backend':<7} {'steps':>6} {'median':>9} {'p99':>9} {'max':>9} "
-                f"{'C median':>9} {'C p99':>9} {'C max':>9} {'C cpu p99':>10}")
+        head = (
+            f"{'controller':<10} {'backend':<7} {'steps':>6} {'median':>9} {'p99':>9} {'max':>9} "
+            f"{'C median':>9} {'C p99':>9} {'C max':>9} {'C cpu p99':>10}"
+        )
         lines = [head, f"{'':<25} {'step() [us]':^29} {'compiled kernel alone [us]':^40}", "-" * len(head)]
 
         def f(v):
@@ -150,16 +155,26 @@ class BenchResult:
                 lines.append(
                     f"{ctrl:<10} {b:<7} {v['n']:6d} {f(v.get('median_us'))} {f(v.get('p99_us'))} "
                     f"{f(v.get('max_us'))} {f(v.get('kernel_median_us'))} {f(v.get('kernel_p99_us'))} "
-                    f"{f(v.get('kernel_max_us'))} {f(v.get('kernel_cpu_p99_us')):>10}")
+                    f"{f(v.get('kernel_max_us'))} {f(v.get('kernel_cpu_p99_us')):>10}"
+                )
         m = self.meta
-        lines.append(f"scenario {m.get('scenario')}, {m.get('steps')} steps per run, first {m.get('warmup')} "
-                     f"dropped; CFLAGS {m.get('cflags')!r}; load average {m.get('loadavg')}; "
-                     f"{'SCHED_FIFO' if m.get('realtime') else 'normal priority'}")
+        lines.append(
+            f"scenario {m.get('scenario')}, {m.get('steps')} steps per run, first {m.get('warmup')} "
+            f"dropped; CFLAGS {m.get('cflags')!r}; load average {m.get('loadavg')}; "
+            f"{'SCHED_FIFO' if m.get('realtime') else 'normal priority'}"
+        )
         return "\n".join(lines)
 
 
-def run_bench(scenario=None, controllers=CONTROLLER_TYPES, backends=BACKENDS, warmup: int = 50,
-              cflags: str | None = None, progress: bool = True, realtime: bool = False) -> BenchResult:
+def run_bench(
+    scenario=None,
+    controllers=CONTROLLER_TYPES,
+    backends=BACKENDS,
+    warmup: int = 50,
+    cflags: str | None = None,
+    progress: bool = True,
+    realtime: bool = False,
+) -> BenchResult:
     """Time each controller and backend over ``scenario`` (a path, mapping or ``Scenario``; default built in).
 
     The scenario's own controller settings are used for its controller type;
@@ -218,10 +233,23 @@ def run_bench(scenario=None, controllers=CONTROLLER_TYPES, backends=BACKENDS, wa
                 entry.update(stats_us(np.array(rec.kernel_cpu_us)[sl], "kernel_cpu_"))
             entry["all_settled"] = bool(res.metrics.all_settled) if hasattr(res.metrics, "all_settled") else None
             results[ctype][backend] = entry
-    meta = {"scenario": base.name, "steps": steps, "warmup": warmup, "cflags": flags,
-            "loadavg": [round(v, 2) for v in os.getloadavg()], "realtime": rt_used}
+    meta = {
+        "scenario": base.name,
+        "steps": steps,
+        "warmup": warmup,
+        "cflags": flags,
+        "loadavg": [round(v, 2) for v in os.getloadavg()],
+        "realtime": rt_used,
+    }
     return BenchResult(results, meta)
 
 
-__all__ = ["BACKENDS", "CONTROLLER_TYPES", "DEFAULT_SCENARIO", "BenchResult", "realtime_priority", "run_bench",
-           "stats_us"]
+__all__ = [
+    "BACKENDS",
+    "CONTROLLER_TYPES",
+    "DEFAULT_SCENARIO",
+    "BenchResult",
+    "realtime_priority",
+    "run_bench",
+    "stats_us",
+]

@@ -81,9 +81,14 @@ class BuildResult:
         return f"{self.library} ({src}, CFLAGS={self.cflags!r})"
 
 
-def build_folder(folder: str | os.PathLike, cflags: str | None = None, jobs: int = 2,
-                 targets: tuple[str, ...] = (LIBRARY, HARNESS), progress: bool = True,
-                 cc: str | None = None) -> BuildResult:
+def build_folder(
+    folder: str | os.PathLike,
+    cflags: str | None = None,
+    jobs: int = 2,
+    targets: tuple[str, ...] = (LIBRARY, HARNESS),
+    progress: bool = True,
+    cc: str | None = None,
+) -> BuildResult:
     """Run ``make`` in a generated folder.
 
     Parameters
@@ -145,8 +150,13 @@ def _makefile_cflags(folder: Path) -> str:
     return ""
 
 
-def build_cached(sources: GeneratedSources, cflags: str | None = None, jobs: int = 2, progress: bool = True,
-                 root: str | os.PathLike | None = None) -> BuildResult:
+def build_cached(
+    sources: GeneratedSources,
+    cflags: str | None = None,
+    jobs: int = 2,
+    progress: bool = True,
+    root: str | os.PathLike | None = None,
+) -> BuildResult:
     """Build ``sources`` in the cache folder named by their content hash (compile only on a miss).
 
     The key covers every generated file, the compiler's identity and the flags.
@@ -179,5 +189,13 @@ def build_cached(sources: GeneratedSources, cflags: str | None = None, jobs: int
     return BuildResult(final, final / LIBRARY, final / HARNESS, res.seconds, flags, cached=False)
 
 
-__all__ = ["HARNESS", "LIBRARY", "BuildResult", "build_cached", "build_folder", "cache_root", "compiler_id",
-           "find_compiler"]
+__all__ = [
+    "HARNESS",
+    "LIBRARY",
+    "BuildResult",
+    "build_cached",
+    "build_folder",
+    "cache_root",
+    "compiler_id",
+    "find_compiler",
+]

@@ -81,8 +81,11 @@ def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
     u = ca.if_else(finite, u, ca.SX.zeros(2))
     state = ca.vertcat(x_hat, dist, z_next, u, 1)
     fl_step = ca.Function(
-        "fl_step", [st, meas, ref, p, gains], [u, state, x_hat, dist, v, flags],
-        ["state_in", "meas", "ref", "p", "gains"], ["u", "state_out", "x_hat", "dist", "v", "flags"],
+        "fl_step",
+        [st, meas, ref, p, gains],
+        [u, state, x_hat, dist, v, flags],
+        ["state_in", "meas", "ref", "p", "gains"],
+        ["u", "state_out", "x_hat", "dist", "v", "flags"],
     )
     return fl_init, fl_step
 

@@ -158,32 +158,67 @@ def _unit_list(signals) -> str:
 
 def params_port(np_: int) -> Port:
     """The model parameter vector input ``p``."""
-    return Port("p", np_, 1, "SI", "model parameters: " + _unit_list(PARAMETERS),
-                tuple(Piece(s.name, 1, s.unit, s.description) for s in PARAMETERS))
+    return Port(
+        "p",
+        np_,
+        1,
+        "SI",
+        "model parameters: " + _unit_list(PARAMETERS),
+        tuple(Piece(s.name, 1, s.unit, s.description) for s in PARAMETERS),
+    )
 
 
 def _u_port(name: str = "u") -> Port:
-    return Port(name, 2, 1, "A", "commanded currents: " + _unit_list(INPUTS),
-                tuple(Piece(s.name, 1, s.unit, s.description) for s in INPUTS))
+    return Port(
+        name,
+        2,
+        1,
+        "A",
+        "commanded currents: " + _unit_list(INPUTS),
+        tuple(Piece(s.name, 1, s.unit, s.description) for s in INPUTS),
+    )
 
 
 def _xhat_port(name: str = "x_hat") -> Port:
-    return Port(name, 4, 1, "m, m/s", "state estimate: " + _unit_list(STATES),
-                tuple(Piece(s.name, 1, s.unit, s.description) for s in STATES))
+    return Port(
+        name,
+        4,
+        1,
+        "m, m/s",
+        "state estimate: " + _unit_list(STATES),
+        tuple(Piece(s.name, 1, s.unit, s.description) for s in STATES),
+    )
 
 
 def _meas2_port(name: str = "meas") -> Port:
-    return Port(name, 2, 1, "m", "encoder readings: " + _unit_list(MEASUREMENTS),
-                tuple(Piece(s.name, 1, s.unit, s.description) for s in MEASUREMENTS))
+    return Port(
+        name,
+        2,
+        1,
+        "m",
+        "encoder readings: " + _unit_list(MEASUREMENTS),
+        tuple(Piece(s.name, 1, s.unit, s.description) for s in MEASUREMENTS),
+    )
 
 
 def _dist_port(name: str = "dist") -> Port:
-    return Port(name, 2, 1, "m/s^2", "acceleration disturbance estimate (gap, horizontal) [m/s^2]",
-                (Piece("a_g", 1, "m/s^2", "gap axis"), Piece("a_d", 1, "m/s^2", "horizontal axis")))
+    return Port(
+        name,
+        2,
+        1,
+        "m/s^2",
+        "acceleration disturbance estimate (gap, horizontal) [m/s^2]",
+        (Piece("a_g", 1, "m/s^2", "gap axis"), Piece("a_d", 1, "m/s^2", "horizontal axis")),
+    )
 
 
 REF_ROW_UNITS: tuple[tuple[str, str], ...] = (
-    ("g", "m"), ("g_dot", "m/s"), ("g_ddot", "m/s^2"), ("d", "m"), ("d_dot", "m/s"), ("d_ddot", "m/s^2"),
+    ("g", "m"),
+    ("g_dot", "m/s"),
+    ("g_ddot", "m/s^2"),
+    ("d", "m"),
+    ("d_dot", "m/s"),
+    ("d_ddot", "m/s^2"),
 )
 
 
@@ -222,14 +257,24 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
     }
     state_pieces = tuple(Piece(n, s, *state_units[n]) for n, s in lay.pieces)
     state_port = Port("state_in", lay.size, 1, "mixed", "controller memory (warm start etc.)", state_pieces)
-    ref_desc = (f"reference over the horizon: 6 rows ({', '.join(f'{r} [{u}]' for r, u in REF_ROW_UNITS)}) "
-                f"x {N + 1} columns (nodes t + k Ts, k = 0..{N}), column-major"
-                + ("; plan mode reads only the target (g, d) of column 0" if mode == "plan" else ""))
+    ref_desc = (
+        f"reference over the horizon: 6 rows ({', '.join(f'{r} [{u}]' for r, u in REF_ROW_UNITS)}) "
+        f"x {N + 1} columns (nodes t + k Ts, k = 0..{N}), column-major"
+        + ("; plan mode reads only the target (g, d) of column 0" if mode == "plan" else "")
+    )
     ref_port = Port("ref", 6, N + 1, "m, m/s, m/s^2", ref_desc)
-    meas_port = Port("meas", N_MEAS, 1, "m, m, -", "encoder readings g [m], d [m], then a fault flag "
-                     "(1 poisons the QP to exercise the fallback; 0 in operation)",
-                     (Piece("g", 1, "m", "air gap reading"), Piece("d", 1, "m", "horizontal reading"),
-                      Piece("fault", 1, "-", "test flag, 0 in operation")))
+    meas_port = Port(
+        "meas",
+        N_MEAS,
+        1,
+        "m, m, -",
+        "encoder readings g [m], d [m], then a fault flag (1 poisons the QP to exercise the fallback; 0 in operation)",
+        (
+            Piece("g", 1, "m", "air gap reading"),
+            Piece("d", 1, "m", "horizontal reading"),
+            Piece("fault", 1, "-", "test flag, 0 in operation"),
+        ),
+    )
     stats_units = {
         "status": ("-", "0 ok, 1 inaccurate (ADMM residuals above tolerance), 2 fallback"),
         "fallback": ("-", "1 when the LQR fallback was applied"),
@@ -246,16 +291,22 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
     stats_pieces = tuple(Piece(n, 1, *stats_units.get(n, ("-", n))) for n in STATS_NAMES)
     p_port = params_port(len(model_params.vector()))
     init_unit = CodeUnit(
-        init, "state at rest at the reading, planning towards the reference's target",
+        init,
+        "state at rest at the reading, planning towards the reference's target",
         (meas_port, ref_port, p_port),
         (Port("state", lay.size, 1, "mixed", "initial controller memory", state_pieces),),
     )
     step_unit = CodeUnit(
-        step, "one NMPC period: observer update, planner, RTI linearization, QP solve by "
+        step,
+        "one NMPC period: observer update, planner, RTI linearization, QP solve by "
         f"{settings.iterations} ADMM iterations, checks and fallback, warm-start shift",
         (state_port, meas_port, ref_port, p_port),
-        (_u_port(), Port("state_out", lay.size, 1, "mixed", "controller memory for the next call", state_pieces),
-         Port("stats", len(STATS_NAMES), 1, "mixed", "solver statistics", stats_pieces), _xhat_port()),
+        (
+            _u_port(),
+            Port("state_out", lay.size, 1, "mixed", "controller memory for the next call", state_pieces),
+            Port("stats", len(STATS_NAMES), 1, "mixed", "solver statistics", stats_pieces),
+            _xhat_port(),
+        ),
     )
     for u in (init_unit, step_unit):
         u.check()
@@ -265,10 +316,17 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
         "nominal parameters). The parameter vector p is an input (default: NMPC_PARAMS)."
     )
     return ControllerCode(
-        "nmpc", init_unit, step_unit,
+        "nmpc",
+        init_unit,
+        step_unit,
         constants={"PARAMS": (model_params.vector(), "model parameters p, " + _unit_list(PARAMETERS))},
-        defines={"HORIZON": N, "STATE_SIZE": lay.size, "REF_COLS": N + 1, "N_STATS": len(STATS_NAMES),
-                 "REF_MODE_PREVIEW": int(mode == "preview")},
+        defines={
+            "HORIZON": N,
+            "STATE_SIZE": lay.size,
+            "REF_COLS": N + 1,
+            "N_STATS": len(STATS_NAMES),
+            "REF_MODE_PREVIEW": int(mode == "preview"),
+        },
         settings={"mode": mode, **_design(settings)},
         notes=notes,
     )
@@ -285,36 +343,74 @@ def fl_code(settings, params: Params) -> ControllerCode:
     pieces = tuple(Piece(*q) for q in FL_STATE)
     state_in = Port("state_in", FL_STATE_SIZE, 1, "mixed", "controller memory", pieces)
     ref_units = dict(REF_ROW_UNITS)
-    ref = Port("ref", len(REF_FIELDS), 1, "m, m/s, m/s^2", "reference at this sample",
-               tuple(Piece(r, 1, ref_units[r], "reference " + r) for r in REF_FIELDS))
-    gain_units = {"kp_g": "1/s^2", "kd_g": "1/s", "ki_g": "1/s^3", "kp_d": "1/s^2", "kd_d": "1/s", "ki_d": "1/s^3",
-                  "i_axis_max": "A", "i_amp_max": "A", "Ts": "s"}
-    gains = Port("gains", len(GAIN_FIELDS), 1, "mixed", "outer-loop gains and current limits",
-                 tuple(Piece(g, 1, gain_units[g], g) for g in GAIN_FIELDS))
+    ref = Port(
+        "ref",
+        len(REF_FIELDS),
+        1,
+        "m, m/s, m/s^2",
+        "reference at this sample",
+        tuple(Piece(r, 1, ref_units[r], "reference " + r) for r in REF_FIELDS),
+    )
+    gain_units = {
+        "kp_g": "1/s^2",
+        "kd_g": "1/s",
+        "ki_g": "1/s^3",
+        "kp_d": "1/s^2",
+        "kd_d": "1/s",
+        "ki_d": "1/s^3",
+        "i_axis_max": "A",
+        "i_amp_max": "A",
+        "Ts": "s",
+    }
+    gains = Port(
+        "gains",
+        len(GAIN_FIELDS),
+        1,
+        "mixed",
+        "outer-loop gains and current limits",
+        tuple(Piece(g, 1, gain_units[g], g) for g in GAIN_FIELDS),
+    )
     p_port = params_port(len(params.vector()))
-    init_unit = CodeUnit(init, "state at rest at the reading (integrators cleared)", (_meas2_port(),),
-                         (Port("state", FL_STATE_SIZE, 1, "mixed", "initial controller memory", pieces),))
+    init_unit = CodeUnit(
+        init,
+        "state at rest at the reading (integrators cleared)",
+        (_meas2_port(),),
+        (Port("state", FL_STATE_SIZE, 1, "mixed", "initial controller memory", pieces),),
+    )
     step_unit = CodeUnit(
-        step, "one feedback-linearization period: observer update, model inversion with cogging, "
-        "limits with anti-windup",
+        step,
+        "one feedback-linearization period: observer update, model inversion with cogging, limits with anti-windup",
         (state_in, _meas2_port(), ref, p_port, gains),
-        (_u_port(), Port("state_out", FL_STATE_SIZE, 1, "mixed", "controller memory for the next call", pieces),
-         _xhat_port(), _dist_port(),
-         Port("v", 2, 1, "m/s^2", "demanded output accelerations (gap, horizontal)"),
-         Port("flags", len(FLAG_FIELDS), 1, "-", "0/1 flags: " + ", ".join(FLAG_FIELDS),
-              tuple(Piece(f, 1, "-", f) for f in FLAG_FIELDS))),
+        (
+            _u_port(),
+            Port("state_out", FL_STATE_SIZE, 1, "mixed", "controller memory for the next call", pieces),
+            _xhat_port(),
+            _dist_port(),
+            Port("v", 2, 1, "m/s^2", "demanded output accelerations (gap, horizontal)"),
+            Port(
+                "flags",
+                len(FLAG_FIELDS),
+                1,
+                "-",
+                "0/1 flags: " + ", ".join(FLAG_FIELDS),
+                tuple(Piece(f, 1, "-", f) for f in FLAG_FIELDS),
+            ),
+        ),
     )
     for u in (init_unit, step_unit):
         u.check()
     return ControllerCode(
-        "fl", init_unit, step_unit,
-        constants={"PARAMS": (params.vector(), "model parameters p, " + _unit_list(PARAMETERS)),
-                   "GAINS": (settings.gains(k.Ts), "gains: " + ", ".join(f"{g} [{gain_units[g]}]"
-                                                                          for g in GAIN_FIELDS))},
+        "fl",
+        init_unit,
+        step_unit,
+        constants={
+            "PARAMS": (params.vector(), "model parameters p, " + _unit_list(PARAMETERS)),
+            "GAINS": (settings.gains(k.Ts), "gains: " + ", ".join(f"{g} [{gain_units[g]}]" for g in GAIN_FIELDS)),
+        },
         defines={"STATE_SIZE": FL_STATE_SIZE},
         settings=_design(settings),
         notes=f"Observer time constant eps = {settings.observer_eps} s baked in "
-              f"(disturbance estimate: {settings.disturbance}); p and gains are inputs.",
+        f"(disturbance estimate: {settings.disturbance}); p and gains are inputs.",
     )
 
 
@@ -326,13 +422,16 @@ def observer_code(eps: float, disturbance: bool, params: Params) -> ControllerCo
 
     fn = observer_step_function(ObserverSettings(eps=eps, disturbance=disturbance), k.Ts)
     unit = CodeUnit(
-        fn, "one observer update with the reading y taken after u_prev was held for one period",
+        fn,
+        "one observer update with the reading y taken after u_prev was held for one period",
         (_xhat_port(), _dist_port(), _u_port("u_prev"), _meas2_port("y"), params_port(len(params.vector()))),
         (_xhat_port("x_hat_next"), _dist_port("dist_next")),
     )
     unit.check()
     return ControllerCode(
-        "observer", None, unit,
+        "observer",
+        None,
+        unit,
         constants={"PARAMS": (params.vector(), "model parameters p, " + _unit_list(PARAMETERS))},
         defines={},
         settings={"eps": eps, "disturbance": disturbance},
@@ -353,6 +452,14 @@ def resolve_nmpc_mode(settings, shaping: str | None) -> str:
 
 
 __all__ = [
-    "KINDS", "CodeUnit", "ControllerCode", "Piece", "Port", "fl_code", "nmpc_code", "observer_code",
-    "params_port", "resolve_nmpc_mode",
+    "KINDS",
+    "CodeUnit",
+    "ControllerCode",
+    "Piece",
+    "Port",
+    "fl_code",
+    "nmpc_code",
+    "observer_code",
+    "params_port",
+    "resolve_nmpc_mode",
 ]

@@ -34,8 +34,9 @@ def observer_gain(settings: ObserverSettings, Ts: float = k.Ts):
     return HighGainObserver(NOMINAL, settings, Ts).L.copy()
 
 
-def observer_step_function(settings: ObserverSettings | None = None, Ts: float = k.Ts,
-                           name: str = "observer_step") -> ca.Function:
+def observer_step_function(
+    settings: ObserverSettings | None = None, Ts: float = k.Ts, name: str = "observer_step"
+) -> ca.Function:
     """The observer update as a CasADi Function (SX, so it generates flat C).
 
     ``observer_step(x_hat[4], dist[2], u_prev[2], y[2], p[np]) -> (x_hat_next[4], dist_next[2])``
@@ -52,8 +53,13 @@ def observer_step_function(settings: ObserverSettings | None = None, Ts: float =
     settings = settings or ObserverSettings()
     L = observer_gain(settings, Ts)
     np_ = get_model().np_
-    x, dist, u, y, p = (ca.SX.sym("x_hat", 4), ca.SX.sym("dist", 2), ca.SX.sym("u_prev", 2),
-                        ca.SX.sym("y", 2), ca.SX.sym("p", np_))
+    x, dist, u, y, p = (
+        ca.SX.sym("x_hat", 4),
+        ca.SX.sym("dist", 2),
+        ca.SX.sym("u_prev", 2),
+        ca.SX.sym("y", 2),
+        ca.SX.sym("p", np_),
+    )
     xn, dn = observer_update(x, dist, u, y, p, L, Ts, settings.disturbance)
     return ca.Function(name, [x, dist, u, y, p], [xn, dn], list(OBSERVER_IN), list(OBSERVER_OUT))
 

@@ -28,8 +28,13 @@ from .functions import CodeUnit, ControllerCode, Port
 
 #: CasADi code-generator options: header per file, explicit scalar types, and no
 #: dependence on a memory object (the step functions have no persistent memory).
-CODEGEN_OPTIONS: dict = {"with_header": True, "casadi_real": "double", "casadi_int": "long long int",
-                         "with_mem": False, "verbose_runtime": False}
+CODEGEN_OPTIONS: dict = {
+    "with_header": True,
+    "casadi_real": "double",
+    "casadi_int": "long long int",
+    "with_mem": False,
+    "verbose_runtime": False,
+}
 
 
 def _macro(*parts: str) -> str:
@@ -65,8 +70,11 @@ def _static_helpers(src: str) -> str:
 def _port_doc(fn_macro: str, direction: str, idx: int, port: Port) -> list[str]:
     base = _macro(fn_macro, direction, port.name)
     shape = f"{port.rows}x{port.cols}" if port.cols > 1 else f"{port.rows}"
-    lines = [f"/* {direction.lower()}[{idx}] {port.name} ({shape}) [{port.unit}]: {port.description} */",
-             f"#define {base} {idx}", f"#define {base}_SIZE {port.size}"]
+    lines = [
+        f"/* {direction.lower()}[{idx}] {port.name} ({shape}) [{port.unit}]: {port.description} */",
+        f"#define {base} {idx}",
+        f"#define {base}_SIZE {port.size}",
+    ]
     off, used = 0, set()
     for i, pc in enumerate(port.pieces):
         pm = _macro(base, pc.name)
@@ -90,8 +98,11 @@ def work_sizes(src: str, name: str) -> dict[str, int]:
 def _unit_doc(unit: CodeUnit, src: str) -> list[str]:
     fn = unit.fn
     m = _macro(unit.name)
-    sig = ", ".join(f"{p.name}[{p.size}]" for p in unit.inputs) + " -> " + ", ".join(
-        f"{p.name}[{p.size}]" for p in unit.outputs)
+    sig = (
+        ", ".join(f"{p.name}[{p.size}]" for p in unit.inputs)
+        + " -> "
+        + ", ".join(f"{p.name}[{p.size}]" for p in unit.outputs)
+    )
     lines = ["", f"/* ---- {unit.name}({sig})", f" * {unit.doc}.", " */"]
     gen = work_sizes(src, unit.name)
     sizes = {"sz_arg": fn.sz_arg(), "sz_res": fn.sz_res(), "sz_iw": fn.sz_iw(), "sz_w": fn.sz_w()}
@@ -157,10 +168,13 @@ def main_text(codes: list[ControllerCode]) -> str:
     kinds = [c.kind for c in codes]
     code = "".join(blocks[kd] for kd in kinds)
     dispatch = "".join(
-        f'    if (!strcmp(kind, "{kd}")) {{ known = 1; rc = run_{kd}(&t, &rf, out, repeat); }}\n'
-        for kd in kinds)
-    return (tpl.MAIN_C.replace("@KINDS@", " | ".join(kinds)).replace("@CONTROLLER_CODE@", code)
-            .replace("@DISPATCH@", dispatch.rstrip("\n")))
+        f'    if (!strcmp(kind, "{kd}")) {{ known = 1; rc = run_{kd}(&t, &rf, out, repeat); }}\n' for kd in kinds
+    )
+    return (
+        tpl.MAIN_C.replace("@KINDS@", " | ".join(kinds))
+        .replace("@CONTROLLER_CODE@", code)
+        .replace("@DISPATCH@", dispatch.rstrip("\n"))
+    )
 
 
 @dataclass
@@ -242,24 +256,41 @@ def generate_sources(codes: list[ControllerCode], cflags: str = tpl.DEFAULT_CFLA
     files["main.c"] = main_text(codes)
     # largest sources first, so `make -j` starts the long compilations early
     srcs.sort(key=lambda s: -len(files[s]))
-    files["Makefile"] = (tpl.MAKEFILE.replace("@CFLAGS@", cflags).replace("@GEN_SRCS@", " ".join(srcs))
-                         .replace("@GEN_HDRS@", " ".join(hdrs)))
+    files["Makefile"] = (
+        tpl.MAKEFILE.replace("@CFLAGS@", cflags)
+        .replace("@GEN_SRCS@", " ".join(srcs))
+        .replace("@GEN_HDRS@", " ".join(hdrs))
+    )
     files["CMakeLists.txt"] = tpl.CMAKELISTS.replace("@CFLAGS@", cflags).replace("@GEN_SRCS@", " ".join(srcs))
-    files["README.md"] = (tpl.README.replace("@CASADI@", ca.__version__).replace("@KINDS@", ", ".join(kinds))
-                          .replace("@CFLAGS@", cflags))
+    files["README.md"] = (
+        tpl.README.replace("@CASADI@", ca.__version__).replace("@KINDS@", ", ".join(kinds)).replace("@CFLAGS@", cflags)
+    )
     manifest = {
         "format": "maglev-codegen/1",
         "casadi": ca.__version__,
         "Ts": k.Ts,
         "cflags": cflags,
-        "controllers": {c.kind: {"functions": [u.name for u in c.units], "settings": c.settings,
-                                 "constants": {n: np.ravel(a).tolist() for n, (a, _) in c.constants.items()},
-                                 "defines": c.defines} for c in codes},
+        "controllers": {
+            c.kind: {
+                "functions": [u.name for u in c.units],
+                "settings": c.settings,
+                "constants": {n: np.ravel(a).tolist() for n, (a, _) in c.constants.items()},
+                "defines": c.defines,
+            }
+            for c in codes
+        },
         "sources": {s: hashlib.sha256(files[s].encode()).hexdigest() for s in sorted(srcs)},
     }
     files["manifest.json"] = json.dumps(manifest, indent=2, sort_keys=True) + "\n"
     return GeneratedSources(files, list(codes), cflags, time.perf_counter() - t0, fnames)
 
 
-__all__ = ["CODEGEN_OPTIONS", "GeneratedSources", "generate_function_source", "generate_sources", "header_text",
-           "main_text", "work_sizes"]
+__all__ = [
+    "CODEGEN_OPTIONS",
+    "GeneratedSources",
+    "generate_function_source",
+    "generate_sources",
+    "header_text",
+    "main_text",
+    "work_sizes",
+]

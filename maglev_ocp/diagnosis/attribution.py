@@ -148,11 +148,20 @@ class EffectScore:
     def to_dict(self) -> dict:
         """JSON-ready view (the issue's ``effects`` entries plus statistics)."""
         return {
-            "name": self.name, "params": self.params, "stderr": self.stderr,
-            "heldout_rms_before": self.heldout_rms_before, "heldout_rms_after": self.heldout_rms_after,
-            "reduction": self.reduction, "selected": self.selected, "gap_closed": self.closes,
-            "z_heldout": self.z, "delta_bic": self.delta_bic, "significant": self.significant,
-            "per_channel_rms": self.per_channel, "confusable_with": self.confusable_with, "note": self.note,
+            "name": self.name,
+            "params": self.params,
+            "stderr": self.stderr,
+            "heldout_rms_before": self.heldout_rms_before,
+            "heldout_rms_after": self.heldout_rms_after,
+            "reduction": self.reduction,
+            "selected": self.selected,
+            "gap_closed": self.closes,
+            "z_heldout": self.z,
+            "delta_bic": self.delta_bic,
+            "significant": self.significant,
+            "per_channel_rms": self.per_channel,
+            "confusable_with": self.confusable_with,
+            "note": self.note,
         }
 
 
@@ -181,9 +190,18 @@ class VerdictRules:
     second_min: float = 0.5
 
 
-def score(name: str, fit: FitResult | None, base_fit: FitResult, before: Sequence[Residual],
-          after: Sequence[Residual], floors: np.ndarray, rules: VerdictRules, params: dict[str, float],
-          stderr: dict[str, float], note: str = "") -> EffectScore:
+def score(
+    name: str,
+    fit: FitResult | None,
+    base_fit: FitResult,
+    before: Sequence[Residual],
+    after: Sequence[Residual],
+    floors: np.ndarray,
+    rules: VerdictRules,
+    params: dict[str, float],
+    stderr: dict[str, float],
+    note: str = "",
+) -> EffectScore:
     """Score one fitted candidate on the held-out residuals ``before`` (baseline) and ``after``."""
     eb, ea = stack(before, floors), stack(after, floors)
     Rb2, Ra2 = float(np.mean(eb**2)), float(np.mean(ea**2))
@@ -198,9 +216,23 @@ def score(name: str, fit: FitResult | None, base_fit: FitResult, before: Sequenc
             chans[cname] = [b, a]
     dbic = (fit.bic() - base_fit.bic()) if fit is not None else 0.0
     sig = bool(z >= rules.z_min and dbic <= -rules.bic_margin)
-    return EffectScore(name, fit, params, stderr, rb, ra, chans, 1 - ra / rb if rb > 0 else 0.0,
-                       float(np.clip(closes, -1.0, 1.0)), z, dbic, sig, note=note, e_after=ea,
-                       r2_after=Ra2)
+    return EffectScore(
+        name,
+        fit,
+        params,
+        stderr,
+        rb,
+        ra,
+        chans,
+        1 - ra / rb if rb > 0 else 0.0,
+        float(np.clip(closes, -1.0, 1.0)),
+        z,
+        dbic,
+        sig,
+        note=note,
+        e_after=ea,
+        r2_after=Ra2,
+    )
 
 
 @dataclass
@@ -225,8 +257,9 @@ class Verdict:
     reasons: list[str]
 
 
-def decide(scores: Sequence[EffectScore], gap_detected: bool, rules: VerdictRules,
-           gap_evidence: Sequence[str] = ()) -> tuple[Verdict, EffectScore | None]:
+def decide(
+    scores: Sequence[EffectScore], gap_detected: bool, rules: VerdictRules, gap_evidence: Sequence[str] = ()
+) -> tuple[Verdict, EffectScore | None]:
     """Verdict from single-effect scores (pairs are handled by the caller via :func:`pick_second`).
 
     Returns the verdict and the best significant score (None if there is none).
@@ -240,8 +273,10 @@ def decide(scores: Sequence[EffectScore], gap_detected: bool, rules: VerdictRule
         reasons.append("a gap is detected but no candidate improves the held-out runs significantly")
         return Verdict("unexplained", [], gap_detected, reasons), None
     best = max(sig, key=lambda s: (s.reduction, -s.delta_bic))
-    reasons.append(f"best candidate {best.name}: held-out reduction {best.reduction:.1%}, closes "
-                   f"{best.closes:.0%} of the gap, z = {best.z:.1f}, dBIC = {best.delta_bic:.0f}")
+    reasons.append(
+        f"best candidate {best.name}: held-out reduction {best.reduction:.1%}, closes "
+        f"{best.closes:.0%} of the gap, z = {best.z:.1f}, dBIC = {best.delta_bic:.0f}"
+    )
     if best.closes < rules.closes_min:
         return Verdict("unexplained", [], True, reasons), best
     conf = []
@@ -265,5 +300,4 @@ def rank(scores: Sequence[EffectScore]) -> list[EffectScore]:
     return sorted(scores, key=lambda s: (not s.significant, -s.reduction, s.delta_bic))
 
 
-__all__ = ["EffectScore", "Verdict", "VerdictRules", "decide", "paired_z", "rank", "raw_rms", "score",
-           "stack"]
+__all__ = ["EffectScore", "Verdict", "VerdictRules", "decide", "paired_z", "rank", "raw_rms", "score", "stack"]

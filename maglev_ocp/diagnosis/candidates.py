@@ -105,8 +105,9 @@ class CandidateSpec:
 
     def with_free(self, extra: Sequence[Free]) -> CandidateSpec:
         """Copy with more fitted parameters (e.g. the baseline's C1..C4 re-fitted jointly)."""
-        return CandidateSpec(self.name, self.effects, tuple(extra) + self.free, self.fixed, self.ties, self.lag,
-                             self.note)
+        return CandidateSpec(
+            self.name, self.effects, tuple(extra) + self.free, self.fixed, self.ties, self.lag, self.note
+        )
 
 
 def _eb(effect: str, param: str) -> tuple[float, float]:
@@ -123,7 +124,8 @@ def library_specs() -> dict[str, CandidateSpec]:
     pi = math.pi
     specs = [
         CandidateSpec(
-            "cogging", ("cogging",),
+            "cogging",
+            ("cogging",),
             free=(
                 Free("p.xi0", 0.0, 50.0, 1.0, 4.0),
                 Free("p.ell", 1e-3, 0.03, 4e-3, 4e-3),
@@ -134,12 +136,15 @@ def library_specs() -> dict[str, CandidateSpec]:
             ),
             fixed=(("cogging.h1", 0.0), ("cogging.power", 0.0), ("cogging.kn", 1.0)),
             ties=(("cogging.xi0", "p.xi0"), ("cogging.ell", "p.ell")),
-            note=("the seed's law (xi0, ell in p, eq. (9)) plus the library's 2nd/3rd slot harmonics relative to "
-                  "xi0 with the same decay; power-law decay (collinear with ell) and the harmonics' normal ratio "
-                  "kn (undetermined while the harmonics are small) held at 0 and 1"),
+            note=(
+                "the seed's law (xi0, ell in p, eq. (9)) plus the library's 2nd/3rd slot harmonics relative to "
+                "xi0 with the same decay; power-law decay (collinear with ell) and the harmonics' normal ratio "
+                "kn (undetermined while the harmonics are small) held at 0 and 1"
+            ),
         ),
         CandidateSpec(
-            "friction", ("friction",),
+            "friction",
+            ("friction",),
             free=(
                 Free("friction.coulomb_g", 0.0, 10.0, 0.05, 0.2),
                 Free("friction.coulomb_d", 0.0, 10.0, 0.05, 0.2),
@@ -147,11 +152,14 @@ def library_specs() -> dict[str, CandidateSpec]:
                 Free("friction.viscous_d", 0.0, 100.0, 0.5, 1.0),
             ),
             fixed=(("friction.stribeck_g", 0.0), ("friction.stribeck_d", 0.0), ("friction.v_reg", 1e-3)),
-            note=("Coulomb + viscous per axis; the Stribeck excess (below a few mm/s) and the sign "
-                  "regularization are below the velocity resolution of 10 um encoders (v_reg fixed at 1 mm/s)"),
+            note=(
+                "Coulomb + viscous per axis; the Stribeck excess (below a few mm/s) and the sign "
+                "regularization are below the velocity resolution of 10 um encoders (v_reg fixed at 1 mm/s)"
+            ),
         ),
         CandidateSpec(
-            "end_effect", ("end_effect",),
+            "end_effect",
+            ("end_effect",),
             free=(
                 Free("end_effect.ripple", 0.0, 0.5, 0.02, 0.05),
                 Free("end_effect.ripple_phase", -2 * pi, 2 * pi, 0.3, 1.0),
@@ -161,14 +169,19 @@ def library_specs() -> dict[str, CandidateSpec]:
             note="thrust ripple with the pole pitch and loss of force at overhang, all four parameters",
         ),
         CandidateSpec(
-            "amplifier_lag", (), lag=True,
+            "amplifier_lag",
+            (),
+            lag=True,
             free=(),
-            note=("first-order lag + whole-sample delay, applied to the commanded currents exactly as the plant "
-                  "does; below the residual's cut-off lag and delay act alike, so the split between them is "
-                  "weakly determined"),
+            note=(
+                "first-order lag + whole-sample delay, applied to the commanded currents exactly as the plant "
+                "does; below the residual's cut-off lag and delay act alike, so the split between them is "
+                "weakly determined"
+            ),
         ),
         CandidateSpec(
-            "saturation", ("saturation",),
+            "saturation",
+            ("saturation",),
             free=(
                 Free("saturation.loss_8mm", 0.0, 0.8, 0.05, 0.1),
                 Free("saturation.ell_sat", 5e-4, 0.05, 3e-3, 3e-3),
@@ -176,17 +189,20 @@ def library_specs() -> dict[str, CandidateSpec]:
             note="gap-dependent loss of every magnetic force",
         ),
         CandidateSpec(
-            "commutation_offset", ("commutation_offset",),
+            "commutation_offset",
+            ("commutation_offset",),
             free=(Free("commutation_offset.delta", *_eb("commutation_offset", "delta"), 0.0, 0.05),),
             note="dq-frame rotation of the motor currents",
         ),
         CandidateSpec(
-            "eddy_drag", ("eddy_drag",),
+            "eddy_drag",
+            ("eddy_drag",),
             free=(Free("eddy_drag.c_eddy", *_eb("eddy_drag", "c_eddy"), 10.0, 50.0),),
             note="drag proportional to B(g)^2 times the horizontal velocity",
         ),
         CandidateSpec(
-            "parameter_error", ("parameter_error",),
+            "parameter_error",
+            ("parameter_error",),
             free=(
                 Free("parameter_error.k_C1", 0.5, 2.0, 1.0, 0.05),
                 Free("parameter_error.k_C2", 0.5, 2.0, 1.0, 0.05),
@@ -194,8 +210,10 @@ def library_specs() -> dict[str, CandidateSpec]:
                 Free("parameter_error.k_C4", 0.0, 5.0, 1.0, 0.5),
             ),
             fixed=(("parameter_error.k_Mh", 1.0), ("parameter_error.k_Mv", 1.0)),
-            note=("factors on the C1..C4 terms; mass factors are not separable from them (a mass error "
-                  "scales the same terms) and are held at 1"),
+            note=(
+                "factors on the C1..C4 terms; mass factors are not separable from them (a mass error "
+                "scales the same terms) and are held at 1"
+            ),
         ),
     ]
     return {s.name: s for s in specs}
@@ -344,7 +362,7 @@ class Dataset:
         for (off, base, n_take, pad, nb, Q, D, Wq, S), run in zip(self._polyphase(), self.runs, strict=True):
             if not run.valid[channel]:
                 continue
-            seg = X[off + base: off + base + n_take, :]
+            seg = X[off + base : off + base + n_take, :]
             if pad:
                 seg = ca.vertcat(seg, ca.MX.zeros(pad, k_))
             R = ca.reshape(seg, D, nb * k_)
@@ -492,15 +510,26 @@ class CandidateFitter:
         lam_g = ca.MX.sym("lam_g", 0)
         H = ca.mtimes(J.T, J) + self.prior * ca.DM.eye(nw)
         # SQP with the Gauss-Newton Hessian: a handful of iterations on a least-squares problem.
-        hess = ca.Function("gn_hess", [s, pv, lam_f, lam_g], [lam_f * H],
-                           ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
-        jac_fg = ca.Function("jac_fg", [s, pv], [f2, grad, ca.MX(0, 1), ca.MX(0, nw)],
-                             ["x", "p"], ["f", "grad_f_x", "g", "jac_g_x"])
+        hess = ca.Function(
+            "gn_hess", [s, pv, lam_f, lam_g], [lam_f * H], ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]
+        )
+        jac_fg = ca.Function(
+            "jac_fg", [s, pv], [f2, grad, ca.MX(0, 1), ca.MX(0, nw)], ["x", "p"], ["f", "grad_f_x", "g", "jac_g_x"]
+        )
         opts = {
-            "print_time": False, "print_header": False, "print_iteration": _DEBUG, "print_status": False,
-            "qpsol": "qrqp", "qpsol_options": {"print_iter": False, "print_header": False, "error_on_fail": False},
-            "hessian_approximation": "exact", "max_iter": self.chunk, "tol_du": 1e-6, "tol_pr": 1e-9,
-            "hess_lag": hess, "jac_fg": jac_fg, "error_on_fail": False,
+            "print_time": False,
+            "print_header": False,
+            "print_iteration": _DEBUG,
+            "print_status": False,
+            "qpsol": "qrqp",
+            "qpsol_options": {"print_iter": False, "print_header": False, "error_on_fail": False},
+            "hessian_approximation": "exact",
+            "max_iter": self.chunk,
+            "tol_du": 1e-6,
+            "tol_pr": 1e-9,
+            "hess_lag": hess,
+            "jac_fg": jac_fg,
+            "error_on_fail": False,
         }
         self._solver = ca.nlpsol(f"fit_{spec.name}", "sqpmethod", {"x": s, "p": pv, "f": f}, opts)
         self._rj = ca.Function("res_jac", [s, pv], [r2, J])
@@ -563,7 +592,7 @@ def _inflation(r: np.ndarray, data: Dataset) -> float:
     for c in range(2):
         n = data.n_c[c]
         if n:
-            out += n * autocorr_factor(r[i:i + n])
+            out += n * autocorr_factor(r[i : i + n])
             tot += n
             i += n
     return out / tot if tot else 1.0
@@ -589,8 +618,9 @@ def _stderr(J: np.ndarray, sse: float, n: int, infl: float) -> np.ndarray:
     return out
 
 
-def fit_candidate(spec: CandidateSpec, data: Dataset, p: np.ndarray, u_runs: Sequence[np.ndarray] | None = None,
-                  max_delay: int = 3) -> FitResult:
+def fit_candidate(
+    spec: CandidateSpec, data: Dataset, p: np.ndarray, u_runs: Sequence[np.ndarray] | None = None, max_delay: int = 3
+) -> FitResult:
     """Fit one candidate on training data.
 
     Parameters
@@ -689,8 +719,13 @@ def _fit_lag(fitter: CandidateFitter, data: Dataset, u_runs: Sequence[np.ndarray
     return FitResult(fitter.spec, fr.w, fr.stderr, fr.sse, fr.n, fr.inflation, extra, fr.success)
 
 
-def residuals_with(spec: CandidateSpec, fit: FitResult | None, runs: Sequence[PreparedRun], p: np.ndarray,
-                   u_runs: Sequence[np.ndarray] | None = None) -> list[Residual]:
+def residuals_with(
+    spec: CandidateSpec,
+    fit: FitResult | None,
+    runs: Sequence[PreparedRun],
+    p: np.ndarray,
+    u_runs: Sequence[np.ndarray] | None = None,
+) -> list[Residual]:
     """Residuals of ``runs`` under a fitted candidate (or the baseline if ``fit`` is None)."""
     out = []
     w = fit.w if fit is not None else np.zeros(len(spec.free))
@@ -707,6 +742,16 @@ def residuals_with(spec: CandidateSpec, fit: FitResult | None, runs: Sequence[Pr
 
 
 __all__ = [
-    "CandidateFitter", "CandidateSpec", "Dataset", "FitResult", "Free", "accel_series", "calibration_free",
-    "fit_candidate", "lag_Z", "lag_features", "library_specs", "residuals_with",
+    "CandidateFitter",
+    "CandidateSpec",
+    "Dataset",
+    "FitResult",
+    "Free",
+    "accel_series",
+    "calibration_free",
+    "fit_candidate",
+    "lag_Z",
+    "lag_features",
+    "library_specs",
+    "residuals_with",
 ]

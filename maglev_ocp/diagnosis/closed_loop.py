@@ -71,8 +71,9 @@ def _compensator(spec: CandidateSpec) -> ca.Function:
     uk = uc
     for _ in range(4):
         uk = step(uk, x, uc, up, pm, pa, w)
-    return ca.Function("compensate", [x, uc, up, pm, pa, w], [uk], ["x", "u_c", "u_prev", "p_model", "p_aug", "w"],
-                       ["u"])
+    return ca.Function(
+        "compensate", [x, uc, up, pm, pa, w], [uk], ["x", "u_c", "u_prev", "p_model", "p_aug", "w"], ["u"]
+    )
 
 
 class EffectCompensation:
@@ -94,8 +95,16 @@ class EffectCompensation:
         Fitted effective delay of the amplifier [s] (0: none); compensated by a lead.
     """
 
-    def __init__(self, controller, spec: CandidateSpec, w: np.ndarray, p_model: Params, p_aug: np.ndarray,
-                 lag_delay: float = 0.0, Ts: float = k.Ts):
+    def __init__(
+        self,
+        controller,
+        spec: CandidateSpec,
+        w: np.ndarray,
+        p_model: Params,
+        p_aug: np.ndarray,
+        lag_delay: float = 0.0,
+        Ts: float = k.Ts,
+    ):
         self.inner = controller
         self.name = f"{getattr(controller, 'name', 'controller')}+{spec.name}"
         self.spec = spec
@@ -184,30 +193,43 @@ class ClosedLoopView:
 
     def table(self) -> str:
         """Text table of the three runs."""
-        head = (f"{'run':<12} {'settled':>7} {'max settle [s]':>14} {'rms g [um]':>10} {'rms d [um]':>10} "
-                f"{'final err [um]':>14} {'max |i| [A]':>11}")
+        head = (
+            f"{'run':<12} {'settled':>7} {'max settle [s]':>14} {'rms g [um]':>10} {'rms d [um]':>10} "
+            f"{'final err [um]':>14} {'max |i| [A]':>11}"
+        )
         lines = [f"scenario {self.scenario}, effect {self.effect}", head, "-" * len(head)]
 
         def f(v, s=1.0, fmt="{:.2f}"):
             return "-" if v is None else fmt.format(v * s)
 
         for r in self.rows():
-            lines.append(f"{r['run']:<12} {bool(r['all_settled'])!s:>7} {f(r['max_settle_time_s'], 1, '{:.3f}'):>14} "
-                         f"{f(r['max_rms_error_g_m'], 1e6):>10} {f(r['max_rms_error_d_m'], 1e6):>10} "
-                         f"{f(r['max_final_error_m'], 1e6):>14} {f(r['max_current_A']):>11}")
-        lines.append("fitted: " + ", ".join(f"{kk}={v:.4g}" for kk, v in self.fitted.items()
-                                            if isinstance(v, (int, float))))
+            lines.append(
+                f"{r['run']:<12} {bool(r['all_settled'])!s:>7} {f(r['max_settle_time_s'], 1, '{:.3f}'):>14} "
+                f"{f(r['max_rms_error_g_m'], 1e6):>10} {f(r['max_rms_error_d_m'], 1e6):>10} "
+                f"{f(r['max_final_error_m'], 1e6):>14} {f(r['max_current_A']):>11}"
+            )
+        lines.append(
+            "fitted: " + ", ".join(f"{kk}={v:.4g}" for kk, v in self.fitted.items() if isinstance(v, (int, float)))
+        )
         return "\n".join(lines)
 
     def save(self, out_dir: str | os.PathLike) -> Path:
         """Write ``closed_loop.json``, ``closed_loop.md`` and ``closed_loop.png``."""
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        doc = {"scenario": self.scenario, "effect": self.effect, "plant_effect": self.plant_effect,
-               "fitted": self.fitted, "runs": self.rows(), "metrics": self.metrics}
+        doc = {
+            "scenario": self.scenario,
+            "effect": self.effect,
+            "plant_effect": self.plant_effect,
+            "fitted": self.fitted,
+            "runs": self.rows(),
+            "metrics": self.metrics,
+        }
         atomic_write_text(out / "closed_loop.json", json.dumps(doc, indent=2, default=_jsonable))
-        atomic_write_text(out / "closed_loop.md", "# Closed-loop view\n\n```\n" + self.table() + "\n```\n\n"
-                          "![closed loop](closed_loop.png)\n")
+        atomic_write_text(
+            out / "closed_loop.md",
+            "# Closed-loop view\n\n```\n" + self.table() + "\n```\n\n![closed loop](closed_loop.png)\n",
+        )
         if self.logs:
             import matplotlib
 
@@ -266,8 +288,13 @@ def _spec_values(spec: CandidateSpec, fitted: dict[str, float], p_base: np.ndarr
 
 
 def closed_loop_view(
-    scenario, effect: str, effect_params: dict[str, float] | None = None, fitted: dict[str, float] | None = None,
-    seed: int | None = None, progress: bool = False, fit_settings=None,
+    scenario,
+    effect: str,
+    effect_params: dict[str, float] | None = None,
+    fitted: dict[str, float] | None = None,
+    seed: int | None = None,
+    progress: bool = False,
+    fit_settings=None,
 ) -> ClosedLoopView:
     """Run the scenario on the model, on the rig with ``effect``, and with the fitted effect compensated.
 
@@ -301,19 +328,32 @@ def closed_loop_view(
     eff.update(effect_params or {})
     bad = set(eff) - set(EFFECTS[effect].param_names()) - ({"xi0", "ell"} if effect == "cogging" else set())
     if bad:
-        raise UserError(f"--effect-param: {effect} has no parameters {sorted(bad)}; it has "
-                        f"{', '.join(EFFECTS[effect].param_names())}")
+        raise UserError(
+            f"--effect-param: {effect} has no parameters {sorted(bad)}; it has "
+            f"{', '.join(EFFECTS[effect].param_names())}"
+        )
     # The model's world: the scenario's plant with its extra effects off and the model's own parameters.
     off = {n: {"enabled": False} for n in EFFECTS}
     model_sc = _with_plant(sc, {"effects": off})
     if effect == "cogging":
         # The seed's cogging law lives in the parameters: the rig has it, the model's world does not.
         model_sc = _with_plant(model_sc, {"params": {"xi0": 0.0}})
-        rig_sc = _with_plant(sc, {"effects": off, "params": {"xi0": eff.get("xi0", 4.0),
-                                                             "ell": eff.get("ell", 3.6e-3)}})
+        rig_sc = _with_plant(
+            sc, {"effects": off, "params": {"xi0": eff.get("xi0", 4.0), "ell": eff.get("ell", 3.6e-3)}}
+        )
     else:
-        rig_sc = _with_plant(sc, {"effects": {**off, effect: {"enabled": True, **{
-            kk: v for kk, v in eff.items() if kk in EFFECTS[effect].param_names()}}}})
+        rig_sc = _with_plant(
+            sc,
+            {
+                "effects": {
+                    **off,
+                    effect: {
+                        "enabled": True,
+                        **{kk: v for kk, v in eff.items() if kk in EFFECTS[effect].param_names()},
+                    },
+                }
+            },
+        )
     ctrl_params = sc.controller_model_params()
     if effect == "cogging":
         # The cogging under study is what the controller's model lacks, in all three runs.
@@ -323,11 +363,19 @@ def closed_loop_view(
     spec = library_specs()[effect]
     p_base = ctrl_params.without_cogging().vector() if effect == "cogging" else ctrl_params.vector()
     if fitted is None:
-        gen = generate_dataset(rig_sc.plant_config(), rig_sc.plant_params(), seed=sc.seed,
-                               settings=fit_settings or GeneratorSettings(n_runs=4, run_duration=8.0),
-                               controller_params=ctrl_params.without_cogging(), progress=progress)
-        diag = diagnose(gen.dataset, params=Params.from_vector(p_base),
-                        settings=DiagnoseSettings(candidates=[effect], simulate=False))
+        gen = generate_dataset(
+            rig_sc.plant_config(),
+            rig_sc.plant_params(),
+            seed=sc.seed,
+            settings=fit_settings or GeneratorSettings(n_runs=4, run_duration=8.0),
+            controller_params=ctrl_params.without_cogging(),
+            progress=progress,
+        )
+        diag = diagnose(
+            gen.dataset,
+            params=Params.from_vector(p_base),
+            settings=DiagnoseSettings(candidates=[effect], simulate=False),
+        )
         sc_e = next(s for s in diag.scores if s.name == effect)
         fitted = {kk: v for kk, v in sc_e.params.items()}
     w, p_aug = _spec_values(spec, fitted, p_base)

@@ -314,12 +314,26 @@ def combine(a: CandidateSpec, b: CandidateSpec) -> CandidateSpec:
         if f.key not in keys:
             keys.add(f.key)
             free.append(f)
-    return CandidateSpec(f"{a.name}+{b.name}", tuple(dict.fromkeys((*a.effects, *b.effects))), tuple(free),
-                         a.fixed + b.fixed, a.ties + b.ties, a.lag or b.lag, f"{a.note}; {b.note}")
+    return CandidateSpec(
+        f"{a.name}+{b.name}",
+        tuple(dict.fromkeys((*a.effects, *b.effects))),
+        tuple(free),
+        a.fixed + b.fixed,
+        a.ties + b.ties,
+        a.lag or b.lag,
+        f"{a.note}; {b.note}",
+    )
 
 
-def _views(res: Sequence[Residual], floors: np.ndarray, infl: np.ndarray, fs: float, fmax: float,
-           rng: np.random.Generator, n_null: int = 12) -> dict[str, ChannelView]:
+def _views(
+    res: Sequence[Residual],
+    floors: np.ndarray,
+    infl: np.ndarray,
+    fs: float,
+    fmax: float,
+    rng: np.random.Generator,
+    n_null: int = 12,
+) -> dict[str, ChannelView]:
     out = {}
     for c, ch in enumerate(CHANNELS):
         s = pool(res, c)
@@ -327,8 +341,10 @@ def _views(res: Sequence[Residual], floors: np.ndarray, infl: np.ndarray, fs: fl
             continue
         eg, ed = edges_for(s.feat["g"], 10), edges_for(s.feat["d"], 10)
         mp = bin_stats(s, ("g", "d"), (eg, ed), floors[c], infl[c])
-        bins = {n: bin_stats(s, (n,), (edges_for(s.feat[n], 16),), floors[c], infl[c])
-                for n in ("g", "d", "g_dot", "d_dot", "i_q", "i_d", "di_q", "di_d")}
+        bins = {
+            n: bin_stats(s, (n,), (edges_for(s.feat[n], 16),), floors[c], infl[c])
+            for n in ("g", "d", "g_dot", "d_dot", "i_q", "i_d", "di_q", "di_d")
+        }
         sp = spectrum(res, c, fs, fmax)
         ps = period_scan(s, rng, n_null=n_null)
         out[ch] = ChannelView(mp, bins, sp, ps, dominant_band(sp) if sp is not None else None)
@@ -363,7 +379,9 @@ def _regions(views: dict[str, ChannelView], floors: dict[str, ChannelFloor]) -> 
 
 # ------------------------------------------------------------------------ pipeline
 def diagnose(
-    dataset: RigDataset, params: Params | None = None, settings: DiagnoseSettings | None = None,
+    dataset: RigDataset,
+    params: Params | None = None,
+    settings: DiagnoseSettings | None = None,
     progress: bool = False,
 ) -> Diagnosis:
     """Diagnose the gap between the model and a dataset.
@@ -402,8 +420,10 @@ def diagnose(
     keep = [(ri, pr) for ri, pr in zip(test_in, test, strict=True) if pr.n > 0]
     test_in, test = [a for a, _ in keep], [b for _, b in keep]
     if not train or not test:
-        raise DataError(f"{dataset.folder or 'dataset'}: runs are too short for the residual filter "
-                        f"({st.numtaps} taps at {Ts:g} s); need at least {3 * st.numtaps} samples per run")
+        raise DataError(
+            f"{dataset.folder or 'dataset'}: runs are too short for the residual filter "
+            f"({st.numtaps} taps at {Ts:g} s); need at least {3 * st.numtaps} samples per run"
+        )
     u_train = [r.u for r in train_in]
     u_test = [r.u for r in test_in]
     has = (any(r.valid[0] for r in train), any(r.valid[1] for r in train))
@@ -442,8 +462,7 @@ def diagnose(
     if cal_free:
         cal_free2 = calibration_free(base_params, *has)
         base_fit = fit_candidate(CandidateSpec("baseline", free=cal_free2), data_train, p_base)
-        base_stderr = {k_.split(".", 1)[1]: float(s) for k_, s in zip(base_fit.spec.keys, base_fit.stderr,
-                                                                        strict=True)}
+        base_stderr = {k_.split(".", 1)[1]: float(s) for k_, s in zip(base_fit.spec.keys, base_fit.stderr, strict=True)}
     else:
         cal_free2 = ()
         base_fit = fit_candidate(base_spec, data_train, p_base)
@@ -458,19 +477,25 @@ def diagnose(
     evidence = []
     for ch, fl in floors.items():
         if fl.significant:
-            evidence.append(f"{ch}: the residual has state structure beyond the floor (held-out map gain "
-                            f"{fl.gain:.1%}, z = {fl.z:.1f})")
+            evidence.append(
+                f"{ch}: the residual has state structure beyond the floor (held-out map gain "
+                f"{fl.gain:.1%}, z = {fl.z:.1f})"
+            )
     for c, ch in enumerate(CHANNELS):
         # A spectral line counts as a gap only if the training and the held-out runs both show it.
         lines = _consistent_lines(b_train, b_test, c, fs, st.fc_hz)
         if lines:
             pk = lines[0]
-            evidence.append(f"{ch}: spectral line at {pk['peak_hz']:.2f} Hz ({pk['ratio']:.0f}x the PSD around it, "
-                            "in training and held-out runs)")
+            evidence.append(
+                f"{ch}: spectral line at {pk['peak_hz']:.2f} Hz ({pk['ratio']:.0f}x the PSD around it, "
+                "in training and held-out runs)"
+            )
     for ch, v in views_before.items():
         if v.period is not None and v.period.significant:
-            evidence.append(f"{ch}: periodic in d with period {v.period.best_period * 1e3:.2f} mm"
-                            + (f" (= {v.period.match})" if v.period.match else ""))
+            evidence.append(
+                f"{ch}: periodic in d with period {v.period.best_period * 1e3:.2f} mm"
+                + (f" (= {v.period.match})" if v.period.match else "")
+            )
     gap_detected = bool(evidence)
     timing["localize_s"] = time.perf_counter() - t0
 
@@ -501,12 +526,16 @@ def diagnose(
         final_spec, final_fit = specs[best.name], fits[best.name]
         a_train = residuals_with(final_spec, final_fit, train, p_base, u_train)
         a_test = residuals_with(final_spec, final_fit, test, p_base, u_test)
-        rem = {CHANNELS[c]: fl for c in range(2)
-               if (fl := channel_floor(a_train, a_test, c, q_floor, max_lag=noise_lag)) is not None}
+        rem = {
+            CHANNELS[c]: fl
+            for c in range(2)
+            if (fl := channel_floor(a_train, a_test, c, q_floor, max_lag=noise_lag)) is not None
+        }
         still = any(f.significant for f in rem.values())
         if still and best.closes < 0.9:
-            others = [s for s in rank(scores) if s.significant and s.name != best.name
-                      and s.name not in best.confusable_with][:3]
+            others = [
+                s for s in rank(scores) if s.significant and s.name != best.name and s.name not in best.confusable_with
+            ][:3]
             pair_scores = []
             for o in others:
                 spec = combine(specs[best.name], specs[o.name])
@@ -523,35 +552,47 @@ def diagnose(
             if good:
                 extra, zp, ps, spec, fit = max(good, key=lambda t: t[0])
                 if verdict.verdict != "unexplained" or ps.closes >= rules.closes_min:
-                    verdict = Verdict(ps.name, ps.name.split("+"), True, [
-                        *verdict.reasons,
-                        f"a significant gap remained; adding {ps.name.split('+')[1]} closes {extra:.0%} of it "
-                        f"(paired z = {zp:.1f}): {ps.name}"])
+                    verdict = Verdict(
+                        ps.name,
+                        ps.name.split("+"),
+                        True,
+                        [
+                            *verdict.reasons,
+                            f"a significant gap remained; adding {ps.name.split('+')[1]} closes {extra:.0%} of it "
+                            f"(paired z = {zp:.1f}): {ps.name}",
+                        ],
+                    )
                     ps.name.split("+")
                     ps.selected = True
                     final_spec, final_fit = spec, fit
                     a_train = residuals_with(final_spec, final_fit, train, p_base, u_train)
                     a_test = residuals_with(final_spec, final_fit, test, p_base, u_test)
-                    rem = {CHANNELS[c]: fl for c in range(2)
-                           if (fl := channel_floor(a_train, a_test, c, q_floor, max_lag=noise_lag)) is not None}
+                    rem = {
+                        CHANNELS[c]: fl
+                        for c in range(2)
+                        if (fl := channel_floor(a_train, a_test, c, q_floor, max_lag=noise_lag)) is not None
+                    }
         if verdict.verdict == "unexplained":
-            verdict.reasons.append("no candidate, alone or with a second one, closes "
-                                   f"{rules.closes_min:.0%} of the gap: unexplained")
+            verdict.reasons.append(
+                f"no candidate, alone or with a second one, closes {rules.closes_min:.0%} of the gap: unexplained"
+            )
     if verdict.verdict in ("none", "unexplained"):
         # No effect is claimed: the final model is the baseline, and the gap that remains is its gap.
         final_spec, final_fit = base_spec, None
         rem = floors
     in_verdict = set(verdict.verdict.replace("|", "+").split("+"))
     for s in scores:
-        s.selected = verdict.verdict not in ("none", "unexplained") and (s.name in in_verdict
-                                                                          or s.name == verdict.verdict)
+        s.selected = verdict.verdict not in ("none", "unexplained") and (
+            s.name in in_verdict or s.name == verdict.verdict
+        )
     timing["pairs_s"] = time.perf_counter() - t0
 
     # ---------------------------------------------------------- quantification
     t0 = time.perf_counter()
     show_spec, show_fit = (final_spec, final_fit)
-    all_after = (residuals_with(show_spec, show_fit, train, p_base, u_train)
-                 + residuals_with(show_spec, show_fit, test, p_base, u_test))
+    all_after = residuals_with(show_spec, show_fit, train, p_base, u_train) + residuals_with(
+        show_spec, show_fit, test, p_base, u_test
+    )
     views_after = _views(all_after, fvec, infl, fs, st.fc_hz, rng, st.n_null)
     regions = _regions(views_before, floors) if gap_detected else []
     remaining_regions = _regions(views_after, rem) if any(f.significant for f in rem.values()) else []
@@ -559,11 +600,15 @@ def diagnose(
         # Where the unexplained gap is (the baseline's: no candidate closes it).
         regions_unexpl = remaining_regions or regions
         if regions_unexpl:
-            verdict.reasons.append("unexplained gap: " + "; ".join(
-                f"{r.channel} g {r.g_range_m[0] * 1e3:.1f}..{r.g_range_m[1] * 1e3:.1f} mm, d "
-                f"{r.d_range_m[0] * 1e3:.0f}..{r.d_range_m[1] * 1e3:.0f} mm"
-                + (f", {r.freq_band_hz[0]:.2f}..{r.freq_band_hz[1]:.2f} Hz" if r.freq_band_hz else "")
-                for r in regions_unexpl[:3]))
+            verdict.reasons.append(
+                "unexplained gap: "
+                + "; ".join(
+                    f"{r.channel} g {r.g_range_m[0] * 1e3:.1f}..{r.g_range_m[1] * 1e3:.1f} mm, d "
+                    f"{r.d_range_m[0] * 1e3:.0f}..{r.d_range_m[1] * 1e3:.0f} mm"
+                    + (f", {r.freq_band_hz[0]:.2f}..{r.freq_band_hz[1]:.2f} Hz" if r.freq_band_hz else "")
+                    for r in regions_unexpl[:3]
+                )
+            )
     traj = None
     if st.simulate:
         models = {"baseline": (base_spec, None)}
@@ -576,18 +621,33 @@ def diagnose(
     timing["total_s"] = time.perf_counter() - t_all
     timing["cpu_s"] = time.process_time() - cpu_all
     return Diagnosis(
-        verdict=verdict, scores=rank(scores), floors=floors, remaining=rem, baseline_params=base_params,
-        baseline_mode="given" if given else "calibrated", baseline_stderr=base_stderr,
-        views_before=views_before, views_after=views_after, regions=regions, remaining_regions=remaining_regions,
-        trajectories=traj, train=[r.name for r in train_in], test=[r.name for r in test_in], timing=timing,
-        residuals_before=all_before, residuals_after=all_after,
-        final_model=show_spec.name if show_fit is not None else "baseline", settings=st,
-        quantization_floor=q_floor, heldout=HeldOut(test, u_test, fvec, b_test),
+        verdict=verdict,
+        scores=rank(scores),
+        floors=floors,
+        remaining=rem,
+        baseline_params=base_params,
+        baseline_mode="given" if given else "calibrated",
+        baseline_stderr=base_stderr,
+        views_before=views_before,
+        views_after=views_after,
+        regions=regions,
+        remaining_regions=remaining_regions,
+        trajectories=traj,
+        train=[r.name for r in train_in],
+        test=[r.name for r in test_in],
+        timing=timing,
+        residuals_before=all_before,
+        residuals_after=all_after,
+        final_model=show_spec.name if show_fit is not None else "baseline",
+        settings=st,
+        quantization_floor=q_floor,
+        heldout=HeldOut(test, u_test, fvec, b_test),
     )
 
 
-def _consistent_lines(train: Sequence[Residual], test: Sequence[Residual], c: int, fs: float,
-                      fmax: float) -> list[dict]:
+def _consistent_lines(
+    train: Sequence[Residual], test: Sequence[Residual], c: int, fs: float, fmax: float
+) -> list[dict]:
     """Spectral lines found in both the training and the held-out residuals (each at 1 % false alarm)."""
     a = spectrum(train, c, fs, fmax, false_alarm=1e-2)
     b = spectrum(test, c, fs, fmax, false_alarm=1e-2)
@@ -596,8 +656,10 @@ def _consistent_lines(train: Sequence[Residual], test: Sequence[Residual], c: in
     out = []
     for pa in a.peaks:
         for pb in b.peaks:
-            if pa["band_hz"][0] <= pb["peak_hz"] <= pa["band_hz"][1] or pb["band_hz"][0] <= pa["peak_hz"] <= \
-                    pb["band_hz"][1]:
+            if (
+                pa["band_hz"][0] <= pb["peak_hz"] <= pa["band_hz"][1]
+                or pb["band_hz"][0] <= pa["peak_hz"] <= pb["band_hz"][1]
+            ):
                 out.append(pa)
                 break
     return out
@@ -611,5 +673,13 @@ def _rms_channel(res: Sequence[Residual], c: int) -> float:
     return float(np.sqrt(np.mean(v**2)))
 
 
-__all__ = ["LIBRARY", "ChannelView", "DiagnoseSettings", "Diagnosis", "combine", "diagnose", "runs_from_dataset",
-           "split_runs"]
+__all__ = [
+    "LIBRARY",
+    "ChannelView",
+    "DiagnoseSettings",
+    "Diagnosis",
+    "combine",
+    "diagnose",
+    "runs_from_dataset",
+    "split_runs",
+]

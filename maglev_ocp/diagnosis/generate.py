@@ -69,8 +69,14 @@ class _Composite:
 
     def __call__(self, t: float) -> Reference:
         ra, rb = self.a(t), self.b(t)
-        return Reference(ra.g + rb.g, ra.d + rb.d, ra.g_dot + rb.g_dot, ra.d_dot + rb.d_dot,
-                         ra.g_ddot + rb.g_ddot, ra.d_ddot + rb.d_ddot)
+        return Reference(
+            ra.g + rb.g,
+            ra.d + rb.d,
+            ra.g_dot + rb.g_dot,
+            ra.d_dot + rb.d_dot,
+            ra.g_ddot + rb.g_ddot,
+            ra.d_ddot + rb.d_ddot,
+        )
 
 
 def run_reference(i: int, settings: GeneratorSettings, seed: np.random.SeedSequence) -> _Composite:
@@ -203,9 +209,14 @@ class GeneratedDataset:
 
 
 def generate_dataset(
-    config: PlantConfig, params: Params = NOMINAL, seed: int | np.random.SeedSequence = 0,
-    settings: GeneratorSettings | None = None, controller_params: Params | None = None,
-    extra_force: ForceLaw | None = None, extra_info: dict | None = None, progress: bool = False,
+    config: PlantConfig,
+    params: Params = NOMINAL,
+    seed: int | np.random.SeedSequence = 0,
+    settings: GeneratorSettings | None = None,
+    controller_params: Params | None = None,
+    extra_force: ForceLaw | None = None,
+    extra_info: dict | None = None,
+    progress: bool = False,
 ) -> GeneratedDataset:
     """Run the diagnosis excitation on the plant and return the dataset.
 
@@ -238,26 +249,46 @@ def generate_dataset(
     settings = settings or GeneratorSettings()
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(int(seed))
     s_plant, s_ref = ss.spawn(2)
-    plant = ForcedPlant(extra_force, config, params, seed=s_plant) if extra_force else Plant(config, params,
-                                                                                               seed=s_plant)
+    plant = (
+        ForcedPlant(extra_force, config, params, seed=s_plant) if extra_force else Plant(config, params, seed=s_plant)
+    )
     cparams = controller_params or params.without_cogging()
     runs: list[RunLog] = []
     for i, s_run in enumerate(s_ref.spawn(settings.n_runs)):
         ref = run_reference(i, settings, s_run)
         ctrl = PIDController(cparams)
-        log = run_closed_loop(plant, ctrl, ref, settings.run_duration, file=f"excite_{i:02d}.csv",
-                              progress=progress, desc=f"run {i + 1}/{settings.n_runs}")
+        log = run_closed_loop(
+            plant,
+            ctrl,
+            ref,
+            settings.run_duration,
+            file=f"excite_{i:02d}.csv",
+            progress=progress,
+            desc=f"run {i + 1}/{settings.n_runs}",
+        )
         runs.append(log)
     truth = {
-        "true_params": plant.true_params.as_dict(), "effects": config.effect_values(),
-        "extra_force": extra_info, "generator": settings.model_dump(),
+        "true_params": plant.true_params.as_dict(),
+        "effects": config.effect_values(),
+        "extra_force": extra_info,
+        "generator": settings.model_dump(),
     }
-    ds = Dataset(k.Ts, config.quantization.resolution if config.quantization.enabled else k.encoder_resolution,
-                 runs, meta={"diagnosis_truth": truth, "plant": config.to_dict()})
+    ds = Dataset(
+        k.Ts,
+        config.quantization.resolution if config.quantization.enabled else k.encoder_resolution,
+        runs,
+        meta={"diagnosis_truth": truth, "plant": config.to_dict()},
+    )
     return GeneratedDataset(ds, plant.true_params, config.effect_values(), extra_info)
 
 
 __all__ = [
-    "OUT_OF_LIBRARY", "ForcedPlant", "GeneratedDataset", "GeneratorSettings", "generate_dataset",
-    "guide_ripple_force", "run_reference", "vibration_force",
+    "OUT_OF_LIBRARY",
+    "ForcedPlant",
+    "GeneratedDataset",
+    "GeneratorSettings",
+    "generate_dataset",
+    "guide_ripple_force",
+    "run_reference",
+    "vibration_force",
 ]

@@ -52,7 +52,11 @@ from .residuals import CHANNELS, Residual, autocorr_factor
 FEATURES_1D: tuple[str, ...] = ("g", "d", "g_dot", "d_dot", "i_q", "i_d", "di_q", "di_d")
 #: Reference periods of the stage [m] (slot pitch, its double and half, pole pitch, its half).
 KNOWN_PERIODS: dict[str, float] = {
-    "t1/2": k.t1 / 2, "t1": k.t1, "2 t1": 2 * k.t1, "tau/2": k.tau / 2, "tau": k.tau,
+    "t1/2": k.t1 / 2,
+    "t1": k.t1,
+    "2 t1": 2 * k.t1,
+    "tau/2": k.tau / 2,
+    "tau": k.tau,
 }
 
 
@@ -146,8 +150,9 @@ def _index(x: np.ndarray, e: np.ndarray) -> np.ndarray:
     return np.clip(np.searchsorted(e, x, side="right") - 1, 0, len(e) - 2)
 
 
-def bin_stats(s: Samples, names: Sequence[str], edges: Sequence[np.ndarray], sigma: float,
-              inflation: float, min_count: int = 20) -> BinStats:
+def bin_stats(
+    s: Samples, names: Sequence[str], edges: Sequence[np.ndarray], sigma: float, inflation: float, min_count: int = 20
+) -> BinStats:
     """Bin means of the residual over features, with standard errors from ``sigma`` and ``inflation``.
 
     Parameters
@@ -172,13 +177,18 @@ def bin_stats(s: Samples, names: Sequence[str], edges: Sequence[np.ndarray], sig
         mean = np.where(cnt >= min_count, sm / cnt, np.nan)
         se = np.where(cnt >= min_count, sigma * np.sqrt(inflation / cnt), np.nan)
         z = mean / se
-    return BinStats(tuple(names), [np.asarray(e) for e in edges], mean.reshape(shape), se.reshape(shape),
-                    cnt.reshape(shape), z.reshape(shape))
+    return BinStats(
+        tuple(names),
+        [np.asarray(e) for e in edges],
+        mean.reshape(shape),
+        se.reshape(shape),
+        cnt.reshape(shape),
+        z.reshape(shape),
+    )
 
 
 # --------------------------------------------------------------- additive maps
-MAP_GROUPS: tuple[tuple[str, ...], ...] = (("g", "d"), ("g_dot",), ("d_dot",), ("i_q",), ("i_d",), ("di_q",),
-                                           ("di_d",))
+MAP_GROUPS: tuple[tuple[str, ...], ...] = (("g", "d"), ("g_dot",), ("d_dot",), ("i_q",), ("i_d",), ("di_q",), ("di_d",))
 
 
 @dataclass
@@ -193,8 +203,15 @@ class AdditiveMap:
     tables: dict[tuple[str, ...], np.ndarray] = field(default_factory=dict)
 
     @classmethod
-    def fit(cls, s: Samples, n_bins_g: int = 8, n_bins_d: int = 18, n_bins_1d: int = 12, sweeps: int = 4,
-            min_count: int = 15) -> AdditiveMap:
+    def fit(
+        cls,
+        s: Samples,
+        n_bins_g: int = 8,
+        n_bins_d: int = 18,
+        n_bins_1d: int = 12,
+        sweeps: int = 4,
+        min_count: int = 15,
+    ) -> AdditiveMap:
         """Backfit the maps on ``s`` (the d bins resolve a slot pitch over the stroke: 5 mm for +-45 mm)."""
         edges = {}
         for grp in MAP_GROUPS:
@@ -310,14 +327,27 @@ class ChannelFloor:
     def to_dict(self) -> dict:
         """JSON-ready view."""
         return {
-            "rms_m_s2": self.rms, "floor_m_s2": self.floor, "quantization_m_s2": self.quantization,
-            "excess_m_s2": self.excess, "autocorr_inflation": self.inflation, "map_gain": self.gain, "z": self.z,
-            "significant": self.significant, "n_samples": self.n,
+            "rms_m_s2": self.rms,
+            "floor_m_s2": self.floor,
+            "quantization_m_s2": self.quantization,
+            "excess_m_s2": self.excess,
+            "autocorr_inflation": self.inflation,
+            "map_gain": self.gain,
+            "z": self.z,
+            "significant": self.significant,
+            "n_samples": self.n,
         }
 
 
-def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: int, quantization: float,
-                  z_crit: float = 4.0, min_gain: float = 0.01, max_lag: int = 200) -> ChannelFloor | None:
+def channel_floor(
+    train: Sequence[Residual],
+    test: Sequence[Residual],
+    channel: int,
+    quantization: float,
+    z_crit: float = 4.0,
+    min_gain: float = 0.01,
+    max_lag: int = 200,
+) -> ChannelFloor | None:
     """Noise floor and structure test of one channel (None if the channel has no data).
 
     Parameters
@@ -348,8 +378,9 @@ def channel_floor(train: Sequence[Residual], test: Sequence[Residual], channel: 
     e = te.r - m.predict(te)
     floor = float(np.sqrt(np.mean(e**2)))
     infl = autocorr_factor(e, max_lag)
-    return ChannelFloor(CHANNELS[channel], rms, min(floor, rms), quantization, infl, gain, z,
-                        bool(z > z_crit and gain > min_gain), te.n)
+    return ChannelFloor(
+        CHANNELS[channel], rms, min(floor, rms), quantization, infl, gain, z, bool(z > z_crit and gain > min_gain), te.n
+    )
 
 
 # ----------------------------------------------------------------------- spectrum
@@ -379,8 +410,9 @@ class Spectrum:
     dof: float
 
 
-def spectrum(residuals: Sequence[Residual], channel: int, fs: float, fmax: float, seg_s: float = 4.0,
-             false_alarm: float = 1e-3) -> Spectrum | None:
+def spectrum(
+    residuals: Sequence[Residual], channel: int, fs: float, fmax: float, seg_s: float = 4.0, false_alarm: float = 1e-3
+) -> Spectrum | None:
     """Welch PSD (segments within runs, averaged) with peak bands above a running median.
 
     Parameters
@@ -428,10 +460,14 @@ def spectrum(residuals: Sequence[Residual], channel: int, fs: float, fmax: float
         df = f[1] - f[0]
         band = [float(max(f[ii[0]] - df / 2, 0.0)), float(f[ii[-1]] + df / 2)]
         ipk = ii[np.argmax(psd[ii] / baseline[ii])]
-        peaks.append({
-            "band_hz": band, "peak_hz": float(f[ipk]), "ratio": float(psd[ipk] / baseline[ipk]),
-            "power_m2_s4": float(np.sum(psd[ii] - baseline[ii]) * df),
-        })
+        peaks.append(
+            {
+                "band_hz": band,
+                "peak_hz": float(f[ipk]),
+                "ratio": float(psd[ipk] / baseline[ipk]),
+                "power_m2_s4": float(np.sum(psd[ii] - baseline[ii]) * df),
+            }
+        )
     peaks.sort(key=lambda q: -q["power_m2_s4"])
     return Spectrum(f, psd, baseline, peaks, dof)
 
@@ -497,9 +533,12 @@ class PeriodScan:
     def to_dict(self) -> dict:
         """JSON-ready summary."""
         return {
-            "best_period_m": self.best_period, "amplitude_m_s2": self.best_amplitude,
-            "explained_fraction": self.best_explained, "noise_threshold": self.threshold,
-            "significant": self.significant, "matches": self.match,
+            "best_period_m": self.best_period,
+            "amplitude_m_s2": self.best_amplitude,
+            "explained_fraction": self.best_explained,
+            "noise_threshold": self.threshold,
+            "significant": self.significant,
+            "matches": self.match,
         }
 
 
@@ -515,8 +554,15 @@ def _scan(d: np.ndarray, r: np.ndarray, periods: np.ndarray) -> np.ndarray:
     return out
 
 
-def period_scan(s: Samples, rng: np.random.Generator, p_min: float = 4e-3, p_max: float | None = None,
-                n_periods: int = 300, n_null: int = 8, max_samples: int = 6000) -> PeriodScan | None:
+def period_scan(
+    s: Samples,
+    rng: np.random.Generator,
+    p_min: float = 4e-3,
+    p_max: float | None = None,
+    n_periods: int = 300,
+    n_null: int = 8,
+    max_samples: int = 6000,
+) -> PeriodScan | None:
     """Scan periods in ``d`` (after removing the residual's gap dependence by bin means).
 
     Parameters
@@ -608,14 +654,21 @@ class Region:
     def to_dict(self) -> dict:
         """JSON-ready view (the issue's ``regions`` entries)."""
         return {
-            "channel": self.channel, "g_range_m": self.g_range_m, "d_range_m": self.d_range_m,
-            "freq_band_hz": self.freq_band_hz, "excess_over_floor": self.excess_over_floor,
-            "mean_abs_m_s2": self.mean_abs_m_s2, "n_bins": self.n_bins, "z": self.z, "period_m": self.period_m,
+            "channel": self.channel,
+            "g_range_m": self.g_range_m,
+            "d_range_m": self.d_range_m,
+            "freq_band_hz": self.freq_band_hz,
+            "excess_over_floor": self.excess_over_floor,
+            "mean_abs_m_s2": self.mean_abs_m_s2,
+            "n_bins": self.n_bins,
+            "z": self.z,
+            "period_m": self.period_m,
         }
 
 
-def regions_from_map(bs: BinStats, channel: str, band: list[float] | None, floor: float, alpha: float = 0.01,
-                     max_regions: int = 6) -> list[Region]:
+def regions_from_map(
+    bs: BinStats, channel: str, band: list[float] | None, floor: float, alpha: float = 0.01, max_regions: int = 6
+) -> list[Region]:
     """Connected groups (8-neighbourhood) of bins whose mean exceeds the floor (|z| above a Bonferroni threshold)."""
     finite = np.isfinite(bs.z)
     n_bins = max(int(finite.sum()), 1)
@@ -628,17 +681,38 @@ def regions_from_map(bs: BinStats, channel: str, band: list[float] | None, floor
         eg, ed = bs.edges
         zz = bs.z[ii, jj]
         mm = bs.mean[ii, jj]
-        out.append(Region(
-            channel, [float(eg[ii.min()]), float(eg[ii.max() + 1])], [float(ed[jj.min()]), float(ed[jj.max() + 1])],
-            band, float(np.sqrt(np.mean(mm**2)) / floor), float(np.mean(np.abs(mm))), len(ii),
-            float(np.sqrt(np.mean(zz**2))),
-        ))
-    out.sort(key=lambda r_: -r_.excess_over_floor**2 * r_.n_bins)
+        out.append(
+            Region(
+                channel,
+                [float(eg[ii.min()]), float(eg[ii.max() + 1])],
+                [float(ed[jj.min()]), float(ed[jj.max() + 1])],
+                band,
+                float(np.sqrt(np.mean(mm**2)) / floor),
+                float(np.mean(np.abs(mm))),
+                len(ii),
+                float(np.sqrt(np.mean(zz**2))),
+            )
+        )
+    out.sort(key=lambda r_: -(r_.excess_over_floor**2) * r_.n_bins)
     return out[:max_regions]
 
 
 __all__ = [
-    "FEATURES_1D", "KNOWN_PERIODS", "AdditiveMap", "BinStats", "ChannelFloor", "PeriodScan", "Region", "Samples",
-    "Spectrum", "bin_stats", "channel_floor", "dominant_band", "edges_for", "period_scan", "pool",
-    "regions_from_map", "spectrum",
+    "FEATURES_1D",
+    "KNOWN_PERIODS",
+    "AdditiveMap",
+    "BinStats",
+    "ChannelFloor",
+    "PeriodScan",
+    "Region",
+    "Samples",
+    "Spectrum",
+    "bin_stats",
+    "channel_floor",
+    "dominant_band",
+    "edges_for",
+    "period_scan",
+    "pool",
+    "regions_from_map",
+    "spectrum",
 ]

@@ -85,33 +85,44 @@ def summary_table(d: Diagnosis) -> str:
     """Text summary: verdict, floors, ranked candidates, regions."""
     lines = [f"verdict: {d.verdict.verdict}"]
     lines += [f"  - {r}" for r in d.verdict.reasons]
-    lines.append(f"baseline ({d.baseline_mode}): " + ", ".join(
-        f"{n}={getattr(d.baseline_params, n):.5g}" for n in ("C1", "C2", "C3", "C4", "xi0")))
+    lines.append(
+        f"baseline ({d.baseline_mode}): "
+        + ", ".join(f"{n}={getattr(d.baseline_params, n):.5g}" for n in ("C1", "C2", "C3", "C4", "xi0"))
+    )
     lines.append("")
     lines.append(f"{'channel':<11} {'rms [m/s^2]':>12} {'floor':>10} {'quant.':>9} {'map gain':>9} {'z':>7}  gap")
     for ch, f in d.floors.items():
-        lines.append(f"{ch:<11} {f.rms:12.4g} {f.floor:10.3g} {f.quantization:9.2g} {f.gain:9.1%} {f.z:7.1f}  "
-                     f"{'yes' if f.significant else 'no'}")
+        lines.append(
+            f"{ch:<11} {f.rms:12.4g} {f.floor:10.3g} {f.quantization:9.2g} {f.gain:9.1%} {f.z:7.1f}  "
+            f"{'yes' if f.significant else 'no'}"
+        )
     lines.append("")
-    head = (f"{'candidate':<32} {'before':>9} {'after':>9} {'reduction':>9} {'closes':>7} {'z':>7} {'dBIC':>8}"
-            f"  sel")
+    head = f"{'candidate':<32} {'before':>9} {'after':>9} {'reduction':>9} {'closes':>7} {'z':>7} {'dBIC':>8}  sel"
     lines += [head, "-" * len(head)]
     for s in d.scores:
-        lines.append(f"{s.name:<32} {s.heldout_rms_before:9.4g} {s.heldout_rms_after:9.4g} {s.reduction:9.1%} "
-                     f"{s.closes:7.0%} {s.z:7.1f} {s.delta_bic:8.0f}  {'*' if s.selected else ''}")
+        lines.append(
+            f"{s.name:<32} {s.heldout_rms_before:9.4g} {s.heldout_rms_after:9.4g} {s.reduction:9.1%} "
+            f"{s.closes:7.0%} {s.z:7.1f} {s.delta_bic:8.0f}  {'*' if s.selected else ''}"
+        )
     for s in d.scores:
         if s.selected:
-            lines.append(f"  {s.name}: " + ", ".join(
-                f"{k}={v:.4g}" + (f"±{s.stderr[k]:.2g}" if s.stderr.get(k) is not None else "")
-                for k, v in s.params.items()))
+            lines.append(
+                f"  {s.name}: "
+                + ", ".join(
+                    f"{k}={v:.4g}" + (f"±{s.stderr[k]:.2g}" if s.stderr.get(k) is not None else "")
+                    for k, v in s.params.items()
+                )
+            )
     if d.regions:
         lines.append("")
         lines.append("regions where the baseline residual exceeds the floor:")
         for r in d.regions:
             band = f", band {r.freq_band_hz[0]:.2f}..{r.freq_band_hz[1]:.2f} Hz" if r.freq_band_hz else ""
-            lines.append(f"  {r.channel:<10} g {r.g_range_m[0] * 1e3:6.2f}..{r.g_range_m[1] * 1e3:6.2f} mm, "
-                         f"d {r.d_range_m[0] * 1e3:7.2f}..{r.d_range_m[1] * 1e3:7.2f} mm{band}, "
-                         f"{r.excess_over_floor:.2f} x floor (z {r.z:.1f})")
+            lines.append(
+                f"  {r.channel:<10} g {r.g_range_m[0] * 1e3:6.2f}..{r.g_range_m[1] * 1e3:6.2f} mm, "
+                f"d {r.d_range_m[0] * 1e3:7.2f}..{r.d_range_m[1] * 1e3:7.2f} mm{band}, "
+                f"{r.excess_over_floor:.2f} x floor (z {r.z:.1f})"
+            )
     if d.trajectories is not None:
         lines.append("")
         lines.append(f"simulated {d.trajectories.horizon * 1e3:.0f} ms windows on held-out runs, rms error [mm]:")
@@ -214,16 +225,17 @@ def fig_bins(d: Diagnosis):
     for i, ch in enumerate(chans):
         for j, fn in enumerate(feats):
             a = ax[i, j]
-            for v, lab, col in ((d.views_before[ch], "baseline", "tab:blue"),
-                                (d.views_after.get(ch), d.final_model, "tab:orange")):
+            for v, lab, col in (
+                (d.views_before[ch], "baseline", "tab:blue"),
+                (d.views_after.get(ch), d.final_model, "tab:orange"),
+            ):
                 if v is None:
                     continue
                 bs = v.bins[fn]
                 c = (bs.edges[0][:-1] + bs.edges[0][1:]) / 2
                 a.errorbar(c, bs.mean, yerr=2 * bs.se, fmt=".-", color=col, ms=3, lw=0.8, label=lab)
             a.axhline(0, color="k", lw=0.5)
-            a.set_xlabel(label(fn) if fn in ("g", "d", "g_dot", "d_dot", "i_q", "i_d") else f"{fn} [A/s]",
-                         fontsize=8)
+            a.set_xlabel(label(fn) if fn in ("g", "d", "g_dot", "d_dot", "i_q", "i_d") else f"{fn} [A/s]", fontsize=8)
             if j == 0:
                 a.set_ylabel(f"{ch} residual [m/s^2]", fontsize=8)
             a.tick_params(labelsize=7)
@@ -256,8 +268,11 @@ def fig_overlay(d: Diagnosis):
                 a.set_ylabel(lab)
             a.tick_params(labelsize=7)
     ax[0, 0].legend(fontsize=7)
-    fig.suptitle(f"held-out run: encoder readings and {tr.horizon * 1e3:.0f} ms simulations from the measured state "
-                 "(windows where the baseline errs most)", fontsize=9)
+    fig.suptitle(
+        f"held-out run: encoder readings and {tr.horizon * 1e3:.0f} ms simulations from the measured state "
+        "(windows where the baseline errs most)",
+        fontsize=9,
+    )
     fig.tight_layout()
     return fig
 
@@ -292,26 +307,37 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
     j = report_json(d)
     md = [f"# Sim-to-real gap diagnosis\n\n**Verdict: `{d.verdict.verdict}`**\n"]
     md += [f"- {r}" for r in d.verdict.reasons]
-    md.append(f"\nBaseline ({d.baseline_mode}): " + ", ".join(
-        f"{n} = {getattr(d.baseline_params, n):.5g}" for n in ("C1", "C2", "C3", "C4", "xi0")))
+    md.append(
+        f"\nBaseline ({d.baseline_mode}): "
+        + ", ".join(f"{n} = {getattr(d.baseline_params, n):.5g}" for n in ("C1", "C2", "C3", "C4", "xi0"))
+    )
     md.append(f"\nTraining runs: {', '.join(d.train)}; held-out runs: {', '.join(d.test)}.\n")
     md.append("## Noise floor (from the data)\n")
     md.append("| channel | held-out rms [m/s²] | floor [m/s²] | quantization only [m/s²] | map gain | z | gap |")
     md.append("|---|---|---|---|---|---|---|")
     for ch, f in d.floors.items():
-        md.append(f"| {ch} | {f.rms:.4g} | {f.floor:.3g} | {f.quantization:.2g} | {f.gain:.1%} | {f.z:.1f} | "
-                  f"{'yes' if f.significant else 'no'} |")
+        md.append(
+            f"| {ch} | {f.rms:.4g} | {f.floor:.3g} | {f.quantization:.2g} | {f.gain:.1%} | {f.z:.1f} | "
+            f"{'yes' if f.significant else 'no'} |"
+        )
     md.append("\n## Candidates (held-out runs, best first)\n")
     md.append("| effect | rms before | rms after | reduction | gap closed | z | ΔBIC | selected |")
     md.append("|---|---|---|---|---|---|---|---|")
     for s in d.scores:
-        md.append(f"| {s.name} | {s.heldout_rms_before:.4g} | {s.heldout_rms_after:.4g} | {s.reduction:.1%} | "
-                  f"{s.closes:.0%} | {s.z:.1f} | {s.delta_bic:.0f} | {'**yes**' if s.selected else ''} |")
+        md.append(
+            f"| {s.name} | {s.heldout_rms_before:.4g} | {s.heldout_rms_after:.4g} | {s.reduction:.1%} | "
+            f"{s.closes:.0%} | {s.z:.1f} | {s.delta_bic:.0f} | {'**yes**' if s.selected else ''} |"
+        )
     for s in d.scores:
         if s.selected:
-            md.append(f"\nFitted `{s.name}` (± standard error): " + ", ".join(
-                f"{k} = {v:.4g}" + (f" ± {s.stderr[k]:.2g}" if s.stderr.get(k) is not None else "")
-                for k, v in s.params.items()) + f". {s.note}.")
+            md.append(
+                f"\nFitted `{s.name}` (± standard error): "
+                + ", ".join(
+                    f"{k} = {v:.4g}" + (f" ± {s.stderr[k]:.2g}" if s.stderr.get(k) is not None else "")
+                    for k, v in s.params.items()
+                )
+                + f". {s.note}."
+            )
     if d.regions or d.remaining_regions:
         md.append("\n## Regions\n")
         md.append("| model | channel | g [mm] | d [mm] | band [Hz] | excess / floor | z |")
@@ -319,24 +345,35 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
         for lab, regs in (("baseline", d.regions), (d.final_model, d.remaining_regions)):
             for r in regs:
                 band = f"{r.freq_band_hz[0]:.2f}..{r.freq_band_hz[1]:.2f}" if r.freq_band_hz else "-"
-                md.append(f"| {lab} | {r.channel} | {r.g_range_m[0] * 1e3:.1f}..{r.g_range_m[1] * 1e3:.1f} | "
-                          f"{r.d_range_m[0] * 1e3:.0f}..{r.d_range_m[1] * 1e3:.0f} | {band} | "
-                          f"{r.excess_over_floor:.2f} | {r.z:.1f} |")
+                md.append(
+                    f"| {lab} | {r.channel} | {r.g_range_m[0] * 1e3:.1f}..{r.g_range_m[1] * 1e3:.1f} | "
+                    f"{r.d_range_m[0] * 1e3:.0f}..{r.d_range_m[1] * 1e3:.0f} | {band} | "
+                    f"{r.excess_over_floor:.2f} | {r.z:.1f} |"
+                )
     md.append("\n## Localization\n")
     for ch, v in j["localization"].items():
         ps = v["period_scan"]
         pk = v["spectral_peaks"]
-        md.append(f"- {ch}: " + (f"period scan best {ps['best_period_m'] * 1e3:.2f} mm "
-                                 f"({'significant' if ps['significant'] else 'not significant'}"
-                                 + (f", = {ps['matches']}" if ps["matches"] else "") + ")" if ps else "no scan")
-                  + ("; spectral lines " + ", ".join(f"{p['peak_hz']:.2f} Hz" for p in pk[:3]) if pk else ""))
+        md.append(
+            f"- {ch}: "
+            + (
+                f"period scan best {ps['best_period_m'] * 1e3:.2f} mm "
+                f"({'significant' if ps['significant'] else 'not significant'}"
+                + (f", = {ps['matches']}" if ps["matches"] else "")
+                + ")"
+                if ps
+                else "no scan"
+            )
+            + ("; spectral lines " + ", ".join(f"{p['peak_hz']:.2f} Hz" for p in pk[:3]) if pk else "")
+        )
     if d.trajectories is not None:
         md.append(f"\n## Simulated trajectories ({d.trajectories.horizon * 1e3:.0f} ms windows, held-out runs)\n")
         md.append("| model | rms g [mm] | rms d [mm] |")
         md.append("|---|---|---|")
         for lab, e in d.trajectories.rms.items():
-            md.append(f"| {lab} | " + " | ".join(f"{e[a] * 1e3:.4f}" if e[a] is not None else "-" for a in ("g", "d"))
-                      + " |")
+            md.append(
+                f"| {lab} | " + " | ".join(f"{e[a] * 1e3:.4f}" if e[a] is not None else "-" for a in ("g", "d")) + " |"
+            )
     md.append("\n## Figures\n")
     for f in figures:
         md.append(f"### {FIGURES[f][1]}\n\n![{f}]({f})\n")

@@ -174,8 +174,9 @@ class ZeroPhaseFilter:
 
     def encoder_accel(self, y: np.ndarray, centers: np.ndarray) -> np.ndarray:
         """Filtered acceleration ``h * D2(y)`` at ``centers`` (y of shape (N,) or (N, m))."""
-        full = sps.oaconvolve(np.asarray(y, float), self.w_y[:, None] if np.ndim(y) == 2 else self.w_y,
-                              mode="valid", axes=0)
+        full = sps.oaconvolve(
+            np.asarray(y, float), self.w_y[:, None] if np.ndim(y) == 2 else self.w_y, mode="valid", axes=0
+        )
         # full[j] is centred on sample j + M + 1.
         return full[centers - self.M - 1]
 
@@ -228,8 +229,9 @@ def prepare_run(run: RunInput, filt: ZeroPhaseFilter) -> PreparedRun:
     centers = filt.centers(N)
     valid = np.array(["g" not in run.locked, "d" not in run.locked])
     if len(centers) == 0:
-        return PreparedRun(run.name, tuple(run.locked), valid, np.zeros((0, 8)), spa.csr_matrix((0, 0)),
-                           np.zeros((0, 2)), centers, {})
+        return PreparedRun(
+            run.name, tuple(run.locked), valid, np.zeros((0, 8)), spa.csr_matrix((0, 0)), np.zeros((0, 2)), centers, {}
+        )
     y_mid = 0.5 * (y[:-1] + y[1:])
     v = np.column_stack([filt.velocity(y[:, 0]), filt.velocity(y[:, 1])])
     for j, ax in enumerate(("g", "d")):
@@ -311,6 +313,15 @@ def autocorr_factor(r: np.ndarray, max_lag: int = 200) -> float:
 
 
 __all__ = [
-    "CHANNELS", "CHANNEL_AXIS", "Z_NAMES", "PreparedRun", "Residual", "ResidualSettings", "RunInput",
-    "ZeroPhaseFilter", "autocorr_factor", "prepare_run", "residual_of",
+    "CHANNELS",
+    "CHANNEL_AXIS",
+    "Z_NAMES",
+    "PreparedRun",
+    "Residual",
+    "ResidualSettings",
+    "RunInput",
+    "ZeroPhaseFilter",
+    "autocorr_factor",
+    "prepare_run",
+    "residual_of",
 ]

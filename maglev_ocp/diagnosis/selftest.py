@@ -71,32 +71,61 @@ def _draw_cogging(rng):
     params = {"xi0": _u(rng, 1.5, 6.0), "ell": _u(rng, 2.5e-3, 6e-3)}
     effects = {}
     if rng.uniform() < 0.5:  # harmonics of the slot pitch on top of the seed's law
-        effects = {"cogging": {
-            "enabled": True, "xi0": params["xi0"], "ell": params["ell"] * _u(rng, 0.8, 1.25), "power": 0.0,
-            "h1": 0.0, "h2": _u(rng, -0.4, 0.4), "h3": _u(rng, -0.3, 0.3), "phi2": _u(rng, -math.pi, math.pi),
-            "phi3": _u(rng, -math.pi, math.pi), "kn": _u(rng, 0.6, 1.5)}}
+        effects = {
+            "cogging": {
+                "enabled": True,
+                "xi0": params["xi0"],
+                "ell": params["ell"] * _u(rng, 0.8, 1.25),
+                "power": 0.0,
+                "h1": 0.0,
+                "h2": _u(rng, -0.4, 0.4),
+                "h3": _u(rng, -0.3, 0.3),
+                "phi2": _u(rng, -math.pi, math.pi),
+                "phi3": _u(rng, -math.pi, math.pi),
+                "kn": _u(rng, 0.6, 1.5),
+            }
+        }
     else:
         effects = {"cogging": {"enabled": False}}
     return params, effects
 
 
 def _draw_friction(rng):
-    return {}, {"friction": {
-        "enabled": True, "coulomb_g": _u(rng, 0.05, 0.4), "coulomb_d": _u(rng, 0.05, 0.4),
-        "stribeck_g": _u(rng, 0.0, 0.1), "stribeck_d": _u(rng, 0.0, 0.1), "v_stribeck": 2e-3,
-        "viscous_g": _u(rng, 0.0, 2.0), "viscous_d": _u(rng, 0.0, 2.0), "v_reg": 2e-4}}
+    return {}, {
+        "friction": {
+            "enabled": True,
+            "coulomb_g": _u(rng, 0.05, 0.4),
+            "coulomb_d": _u(rng, 0.05, 0.4),
+            "stribeck_g": _u(rng, 0.0, 0.1),
+            "stribeck_d": _u(rng, 0.0, 0.1),
+            "v_stribeck": 2e-3,
+            "viscous_g": _u(rng, 0.0, 2.0),
+            "viscous_d": _u(rng, 0.0, 2.0),
+            "v_reg": 2e-4,
+        }
+    }
 
 
 def _draw_end_effect(rng):
-    return {}, {"end_effect": {
-        "enabled": True, "ripple": _u(rng, 0.03, 0.12), "ripple_phase": _u(rng, -math.pi, math.pi),
-        "d_edge": _u(rng, 0.02, 0.04), "edge_width": _u(rng, 2e-3, 6e-3)}}
+    return {}, {
+        "end_effect": {
+            "enabled": True,
+            "ripple": _u(rng, 0.03, 0.12),
+            "ripple_phase": _u(rng, -math.pi, math.pi),
+            "d_edge": _u(rng, 0.02, 0.04),
+            "edge_width": _u(rng, 2e-3, 6e-3),
+        }
+    }
 
 
 def _draw_lag(rng):
-    return {}, {"amplifier_lag": {
-        "enabled": True, "bandwidth_hz": float(math.exp(rng.uniform(math.log(100.0), math.log(1000.0)))),
-        "delay_samples": int(rng.integers(0, 3))}}
+    return {}, {
+        "amplifier_lag": {
+            "enabled": True,
+            "bandwidth_hz": float(math.exp(rng.uniform(math.log(100.0), math.log(1000.0)))),
+            "delay_samples": int(rng.integers(0, 3)),
+        }
+    }
 
 
 def _draw_saturation(rng):
@@ -112,10 +141,17 @@ def _draw_eddy(rng):
 
 
 def _draw_param_error(rng):
-    return {}, {"parameter_error": {
-        "enabled": True, "k_C1": 1 + _signed(rng, 0.03, 0.1), "k_C2": 1 + _signed(rng, 0.02, 0.06),
-        "k_C3": 1 + _signed(rng, 0.03, 0.1), "k_C4": 1 + _signed(rng, 0.3, 1.0),
-        "k_Mh": 1 + _u(rng, -0.05, 0.05), "k_Mv": 1 + _u(rng, -0.05, 0.05)}}
+    return {}, {
+        "parameter_error": {
+            "enabled": True,
+            "k_C1": 1 + _signed(rng, 0.03, 0.1),
+            "k_C2": 1 + _signed(rng, 0.02, 0.06),
+            "k_C3": 1 + _signed(rng, 0.03, 0.1),
+            "k_C4": 1 + _signed(rng, 0.3, 1.0),
+            "k_Mh": 1 + _u(rng, -0.05, 0.05),
+            "k_Mv": 1 + _u(rng, -0.05, 0.05),
+        }
+    }
 
 
 def _draw_none(rng):
@@ -124,9 +160,15 @@ def _draw_none(rng):
 
 #: Random draw of each truth: ``rng -> (param overrides, plant effect settings)``.
 DRAWS: dict[str, Draw] = {
-    "none": _draw_none, "cogging": _draw_cogging, "friction": _draw_friction, "end_effect": _draw_end_effect,
-    "amplifier_lag": _draw_lag, "saturation": _draw_saturation, "commutation_offset": _draw_commutation,
-    "eddy_drag": _draw_eddy, "parameter_error": _draw_param_error,
+    "none": _draw_none,
+    "cogging": _draw_cogging,
+    "friction": _draw_friction,
+    "end_effect": _draw_end_effect,
+    "amplifier_lag": _draw_lag,
+    "saturation": _draw_saturation,
+    "commutation_offset": _draw_commutation,
+    "eddy_drag": _draw_eddy,
+    "parameter_error": _draw_param_error,
 }
 
 
@@ -195,8 +237,22 @@ class Case:
 
     def to_dict(self) -> dict:
         """JSON-ready view."""
-        return {k: getattr(self, k) for k in ("index", "truth", "truth_params", "verdict", "right", "reduction",
-                                              "ideal", "localized", "seconds", "gen_seconds", "channels")}
+        return {
+            k: getattr(self, k)
+            for k in (
+                "index",
+                "truth",
+                "truth_params",
+                "verdict",
+                "right",
+                "reduction",
+                "ideal",
+                "localized",
+                "seconds",
+                "gen_seconds",
+                "channels",
+            )
+        }
 
 
 @dataclass
@@ -229,8 +285,7 @@ class SelftestResult:
 
     def reduction_ratios(self) -> np.ndarray:
         """Held-out reduction over the ideal one, on the right verdicts with an effect."""
-        return np.array([c.reduction / c.ideal for c in self.cases if c.right and c.truth != "none"
-                         and c.ideal > 0])
+        return np.array([c.reduction / c.ideal for c in self.cases if c.right and c.truth != "none" and c.ideal > 0])
 
     def confusion(self) -> tuple[list[str], list[str], np.ndarray]:
         """Confusion matrix: rows truths, columns verdicts (sets and pairs as their own columns)."""
@@ -245,7 +300,8 @@ class SelftestResult:
         """Headline numbers."""
         r = self.reduction_ratios()
         return {
-            "datasets": len(self.cases), "right_verdicts": float(self.accuracy()),
+            "datasets": len(self.cases),
+            "right_verdicts": float(self.accuracy()),
             "none_datasets": sum(1 for c in self.cases if c.truth == "none"),
             "effects_claimed_on_none": self.none_false_claims(),
             "localization_accuracy": float(self.localization_accuracy()),
@@ -261,25 +317,36 @@ class SelftestResult:
         """Text view: cases, confusion matrix, summary."""
         lines = [f"{'#':>3} {'truth':<20} {'verdict':<28} {'ok':>3} {'red.':>7} {'ideal':>7} {'loc':>4} {'t [s]':>6}"]
         for c in self.cases:
-            lines.append(f"{c.index:>3} {c.truth:<20} {c.verdict:<28} {'y' if c.right else 'n':>3} "
-                         f"{c.reduction:7.1%} {c.ideal:7.1%} {'y' if c.localized else 'n':>4} {c.seconds:6.1f}")
+            lines.append(
+                f"{c.index:>3} {c.truth:<20} {c.verdict:<28} {'y' if c.right else 'n':>3} "
+                f"{c.reduction:7.1%} {c.ideal:7.1%} {'y' if c.localized else 'n':>4} {c.seconds:6.1f}"
+            )
         rows, cols, m = self.confusion()
         w = max(len(x) for x in cols + rows) + 1
-        lines += ["", "confusion matrix (rows: truth, columns: verdict)", " " * w + "".join(f"{_abbr(c):>6}"
-                                                                                          for c in cols)]
+        lines += [
+            "",
+            "confusion matrix (rows: truth, columns: verdict)",
+            " " * w + "".join(f"{_abbr(c):>6}" for c in cols),
+        ]
         for i, r in enumerate(rows):
             lines.append(f"{r:<{w}}" + "".join(f"{v:>6}" for v in m[i]))
         lines.append("columns: " + ", ".join(f"{_abbr(c)} = {c}" for c in cols))
         s = self.summary()
-        lines += ["", f"right verdicts: {s['right_verdicts']:.1%} of {s['datasets']}",
-                  f"effects claimed on 'none' datasets: {s['effects_claimed_on_none']} of {s['none_datasets']}",
-                  f"localization accuracy: {s['localization_accuracy']:.1%}"]
+        lines += [
+            "",
+            f"right verdicts: {s['right_verdicts']:.1%} of {s['datasets']}",
+            f"effects claimed on 'none' datasets: {s['effects_claimed_on_none']} of {s['none_datasets']}",
+            f"localization accuracy: {s['localization_accuracy']:.1%}",
+        ]
         if s["reduction_over_ideal_median"] is not None:
-            lines.append(f"held-out reduction / ideal on right verdicts: median {s['reduction_over_ideal_median']:.2f}"
-                         f", min {s['reduction_over_ideal_min']:.2f}, >= 0.7 in "
-                         f"{s['reduction_at_least_70pct_of_ideal']:.0%}")
-        lines.append(f"diagnosis time: median {s['diagnosis_seconds_median']:.1f} s, max "
-                     f"{s['diagnosis_seconds_max']:.1f} s")
+            lines.append(
+                f"held-out reduction / ideal on right verdicts: median {s['reduction_over_ideal_median']:.2f}"
+                f", min {s['reduction_over_ideal_min']:.2f}, >= 0.7 in "
+                f"{s['reduction_at_least_70pct_of_ideal']:.0%}"
+            )
+        lines.append(
+            f"diagnosis time: median {s['diagnosis_seconds_median']:.1f} s, max {s['diagnosis_seconds_max']:.1f} s"
+        )
         return "\n".join(lines)
 
     def markdown(self) -> str:
@@ -289,28 +356,40 @@ class SelftestResult:
         for i, r in enumerate(rows):
             md.append(f"| {r} | " + " | ".join(str(v) if v else "." for v in m[i]) + " |")
         s = self.summary()
-        md += ["", f"- right verdicts: **{s['right_verdicts']:.1%}** of {s['datasets']} datasets",
-               f"- effects claimed on `none` datasets: **{s['effects_claimed_on_none']}** of {s['none_datasets']}",
-               f"- localization accuracy: {s['localization_accuracy']:.1%}"]
+        md += [
+            "",
+            f"- right verdicts: **{s['right_verdicts']:.1%}** of {s['datasets']} datasets",
+            f"- effects claimed on `none` datasets: **{s['effects_claimed_on_none']}** of {s['none_datasets']}",
+            f"- localization accuracy: {s['localization_accuracy']:.1%}",
+        ]
         if s["reduction_over_ideal_median"] is not None:
-            md.append(f"- held-out reduction / ideal reduction on right verdicts: median "
-                      f"{s['reduction_over_ideal_median']:.2f}, min {s['reduction_over_ideal_min']:.2f}, "
-                      f"at least 0.7 in {s['reduction_at_least_70pct_of_ideal']:.0%}")
-        md.append(f"- diagnosis time per dataset: median {s['diagnosis_seconds_median']:.1f} s, "
-                  f"max {s['diagnosis_seconds_max']:.1f} s")
+            md.append(
+                f"- held-out reduction / ideal reduction on right verdicts: median "
+                f"{s['reduction_over_ideal_median']:.2f}, min {s['reduction_over_ideal_min']:.2f}, "
+                f"at least 0.7 in {s['reduction_at_least_70pct_of_ideal']:.0%}"
+            )
+        md.append(
+            f"- diagnosis time per dataset: median {s['diagnosis_seconds_median']:.1f} s, "
+            f"max {s['diagnosis_seconds_max']:.1f} s"
+        )
         return "\n".join(md)
 
     def save(self, out_dir: str | os.PathLike) -> Path:
         """Write ``selftest.json`` and ``selftest.md``."""
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        doc = {"settings": self.settings.model_dump(), "summary": self.summary(),
-               "confusion": dict(zip(("rows", "cols", "matrix"), (lambda r, c, m: (r, c, m.tolist()))(
-                   *self.confusion()), strict=True)),
-               "cases": [c.to_dict() for c in self.cases]}
+        doc = {
+            "settings": self.settings.model_dump(),
+            "summary": self.summary(),
+            "confusion": dict(
+                zip(("rows", "cols", "matrix"), (lambda r, c, m: (r, c, m.tolist()))(*self.confusion()), strict=True)
+            ),
+            "cases": [c.to_dict() for c in self.cases],
+        }
         atomic_write_text(out / "selftest.json", json.dumps(doc, indent=2, default=float))
-        atomic_write_text(out / "selftest.md", "# Blind self-check\n\n" + self.markdown() + "\n\n```\n"
-                          + self.table() + "\n```\n")
+        atomic_write_text(
+            out / "selftest.md", "# Blind self-check\n\n" + self.markdown() + "\n\n```\n" + self.table() + "\n```\n"
+        )
         return out
 
 
@@ -322,9 +401,18 @@ def _order(name: str) -> tuple[int, str]:
 
 
 def _abbr(name: str) -> str:
-    short = {"none": "none", "cogging": "cog", "friction": "fric", "end_effect": "end", "amplifier_lag": "lag",
-             "saturation": "sat", "commutation_offset": "comm", "eddy_drag": "eddy", "parameter_error": "par",
-             "unexplained": "unex"}
+    short = {
+        "none": "none",
+        "cogging": "cog",
+        "friction": "fric",
+        "end_effect": "end",
+        "amplifier_lag": "lag",
+        "saturation": "sat",
+        "commutation_offset": "comm",
+        "eddy_drag": "eddy",
+        "parameter_error": "par",
+        "unexplained": "unex",
+    }
     return "".join(short.get(p, p[:4]) + s for p, s in _split_name(name))
 
 
@@ -364,8 +452,15 @@ def truth_residuals(diag: Diagnosis, true_params: Params, effects: dict) -> list
     fit = None
     if lag:
         th = effects["amplifier_lag"]
-        fit = FitResult(spec, np.zeros(0), np.zeros(0), 0.0, 0, 1.0,
-                        {"bandwidth_hz": float(th["bandwidth_hz"]), "delay_samples": float(th["delay_samples"])})
+        fit = FitResult(
+            spec,
+            np.zeros(0),
+            np.zeros(0),
+            0.0,
+            0,
+            1.0,
+            {"bandwidth_hz": float(th["bandwidth_hz"]), "delay_samples": float(th["delay_samples"])},
+        )
     ho = diag.heldout
     return residuals_with(spec, fit, ho.runs, true_params.vector(), ho.u)
 
@@ -414,8 +509,9 @@ def _localized(diag: Diagnosis, truth: str, effect_res: list, base_res: list) ->
     return bool(m2[inside].sum() >= 0.5 * m2.sum()), [ch]
 
 
-def run_case(index: int, truth: str, seed: np.random.SeedSequence, settings: SelftestSettings,
-             extra: str | None = None) -> tuple[Case, Diagnosis]:
+def run_case(
+    index: int, truth: str, seed: np.random.SeedSequence, settings: SelftestSettings, extra: str | None = None
+) -> tuple[Case, Diagnosis]:
     """Generate one dataset with ``truth`` (random parameters from ``seed``) and diagnose it blind."""
     s_draw, s_gen, s_diag = seed.spawn(3)
     rng = np.random.default_rng(s_draw)
@@ -429,8 +525,15 @@ def run_case(index: int, truth: str, seed: np.random.SeedSequence, settings: Sel
         force = factory()
         extra_info = {"name": extra}
     t0 = time.perf_counter()
-    gen = generate_dataset(cfg, true_nominal, seed=s_gen, settings=settings.generator, controller_params=base,
-                           extra_force=force, extra_info=extra_info)
+    gen = generate_dataset(
+        cfg,
+        true_nominal,
+        seed=s_gen,
+        settings=settings.generator,
+        controller_params=base,
+        extra_force=force,
+        extra_info=extra_info,
+    )
     t_gen = time.perf_counter() - t0
     dset = settings.diagnose.model_copy(update={"seed": int(s_diag.generate_state(1)[0] % (2**31))})
     t0 = time.perf_counter()
@@ -453,12 +556,17 @@ def run_case(index: int, truth: str, seed: np.random.SeedSequence, settings: Sel
     else:
         loc, chans = _localized(diag, truth, t_res, diag.heldout.baseline)
     params = {"params": p_over, "effects": {k_: v for k_, v in true_eff.items()}, "extra": extra_info}
-    return Case(index, name, params, diag.verdict.verdict, right, float(reduction), float(ideal), bool(loc), secs,
-                t_gen, chans), diag
+    return Case(
+        index, name, params, diag.verdict.verdict, right, float(reduction), float(ideal), bool(loc), secs, t_gen, chans
+    ), diag
 
 
-def run_selftest(settings: SelftestSettings, progress: bool = True, out_dir: str | os.PathLike | None = None,
-                 keep_reports: bool = False) -> SelftestResult:
+def run_selftest(
+    settings: SelftestSettings,
+    progress: bool = True,
+    out_dir: str | os.PathLike | None = None,
+    keep_reports: bool = False,
+) -> SelftestResult:
     """Run the blind self-check.
 
     Parameters
@@ -486,8 +594,9 @@ def run_selftest(settings: SelftestSettings, progress: bool = True, out_dir: str
         order += list(rng.permutation(truths))
     order = order[: settings.n]
     cases = []
-    for i, (truth, s) in enumerate(tqdm(list(zip(order, s_cases.spawn(settings.n), strict=True)),
-                                        desc="self-check", disable=not progress)):
+    for i, (truth, s) in enumerate(
+        tqdm(list(zip(order, s_cases.spawn(settings.n), strict=True)), desc="self-check", disable=not progress)
+    ):
         case, diag = run_case(i, str(truth), s, settings)
         cases.append(case)
         if out_dir is not None:
@@ -498,5 +607,13 @@ def run_selftest(settings: SelftestSettings, progress: bool = True, out_dir: str
     return SelftestResult(settings, cases)
 
 
-__all__ = ["DRAWS", "Case", "SelftestResult", "SelftestSettings", "run_case", "run_selftest", "selftest_plant",
-           "truth_residuals"]
+__all__ = [
+    "DRAWS",
+    "Case",
+    "SelftestResult",
+    "SelftestSettings",
+    "run_case",
+    "run_selftest",
+    "selftest_plant",
+    "truth_residuals",
+]

@@ -88,8 +88,13 @@ def _smoothed_state(y: np.ndarray, Ts: float, fc: float = 20.0) -> np.ndarray:
 
 
 def compare_trajectories(
-    runs: Sequence[RunInput], models: dict[str, tuple[CandidateSpec, FitResult | None]], p: dict[str, np.ndarray],
-    horizon: float = 0.05, every: float = 0.25, n_sub: int = 2, n_examples: int = 4,
+    runs: Sequence[RunInput],
+    models: dict[str, tuple[CandidateSpec, FitResult | None]],
+    p: dict[str, np.ndarray],
+    horizon: float = 0.05,
+    every: float = 0.25,
+    n_sub: int = 2,
+    n_examples: int = 4,
 ) -> TrajectoryComparison:
     """Simulate each model over short windows of each run and compare with the readings.
 
@@ -141,11 +146,11 @@ def compare_trajectories(
             sim = _window_sim(spec, n, n_sub, run.Ts)
             msim = sim.map(len(starts))
             x0 = X[starts].T
-            Zw = np.hstack([Zm[s:s + n].T for s in starts])
+            Zw = np.hstack([Zm[s : s + n].T for s in starts])
             Xs = np.asarray(msim(x0, Zw, p[lab], w, free))  # 4 x (n * n_windows)
             for j, s in enumerate(starts):
-                blk = Xs[:, j * n:(j + 1) * n]
-                meas = run.y[s + 1:s + 1 + n]
+                blk = Xs[:, j * n : (j + 1) * n]
+                meas = run.y[s + 1 : s + 1 + n]
                 err = np.column_stack([blk[0] - meas[:, 0], blk[2] - meas[:, 1]])
                 sq[lab] += np.sum(err**2, axis=0) * free
                 if ri == 0:
@@ -153,7 +158,7 @@ def compare_trajectories(
                     window_sim.setdefault(lab, []).append(((s + 1 + np.arange(n)) * run.Ts + run.t0, blk))
         if ri == 0:
             for s in starts:
-                window_meas.append(((s + 1 + np.arange(n)) * run.Ts + run.t0, run.y[s + 1:s + 1 + n]))
+                window_meas.append(((s + 1 + np.arange(n)) * run.Ts + run.t0, run.y[s + 1 : s + 1 + n]))
         cnt += len(starts) * n * free
     # Overlay examples: the windows of the first held-out run where the first model (the baseline) errs most.
     if window_meas:
@@ -163,8 +168,9 @@ def compare_trajectories(
         out.measured = [window_meas[i] for i in pick]
         out.examples = {lab: [window_sim[lab][i] for i in pick] for lab in models}
     for lab in models:
-        out.rms[lab] = {ax: (float(np.sqrt(sq[lab][i] / cnt[i])) if cnt[i] else None)
-                        for i, ax in enumerate(("g", "d"))}
+        out.rms[lab] = {
+            ax: (float(np.sqrt(sq[lab][i] / cnt[i])) if cnt[i] else None) for i, ax in enumerate(("g", "d"))
+        }
     return out
 
 

@@ -61,15 +61,23 @@ from .data import RunData, eval_samples
 BATCH_PARAMS: tuple[str, ...] = ("C1", "C2", "C3", "C4", "xi0", "ell")
 #: Bounds on each parameter relative to its nominal (prior) value; guards, not priors.
 REL_BOUNDS: dict[str, tuple[float, float]] = {
-    "C1": (0.2, 5.0), "C2": (0.2, 5.0), "C3": (0.0, 10.0), "C4": (-20.0, 50.0), "xi0": (0.0, 20.0),
+    "C1": (0.2, 5.0),
+    "C2": (0.2, 5.0),
+    "C3": (0.0, 10.0),
+    "C4": (-20.0, 50.0),
+    "xi0": (0.0, 20.0),
     "ell": (0.3, 3.0),
 }
 #: Chebyshev nodes in 1/ell for the cogging regressor.
 N_CHEB = 32
 #: Nuisance parameters: Coulomb [N] and viscous [N s/m] friction of each guide (law of
 #: :class:`maglev_ocp.effects.Friction`), fitted alongside when ``BatchSettings.friction``.
-FRICTION_PARAMS: tuple[str, ...] = ("friction_coulomb_g", "friction_viscous_g", "friction_coulomb_d",
-                                    "friction_viscous_d")
+FRICTION_PARAMS: tuple[str, ...] = (
+    "friction_coulomb_g",
+    "friction_viscous_g",
+    "friction_coulomb_d",
+    "friction_viscous_d",
+)
 _FRICTION_SCALE = {"coulomb": 0.1, "viscous": 1.0}
 REL_BOUNDS.update({n: (-50.0, 500.0) for n in FRICTION_PARAMS})
 
@@ -220,8 +228,11 @@ def _friction_regressors() -> ca.Function:
     from ..effects import Friction
 
     v, v_reg = ca.SX.sym("v"), ca.SX.sym("v_reg")
-    return ca.Function("friction_regressors", [v, v_reg], [ca.vertcat(
-        Friction.force(v, 1.0, 0.0, 0.0, 1.0, v_reg), Friction.force(v, 0.0, 0.0, 1.0, 1.0, v_reg))])
+    return ca.Function(
+        "friction_regressors",
+        [v, v_reg],
+        [ca.vertcat(Friction.force(v, 1.0, 0.0, 0.0, 1.0, v_reg), Friction.force(v, 0.0, 0.0, 1.0, 1.0, v_reg))],
+    )
 
 
 def _chebyshev(s: ca.MX | float, n: int) -> list:
@@ -277,9 +288,14 @@ class BatchResult:
     def to_dict(self) -> dict:
         """Plain data for JSON."""
         return {
-            "names": list(self.names), "values": self.values, "stderr": self.stderr,
-            "stderr_naive": self.stderr_naive, "correlation": np.round(self.correlation, 6).tolist(),
-            "weakly_determined": self.weakly_determined(), "nuisance": self.nuisance, "blocks": self.blocks,
+            "names": list(self.names),
+            "values": self.values,
+            "stderr": self.stderr,
+            "stderr_naive": self.stderr_naive,
+            "correlation": np.round(self.correlation, 6).tolist(),
+            "weakly_determined": self.weakly_determined(),
+            "nuisance": self.nuisance,
+            "blocks": self.blocks,
             "info": self.info,
         }
 
@@ -288,13 +304,23 @@ class BatchResult:
         lines = ["| parameter | estimate | std. error | rel. std. error [%] |", "|---|---|---|---|"]
         for n in self.names:
             lines.append(f"| {n} | {self.values[n]:.6g} | {self.stderr[n]:.3g} | {100 * self.rel_stderr(n):.3f} |")
-        lines += ["", "Correlation of the estimates:", "", "| | " + " | ".join(self.names) + " |",
-                  "|---" * (len(self.names) + 1) + "|"]
+        lines += [
+            "",
+            "Correlation of the estimates:",
+            "",
+            "| | " + " | ".join(self.names) + " |",
+            "|---" * (len(self.names) + 1) + "|",
+        ]
         for i, n in enumerate(self.names):
             lines.append(f"| {n} | " + " | ".join(f"{v:+.3f}" for v in self.correlation[i]) + " |")
         if self.nuisance:
-            lines += ["", "Nuisance parameters fitted alongside:", "", "| nuisance | estimate | std. error |",
-                      "|---|---|---|"]
+            lines += [
+                "",
+                "Nuisance parameters fitted alongside:",
+                "",
+                "| nuisance | estimate | std. error |",
+                "|---|---|---|",
+            ]
             lines += [f"| {n} | {q['value']:.4g} | {q['stderr']:.2g} |" for n, q in self.nuisance.items()]
         return "\n".join(lines)
 
@@ -329,8 +355,9 @@ def _corr_length(r: np.ndarray, max_lag: int) -> int:
 class _Problem:
     """The filtered equation error as numeric matrices: ``r(w) = r0 - R w_lin - xi0 * V(ell)``."""
 
-    def __init__(self, blocks: list[_Block], names: tuple[str, ...], p_prior: np.ndarray, nom: np.ndarray,
-                 v_reg: float = 1e-3):
+    def __init__(
+        self, blocks: list[_Block], names: tuple[str, ...], p_prior: np.ndarray, nom: np.ndarray, v_reg: float = 1e-3
+    ):
         m = get_model()
         self.names = names
         n = len(names)
@@ -425,7 +452,10 @@ class _Problem:
 
 
 def batch_estimate(
-    runs: Sequence[RunData], prior: Params = NOMINAL, settings: BatchSettings | None = None, progress: bool = False,
+    runs: Sequence[RunData],
+    prior: Params = NOMINAL,
+    settings: BatchSettings | None = None,
+    progress: bool = False,
 ) -> BatchResult:
     """Fit the parameters to all runs by filtered equation error (CasADi NLP, Ipopt).
 
@@ -460,8 +490,12 @@ def batch_estimate(
     nm_ = len(model_names)
     idx = [PARAM_NAMES.index(nm) for nm in model_names]
     p_prior = prior.vector()
-    nom = np.concatenate([np.where(np.abs(p_prior[idx]) > 0, p_prior[idx], NOMINAL.vector()[idx]),
-                          [_FRICTION_SCALE[nm.split("_")[1]] for nm in names[nm_:]]])
+    nom = np.concatenate(
+        [
+            np.where(np.abs(p_prior[idx]) > 0, p_prior[idx], NOMINAL.vector()[idx]),
+            [_FRICTION_SCALE[nm.split("_")[1]] for nm in names[nm_:]],
+        ]
+    )
 
     bar = None
     if progress:
@@ -499,21 +533,37 @@ def batch_estimate(
     J_w = ca.jacobian(r_w, w)
     lam_f = ca.MX.sym("lam_f")
     H = ca.Function("gn_hess", [w, wt, lam_f, ca.MX.sym("lam_g", 0)], [ca.triu(lam_f * ca.mtimes(J_w.T, J_w))])
-    solver = ca.nlpsol("batch_fit", "ipopt", {"x": w, "p": wt, "f": 0.5 * ca.sumsqr(r_w)}, {
-        "hess_lag": H, "print_time": False,
-        # the bounds are only guards: a tiny barrier does not distort the fit
-        "ipopt": {"print_level": 0, "sb": "yes", "max_iter": st.max_iter, "tol": 1e-9,
-                  "acceptable_tol": 1e-7, "acceptable_iter": 2, "mu_init": 1e-9,
-                  "bound_push": 1e-12, "bound_frac": 1e-12},
-    })
+    solver = ca.nlpsol(
+        "batch_fit",
+        "ipopt",
+        {"x": w, "p": wt, "f": 0.5 * ca.sumsqr(r_w)},
+        {
+            "hess_lag": H,
+            "print_time": False,
+            # the bounds are only guards: a tiny barrier does not distort the fit
+            "ipopt": {
+                "print_level": 0,
+                "sb": "yes",
+                "max_iter": st.max_iter,
+                "tol": 1e-9,
+                "acceptable_tol": 1e-7,
+                "acceptable_iter": 2,
+                "mu_init": 1e-9,
+                "bound_push": 1e-12,
+                "bound_frac": 1e-12,
+            },
+        },
+    )
 
     def solve(weights: np.ndarray, w_init: np.ndarray) -> tuple[np.ndarray, dict]:
         # objective: half the mean squared weighted residual (scale-free tolerances)
         sol = solver(x0=w_init, p=weights / math.sqrt(len(weights)), lbx=lbw, ubx=ubw)
         stats = solver.stats()
-        return np.asarray(sol["x"]).ravel(), {"status": stats.get("return_status"),
-                                              "iterations": int(stats.get("iter_count", -1)),
-                                              "cost": float(sol["f"])}
+        return np.asarray(sol["x"]).ravel(), {
+            "status": stats.get("return_status"),
+            "iterations": int(stats.get("iter_count", -1)),
+            "cost": float(sol["f"]),
+        }
 
     # pass 1: one common weight; pass 2: each block by its own residual RMS
     bounds, sizes = prob.bounds, prob.sizes
@@ -522,8 +572,9 @@ def batch_estimate(
     if bar is not None:
         bar.update(1)
     r1 = np.asarray(resid_fn(w1)).ravel()
-    rms = np.array([max(math.sqrt(np.mean(r1[bounds[i]:bounds[i + 1]] ** 2)), st.weight_floor)
-                    for i in range(len(blocks))])
+    rms = np.array(
+        [max(math.sqrt(np.mean(r1[bounds[i] : bounds[i + 1]] ** 2)), st.weight_floor) for i in range(len(blocks))]
+    )
     weights = np.concatenate([np.full(s, 1.0 / v) for s, v in zip(sizes, rms, strict=True)])
     w2, info2 = solve(weights, w1)
     if bar is not None:
@@ -544,8 +595,14 @@ def batch_estimate(
         lags = st.hac_lags or max(2 * half_dec, _corr_length(rb, 20 * half_dec))
         lags_used.append(lags)
         S += _hac(J2[sl], rb, lags)
-        blk_info.append({"run": b.run, "axis": b.axis, "samples": len(rb),
-                         "rms_m_s2": float(math.sqrt(np.mean((rb / weights[sl]) ** 2)))})
+        blk_info.append(
+            {
+                "run": b.run,
+                "axis": b.axis,
+                "samples": len(rb),
+                "rms_m_s2": float(math.sqrt(np.mean((rb / weights[sl]) ** 2))),
+            }
+        )
     cov = Hinv @ S @ Hinv
     cov_naive = Hinv * float(r2 @ r2) / max(len(r2) - nf, 1)
     se = np.sqrt(np.clip(np.diag(cov), 0, None)) * nom[fi]
@@ -559,8 +616,9 @@ def batch_estimate(
     cov_m = cov[np.ix_(model_pos, model_pos)]
     dcov = np.sqrt(np.clip(np.diag(cov_m), 1e-300, None))
     corr = cov_m / np.outer(dcov, dcov)
-    nuisance = {fitted_all[q]: {"value": float(vals[fi[q]]), "stderr": float(se[q])}
-                for q in range(len(fi)) if fi[q] >= nm_}
+    nuisance = {
+        fitted_all[q]: {"value": float(vals[fi[q]]), "stderr": float(se[q])} for q in range(len(fi)) if fi[q] >= nm_
+    }
     held_nuisance = [nm for nm in held if nm not in model_names]
     held = [nm for nm in held if nm in model_names]
     at_bound = [names[i] for i in fi if min(w2[i] - lbw[i], ubw[i] - w2[i]) < 1e-6 * max(1.0, abs(w2[i]))]
@@ -568,14 +626,27 @@ def batch_estimate(
         bar.update(1)
         bar.close()
     return BatchResult(
-        params=Params.from_vector(p_new), names=fitted,
+        params=Params.from_vector(p_new),
+        names=fitted,
         values={fitted_all[q]: float(vals[fi[q]]) for q in model_pos},
         stderr={fitted_all[q]: float(se[q]) for q in model_pos},
         stderr_naive={fitted_all[q]: float(se_naive[q]) for q in model_pos},
-        correlation=corr, blocks=blk_info, nuisance=nuisance,
-        info={"pass1": info1, "pass2": info2, "n_residuals": len(r2), "n_blocks": len(blocks),
-              "held_at_prior": held, "nuisance_not_seen": held_nuisance, "at_bound": at_bound,
-              "decimate": D, "sigma_t": st.sigma_t,
-              "kernel_taps": len(h), "hac_lags": [min(lags_used), max(lags_used)],
-              "friction": st.friction, "seconds": time.perf_counter() - t_start},
+        correlation=corr,
+        blocks=blk_info,
+        nuisance=nuisance,
+        info={
+            "pass1": info1,
+            "pass2": info2,
+            "n_residuals": len(r2),
+            "n_blocks": len(blocks),
+            "held_at_prior": held,
+            "nuisance_not_seen": held_nuisance,
+            "at_bound": at_bound,
+            "decimate": D,
+            "sigma_t": st.sigma_t,
+            "kernel_taps": len(h),
+            "hac_lags": [min(lags_used), max(lags_used)],
+            "friction": st.friction,
+            "seconds": time.perf_counter() - t_start,
+        },
     )

@@ -55,11 +55,16 @@ from .procedures import (
 #: Relative standard error above which a parameter is reported as weakly determined.
 WEAK_REL_STDERR = 0.02
 #: The seed's published Table II and III (for the side-by-side tables).
-SEED_TABLE_II = {0.001: {"C2": 790.97, "C3": 30.47, "C4": 0.11}, 0.01: {"C2": 791.00, "C3": 30.90, "C4": 0.12},
-                 0.05: {"C2": 788.98, "C3": 32.44, "C4": 0.18}}
-SEED_TABLE_III = {0.001: {"C1": 13.97, "C2": 796.93, "C3": 30.33, "C4": 0.06},
-                  0.01: {"C1": 14.20, "C2": 796.99, "C3": 31.04, "C4": 0.07},
-                  0.05: {"C1": 16.23, "C2": 795.01, "C3": 33.44, "C4": 0.15}}
+SEED_TABLE_II = {
+    0.001: {"C2": 790.97, "C3": 30.47, "C4": 0.11},
+    0.01: {"C2": 791.00, "C3": 30.90, "C4": 0.12},
+    0.05: {"C2": 788.98, "C3": 32.44, "C4": 0.18},
+}
+SEED_TABLE_III = {
+    0.001: {"C1": 13.97, "C2": 796.93, "C3": 30.33, "C4": 0.06},
+    0.01: {"C1": 14.20, "C2": 796.99, "C3": 31.04, "C4": 0.07},
+    0.05: {"C1": 16.23, "C2": 795.01, "C3": 33.44, "C4": 0.15},
+}
 
 
 @dataclass
@@ -130,8 +135,9 @@ class CalibrationResult:
             j = max(others, key=lambda q: abs(b.correlation[i, q]))
             text += f", correlation with {b.names[j]} {b.correlation[i, j]:+.2f}"
         if n == "C4":
-            text += (" (C4 f4 (i_q^2 + i_d^2) is a small correction at the hover currents, nearly collinear"
-                     " with C3 f3 i_d)")
+            text += (
+                " (C4 f4 (i_q^2 + i_d^2) is a small correction at the hover currents, nearly collinear with C3 f3 i_d)"
+            )
         return text + ". Standard errors cover noise, not unmodelled effects."
 
     def correlation(self) -> dict:
@@ -144,8 +150,11 @@ class CalibrationResult:
         """The content of ``calibration.json`` (SI units)."""
         procs: dict[str, dict] = {}
         for key, res in (("V.A", self.va), ("V.B", self.vb), ("V.C", self.vc), ("V.D", self.vd)):
-            procs[key] = {"ran": True, **res.to_dict()} if res is not None else {"ran": False,
-                                                                                 "reason": self.skipped.get(key, "")}
+            procs[key] = (
+                {"ran": True, **res.to_dict()}
+                if res is not None
+                else {"ran": False, "reason": self.skipped.get(key, "")}
+            )
         return {
             "format": "maglev-calibration/1",
             "dataset": self.dataset,
@@ -166,21 +175,28 @@ class CalibrationResult:
     def table(self) -> str:
         """Summary table: calibrated value, standard error, source, prior, NPFISI cross-check."""
         vd = self.vd.npfisi.get(MAIN_EPS) if self.vd is not None else None
-        lines = ["| parameter | calibrated | std. error | rel. [%] | from | prior | V.D NPFISI eps=0.01 |",
-                 "|---|---|---|---|---|---|---|"]
+        lines = [
+            "| parameter | calibrated | std. error | rel. [%] | from | prior | V.D NPFISI eps=0.01 |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for n in BATCH_PARAMS:
             v = getattr(self.params, n)
             se = self.stderr.get(n)
             rel = f"{100 * se / abs(v):.3f}" if se is not None and v else "-"
             sev = f"{se:.3g}" if se is not None else "-"
             cross = f"{vd.final[n]:.5g}" if vd is not None and n in vd.final else "-"
-            lines.append(f"| {n} | {v:.6g} | {sev} | {rel} | {self.source[n]} | {getattr(self.prior, n):.5g} | "
-                         f"{cross} |")
+            lines.append(
+                f"| {n} | {v:.6g} | {sev} | {rel} | {self.source[n]} | {getattr(self.prior, n):.5g} | {cross} |"
+            )
         if self.batch is not None and self.batch.nuisance:
             lines.append("")
-            lines.append("Friction of the guides, fitted alongside as nuisance (Coulomb [N], viscous [N s/m]): "
-                         + ", ".join(f"{n.removeprefix('friction_')} {q['value']:.3g} ± {q['stderr']:.2g}"
-                                     for n, q in self.batch.nuisance.items()))
+            lines.append(
+                "Friction of the guides, fitted alongside as nuisance (Coulomb [N], viscous [N s/m]): "
+                + ", ".join(
+                    f"{n.removeprefix('friction_')} {q['value']:.3g} ± {q['stderr']:.2g}"
+                    for n, q in self.batch.nuisance.items()
+                )
+            )
         weak = self.weakly_determined()
         lines.append("")
         if weak:
@@ -191,9 +207,10 @@ class CalibrationResult:
         lines.append(self.least_determined()[0].upper() + self.least_determined()[1:])
         ran = [k for k, r in (("V.A", self.va), ("V.B", self.vb), ("V.C", self.vc), ("V.D", self.vd)) if r]
         lines.append("")
-        lines.append(f"Procedures run: {', '.join(ran) or 'none'}"
-                     + (f"; skipped: {', '.join(f'{k} ({v})' for k, v in self.skipped.items())}"
-                        if self.skipped else ""))
+        lines.append(
+            f"Procedures run: {', '.join(ran) or 'none'}"
+            + (f"; skipped: {', '.join(f'{k} ({v})' for k, v in self.skipped.items())}" if self.skipped else "")
+        )
         return "\n".join(lines)
 
     def table_ii(self) -> str:
@@ -201,11 +218,14 @@ class CalibrationResult:
         if self.vb is None:
             return "V.B did not run."
         eps = sorted(self.vb.npfisi)
-        lines = ["| parameter | " + " | ".join(f"eps={e:g} (this) | eps={e:g} (seed)" for e in eps) + " |",
-                 "|---" * (1 + 2 * len(eps)) + "|"]
+        lines = [
+            "| parameter | " + " | ".join(f"eps={e:g} (this) | eps={e:g} (seed)" for e in eps) + " |",
+            "|---" * (1 + 2 * len(eps)) + "|",
+        ]
         for n in ("C2", "C3", "C4"):
-            cells = [f"{self.vb.npfisi[e].final[n]:.5g} | {SEED_TABLE_II.get(e, {}).get(n, float('nan')):g}"
-                     for e in eps]
+            cells = [
+                f"{self.vb.npfisi[e].final[n]:.5g} | {SEED_TABLE_II.get(e, {}).get(n, float('nan')):g}" for e in eps
+            ]
             lines.append(f"| {n} | " + " | ".join(cells) + " |")
         return "\n".join(lines)
 
@@ -218,8 +238,9 @@ class CalibrationResult:
         head += " | batch fit ± std. error |"
         lines = [head, "|---" * (2 + 2 * len(eps)) + "|"]
         for n in ("C1", "C2", "C3", "C4"):
-            cells = [f"{self.vd.npfisi[e].final[n]:.5g} | {SEED_TABLE_III.get(e, {}).get(n, float('nan')):g}"
-                     for e in eps]
+            cells = [
+                f"{self.vd.npfisi[e].final[n]:.5g} | {SEED_TABLE_III.get(e, {}).get(n, float('nan')):g}" for e in eps
+            ]
             b = "-"
             if self.batch is not None and n in self.batch.values:
                 b = f"{self.batch.values[n]:.5g} ± {self.batch.stderr[n]:.2g}"
@@ -258,8 +279,9 @@ class CalibrationResult:
         if figures:
             from .figures import write_all
 
-            written += write_all(out, prior=self.prior, va=self.va, vb=self.vb, vc=self.vc, vd=self.vd,
-                                 batch=self.batch)
+            written += write_all(
+                out, prior=self.prior, va=self.va, vb=self.vb, vc=self.vc, vd=self.vd, batch=self.batch
+            )
         return written
 
 
@@ -362,8 +384,11 @@ def calibrate(
         t = tick("V.B", t)
         vc = procedure_vc(groups, prior, vb)
         if vc is None:
-            skipped["V.C"] = ("no run with d locked at a cogging peak (3 t1/2) and i_q = 0" if not groups.hover_cog
-                              else "needs V.B (runs with d locked at 0)")
+            skipped["V.C"] = (
+                "no run with d locked at a cogging peak (3 t1/2) and i_q = 0"
+                if not groups.hover_cog
+                else "needs V.B (runs with d locked at 0)"
+            )
         t = tick("V.C", t)
         vd = procedure_vd(groups, prior, vc, eps_list)
         if vd is None:
@@ -389,12 +414,14 @@ def calibrate(
                 values[n], source[n] = v, "V.C"
     params = prior.with_(**values)
     timing["total"] = round(time.perf_counter() - t0, 3)
-    return CalibrationResult(str(ds.folder), prior, params, stderr, source, groups, va, vb, vc, vd, batch, timing,
-                             skipped)
+    return CalibrationResult(
+        str(ds.folder), prior, params, stderr, source, groups, va, vb, vc, vd, batch, timing, skipped
+    )
 
 
-def regenerate_results(out: str | os.PathLike = "results/calibration", *, seed: int = 2024, profile: str = "default",
-                       progress: bool = True) -> CalibrationResult:
+def regenerate_results(
+    out: str | os.PathLike = "results/calibration", *, seed: int = 2024, profile: str = "default", progress: bool = True
+) -> CalibrationResult:
     """Regenerate ``results/calibration/``: the seed's experiments on a rig profile, then calibrate them.
 
     Writes the dataset to ``<out>/dataset`` and the calibration into ``<out>``
@@ -417,26 +444,46 @@ def regenerate_results(out: str | os.PathLike = "results/calibration", *, seed: 
 
     out = Path(out)
     t0 = time.perf_counter()
-    ds_path = generate_seed_calibration(out / "dataset", seed=seed, plant_config=PlantConfig.from_profile(profile),
-                                        progress=progress)
+    ds_path = generate_seed_calibration(
+        out / "dataset", seed=seed, plant_config=PlantConfig.from_profile(profile), progress=progress
+    )
     t_gen = time.perf_counter() - t0
     res = calibrate(ds_path, progress=progress)
     res.save(out)
     true = read_dataset(ds_path).meta.get("true_params", {})
-    lines = [f"# Calibration on a simulated '{profile}' rig (seed {seed})", "",
-             f"Dataset generated in {t_gen:.1f} s; calibration took {res.timing['total']:.1f} s "
-             f"(stages: {', '.join(f'{k} {v:.1f} s' for k, v in res.timing.items() if k != 'total')}).", "",
-             "## Calibrated parameters", "", res.table(), ""]
+    lines = [
+        f"# Calibration on a simulated '{profile}' rig (seed {seed})",
+        "",
+        f"Dataset generated in {t_gen:.1f} s; calibration took {res.timing['total']:.1f} s "
+        f"(stages: {', '.join(f'{k} {v:.1f} s' for k, v in res.timing.items() if k != 'total')}).",
+        "",
+        "## Calibrated parameters",
+        "",
+        res.table(),
+        "",
+    ]
     if true:
-        lines += ["## Against the simulator's true parameters", "",
-                  "| parameter | true | calibrated | error [%] | error / std. error |", "|---|---|---|---|---|"]
+        lines += [
+            "## Against the simulator's true parameters",
+            "",
+            "| parameter | true | calibrated | error [%] | error / std. error |",
+            "|---|---|---|---|---|",
+        ]
         for n in BATCH_PARAMS:
             v, tv, se = getattr(res.params, n), true[n], res.stderr.get(n)
             z = f"{(v - tv) / se:+.2f}" if se else "-"
             lines.append(f"| {n} | {tv:.6g} | {v:.6g} | {100 * (v / tv - 1):+.3f} | {z} |")
         lines.append("")
-    lines += ["## Table II (V.B) beside the seed", "", res.table_ii(), "",
-              "## Table III (V.D) beside the seed", "", res.table_iii(), ""]
+    lines += [
+        "## Table II (V.B) beside the seed",
+        "",
+        res.table_ii(),
+        "",
+        "## Table III (V.D) beside the seed",
+        "",
+        res.table_iii(),
+        "",
+    ]
     atomic_write_text(out / "README.md", "\n".join(lines))
     return res
 

@@ -149,7 +149,10 @@ def _observer_chain(Ts: float, disturbance: bool, n: int) -> ca.Function:
 
 
 def observe(
-    y: np.ndarray, u: np.ndarray, params: Params = NOMINAL, settings: ObserverSettings | None = None,
+    y: np.ndarray,
+    u: np.ndarray,
+    params: Params = NOMINAL,
+    settings: ObserverSettings | None = None,
     Ts: float = k.Ts,
 ) -> np.ndarray:
     """State estimates of a logged run by the high-gain observer, vectorized.
@@ -280,8 +283,9 @@ class RunData:
         return x
 
 
-def prepare(runs: Sequence[RunData], params: Params = NOMINAL, settings: ObserverSettings | None = None
-            ) -> list[RunData]:
+def prepare(
+    runs: Sequence[RunData], params: Params = NOMINAL, settings: ObserverSettings | None = None
+) -> list[RunData]:
     """Run the observer on every run that has no state estimates yet."""
     for r in runs:
         if r.x_hat is None:

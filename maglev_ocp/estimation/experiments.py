@@ -168,8 +168,9 @@ def generate_seed_calibration(
     ref_seeds = ss_ref.spawn(len(jobs))
 
     runs: list[RunLog] = []
-    for (kind, a, b), rs in tqdm(list(zip(jobs, ref_seeds, strict=True)), desc="seed calibration runs",
-                                 unit="run", disable=not progress):
+    for (kind, a, b), rs in tqdm(
+        list(zip(jobs, ref_seeds, strict=True)), desc="seed calibration runs", unit="run", disable=not progress
+    ):
         if kind == "hover":
             g, d = a * 1e-3, b * 1e-3
             h = des.hover
@@ -185,8 +186,15 @@ def generate_seed_calibration(
                 return Reference(g=g, d=d) if t < t_q else sos(t - t_q)
 
             pid = PIDController(params, PIDSettings(control_d=False, i_q_fixed=0.0), Ts)
-            log = run_closed_loop(plant, pid, ref, h.duration_s, x0=np.array([g, 0.0, d, 0.0]), lock="d",
-                                  file=f"hover_d{_tag(b)}_g{_tag(a)}.csv")
+            log = run_closed_loop(
+                plant,
+                pid,
+                ref,
+                h.duration_s,
+                x0=np.array([g, 0.0, d, 0.0]),
+                lock="d",
+                file=f"hover_d{_tag(b)}_g{_tag(a)}.csv",
+            )
             log.meta.update({"experiment": "hover", "gap_mm": a, "d_mm": b})
         elif kind == "parabola":
             g, d0 = a * 1e-3, b * 1e-3
@@ -197,8 +205,15 @@ def generate_seed_calibration(
             pid = PIDController(params, PIDSettings(control_g=False, i_d_fixed=0.0), Ts)
             drv = _ParabolaDriver(pid, pb.hold_s, pb.i_q, Ts)
             ref0 = Reference(g=g, d=d0)
-            log = run_closed_loop(plant, drv, lambda t, r=ref0: r, pb.hold_s + 1.25 * t_move,
-                                  x0=np.array([g, 0.0, d0, 0.0]), lock="g", file=f"parabola_g{_tag(a)}.csv")
+            log = run_closed_loop(
+                plant,
+                drv,
+                lambda t, r=ref0: r,
+                pb.hold_s + 1.25 * t_move,
+                x0=np.array([g, 0.0, d0, 0.0]),
+                lock="g",
+                file=f"parabola_g{_tag(a)}.csv",
+            )
             # the run ends where the mover passes d_end (before any stop)
             sgn = 1.0 if pb.d_end_mm >= pb.d_start_mm else -1.0
             past = np.flatnonzero(sgn * (log["d"] - pb.d_end_mm * 1e-3) > 0)
@@ -208,8 +223,9 @@ def generate_seed_calibration(
         else:
             fr = des.free
             exc = ExcitationSettings(
-                g=AxisExcitation(center=fr.g_center_mm * 1e-3, amplitude=fr.g_amplitude_mm * 1e-3,
-                                 freqs_hz=fr.g_freqs_hz),
+                g=AxisExcitation(
+                    center=fr.g_center_mm * 1e-3, amplitude=fr.g_amplitude_mm * 1e-3, freqs_hz=fr.g_freqs_hz
+                ),
                 d=AxisExcitation(center=0.0, amplitude=fr.d_amplitude_mm * 1e-3, freqs_hz=fr.d_freqs_hz),
                 fade_in=fr.fade_in_s,
             )
@@ -229,8 +245,14 @@ def generate_seed_calibration(
         "design": des.model_dump(),
         "true_params": tp.as_dict(),
     }
-    return write_dataset(out_dir, runs, sample_time=Ts, encoder_resolution=k.encoder_resolution, meta=meta,
-                         description="the seed's calibration experiments (sections IV, V) on the plant simulator")
+    return write_dataset(
+        out_dir,
+        runs,
+        sample_time=Ts,
+        encoder_resolution=k.encoder_resolution,
+        meta=meta,
+        description="the seed's calibration experiments (sections IV, V) on the plant simulator",
+    )
 
 
 __all__ = ["FreeDesign", "HoverDesign", "ParabolaDesign", "SeedCalibrationDesign", "generate_seed_calibration"]

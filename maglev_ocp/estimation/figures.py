@@ -104,17 +104,25 @@ def fig6_cogging(vc: CoggingResult, path: Path, batch: BatchResult | None = None
     g = np.array([q["g"] for q in vc.per_gap])
     gg = np.linspace(min(g.min(), 0.0095) if len(g) else 0.0095, max(g.max(), 0.025) if len(g) else 0.025, 100)
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
-    ax.plot(gg * 1e3, vc.xi_seed(gg), "--", color="tab:orange",
-            label=f"seed-style: Mv (C2' - C2) f2(g), C2' = {vc.C2_peak:.5g}")
+    ax.plot(
+        gg * 1e3,
+        vc.xi_seed(gg),
+        "--",
+        color="tab:orange",
+        label=f"seed-style: Mv (C2' - C2) f2(g), C2' = {vc.C2_peak:.5g}",
+    )
     if len(g):
         ax.plot(g * 1e3, [q["xi"] for q in vc.per_gap], "ko", label="gap by gap: C2 at the peak vs at d = 0")
     if np.isfinite(vc.xi0):
-        ax.plot(gg * 1e3, vc.xi_law(gg), "b-",
-                label=f"fitted law: xi0 = {vc.xi0:.3g} N, ell = {vc.ell * 1e3:.3g} mm")
+        ax.plot(gg * 1e3, vc.xi_law(gg), "b-", label=f"fitted law: xi0 = {vc.xi0:.3g} N, ell = {vc.ell * 1e3:.3g} mm")
     if batch is not None and "xi0" in batch.values:
         ell = batch.values.get("ell", batch.params.ell)
-        ax.plot(gg * 1e3, batch.values["xi0"] * np.exp(-(gg - 0.010) / ell), "g:",
-                label=f"batch fit: xi0 = {batch.values['xi0']:.3g} N, ell = {ell * 1e3:.3g} mm")
+        ax.plot(
+            gg * 1e3,
+            batch.values["xi0"] * np.exp(-(gg - 0.010) / ell),
+            "g:",
+            label=f"batch fit: xi0 = {batch.values['xi0']:.3g} N, ell = {ell * 1e3:.3g} mm",
+        )
     ax.axhline(1.0, color="0.6", lw=0.8)
     ax.set_xlabel("gap g [mm]")
     ax.set_ylabel("peak cogging force xi(g) [N]")
@@ -130,12 +138,16 @@ def fig7_equilibrium_cogging(vb: VerticalResult, vc: CoggingResult, path: Path) 
     g0 = np.array([q["g"] for q in vb.equilibrium]) * 1e3
     g1 = np.array([q["g"] for q in vc.equilibrium]) * 1e3
     ax.plot(g0, [q["i_d"] for q in vb.equilibrium], "ko", label="measured, d = 0")
-    ax.plot(g1, [q["i_d"] for q in vc.equilibrium], "bs", mfc="none",
-            label=f"measured, d = {vc.d_peak * 1e3:.2f} mm")
+    ax.plot(g1, [q["i_d"] for q in vc.equilibrium], "bs", mfc="none", label=f"measured, d = {vc.d_peak * 1e3:.2f} mm")
     ax.plot(g0, [q["i_d_theory"] for q in vb.equilibrium], "k-", lw=1, label="model without cogging")
     if np.isfinite(vc.xi0):
-        ax.plot(g1, [q["i_d_with_cogging"] for q in vc.equilibrium], "b--", lw=1,
-                label="model with the fitted cogging, at the peak")
+        ax.plot(
+            g1,
+            [q["i_d_with_cogging"] for q in vc.equilibrium],
+            "b--",
+            lw=1,
+            label="model with the fitted cogging, at the peak",
+        )
     ax.set_xlabel("gap g [mm]")
     ax.set_ylabel("equilibrium i_d [A]")
     ax.set_title("Fig. 7: equilibrium currents with and without the horizontal offset")
@@ -144,24 +156,29 @@ def fig7_equilibrium_cogging(vb: VerticalResult, vc: CoggingResult, path: Path) 
     return _save(fig, path)
 
 
-def fig8_L1_full(vd: FullSpanResult, va: HorizontalResult | None, path: Path,
-                 batch: BatchResult | None = None) -> Path:
+def fig8_L1_full(vd: FullSpanResult, va: HorizontalResult | None, path: Path, batch: BatchResult | None = None) -> Path:
     """Seed Fig. 8: L1(g) of the full-span estimates against the fixed-gap estimates of V.A."""
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     gg = np.linspace(9.5, 28.0, 80)
     for i, e in enumerate(sorted(vd.npfisi)):
         c, _ = _style(e, i)
-        ax.plot(gg, _L1_curve(vd.npfisi[e].final["C1"], gg), "-", color=c, lw=1,
-                label=f"V.D NPFISI eps = {e:g}: C1 = {vd.npfisi[e].final['C1']:.4g}")
+        ax.plot(
+            gg,
+            _L1_curve(vd.npfisi[e].final["C1"], gg),
+            "-",
+            color=c,
+            lw=1,
+            label=f"V.D NPFISI eps = {e:g}: C1 = {vd.npfisi[e].final['C1']:.4g}",
+        )
     if batch is not None and "C1" in batch.values:
-        ax.plot(gg, _L1_curve(batch.values["C1"], gg), "k--", lw=1.2,
-                label=f"batch fit: C1 = {batch.values['C1']:.4g}")
+        ax.plot(gg, _L1_curve(batch.values["C1"], gg), "k--", lw=1.2, label=f"batch fit: C1 = {batch.values['C1']:.4g}")
     if va is not None:
         g = np.array([r["g"] for r in va.rows]) * 1e3
         ax.plot(g, [r["L1_fit"] for r in va.rows], "k*", ms=9, label="V.A parabola fits")
         if MAIN_EPS in va.npfisi:
-            ax.plot(g, [r["L1_npfisi"][MAIN_EPS] for r in va.rows], "gs", mfc="none",
-                    label=f"V.A NPFISI eps = {MAIN_EPS:g}")
+            ax.plot(
+                g, [r["L1_npfisi"][MAIN_EPS] for r in va.rows], "gs", mfc="none", label=f"V.A NPFISI eps = {MAIN_EPS:g}"
+            )
     ax.set_xlabel("gap g [mm]")
     ax.set_ylabel("L1 = C1 f1(g) [m/s^2/A]")
     ax.set_title("Fig. 8: L1 from the full-span model and at fixed gaps")
@@ -170,8 +187,9 @@ def fig8_L1_full(vd: FullSpanResult, va: HorizontalResult | None, path: Path,
     return _save(fig, path)
 
 
-def fig9_equilibrium_full(vd: FullSpanResult, vb: VerticalResult, prior: Params, path: Path,
-                          batch: BatchResult | None = None) -> Path:
+def fig9_equilibrium_full(
+    vd: FullSpanResult, vb: VerticalResult, prior: Params, path: Path, batch: BatchResult | None = None
+) -> Path:
     """Seed Fig. 9: equilibrium i_d predicted by the full-span estimates against the measured ones (d = 0)."""
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     g = np.array([q["g"] for q in vb.equilibrium])
@@ -179,8 +197,7 @@ def fig9_equilibrium_full(vd: FullSpanResult, vb: VerticalResult, prior: Params,
     for i, e in enumerate(sorted(vd.npfisi)):
         c, _ = _style(e, i)
         p = prior.with_(**vd.npfisi[e].final).vector()
-        ax.plot(g * 1e3, [equilibrium_i_d(gi, 0.0, p) for gi in g], "-", color=c, lw=1,
-                label=f"V.D NPFISI eps = {e:g}")
+        ax.plot(g * 1e3, [equilibrium_i_d(gi, 0.0, p) for gi in g], "-", color=c, lw=1, label=f"V.D NPFISI eps = {e:g}")
     if batch is not None:
         p = batch.params.vector()
         ax.plot(g * 1e3, [equilibrium_i_d(gi, 0.0, p) for gi in g], "k--", lw=1.2, label="batch fit")

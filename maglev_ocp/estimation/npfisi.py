@@ -136,9 +136,7 @@ def _step_function(names: tuple[str, ...], n_sub: int, Ts: float, chunk: int) ->
     dsig = Am.T @ Am - Qg
     ode = ca.vertcat(dxh, dphi, ca.vec(dsig))
     dae = {"x": z, "p": ca.vertcat(s, c), "t": t, "ode": ode}
-    integ = ca.integrator(
-        "npfisi_interval", "rk", dae, 0.0, Ts, {"number_of_finite_elements": n_sub, "simplify": True}
-    )
+    integ = ca.integrator("npfisi_interval", "rk", dae, 0.0, Ts, {"number_of_finite_elements": n_sub, "simplify": True})
     zs, ss, cs = ca.SX.sym("z", nz), ca.SX.sym("s", 15), ca.SX.sym("c", c.numel())
     zf = integ(x0=zs, p=ca.vertcat(ss, cs))["xf"]
     znext = ca.if_else(ss[14] > 0.5, zf, zs)  # padding samples are no-ops
@@ -218,8 +216,12 @@ class NPFISIResult:
             v = self.theta[sel, j]
             spread = float(v.max() - v.min())
             fin = float(self.theta[-1, j])
-            out[n] = {"final": fin, "mean": float(v.mean()), "spread": spread,
-                      "rel_spread": spread / max(abs(fin), 1e-12)}
+            out[n] = {
+                "final": fin,
+                "mean": float(v.mean()),
+                "spread": spread,
+                "rel_spread": spread / max(abs(fin), 1e-12),
+            }
         return out
 
     def converged(self, tol: float = 0.01, stretch: float | None = None, names: Sequence[str] | None = None) -> bool:
@@ -232,12 +234,20 @@ class NPFISIResult:
         """Summary as plain data (for JSON)."""
         s = self.settings
         return {
-            "names": list(self.names), "eps": s.eps, "gamma": s.gamma,
-            "Q": np.asarray(s.Q, float).tolist(), "Q0": np.asarray(s.Q0, float).tolist(),
-            "n_sub": self.n_sub, "runs": self.run_names, "duration_s": float(self.t[-1] - self.t[0]),
-            "final": self.final, "convergence": self.convergence(), "stretch": self.stretch,
+            "names": list(self.names),
+            "eps": s.eps,
+            "gamma": s.gamma,
+            "Q": np.asarray(s.Q, float).tolist(),
+            "Q0": np.asarray(s.Q0, float).tolist(),
+            "n_sub": self.n_sub,
+            "runs": self.run_names,
+            "duration_s": float(self.t[-1] - self.t[0]),
+            "final": self.final,
+            "convergence": self.convergence(),
+            "stretch": self.stretch,
             "sigma_min_eig_min": float(self.sigma_min_eig.min()),
-            "sigma_min_eig_final": float(self.sigma_min_eig[-1]), "sigma_positive": self.sigma_positive,
+            "sigma_min_eig_final": float(self.sigma_min_eig[-1]),
+            "sigma_positive": self.sigma_positive,
             **self.extra,
         }
 
@@ -263,8 +273,15 @@ class NPFISIResult:
         import io
 
         buf = io.BytesIO()
-        np.savez_compressed(buf, t=self.t, theta=self.theta, sigma=self.sigma, sigma_min_eig=self.sigma_min_eig,
-                            run_start=self.run_start, names=np.array(self.names))
+        np.savez_compressed(
+            buf,
+            t=self.t,
+            theta=self.theta,
+            sigma=self.sigma,
+            sigma_min_eig=self.sigma_min_eig,
+            run_start=self.run_start,
+            names=np.array(self.names),
+        )
         atomic_write_bytes(path.with_suffix(".npz"), buf.getvalue())
 
 
@@ -353,9 +370,7 @@ class NPFISI:
         n_base = self._n_sub(np.zeros((0, 4, n)), np.eye(n))  # once Sigma is large only 1/eps matters
         p = self.prior.vector()
         const = np.concatenate([p, self.theta_nom, [1.0 / s.eps], Qg.ravel(order="F")])
-        theta0 = np.array([
-            (s.theta0 or {}).get(nm, getattr(self.prior, nm)) for nm in s.names
-        ], dtype=float)
+        theta0 = np.array([(s.theta0 or {}).get(nm, getattr(self.prior, nm)) for nm in s.names], dtype=float)
         phi = theta0 / self.theta_nom
         sig = Q0.copy()
 
@@ -363,8 +378,13 @@ class NPFISI:
         if progress:
             from tqdm import tqdm
 
-            bar = tqdm(total=sum(r.n - 1 for r in runs), desc=f"NPFISI eps={s.eps:g}", unit="sample",
-                       leave=False, unit_scale=True)
+            bar = tqdm(
+                total=sum(r.n - 1 for r in runs),
+                desc=f"NPFISI eps={s.eps:g}",
+                unit="sample",
+                leave=False,
+                unit_scale=True,
+            )
         ts, ths, sigs, starts = [], [], [], []
         t_off = 0.0
         rec = 0
@@ -419,12 +439,19 @@ class NPFISI:
         with np.errstate(invalid="ignore"):
             min_eig = np.array([np.linalg.eigvalsh(m_)[0] if np.all(np.isfinite(m_)) else -np.inf for m_ in sym])
         return NPFISIResult(
-            settings=s, t=np.concatenate(ts), theta=np.concatenate(ths), sigma=sigma, sigma_min_eig=min_eig,
-            run_names=[r.name for r in runs], run_start=np.array(starts, dtype=int), n_sub=n_sub_max,
+            settings=s,
+            t=np.concatenate(ts),
+            theta=np.concatenate(ths),
+            sigma=sigma,
+            sigma_min_eig=min_eig,
+            run_names=[r.name for r in runs],
+            run_start=np.array(starts, dtype=int),
+            n_sub=n_sub_max,
         )
 
 
-def run_npfisi(runs: Sequence[RunData], names: Sequence[str], eps: float, prior: Params = NOMINAL,
-               progress: bool = False, **kw) -> NPFISIResult:
+def run_npfisi(
+    runs: Sequence[RunData], names: Sequence[str], eps: float, prior: Params = NOMINAL, progress: bool = False, **kw
+) -> NPFISIResult:
     """Shortcut: build :class:`NPFISI` with ``names``, ``eps`` (and any other setting) and run it."""
     return NPFISI(NPFISISettings(names=tuple(names), eps=eps, **kw), prior=prior).run(runs, progress=progress)

@@ -79,8 +79,10 @@ class RunGroups:
     def summary(self) -> dict[str, list[str]]:
         """Run names per group."""
         return {
-            "parabola": [r.name for r, _ in self.parabola], "hover_d0": [r.name for r in self.hover_d0],
-            "hover_cog": [r.name for r in self.hover_cog], "free": [r.name for r in self.free],
+            "parabola": [r.name for r, _ in self.parabola],
+            "hover_d0": [r.name for r in self.hover_d0],
+            "hover_cog": [r.name for r in self.hover_cog],
+            "free": [r.name for r in self.free],
             "other": [r.name for r in self.other],
         }
 
@@ -115,8 +117,9 @@ def classify(runs: Sequence[RunData]) -> RunGroups:
 
 def segment(r: RunData, i0: int, i1: int) -> RunData:
     """Samples ``[i0, i1)`` of a run as a run of its own."""
-    return RunData(r.name, r.t[i0:i1], r.y[i0:i1], r.u[i0:i1], r.locked,
-                   x_hat=None if r.x_hat is None else r.x_hat[i0:i1], Ts=r.Ts)
+    return RunData(
+        r.name, r.t[i0:i1], r.y[i0:i1], r.u[i0:i1], r.locked, x_hat=None if r.x_hat is None else r.x_hat[i0:i1], Ts=r.Ts
+    )
 
 
 # ------------------------------------------------------------- model helpers
@@ -203,16 +206,22 @@ class HorizontalResult:
     def table(self) -> str:
         """Markdown table of L1 by gap and method."""
         eps = sorted(self.npfisi)
-        lines = ["| g [mm] | L1 parabola fit | " + " | ".join(f"L1 NPFISI eps={e:g}" for e in eps)
-                 + " | L1 prior model |", "|---" * (3 + len(eps)) + "|"]
+        lines = [
+            "| g [mm] | L1 parabola fit | " + " | ".join(f"L1 NPFISI eps={e:g}" for e in eps) + " | L1 prior model |",
+            "|---" * (3 + len(eps)) + "|",
+        ]
         for r in self.rows:
-            lines.append(f"| {r['g'] * 1e3:.2f} | {r['L1_fit']:.4f} | "
-                         + " | ".join(f"{r['L1_npfisi'][e]:.4f}" for e in eps) + f" | {r['L1_model']:.4f} |")
+            lines.append(
+                f"| {r['g'] * 1e3:.2f} | {r['L1_fit']:.4f} | "
+                + " | ".join(f"{r['L1_npfisi'][e]:.4f}" for e in eps)
+                + f" | {r['L1_model']:.4f} |"
+            )
         return "\n".join(lines)
 
 
-def procedure_va(groups: RunGroups, prior: Params, eps_list: Sequence[float] = SEED_EPS,
-                 progress: bool = False) -> HorizontalResult | None:
+def procedure_va(
+    groups: RunGroups, prior: Params, eps_list: Sequence[float] = SEED_EPS, progress: bool = False
+) -> HorizontalResult | None:
     """Seed V.A on the parabola runs (None if there are none)."""
     if not groups.parabola:
         return None
@@ -229,8 +238,17 @@ def procedure_va(groups: RunGroups, prior: Params, eps_list: Sequence[float] = S
         c2, c1, c0 = np.polyfit(t, d, 2)
         L1_fit = -2 * c2 / i_q
         f1 = f1_of(g)
-        row = {"run": r.name, "g": g, "i_q": i_q, "n": seg.n, "L1_fit": float(L1_fit),
-               "L1_model": prior.C1 * f1, "C1_fit": float(L1_fit / f1), "L1_npfisi": {}, "C1_npfisi": {}}
+        row = {
+            "run": r.name,
+            "g": g,
+            "i_q": i_q,
+            "n": seg.n,
+            "L1_fit": float(L1_fit),
+            "L1_model": prior.C1 * f1,
+            "C1_fit": float(L1_fit / f1),
+            "L1_npfisi": {},
+            "C1_npfisi": {},
+        }
         for e in eps_list:
             res = run_npfisi([seg], ("C1",), e, prior=prior_eq4, progress=progress, record_every=2)
             npf[e].append(res)
@@ -263,9 +281,11 @@ class VerticalResult:
 
     def to_dict(self) -> dict:
         """Plain data for JSON."""
-        return {"table_II": {str(e): r.final for e, r in self.npfisi.items()},
-                "npfisi": {str(e): r.to_dict() for e, r in self.npfisi.items()},
-                "equilibrium": self.equilibrium}
+        return {
+            "table_II": {str(e): r.final for e, r in self.npfisi.items()},
+            "npfisi": {str(e): r.to_dict() for e, r in self.npfisi.items()},
+            "equilibrium": self.equilibrium,
+        }
 
     def table(self) -> str:
         """Markdown Table II (parameters by eps), then the equilibrium currents."""
@@ -275,13 +295,16 @@ class VerticalResult:
             lines.append(f"| {n} | " + " | ".join(f"{self.npfisi[e].final[n]:.5g}" for e in eps) + " |")
         lines += ["", "| g [mm] | measured i_d,eq [A] | eq. (8), eps=0.01 [A] | difference [mA] |", "|---|---|---|---|"]
         for q in self.equilibrium:
-            lines.append(f"| {q['g'] * 1e3:.2f} | {q['i_d']:.4f} | {q['i_d_theory']:.4f} | "
-                         f"{1e3 * (q['i_d'] - q['i_d_theory']):+.1f} |")
+            lines.append(
+                f"| {q['g'] * 1e3:.2f} | {q['i_d']:.4f} | {q['i_d_theory']:.4f} | "
+                f"{1e3 * (q['i_d'] - q['i_d_theory']):+.1f} |"
+            )
         return "\n".join(lines)
 
 
-def procedure_vb(groups: RunGroups, prior: Params, eps_list: Sequence[float] = SEED_EPS,
-                 progress: bool = False) -> VerticalResult | None:
+def procedure_vb(
+    groups: RunGroups, prior: Params, eps_list: Sequence[float] = SEED_EPS, progress: bool = False
+) -> VerticalResult | None:
     """Seed V.B on the hover runs with d locked where cogging vanishes (None if there are none)."""
     runs = groups.hover_d0
     if not runs:
@@ -340,18 +363,31 @@ class CoggingResult:
 
     def to_dict(self) -> dict:
         """Plain data for JSON."""
-        return {"eps": self.eps, "C2_peak": self.C2_peak, "C2_d0": self.C2_d0, "d_peak": self.d_peak,
-                "per_gap": self.per_gap, "xi0": self.xi0, "ell": self.ell, "equilibrium": self.equilibrium}
+        return {
+            "eps": self.eps,
+            "C2_peak": self.C2_peak,
+            "C2_d0": self.C2_d0,
+            "d_peak": self.d_peak,
+            "per_gap": self.per_gap,
+            "xi0": self.xi0,
+            "ell": self.ell,
+            "equilibrium": self.equilibrium,
+        }
 
     def table(self) -> str:
         """Markdown table of the peak cogging force by gap."""
-        lines = [f"C2 at the cogging peak (d = {self.d_peak * 1e3:.3f} mm): {self.C2_peak:.5g}; at d = 0: "
-                 f"{self.C2_d0:.5g}. Fitted law: xi0 = {self.xi0:.4g} N, ell = {self.ell * 1e3:.4g} mm.", "",
-                 "| g [mm] | C2 (d=0) | C2 (peak) | xi gap by gap [N] | xi seed-style [N] | xi law [N] |",
-                 "|---|---|---|---|---|---|"]
+        lines = [
+            f"C2 at the cogging peak (d = {self.d_peak * 1e3:.3f} mm): {self.C2_peak:.5g}; at d = 0: "
+            f"{self.C2_d0:.5g}. Fitted law: xi0 = {self.xi0:.4g} N, ell = {self.ell * 1e3:.4g} mm.",
+            "",
+            "| g [mm] | C2 (d=0) | C2 (peak) | xi gap by gap [N] | xi seed-style [N] | xi law [N] |",
+            "|---|---|---|---|---|---|",
+        ]
         for q in self.per_gap:
-            lines.append(f"| {q['g'] * 1e3:.2f} | {q['C2_d0']:.5g} | {q['C2_peak']:.5g} | {q['xi']:.4f} | "
-                         f"{float(self.xi_seed(q['g'])[0]):.4f} | {float(self.xi_law(q['g'])):.4f} |")
+            lines.append(
+                f"| {q['g'] * 1e3:.2f} | {q['C2_d0']:.5g} | {q['C2_peak']:.5g} | {q['xi']:.4f} | "
+                f"{float(self.xi_seed(q['g'])[0]):.4f} | {float(self.xi_law(q['g'])):.4f} |"
+            )
         return "\n".join(lines)
 
 
@@ -377,8 +413,9 @@ def _fit_cogging_law(g: np.ndarray, xi: np.ndarray, w: np.ndarray) -> tuple[floa
     return float(sol.x[0]), float(sol.x[1])
 
 
-def procedure_vc(groups: RunGroups, prior: Params, vb: VerticalResult | None, eps: float = MAIN_EPS,
-                 progress: bool = False) -> CoggingResult | None:
+def procedure_vc(
+    groups: RunGroups, prior: Params, vb: VerticalResult | None, eps: float = MAIN_EPS, progress: bool = False
+) -> CoggingResult | None:
     """Seed V.C on the hover runs with d locked at a cogging peak (needs V.B; None otherwise)."""
     runs = groups.hover_cog
     if not runs or vb is None:
@@ -402,8 +439,7 @@ def procedure_vc(groups: RunGroups, prior: Params, vb: VerticalResult | None, ep
         c_zero = run_npfisi([r0], ("C2",), eps, prior=base0).final["C2"]
         f2 = float(get_model().shape(g)[4])
         xi = k.Mv * (c_peak - c_zero) * f2  # attractive normal cogging: C2' f2 = C2 f2 + xi / Mv
-        per_gap.append({"g": g, "C2_peak": c_peak, "C2_d0": c_zero, "xi": xi, "run_peak": r.name,
-                        "run_d0": r0.name})
+        per_gap.append({"g": g, "C2_peak": c_peak, "C2_d0": c_zero, "xi": xi, "run_peak": r.name, "run_d0": r0.name})
     if len(per_gap) >= 3:
         g = np.array([q["g"] for q in per_gap])
         xi = np.array([q["xi"] for q in per_gap])
@@ -434,8 +470,11 @@ class FullSpanResult:
 
     def to_dict(self) -> dict:
         """Plain data for JSON."""
-        return {"table_III": {str(e): r.final for e, r in self.npfisi.items()}, "cogging_in_model": self.cogging,
-                "npfisi": {str(e): r.to_dict() for e, r in self.npfisi.items()}}
+        return {
+            "table_III": {str(e): r.final for e, r in self.npfisi.items()},
+            "cogging_in_model": self.cogging,
+            "npfisi": {str(e): r.to_dict() for e, r in self.npfisi.items()},
+        }
 
     def table(self) -> str:
         """Markdown Table III (parameters by eps) with each estimate's last-stretch spread."""
@@ -452,8 +491,13 @@ class FullSpanResult:
         return "\n".join(lines)
 
 
-def procedure_vd(groups: RunGroups, prior: Params, vc: CoggingResult | None, eps_list: Sequence[float] = SEED_EPS,
-                 progress: bool = False) -> FullSpanResult | None:
+def procedure_vd(
+    groups: RunGroups,
+    prior: Params,
+    vc: CoggingResult | None,
+    eps_list: Sequence[float] = SEED_EPS,
+    progress: bool = False,
+) -> FullSpanResult | None:
     """Seed V.D on the free runs (None if there are none); cogging from V.C in the model when available."""
     runs = groups.free
     if not runs:
@@ -462,8 +506,7 @@ def procedure_vd(groups: RunGroups, prior: Params, vc: CoggingResult | None, eps
     if vc is not None and math.isfinite(vc.xi0):
         base = prior.with_(xi0=vc.xi0, ell=vc.ell)
     npf = _npfisi_by_eps(runs, ("C1", "C2", "C3", "C4"), base, eps_list, progress)
-    return FullSpanResult(npf, {"xi0": base.xi0, "ell": base.ell,
-                                "source": "V.C" if base is not prior else "prior"})
+    return FullSpanResult(npf, {"xi0": base.xi0, "ell": base.ell, "source": "V.C" if base is not prior else "prior"})
 
 
 __all__ = [

@@ -117,11 +117,18 @@ class MinTimeResult:
     def summary(self) -> dict:
         """Key numbers as a JSON-able dict."""
         return {
-            "g0_mm": self.start[0] * 1e3, "d0_mm": self.start[1] * 1e3,
-            "g1_mm": self.end[0] * 1e3, "d1_mm": self.end[1] * 1e3,
-            "T_s": self.T, "success": self.success, "status": self.status, "iterations": self.iterations,
-            "solve_time_s": self.solve_time_s, "max_amplitude_A": self.max_amplitude(),
-            "max_abs_i_q_A": float(np.max(np.abs(self.U[:, 0]))), "max_abs_i_d_A": float(np.max(np.abs(self.U[:, 1]))),
+            "g0_mm": self.start[0] * 1e3,
+            "d0_mm": self.start[1] * 1e3,
+            "g1_mm": self.end[0] * 1e3,
+            "d1_mm": self.end[1] * 1e3,
+            "T_s": self.T,
+            "success": self.success,
+            "status": self.status,
+            "iterations": self.iterations,
+            "solve_time_s": self.solve_time_s,
+            "max_amplitude_A": self.max_amplitude(),
+            "max_abs_i_q_A": float(np.max(np.abs(self.U[:, 0]))),
+            "max_abs_i_d_A": float(np.max(np.abs(self.U[:, 1]))),
             "gap_range_mm": [float(self.X[:, 0].min() * 1e3), float(self.X[:, 0].max() * 1e3)],
             "n_intervals": len(self.U),
         }
@@ -227,8 +234,11 @@ def _hover(g: float, d: float, p: np.ndarray) -> np.ndarray:
 
 
 def solve_min_time(
-    start: tuple[float, float], end: tuple[float, float], params: Params = NOMINAL,
-    settings: MinTimeSettings | None = None, T_guess: float | None = None,
+    start: tuple[float, float],
+    end: tuple[float, float],
+    params: Params = NOMINAL,
+    settings: MinTimeSettings | None = None,
+    T_guess: float | None = None,
 ) -> MinTimeResult:
     """Solve the minimum-time rest-to-rest move from ``start`` to ``end`` (both ``(g, d)`` [m]).
 
@@ -296,8 +306,7 @@ def solve_min_time(
     uh = 0.5 * (_hover(g0, d0, p) + _hover(g1, d1, p))
     opti.set_initial(U, np.tile(uh[:, None], (1, N)))
     opti.set_initial(T, T0)
-    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "max_iter": st.max_iter, "tol": 1e-9,
-                                                  "sb": "yes"})
+    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "max_iter": st.max_iter, "tol": 1e-9, "sb": "yes"})
     t0 = time.perf_counter()
     try:
         sol = opti.solve()
@@ -312,9 +321,17 @@ def solve_min_time(
     ok = ok and status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     Tv = float(get(T))
     return MinTimeResult(
-        start=(g0, d0), end=(g1, d1), T=Tv, t=np.linspace(0, Tv, N + 1), X=np.asarray(get(X)).T.copy(),
-        U=np.asarray(get(U)).T.copy(), success=ok, status=status, iterations=int(stats.get("iter_count", -1)),
-        solve_time_s=dt, params=params,
+        start=(g0, d0),
+        end=(g1, d1),
+        T=Tv,
+        t=np.linspace(0, Tv, N + 1),
+        X=np.asarray(get(X)).T.copy(),
+        U=np.asarray(get(U)).T.copy(),
+        success=ok,
+        status=status,
+        iterations=int(stats.get("iter_count", -1)),
+        solve_time_s=dt,
+        params=params,
     )
 
 
@@ -332,8 +349,10 @@ class TraverseBounds:
 
     def table(self) -> str:
         """Text table: gap, minimum time, largest current amplitude, solver status."""
-        lines = [f"{'gap [mm]':>8} {'distance [mm]':>13} {'T_min [ms]':>10} {'max |i| [A]':>11} {'status':>26}",
-                 "-" * 72]
+        lines = [
+            f"{'gap [mm]':>8} {'distance [mm]':>13} {'T_min [ms]':>10} {'max |i| [A]':>11} {'status':>26}",
+            "-" * 72,
+        ]
         for r in self.results:
             lines.append(
                 f"{r.start[0] * 1e3:8.1f} {abs(r.end[1] - r.start[1]) * 1e3:13.1f} {r.T * 1e3:10.2f} "
@@ -353,8 +372,11 @@ class TraverseBounds:
 
 
 def traverse_bounds(
-    gaps: tuple[float, ...] = (15e-3, 20e-3, 25e-3), distance: float = 0.1, params: Params = NOMINAL,
-    settings: MinTimeSettings | None = None, progress: bool = True,
+    gaps: tuple[float, ...] = (15e-3, 20e-3, 25e-3),
+    distance: float = 0.1,
+    params: Params = NOMINAL,
+    settings: MinTimeSettings | None = None,
+    progress: bool = True,
 ) -> TraverseBounds:
     """Minimum time of the ``distance`` traverse (``d = -distance/2 -> +distance/2``) at each gap."""
     from tqdm import tqdm
@@ -369,13 +391,15 @@ def main(argv: list[str] | None = None) -> int:
     """``python -m maglev_ocp.ocp [--out DIR] [--gaps MM ...] [--no-cogging]``: print and save the bounds."""
     import argparse
 
-    ap = argparse.ArgumentParser(prog="python -m maglev_ocp.ocp",
-                                 description="Minimum-time bound of the 100 mm traverse (shared model, IPOPT).")
+    ap = argparse.ArgumentParser(
+        prog="python -m maglev_ocp.ocp", description="Minimum-time bound of the 100 mm traverse (shared model, IPOPT)."
+    )
     ap.add_argument("--gaps", nargs="+", type=float, default=[15, 20, 25], metavar="MM")
     ap.add_argument("--distance", type=float, default=100.0, metavar="MM")
     ap.add_argument("--no-cogging", action="store_true", help="drop cogging from the model")
-    ap.add_argument("--gap-free", action="store_true",
-                    help="let the gap use the 15..25 mm envelope (default: held within 0.1 mm)")
+    ap.add_argument(
+        "--gap-free", action="store_true", help="let the gap use the 15..25 mm envelope (default: held within 0.1 mm)"
+    )
     ap.add_argument("--intervals", type=int, default=MinTimeSettings.n_intervals)
     ap.add_argument("--out", default=None, metavar="DIR", help="write JSON/CSV/PNG here")
     a = ap.parse_args(argv)

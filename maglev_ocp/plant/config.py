@@ -265,15 +265,20 @@ class PlantConfig(Strict):
         """Short text view of what is switched on."""
         rows = [
             ("profile", self.profile),
-            ("mismatch", ", ".join(f"{n} ±{v:g}" for n, v in self.mismatch.relative.model_dump().items() if v)
-             or "none"),
+            (
+                "mismatch",
+                ", ".join(f"{n} ±{v:g}" for n, v in self.mismatch.relative.model_dump().items() if v) or "none",
+            ),
             ("process noise [N]", f"g {self.process_noise.g:g}, d {self.process_noise.d:g}"),
             ("current noise [A]", f"i_q {self.current_noise.i_q:g}, i_d {self.current_noise.i_d:g}"),
             ("measurement noise [m]", f"g {self.measurement_noise.g:g}, d {self.measurement_noise.d:g}"),
             ("quantization [m]", f"{self.quantization.resolution:g}" if self.quantization.enabled else "off"),
-            ("current limits [A]",
-             f"±{self.current_limits.axis:g}, |i| <= {self.current_limits.amplitude:g}"
-             if self.current_limits.enabled else "off"),
+            (
+                "current limits [A]",
+                f"±{self.current_limits.axis:g}, |i| <= {self.current_limits.amplitude:g}"
+                if self.current_limits.enabled
+                else "off",
+            ),
             ("stops [m]", f"g {self.stops.g}, d {self.stops.d}" if self.stops.enabled else "off"),
             ("lock", self.lock.axis if self.lock.axis == "none" else f"{self.lock.axis} at {self.lock.value}"),
             ("effects", ", ".join(self.enabled_effects()) or "none"),
@@ -326,8 +331,9 @@ def load_plant_config(path: str | os.PathLike) -> PlantConfig:
         raise ConfigError(f"{path}: expected a mapping at the top level, got {type(data).__name__}")
     base = data.get("profile", "default")
     if not isinstance(base, str) or base not in available_profiles():
-        raise ConfigError(f"{path}: profile: unknown plant profile {base!r}; choose from "
-                          f"{', '.join(available_profiles())}")
+        raise ConfigError(
+            f"{path}: profile: unknown plant profile {base!r}; choose from {', '.join(available_profiles())}"
+        )
     merged = deep_merge(profile_data(base), data)
     return parse_model(PlantConfig, merged, str(path))
 

@@ -89,8 +89,9 @@ def run_closed_loop(
                 bar.update(_PROGRESS_CHUNK)
         bar.update(n % _PROGRESS_CHUNK)
     log = plant.log.with_columns(g_ref=extra[:, 0], d_ref=extra[:, 1], g_dot_hat=extra[:, 2], d_dot_hat=extra[:, 3])
-    return log.renamed(file, controller=getattr(controller, "name", type(controller).__name__),
-                       stop_events=_events(plant))
+    return log.renamed(
+        file, controller=getattr(controller, "name", type(controller).__name__), stop_events=_events(plant)
+    )
 
 
 def run_open_loop(

@@ -152,8 +152,11 @@ def build_step(effects: tuple[str, ...], n_sub: int, dt: float = k.Ts) -> ca.Fun
     xa_next = ca.vertcat(xk, i_end) if lag else xk
     name = "plant_" + ("_".join(es.names) or "nominal") + f"_{n_sub}"
     return ca.Function(
-        name, [xa, u, p, th, w, free, lim], [xa_next, ca.vertcat(*impact), i_end + noise_i],
-        ["xa", "u", "p", "theta", "w", "free", "lim"], ["xa_next", "impact", "i_applied"],
+        name,
+        [xa, u, p, th, w, free, lim],
+        [xa_next, ca.vertcat(*impact), i_end + noise_i],
+        ["xa", "u", "p", "theta", "w", "free", "lim"],
+        ["xa_next", "impact", "i_applied"],
         {"cse": True},
     )
 
@@ -206,8 +209,11 @@ class Plant:
     """
 
     def __init__(
-        self, config: PlantConfig | None = None, params: Params = NOMINAL,
-        seed: int | np.random.SeedSequence = 0, Ts: float = k.Ts,
+        self,
+        config: PlantConfig | None = None,
+        params: Params = NOMINAL,
+        seed: int | np.random.SeedSequence = 0,
+        Ts: float = k.Ts,
     ):
         self.config = config if config is not None else PlantConfig.from_profile("default")
         self.nominal_params = params
@@ -307,9 +313,7 @@ class Plant:
         return self._xa[:4].copy()
 
     # -------------------------------------------------------------------- run
-    def reset(
-        self, x0: np.ndarray | None = None, u0: np.ndarray | None = None, lock: str | None = None
-    ) -> Measurement:
+    def reset(self, x0: np.ndarray | None = None, u0: np.ndarray | None = None, lock: str | None = None) -> Measurement:
         """Start a run and return the measurement at t = 0.
 
         Parameters
@@ -358,8 +362,12 @@ class Plant:
         self._rows: list[tuple[float, ...]] = []
         self._contact = self._at_stops()
         self._y = self._measure()
-        return Measurement(0.0, self._y.copy(), x.copy(), {"i_q_applied": u_init[0], "i_d_applied": u_init[1],
-                                                          "limited": False, "stop": None})
+        return Measurement(
+            0.0,
+            self._y.copy(),
+            x.copy(),
+            {"i_q_applied": u_init[0], "i_d_applied": u_init[1], "limited": False, "stop": None},
+        )
 
     def _at_stops(self) -> list[bool]:
         g, d = self._xa[0], self._xa[2]
@@ -432,8 +440,14 @@ class Plant:
             self._contact = self._at_stops()
         self._y = self._measure()
         ia = self._iapp.tolist()
-        info = {"i_q_applied": ia[0], "i_d_applied": ia[1],
-                "i_q_cmd": cq, "i_d_cmd": cd, "limited": limited, "stop": stop}
+        info = {
+            "i_q_applied": ia[0],
+            "i_d_applied": ia[1],
+            "i_q_cmd": cq,
+            "i_d_cmd": cd,
+            "limited": limited,
+            "stop": stop,
+        }
         return Measurement(t, self._y.copy(), self._xa[:4].copy(), info)
 
     # -------------------------------------------------------------------- log
@@ -453,8 +467,11 @@ class Plant:
 
     def dataset_meta(self) -> dict:
         """What a dataset written from this plant should record: config, nominal and true parameters."""
-        return {"plant": self.config.to_dict(), "nominal_params": self.nominal_params.as_dict(),
-                "true_params": self.true_params.as_dict()}
+        return {
+            "plant": self.config.to_dict(),
+            "nominal_params": self.nominal_params.as_dict(),
+            "true_params": self.true_params.as_dict(),
+        }
 
     def summary(self) -> str:
         """Text view: settings, true parameters and stop events."""
