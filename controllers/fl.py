@@ -31,82 +31,15 @@ from maglev_ocp import constants as k
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
 from maglev_ocp.config import Strict
 from maglev_ocp.fastcall import BufferedFunction
-from maglev_ocp.model import get_model
+from maglev_ocp.model import get_model, inverse_expressions
 from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL, Params
+from maglev_ocp.signals import REF_FIELDS
 
-#: Order of the reference vector fed to :func:`fl_law_function`.
-REF_FIELDS: tuple[str, ...] = ("g", "g_dot", "g_ddot", "d", "d_dot", "d_ddot")
 #: Order of the gain / limit vector fed to :func:`fl_law_function`.
 GAIN_FIELDS: tuple[str, ...] = ("kp_g", "kd_g", "ki_g", "kp_d", "kd_d", "ki_d", "i_axis_max", "i_amp_max", "Ts")
 #: Order of the flag vector returned by :func:`fl_law_function`.
 FLAG_FIELDS: tuple[str, ...] = ("unreachable", "sat_g", "sat_d")
-
-
-def _inverse_expressions(x: ca.SX, a: ca.SX, p: ca.SX, i_q: ca.SX | None = None) -> tuple[ca.SX, ca.SX, ca.SX]:
-    """Symbolic model inverse: currents that produce the model accelerations ``a = (a_g, a_d)``.
-
-    The coefficients are taken from the shared model's ``accel_terms`` by
-    differentiation (nothing is retyped): the horizontal acceleration is
-    ``a_d = h0(x) - L1(x) i_q`` and the vertical one
-    ``a_g = c0(x, i_q) + L3(x) i_d - L4(x) i_d^2`` (seed eq. (2) with cogging).
-
-    Parameters
-    ----------
-    x, a, p : casadi.SX
-        State (4), desired model accelerations (2) and parameter vector.
-    i_q : casadi.SX, optional
-        Use this ``i_q`` in the vertical equation instead of the one that
-        inverts the horizontal equation (used after ``i_q`` has been limited).
-
-    Returns
-    -------
-    i_q, i_d, unreachable : casadi.SX
-        Currents and a 0/1 flag: 1 when the demanded vertical acceleration
-        is beyond the largest the field can give (``disc < 0``); ``i_d`` is
-        then the current of the largest achievable acceleration.
-    """
-    m = get_model()
-    uq, ud = ca.SX.sym("uq"), ca.SX.sym("ud")
-    terms = m.accel_terms(x, ca.vertcat(uq, ud), p)
-    a_g = terms[0] + terms[1] + terms[2] + terms[3] + terms[4]
-    a_d = terms[5] + terms[6]
-    # Horizontal: a_d = h0 - L1 i_q, linear in i_q.
-    L1 = -ca.substitute(ca.jacobian(a_d, uq), uq, 0)
-    h0 = ca.substitute(a_d, uq, 0)
-    iq_inv = (h0 - a[1]) / L1
-    iq_used = iq_inv if i_q is None else i_q
-    # Vertical: a_g = c0 + L3 i_d - L4 i_d^2 (the reluctance term also holds L4 i_q^2 inside c0).
-    dg = ca.jacobian(a_g, ud)
-    L3 = ca.substitute(dg, ud, 0)
-    L4 = -0.5 * ca.jacobian(dg, ud)
-    c0 = ca.substitute(a_g, ud, 0)
-    L3, L4, c0 = (ca.substitute(e, uq, iq_used) for e in (L3, L4, c0))
-    # L4 i_d^2 - L3 i_d + c = 0 with c = a_g* - c0. Root of smaller magnitude (continuous with the
-    # linear solution c / L3, no field weakening against the magnets), written 2c / (L3 + sqrt(disc))
-    # so that it does not cancel when L4 (C4) is small.
-    c = a[0] - c0
-    disc = L3**2 - 4 * L4 * c
-    unreachable = disc < 0
-    id_root = 2 * c / (L3 + ca.sqrt(ca.fmax(disc, 0)))
-    # disc < 0: the demanded opening acceleration exceeds the maximum of L3 i_d - L4 i_d^2,
-    # reached at i_d = L3 / (2 L4): give that (the current limits clip it further).
-    id_vertex = L3 / (2 * ca.fmax(L4, 1e-12))
-    i_d = ca.if_else(unreachable, id_vertex, id_root)
-    return iq_used if i_q is not None else iq_inv, i_d, unreachable
-
-
-@functools.lru_cache(maxsize=1)
-def model_inverse_function() -> ca.Function:
-    """CasADi Function ``model_inverse(x, a, p) -> (u, unreachable)`` without limits.
-
-    ``u = (i_q, i_d)`` makes the model's accelerations equal to ``a = (a_g, a_d)``
-    at state ``x`` (exactly, cogging included, when ``unreachable == 0``). The
-    reference generator uses it to check that a planned move fits the current limits.
-    """
-    x, a, p = ca.SX.sym("x", 4), ca.SX.sym("a", 2), ca.SX.sym("p", get_model().np_)
-    i_q, i_d, unr = _inverse_expressions(x, a, p)
-    return ca.Function("model_inverse", [x, a, p], [ca.vertcat(i_q, i_d), unr], ["x", "a", "p"], ["u", "unreachable"])
 
 
 def _sat(v: ca.SX, lim: ca.SX) -> ca.SX:
@@ -140,17 +73,17 @@ def fl_law_function() -> ca.Function:
     # The model must produce v minus what the observer says the unmodelled part adds.
     a = ca.vertcat(v_g - dist[0], v_d - dist[1])
     i_amp, i_ax = G["i_amp_max"], G["i_axis_max"]
-    iq0, _, _ = _inverse_expressions(x, a, p)
+    iq0, _, _ = inverse_expressions(x, a, p)
     # Limits, vertical axis first (open-loop unstable): i_d gets what it needs up to the
     # amplitude, i_q the rest of the amplitude budget. i_q enters the vertical equation through
     # the reluctance term (C4 f4 i_q^2), so i_d is re-solved for the limited i_q; two passes from
     # i_q = 0 settle the split, and the last clip keeps the amplitude within bounds by construction.
     id_lim = ca.fmin(i_ax, i_amp)
     iq = _sat(iq0, i_ax)
-    _, id2_raw, unr = _inverse_expressions(x, a, p, i_q=ca.SX(0))
+    _, id2_raw, unr = inverse_expressions(x, a, p, i_q=ca.SX(0))
     for _ in range(2):
         iq = _sat(iq, ca.sqrt(ca.fmax(i_amp**2 - _sat(id2_raw, id_lim) ** 2, 0)))
-        _, id2_raw, unr = _inverse_expressions(x, a, p, i_q=iq)
+        _, id2_raw, unr = inverse_expressions(x, a, p, i_q=iq)
     id2 = _sat(id2_raw, id_lim)
     iq2 = _sat(iq, ca.fmin(i_ax, ca.sqrt(ca.fmax(i_amp**2 - id2**2, 0))))
     tol = 1e-9
@@ -294,9 +227,7 @@ class FeedbackLinearization:
 __all__ = [
     "FLAG_FIELDS",
     "GAIN_FIELDS",
-    "REF_FIELDS",
     "FLSettings",
     "FeedbackLinearization",
     "fl_law_function",
-    "model_inverse_function",
 ]

@@ -35,6 +35,51 @@ from .signals import INPUT_NAMES, PARAM_NAMES, STATE_NAMES
 LINEAR_PARAMS: tuple[str, ...] = ("C1", "C2", "C3", "C4", "xi0")
 
 
+def rk4(rhs, x, h, n_sub: int = 1, t0: float | None = None):
+    """Classical Runge-Kutta (RK4) integration over ``n_sub`` steps of length ``h``, ZOH inputs.
+
+    The one RK4 of the suite: the model's discrete step, the plant simulator, the
+    NMPC's prediction, the diagnosis's window simulation and the minimum-time OCP
+    all call it, so the same expressions (and the same floating-point operations)
+    appear wherever the model is integrated.
+
+    Parameters
+    ----------
+    rhs : callable
+        ``rhs(x)`` (or ``rhs(x, t)`` when ``t0`` is given) returning the state
+        derivative; any CasADi or NumPy type that supports ``+`` and ``*``.
+    x : casadi.SX | casadi.MX | numpy.ndarray
+        Initial state.
+    h : float | casadi.SX | casadi.MX
+        Step length [s] of one RK4 step.
+    n_sub : int
+        Number of steps.
+    t0 : float, optional
+        Time of the first step [s], relative to the start of the sample; when
+        given, ``rhs`` also receives the stage time (``t0 + j h``, ``+ h/2``, ``+ h``).
+
+    Returns
+    -------
+    Same type as ``x``
+        The state after ``n_sub`` steps.
+    """
+    xk = x
+    for j in range(n_sub):
+        if t0 is None:
+            k1 = rhs(xk)
+            k2 = rhs(xk + h / 2 * k1)
+            k3 = rhs(xk + h / 2 * k2)
+            k4 = rhs(xk + h * k3)
+        else:
+            t = t0 + j * h
+            k1 = rhs(xk, t)
+            k2 = rhs(xk + h / 2 * k1, t + h / 2)
+            k3 = rhs(xk + h / 2 * k2, t + h / 2)
+            k4 = rhs(xk + h * k3, t + h)
+        xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return xk
+
+
 def shape_expressions(g: ca.SX) -> dict[str, ca.SX]:
     """Shape functions of the gap, exactly as ``MODEL.md`` writes them.
 
@@ -177,14 +222,7 @@ class MaglevModel:
             ``step_<...>(x, u, p) -> x_next``.
         """
         x, u, p = self.x, self.u, self.p
-        h = dt / n_sub
-        xk = x
-        for _ in range(n_sub):
-            k1 = self.f(xk, u, p)
-            k2 = self.f(xk + h / 2 * k1, u, p)
-            k3 = self.f(xk + h / 2 * k2, u, p)
-            k4 = self.f(xk + h * k3, u, p)
-            xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        xk = rk4(lambda xs: self.f(xs, u, p), x, dt / n_sub, n_sub)
         name = f"step_{round(dt * 1e6)}us_{n_sub}"
         return ca.Function(name, [x, u, p], [xk], ["x", "u", "p"], ["x_next"])
 
@@ -250,4 +288,80 @@ def get_model() -> MaglevModel:
     return MaglevModel()
 
 
-__all__ = ["INPUT_NAMES", "LINEAR_PARAMS", "STATE_NAMES", "MaglevModel", "get_model", "shape_expressions"]
+def inverse_expressions(x: ca.SX, a: ca.SX, p: ca.SX, i_q: ca.SX | None = None) -> tuple[ca.SX, ca.SX, ca.SX]:
+    """Symbolic model inverse: currents that produce the model accelerations ``a = (a_g, a_d)``.
+
+    The coefficients are taken from the shared model's ``accel_terms`` by
+    differentiation (nothing is retyped): the horizontal acceleration is
+    ``a_d = h0(x) - L1(x) i_q`` and the vertical one
+    ``a_g = c0(x, i_q) + L3(x) i_d - L4(x) i_d^2`` (seed eq. (2) with cogging).
+
+    Parameters
+    ----------
+    x, a, p : casadi.SX
+        State (4), desired model accelerations (2) and parameter vector.
+    i_q : casadi.SX, optional
+        Use this ``i_q`` in the vertical equation instead of the one that
+        inverts the horizontal equation (used after ``i_q`` has been limited).
+
+    Returns
+    -------
+    i_q, i_d, unreachable : casadi.SX
+        Currents and a 0/1 flag: 1 when the demanded vertical acceleration
+        is beyond the largest the field can give (``disc < 0``); ``i_d`` is
+        then the current of the largest achievable acceleration.
+    """
+    m = get_model()
+    uq, ud = ca.SX.sym("uq"), ca.SX.sym("ud")
+    terms = m.accel_terms(x, ca.vertcat(uq, ud), p)
+    a_g = terms[0] + terms[1] + terms[2] + terms[3] + terms[4]
+    a_d = terms[5] + terms[6]
+    # Horizontal: a_d = h0 - L1 i_q, linear in i_q.
+    L1 = -ca.substitute(ca.jacobian(a_d, uq), uq, 0)
+    h0 = ca.substitute(a_d, uq, 0)
+    iq_inv = (h0 - a[1]) / L1
+    iq_used = iq_inv if i_q is None else i_q
+    # Vertical: a_g = c0 + L3 i_d - L4 i_d^2 (the reluctance term also holds L4 i_q^2 inside c0).
+    dg = ca.jacobian(a_g, ud)
+    L3 = ca.substitute(dg, ud, 0)
+    L4 = -0.5 * ca.jacobian(dg, ud)
+    c0 = ca.substitute(a_g, ud, 0)
+    L3, L4, c0 = (ca.substitute(e, uq, iq_used) for e in (L3, L4, c0))
+    # L4 i_d^2 - L3 i_d + c = 0 with c = a_g* - c0. Root of smaller magnitude (continuous with the
+    # linear solution c / L3, no field weakening against the magnets), written 2c / (L3 + sqrt(disc))
+    # so that it does not cancel when L4 (C4) is small.
+    c = a[0] - c0
+    disc = L3**2 - 4 * L4 * c
+    unreachable = disc < 0
+    id_root = 2 * c / (L3 + ca.sqrt(ca.fmax(disc, 0)))
+    # disc < 0: the demanded opening acceleration exceeds the maximum of L3 i_d - L4 i_d^2,
+    # reached at i_d = L3 / (2 L4): give that (the current limits clip it further).
+    id_vertex = L3 / (2 * ca.fmax(L4, 1e-12))
+    i_d = ca.if_else(unreachable, id_vertex, id_root)
+    return iq_used if i_q is not None else iq_inv, i_d, unreachable
+
+
+@functools.lru_cache(maxsize=1)
+def model_inverse_function() -> ca.Function:
+    """CasADi Function ``model_inverse(x, a, p) -> (u, unreachable)`` without limits.
+
+    ``u = (i_q, i_d)`` makes the model's accelerations equal to ``a = (a_g, a_d)``
+    at state ``x`` (exactly, cogging included, when ``unreachable == 0``). The
+    reference generator uses it to check that a planned move fits the current limits.
+    """
+    x, a, p = ca.SX.sym("x", 4), ca.SX.sym("a", 2), ca.SX.sym("p", get_model().np_)
+    i_q, i_d, unr = inverse_expressions(x, a, p)
+    return ca.Function("model_inverse", [x, a, p], [ca.vertcat(i_q, i_d), unr], ["x", "a", "p"], ["u", "unreachable"])
+
+
+__all__ = [
+    "INPUT_NAMES",
+    "LINEAR_PARAMS",
+    "STATE_NAMES",
+    "MaglevModel",
+    "get_model",
+    "inverse_expressions",
+    "model_inverse_function",
+    "rk4",
+    "shape_expressions",
+]

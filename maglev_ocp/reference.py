@@ -12,7 +12,7 @@ currents stay within a fraction of the limits along the whole path:
 - both axes share one duration ``T`` (a straight line in the ``(g, d)`` plane);
 - ``T`` is the smallest duration (bisection) for which the currents of the
   shared model's exact inverse (cogging included, see
-  :func:`controllers.fl.model_inverse_function`) along the planned states and
+  :func:`maglev_ocp.model.model_inverse_function`) along the planned states and
   accelerations satisfy ``|i_q|, |i_d| <= f * 8 A`` and
   ``sqrt(i_q^2 + i_d^2) <= f * 8 A`` with ``f = current_fraction``. So the
   acceleration is the one the limits allow *at the gaps the move passes*
@@ -43,6 +43,7 @@ from . import constants as k
 from .blocks import Reference
 from .config import Strict
 from .errors import ConfigError
+from .model import model_inverse_function
 from .params import NOMINAL, Params
 
 
@@ -162,7 +163,6 @@ class Move:
 
 def _limits_ok(samples: np.ndarray, params: Params, fraction: float, i_axis: float, i_amp: float) -> bool:
     """Do the model-inverse currents along ``samples`` (rows of :meth:`Move.sample`) fit the limits?"""
-    from controllers.fl import model_inverse_function
 
     n = samples.shape[0]
     inv = _mapped_inverse(model_inverse_function(), n)

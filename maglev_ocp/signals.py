@@ -87,3 +87,16 @@ def signal(name: str) -> Signal:
 def label(name: str) -> str:
     """Plot label with unit for ``name``; the bare name if it is not registered."""
     return _ALL[name].label if name in _ALL else name
+
+
+#: Rows of a reference sample, in the order every controller's reference input uses
+#: (FL's ``ref`` vector, the NMPC's reference matrix, one column per node) with units.
+REFERENCE: tuple[Signal, ...] = (
+    Signal("g", "m", "reference air gap"),
+    Signal("g_dot", "m/s", "reference air-gap rate"),
+    Signal("g_ddot", "m/s^2", "reference air-gap acceleration"),
+    Signal("d", "m", "reference horizontal position"),
+    Signal("d_dot", "m/s", "reference horizontal velocity"),
+    Signal("d_ddot", "m/s^2", "reference horizontal acceleration"),
+)
+REF_FIELDS: tuple[str, ...] = tuple(s.name for s in REFERENCE)

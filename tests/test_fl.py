@@ -12,16 +12,16 @@ from hypothesis import strategies as st
 from controllers.fl import (
     FLAG_FIELDS,
     GAIN_FIELDS,
-    REF_FIELDS,
     FeedbackLinearization,
     FLSettings,
     fl_law_function,
-    model_inverse_function,
 )
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import Measurement, Reference
 from maglev_ocp.errors import ConfigError
+from maglev_ocp.model import model_inverse_function
 from maglev_ocp.params import NOMINAL
+from maglev_ocp.signals import REF_FIELDS
 
 
 def _accel(model, x, u, p):

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from controllers.fl import model_inverse_function
 from maglev_ocp import constants as k
 from maglev_ocp.errors import ConfigError
+from maglev_ocp.model import model_inverse_function
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.reference import (
     Move,

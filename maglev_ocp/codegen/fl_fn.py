@@ -56,7 +56,9 @@ def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
     -------
     fl_init, fl_step : casadi.Function
     """
-    from controllers.fl import GAIN_FIELDS, REF_FIELDS, fl_law_function
+    from controllers.fl import GAIN_FIELDS, fl_law_function
+
+    from ..signals import REF_FIELDS
 
     law = fl_law_function()
     osettings = ObserverSettings(eps=settings.observer_eps, disturbance=settings.disturbance)

@@ -24,7 +24,7 @@ import numpy as np
 
 from .. import constants as k
 from ..params import Params
-from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, STATES
+from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, REF_FIELDS, REFERENCE, STATES
 
 #: Controllers that can be generated.
 KINDS: tuple[str, ...] = ("nmpc", "fl", "observer")
@@ -212,14 +212,7 @@ def _dist_port(name: str = "dist") -> Port:
     )
 
 
-REF_ROW_UNITS: tuple[tuple[str, str], ...] = (
-    ("g", "m"),
-    ("g_dot", "m/s"),
-    ("g_ddot", "m/s^2"),
-    ("d", "m"),
-    ("d_dot", "m/s"),
-    ("d_ddot", "m/s^2"),
-)
+REF_ROW_UNITS: tuple[tuple[str, str], ...] = tuple((r.name, r.unit) for r in REFERENCE)
 
 
 # ----------------------------------------------------------------------------- NMPC
@@ -335,7 +328,7 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
 # ----------------------------------------------------------------------------- FL
 def fl_code(settings, params: Params) -> ControllerCode:
     """Code units of :class:`controllers.fl.FeedbackLinearization` (observer + law in one step)."""
-    from controllers.fl import FLAG_FIELDS, GAIN_FIELDS, REF_FIELDS
+    from controllers.fl import FLAG_FIELDS, GAIN_FIELDS
 
     from .fl_fn import FL_STATE, FL_STATE_SIZE, fl_functions
 

@@ -22,6 +22,7 @@ import scipy.signal as sps
 
 from .. import constants as k
 from ..effects import AmplifierLag
+from ..model import rk4
 from .candidates import CandidateSpec, FitResult, _accel_function
 from .residuals import RunInput
 
@@ -42,13 +43,7 @@ def _window_sim(spec: CandidateSpec, n: int, n_sub: int, Ts: float) -> ca.Functi
         a = acc(zz, p, w)
         return ca.vertcat(xx[1] * free[0], a[0] * free[0], xx[3] * free[1], a[1] * free[1])
 
-    xk = x
-    for _ in range(n_sub):
-        k1 = f(xk)
-        k2 = f(xk + h / 2 * k1)
-        k3 = f(xk + h / 2 * k2)
-        k4 = f(xk + h * k3)
-        xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    xk = rk4(f, x, h, n_sub)
     step = ca.Function("sim_step", [x, z, p, w, free], [xk])
     return step.mapaccum("sim_window", n, [0], [0])
 

@@ -29,7 +29,7 @@ import numpy as np
 
 from .. import constants as k
 from ..config import atomic_write_bytes, atomic_write_text
-from ..model import get_model
+from ..model import get_model, rk4
 from ..params import NOMINAL, Params
 
 
@@ -272,14 +272,7 @@ def solve_min_time(
     T = opti.variable()
     # RK4 with n_sub sub-steps, built on the shared model's f (the same expressions)
     xs, us, hs = ca.SX.sym("x", 4), ca.SX.sym("u", 2), ca.SX.sym("h")
-    xk = xs
-    hh = hs / st.n_sub
-    for _ in range(st.n_sub):
-        k1 = m.f(xk, us, p)
-        k2 = m.f(xk + hh / 2 * k1, us, p)
-        k3 = m.f(xk + hh / 2 * k2, us, p)
-        k4 = m.f(xk + hh * k3, us, p)
-        xk = xk + hh / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    xk = rk4(lambda xx: m.f(xx, us, p), xs, hs / st.n_sub, st.n_sub)
     F = ca.Function("F", [xs, us, hs], [xk]).map(N)
     opti.subject_to(X[:, 1:] == F(X[:, :-1], U, T / N))
     opti.subject_to(X[:, 0] == ca.DM([g0, 0, d0, 0]))

@@ -29,7 +29,7 @@ import numpy as np
 from .. import constants as k
 from ..blocks import Measurement
 from ..effects import EffectSet
-from ..model import get_model
+from ..model import get_model, rk4
 from ..params import NOMINAL, Params
 from ..riglog import RunLog
 from ..signals import PARAM_NAMES
@@ -128,12 +128,7 @@ def build_step(effects: tuple[str, ...], n_sub: int, dt: float = k.Ts) -> ca.Fun
     xk = xa[0:4]
     impact = [ca.SX(0)] * 4
     for j in range(n_sub):
-        t0 = j * h
-        k1 = rhs(xk, t0)
-        k2 = rhs(xk + h / 2 * k1, t0 + h / 2)
-        k3 = rhs(xk + h / 2 * k2, t0 + h / 2)
-        k4 = rhs(xk + h * k3, t0 + h)
-        xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        xk = rk4(rhs, xk, h, t0=j * h)
         # mechanical stops: clamp the position, kill the velocity into the stop
         pos = [xk[0], xk[2]]
         vel = [xk[1], xk[3]]
