@@ -105,7 +105,7 @@ def _calibration_task(out_dir: str) -> dict[str, Any]:
     """Worker: the seed's calibration experiments on the default rig, then ``maglev calibrate`` on them."""
     t0 = time.perf_counter()
     try:
-        from .estimation.calibrate import regenerate_results
+        from .loop.experiments import regenerate_results
 
         res = regenerate_results(out_dir, progress=False)
         return {"ok": True, "table": res.table(), "wall_s": time.perf_counter() - t0}

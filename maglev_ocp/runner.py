@@ -2,14 +2,27 @@
 
 :func:`run_scenario` is a pure function of (scenario, seed): same inputs, the
 same ``log.csv`` bit for bit, whatever process runs it (a Dask worker of a
-campaign included). It builds, or reuses from a cache, the controller, plans
-the reference (:mod:`maglev_ocp.reference`), and steps the loop::
+campaign included). It goes through five stages:
 
-    y = plant.reset(x0)
-    ctrl.reset(y, ref(0))
-    for k in range(n):
-        out = ctrl.step(y, ref(t_k))      # timed: the controller's computation
-        y = plant.step(out.u)
+1. **plan** (:func:`plan_run`): the reference (:mod:`maglev_ocp.reference`)
+   planned on the controller's model and sampled on the control grid, and
+   the active target of each step (a scenario whose targets cannot be
+   planned fails here, before anything is built);
+2. **build** (:func:`build_run`): the controller (built, or reused from a
+   cache) and the plant simulator;
+3. **loop** (:func:`loop_run`): the one closed loop
+   (:class:`maglev_ocp.loop.ClosedLoop`) with a
+   :class:`~maglev_ocp.loop.TraceRecorder`::
+
+       y = plant.reset(x0)
+       ctrl.reset(y, ref(0))
+       for k in range(n):
+           out = ctrl.step(y, ref(t_k))      # timed: the controller's computation
+           y = plant.step(out.u)
+
+4. **metrics** (:func:`run_columns`, :func:`run_metrics`): the log's columns,
+   metrics and tolerance checks;
+5. **save** (:meth:`RunResult.save`).
 
 A controller that raises, or returns non-finite currents, ends the run early
 with ``error`` set in the metrics (the run is then failed, never lost).
@@ -32,7 +45,6 @@ run folder is a ``maglev-rig-log/1`` dataset), ``positions.png``,
 from __future__ import annotations
 
 import json
-import math
 import os
 import time
 from collections import OrderedDict
@@ -47,13 +59,12 @@ from . import constants as k
 from .blocks import Controller, Reference
 from .config import atomic_write_text, dump_yaml
 from .errors import UserError
+from .loop import TIMING_SUFFIX, ClosedLoop, TraceRecorder
 from .metrics import Metrics, compute_metrics
+from .plant import Plant
 from .reference import ReferencePlan, plan_targets
 from .riglog import RunLog
 from .scenario import Scenario, controller_classes, load_scenario, scenario_from_dict
-
-#: Statistics keys holding wall-clock times: they go to ``timing.csv``, not ``log.csv``.
-TIMING_SUFFIX = "_us"
 
 #: Controllers built in this process, reused by later runs of the same setting (a campaign worker's cache).
 _PROCESS_CACHE: OrderedDict[str, Any] = OrderedDict()
@@ -194,12 +205,146 @@ class RunResult:
         return out
 
 
-def _stat_value(v: Any) -> Any:
-    if isinstance(v, (bool, np.bool_)):
-        return int(v)
-    if isinstance(v, (int, float, np.integer, np.floating)):
-        return float(v)
-    return str(v)
+@dataclass
+class RunPlan:
+    """The plan stage of a run: the reference on the control grid and the active target of each step.
+
+    Attributes
+    ----------
+    plan : ReferencePlan
+        The reference plan.
+    t : ndarray (n,)
+        Control grid ``t_k = k Ts`` [s].
+    refs : ndarray (n, 6)
+        Reference rows (:data:`maglev_ocp.signals.REF_FIELDS` order), accelerations averaged over each period.
+    targets : ndarray (n, 2)
+        Active target ``(g, d)`` at each step [m].
+    """
+
+    plan: ReferencePlan
+    t: np.ndarray
+    refs: np.ndarray
+    targets: np.ndarray
+
+    @property
+    def n(self) -> int:
+        """Number of steps."""
+        return len(self.t)
+
+    def reference(self, i: int) -> Reference:
+        """The controller's reference at step ``i``."""
+        r = self.refs[i]
+        return Reference(g=r[0], d=r[3], g_dot=r[1], d_dot=r[4], g_ddot=r[2], d_ddot=r[5])
+
+
+def build_run(
+    sc: Scenario, controller: Controller | None = None, cache: MutableMapping[str, Any] | None = None
+) -> tuple[Controller, Plant]:
+    """Build stage: the controller (``controller`` if given, else from the cache) and the plant of ``sc``."""
+    ctrl = controller if controller is not None else cached_controller(sc, cache)
+    ss_plant, _ = sc.seed_sequences()
+    plant = Plant(sc.plant_config(), params=sc.plant_params(), seed=ss_plant, Ts=k.Ts)
+    return ctrl, plant
+
+
+def plan_run(sc: Scenario) -> RunPlan:
+    """Plan stage: plan the scenario's targets on the controller's model and sample the reference per step."""
+    Ts = k.Ts
+    plan = plan_targets(
+        (sc.start.g, sc.start.d),
+        sc.target_list(),
+        sc.controller_model_params(),
+        sc.reference,
+        source=f"{sc.source}: targets",
+    )
+    n = round(plan.duration / Ts)
+    tgrid = np.arange(n) * Ts
+    refs = plan.sample(tgrid, zoh=Ts)  # accelerations: mean over each period (ZOH-consistent feedforward)
+    tgt_idx = np.clip(np.searchsorted(plan.switch_times, tgrid + 1e-9, side="right") - 1, 0, len(plan.targets) - 1)
+    targets = np.array([[plan.targets[i].g, plan.targets[i].d] for i in tgt_idx]).reshape(n, 2)
+    return RunPlan(plan, tgrid, refs, targets)
+
+
+def loop_run(
+    sc: Scenario, ctrl: Controller, plant: Plant, rp: RunPlan, progress: bool = False
+) -> tuple[TraceRecorder, int, str | None]:
+    """Loop stage: the closed loop from the scenario's start; ``(trace, steps done, error or None)``."""
+    if hasattr(ctrl, "set_reference_plan"):
+        ctrl.set_reference_plan(rp.plan)
+    r0 = rp.reference(0) if rp.n else Reference(g=sc.start.g, d=sc.start.d)
+    trace = TraceRecorder(rp.n)
+    loop = ClosedLoop(plant, ctrl, [trace], on_error="stop")
+    loop.reset(np.array([sc.start.g, 0.0, sc.start.d, 0.0]), r0)
+    done = loop.run(rp.reference, rp.n, progress=progress, desc=sc.name)
+    return trace, done, loop.error
+
+
+def run_columns(rp: RunPlan, trace: TraceRecorder, done: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The log's columns of the first ``done`` steps (see the module docstring), and the statistics among them."""
+    sl = slice(0, done)
+    Y, X, U, XH, UA, refs, tg = trace.Y, trace.X, trace.U, trace.XH, trace.UA, rp.refs, rp.targets
+    cols: dict[str, np.ndarray] = {
+        "t": rp.t[sl],
+        "g": Y[sl, 0],
+        "d": Y[sl, 1],
+        "i_q": U[sl, 0],
+        "i_d": U[sl, 1],
+        "g_ref": refs[sl, 0],
+        "d_ref": refs[sl, 3],
+        "g_dot_ref": refs[sl, 1],
+        "d_dot_ref": refs[sl, 4],
+        "g_ddot_ref": refs[sl, 2],
+        "d_ddot_ref": refs[sl, 5],
+        "g_target": tg[sl, 0],
+        "d_target": tg[sl, 1],
+        "g_true": X[sl, 0],
+        "g_dot_true": X[sl, 1],
+        "d_true": X[sl, 2],
+        "d_dot_true": X[sl, 3],
+        "g_hat": XH[sl, 0],
+        "g_dot_hat": XH[sl, 1],
+        "d_hat": XH[sl, 2],
+        "d_dot_hat": XH[sl, 3],
+        "i_q_applied": UA[sl, 0],
+        "i_d_applied": UA[sl, 1],
+        "limited": trace.limited[sl],
+    }
+    stat_cols = trace.stat_columns(done, taken=set(cols))
+    cols.update(stat_cols)
+    return cols, stat_cols
+
+
+def run_metrics(
+    sc: Scenario,
+    rp: RunPlan,
+    trace: TraceRecorder,
+    done: int,
+    stat_cols: dict[str, np.ndarray],
+    plant: Plant,
+    error: str | None,
+) -> Metrics:
+    """Metrics stage: settling, errors, limits, solver health and timing of the first ``done`` steps."""
+    sl = slice(0, done)
+    metrics = compute_metrics(
+        scenario=sc.name,
+        controller=sc.controller.type,
+        seed=sc.seed,
+        t=rp.t[sl],
+        x_true=trace.X[sl],
+        y_enc=trace.Y[sl],
+        u=trace.U[sl],
+        plan=rp.plan,
+        tolerance=sc.tolerance,
+        checks=sc.checks,
+        stats=stat_cols,
+        step_time_us=trace.step_time_us[sl],
+        stop_events=list(plant.events),
+        error=error,
+        Ts=k.Ts,
+    )
+    if error is None and done < rp.n:  # pragma: no cover - loop always completes without an error
+        metrics.error = "run ended early"
+    return metrics
 
 
 def run_scenario(
@@ -211,7 +356,7 @@ def run_scenario(
     cache: MutableMapping[str, Any] | None = None,
     figures: bool = True,
 ) -> RunResult:
-    """Run one scenario in closed loop against the plant simulator.
+    """Run one scenario in closed loop against the plant simulator (plan, build, loop, metrics, save).
 
     Parameters
     ----------
@@ -237,143 +382,14 @@ def run_scenario(
     -------
     RunResult
     """
-    from tqdm.auto import tqdm
-
-    from .plant import Plant
-
     t_wall = time.perf_counter()
     sc = _as_scenario(scenario).with_seed(seed)
-    Ts = k.Ts
-    ctrl_params = sc.controller_model_params()
-    plan = plan_targets(
-        (sc.start.g, sc.start.d), sc.target_list(), ctrl_params, sc.reference, source=f"{sc.source}: targets"
-    )
-    ctrl = controller if controller is not None else cached_controller(sc, cache)
-    ss_plant, _ = sc.seed_sequences()
-    plant = Plant(sc.plant_config(), params=sc.plant_params(), seed=ss_plant, Ts=Ts)
-
-    n = round(plan.duration / Ts)
-    tgrid = np.arange(n) * Ts
-    refs = plan.sample(tgrid, zoh=Ts)  # accelerations: mean over each period (ZOH-consistent feedforward)
-    tgt_idx = np.clip(np.searchsorted(plan.switch_times, tgrid + 1e-9, side="right") - 1, 0, len(plan.targets) - 1)
-    tg_arr = np.array([[plan.targets[i].g, plan.targets[i].d] for i in tgt_idx]).reshape(n, 2)
-
-    y = plant.reset(np.array([sc.start.g, 0.0, sc.start.d, 0.0]))
-    if hasattr(ctrl, "set_reference_plan"):
-        ctrl.set_reference_plan(plan)
-    r0 = refs[0] if n else np.array([sc.start.g, 0, 0, sc.start.d, 0, 0])
-    ctrl.reset(y, Reference(g=r0[0], d=r0[3], g_dot=r0[1], d_dot=r0[4], g_ddot=r0[2], d_ddot=r0[5]))
-
-    Y = np.full((n, 2), np.nan)
-    X = np.full((n, 4), np.nan)
-    U = np.full((n, 2), np.nan)
-    XH = np.full((n, 4), np.nan)
-    UA = np.full((n, 2), np.nan)
-    LIM = np.zeros(n)
-    STT = np.full(n, np.nan)
-    stats: dict[str, list[Any]] = {}
-    timings: dict[str, list[float]] = {}
-    error = None
-    done = 0
-    bar = tqdm(total=n, desc=sc.name, unit="step", disable=not progress, mininterval=0.5, leave=False)
-    perf = time.perf_counter
-    u_applied = (y.info.get("i_q_applied", math.nan), y.info.get("i_d_applied", math.nan))
-    for i in range(n):
-        r = refs[i]
-        ref = Reference(g=r[0], d=r[3], g_dot=r[1], d_dot=r[4], g_ddot=r[2], d_ddot=r[5])
-        try:
-            t0 = perf()
-            out = ctrl.step(y, ref)
-            dt_us = (perf() - t0) * 1e6
-            u = np.asarray(out.u, dtype=float).reshape(2)
-        except Exception as err:  # a controller bug or a solver crash: end the run, keep what we have
-            error = f"controller raised at t = {i * Ts:.3f} s: {type(err).__name__}: {err}"
-            break
-        if not np.all(np.isfinite(u)):
-            error = f"controller returned non-finite currents {u.tolist()} at t = {i * Ts:.3f} s"
-            break
-        Y[i] = y.y
-        X[i] = y.x_true if y.x_true is not None else np.nan
-        U[i] = u
-        UA[i] = u_applied
-        if out.x_hat is not None:
-            XH[i] = np.asarray(out.x_hat, dtype=float).reshape(4)
-        STT[i] = dt_us
-        for key, v in out.stats.items():
-            if key.endswith(TIMING_SUFFIX):
-                timings.setdefault(key, [math.nan] * i).append(float(v))
-            else:
-                stats.setdefault(key, [math.nan] * i).append(_stat_value(v))
-        for lst in (*stats.values(), *timings.values()):  # keys missing this step
-            if len(lst) < i + 1:
-                lst.append(math.nan)
-        y = plant.step(u)
-        u_applied = (y.info.get("i_q_applied", math.nan), y.info.get("i_d_applied", math.nan))
-        LIM[i] = float(bool(y.info.get("limited", False)))
-        done = i + 1
-        if progress and (i & 63) == 0:
-            bar.update(i + 1 - bar.n)
-    bar.update(done - bar.n)
-    bar.close()
-
-    sl = slice(0, done)
-    cols: dict[str, np.ndarray] = {
-        "t": tgrid[sl],
-        "g": Y[sl, 0],
-        "d": Y[sl, 1],
-        "i_q": U[sl, 0],
-        "i_d": U[sl, 1],
-        "g_ref": refs[sl, 0],
-        "d_ref": refs[sl, 3],
-        "g_dot_ref": refs[sl, 1],
-        "d_dot_ref": refs[sl, 4],
-        "g_ddot_ref": refs[sl, 2],
-        "d_ddot_ref": refs[sl, 5],
-        "g_target": tg_arr[sl, 0],
-        "d_target": tg_arr[sl, 1],
-        "g_true": X[sl, 0],
-        "g_dot_true": X[sl, 1],
-        "d_true": X[sl, 2],
-        "d_dot_true": X[sl, 3],
-        "g_hat": XH[sl, 0],
-        "g_dot_hat": XH[sl, 1],
-        "d_hat": XH[sl, 2],
-        "d_dot_hat": XH[sl, 3],
-        "i_q_applied": UA[sl, 0],
-        "i_d_applied": UA[sl, 1],
-        "limited": LIM[sl],
-    }
-    stat_cols: dict[str, np.ndarray] = {}
-    for key, vals in stats.items():
-        vals = vals[:done]
-        if any(isinstance(v, str) for v in vals):
-            arr = np.array(["" if (isinstance(v, float) and math.isnan(v)) else str(v) for v in vals], dtype=object)
-        else:
-            arr = np.asarray(vals, dtype=float)
-        name = key if key not in cols else f"stat_{key}"
-        stat_cols[name] = arr
-    cols.update(stat_cols)
-    step_time = STT[sl]
-    metrics = compute_metrics(
-        scenario=sc.name,
-        controller=sc.controller.type,
-        seed=sc.seed,
-        t=cols["t"],
-        x_true=X[sl],
-        y_enc=Y[sl],
-        u=U[sl],
-        plan=plan,
-        tolerance=sc.tolerance,
-        checks=sc.checks,
-        stats=stat_cols,
-        step_time_us=step_time,
-        stop_events=list(plant.events),
-        error=error,
-        Ts=Ts,
-    )
-    if error is None and done < n:  # pragma: no cover - loop always completes without an error
-        metrics.error = "run ended early"
-    res = RunResult(sc, cols, step_time, plan, metrics, wall_s=time.perf_counter() - t_wall)
+    rp = plan_run(sc)
+    ctrl, plant = build_run(sc, controller, cache)
+    trace, done, error = loop_run(sc, ctrl, plant, rp, progress)
+    cols, stat_cols = run_columns(rp, trace, done)
+    metrics = run_metrics(sc, rp, trace, done, stat_cols, plant, error)
+    res = RunResult(sc, cols, trace.step_time_us[:done], rp.plan, metrics, wall_s=time.perf_counter() - t_wall)
     if out_dir is not None:
         res.save(out_dir, figures=figures)
     return res
@@ -414,4 +430,17 @@ def summary_table(results: list[tuple[str, RunResult | None, str | None]]) -> st
     return "\n".join(lines)
 
 
-__all__ = ["RunResult", "build_controller", "cached_controller", "run_scenario", "summary_table"]
+__all__ = [
+    "TIMING_SUFFIX",
+    "RunPlan",
+    "RunResult",
+    "build_controller",
+    "build_run",
+    "cached_controller",
+    "loop_run",
+    "plan_run",
+    "run_columns",
+    "run_metrics",
+    "run_scenario",
+    "summary_table",
+]

@@ -18,7 +18,7 @@ import pytest
 
 from maglev_ocp.cli import main
 from maglev_ocp.estimation.calibrate import calibrate
-from maglev_ocp.estimation.experiments import (
+from maglev_ocp.loop.experiments import (
     FreeDesign,
     HoverDesign,
     ParabolaDesign,

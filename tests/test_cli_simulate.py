@@ -130,7 +130,7 @@ def test_check_prints_a_summary(tmp_path, capsys):
 
 
 def test_seed_calibration_without_its_module_is_a_clear_error(tmp_path, monkeypatch, capsys):
-    monkeypatch.setitem(sys.modules, "maglev_ocp.estimation.experiments", None)
+    monkeypatch.setitem(sys.modules, "maglev_ocp.loop.experiments", None)
     assert sim("--experiment", "seed-calibration", "--out", str(tmp_path / "s")) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "seed-calibration" in err

@@ -45,8 +45,8 @@ def hover_runs():
     """Hover runs with d locked at 0 on the ideal plant (true params TRUE), gap excited by the seed's PID."""
     from controllers.pid import PIDController, PIDSettings
     from maglev_ocp.blocks import Reference
+    from maglev_ocp.loop import run_closed_loop
     from maglev_ocp.plant import Plant, PlantConfig
-    from maglev_ocp.plant.drive import run_closed_loop
 
     cfg = PlantConfig.from_profile("ideal", overrides={"quantization": {"enabled": True}})
     plant = Plant(cfg, TRUE, seed=3)

@@ -15,10 +15,10 @@ from maglev_ocp import constants as k
 from maglev_ocp.blocks import Reference
 from maglev_ocp.effects import EFFECTS, AmplifierLag, EffectSet
 from maglev_ocp.errors import ConfigError
+from maglev_ocp.loop import run_closed_loop, run_open_loop
 from maglev_ocp.model import get_model
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.plant import Plant, PlantConfig, StopEvent, load_plant_config
-from maglev_ocp.plant.drive import run_closed_loop, run_open_loop
 from maglev_ocp.plant.excitation import ExcitationSettings, SumOfSines
 from maglev_ocp.riglog import read_dataset, write_dataset
 

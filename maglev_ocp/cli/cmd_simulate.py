@@ -192,11 +192,11 @@ def run(args: argparse.Namespace) -> int:
 
     if experiment == "seed-calibration":
         try:
-            from ..estimation.experiments import generate_seed_calibration
+            from ..loop.experiments import generate_seed_calibration
         except ModuleNotFoundError as err:
-            if err.name and err.name.startswith("maglev_ocp.estimation"):
+            if err.name and err.name.startswith("maglev_ocp.loop"):
                 raise UserError(
-                    "--experiment seed-calibration needs maglev_ocp/estimation/experiments.py "
+                    "--experiment seed-calibration needs maglev_ocp/loop/experiments.py "
                     "(the calibration issue), which is not installed yet"
                 ) from None
             raise
@@ -218,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
                 raise UserError(f"{opt}: {v * 1e3:g} mm is outside the stops {lo * 1e3:g}..{hi * 1e3:g} mm")
     lock = cfg.lock.axis
 
-    from ..plant.drive import run_closed_loop, run_open_loop
+    from ..loop import run_closed_loop, run_open_loop
     from ..riglog import write_dataset
 
     ss = np.random.SeedSequence(args.seed)

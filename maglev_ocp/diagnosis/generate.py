@@ -24,12 +24,14 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import Field
 
+from controllers.pid import PIDController
+
 from .. import constants as k
 from ..blocks import Reference
 from ..config import Strict
+from ..loop import run_closed_loop
 from ..params import NOMINAL, Params
 from ..plant import Plant, PlantConfig
-from ..plant.drive import run_closed_loop
 from ..plant.excitation import AxisExcitation, ExcitationSettings, SumOfSines
 from ..riglog import Dataset, RunLog
 
@@ -244,8 +246,6 @@ def generate_dataset(
     -------
     GeneratedDataset
     """
-    from controllers.pid import PIDController
-
     settings = settings or GeneratorSettings()
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(int(seed))
     s_plant, s_ref = ss.spawn(2)

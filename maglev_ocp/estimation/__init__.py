@@ -4,7 +4,6 @@
 * :mod:`.npfisi` - the reduced-order NPFISI estimator of the seed's eq. (3);
 * :mod:`.batch` - all parameters at once by filtered equation error (CasADi NLP), with standard errors;
 * :mod:`.procedures` - the seed's procedures V.A-V.D on a rig-log dataset;
-* :mod:`.experiments` - the seed's calibration experiments on the plant simulator;
 * :mod:`.calibrate` - ``maglev calibrate``: everything above on one dataset, files and figures.
 """
 

@@ -1,24 +1,25 @@
-"""Driving the plant: closed loop with a controller, or open loop with a current sequence.
+"""Rig-log runs on the plant: closed loop with a controller, or open loop with a current sequence.
 
-Small loops that produce one :class:`~maglev_ocp.riglog.RunLog` each; enough for
-``maglev simulate`` and the seed's data-generation experiments. (The full
-scenario runner with metrics is a later issue's; it uses the same
-``reset`` / ``step`` interface of :mod:`maglev_ocp.blocks`.)
+Both are :class:`~maglev_ocp.loop.core.ClosedLoop` runs that return one
+:class:`~maglev_ocp.riglog.RunLog` (the plant's log, plus references and
+velocity estimates in closed loop), for ``maglev simulate``, the seed's
+calibration experiments (:mod:`.experiments`) and the diagnosis datasets. An
+open-loop run is the same loop with a controller that replays the currents.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import asdict
+from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
-from ..blocks import Controller, Reference
+from ..blocks import Controller, ControlOutput, Measurement, Reference
+from ..plant import Plant
 from ..riglog import RunLog
-from .plant import Plant
-
-_PROGRESS_CHUNK = 500  # steps between progress-bar updates
+from .core import ClosedLoop
+from .recorders import RigLogRecorder
 
 
 def _n_steps(duration: float, Ts: float) -> int:
@@ -47,7 +48,8 @@ def run_closed_loop(
     plant : Plant
         The simulated rig (its config decides lock, noise, effects).
     controller : Controller
-        Anything with ``reset(y0, ref)`` and ``step(y, ref) -> ControlOutput``.
+        Anything with ``reset(y0, ref)`` and ``step(y, ref) -> ControlOutput``;
+        an exception it raises goes through.
     reference : callable
         ``t -> Reference``.
     duration : float
@@ -59,7 +61,7 @@ def run_closed_loop(
     file : str
         File name the run gets in a dataset.
     progress : bool
-        Show a tqdm progress bar.
+        Show a progress bar.
     desc : str, optional
         Progress-bar label.
 
@@ -74,24 +76,39 @@ def run_closed_loop(
     r0 = reference(0.0)
     if x0 is None:
         x0 = np.array([r0.g, 0.0, r0.d, 0.0])
-    y = plant.reset(x0, lock=lock)
-    controller.reset(y, r0)
-    extra = np.full((n, 4), np.nan)
-    with tqdm(total=n, disable=not progress, desc=desc or file, unit="step", leave=False) as bar:
-        for i in range(n):
-            r = reference(i * Ts) if i else r0
-            out = controller.step(y, r)
-            extra[i, 0], extra[i, 1] = r.g, r.d
-            if out.x_hat is not None:
-                extra[i, 2], extra[i, 3] = out.x_hat[1], out.x_hat[3]
-            y = plant.step(out.u)
-            if (i + 1) % _PROGRESS_CHUNK == 0:
-                bar.update(_PROGRESS_CHUNK)
-        bar.update(n % _PROGRESS_CHUNK)
-    log = plant.log.with_columns(g_ref=extra[:, 0], d_ref=extra[:, 1], g_dot_hat=extra[:, 2], d_dot_hat=extra[:, 3])
-    return log.renamed(
-        file, controller=getattr(controller, "name", type(controller).__name__), stop_events=_events(plant)
+    rec = RigLogRecorder(n)
+    loop = ClosedLoop(plant, controller, [rec], on_error="raise")
+    loop.reset(x0, r0, lock=lock)
+    loop.run(lambda i: reference(i * Ts) if i else r0, n, progress=progress, desc=desc or file)
+    return rec.log(
+        plant, file, controller=getattr(controller, "name", type(controller).__name__), stop_events=_events(plant)
     )
+
+
+class CurrentSequence:
+    """A "controller" that replays currents, one row per period (open loop).
+
+    Parameters
+    ----------
+    currents : array (N, 2)
+        ``(i_q, i_d)`` per period [A].
+    """
+
+    name = "open-loop"
+
+    def __init__(self, currents: np.ndarray):
+        self.currents = currents
+        self._k = 0
+
+    def reset(self, y0: Measurement, ref: Any) -> None:
+        """Back to the first row."""
+        self._k = 0
+
+    def step(self, y: Measurement, ref: Any) -> ControlOutput:
+        """The next row, whatever the measurement."""
+        u = self.currents[self._k]
+        self._k += 1
+        return ControlOutput(u=u)
 
 
 def run_open_loop(
@@ -136,13 +153,9 @@ def run_open_loop(
         n = len(seq) if duration is None else _n_steps(duration, Ts)
         if n > len(seq):
             raise ValueError(f"{len(seq)} current samples do not cover {duration} s")
-    plant.reset(x0, u0, lock=lock)
-    with tqdm(total=n, disable=not progress, desc=desc or file, unit="step", leave=False) as bar:
-        for i in range(n):
-            plant.step(seq[i])
-            if (i + 1) % _PROGRESS_CHUNK == 0:
-                bar.update(_PROGRESS_CHUNK)
-        bar.update(n % _PROGRESS_CHUNK)
+    loop = ClosedLoop(plant, CurrentSequence(seq), on_error="raise")
+    loop.reset(x0, None, u0=u0, lock=lock)
+    loop.run(lambda i: None, n, progress=progress, desc=desc or file)
     return plant.log.renamed(file, controller="open-loop", stop_events=_events(plant))
 
 
@@ -150,4 +163,4 @@ def _events(plant: Plant) -> list[dict[str, float | str]]:
     return [asdict(e) for e in plant.events]
 
 
-__all__ = ["run_closed_loop", "run_open_loop"]
+__all__ = ["CurrentSequence", "run_closed_loop", "run_open_loop"]
