@@ -118,7 +118,6 @@ class PIDController:
         self.observer = HighGainObserver(params, ObserverSettings(eps=self.settings.observer_eps), self.Ts)
         self._sched = _schedule_function()
         # buffer evaluation: ~5 us instead of ~100 us for a numpy call
-        self._in_gd = np.zeros(2)
         self._in_p = params.vector()
         self._out = [np.zeros(2), np.zeros(1), np.zeros(1), np.zeros(1)]
         self._buf, self._eval = self._sched.buffer()

@@ -4,7 +4,7 @@ Every block is driven the same way, as do-mpc's ``make_step``: ``reset`` once,
 then ``step`` once per 1 ms control period. Results are small dataclasses, not
 tuples, so the runner can log them by name.
 
-The closed loop is always::
+The closed loop (:class:`maglev_ocp.loop.ClosedLoop`) is always::
 
     y = plant.reset(x0)                       # Measurement at t = 0
     ctrl.reset(y, ref)
@@ -98,14 +98,3 @@ class Controller(Protocol):
 
     def step(self, y: Measurement, ref: Reference) -> ControlOutput:
         """Compute the currents to apply over the next period."""
-
-
-@runtime_checkable
-class Observer(Protocol):
-    """State estimator from quantized positions and the applied currents."""
-
-    def reset(self, y0: np.ndarray) -> None:
-        """Start from encoder reading ``y0 = (g, d)`` at rest."""
-
-    def step(self, y: np.ndarray, u_prev: np.ndarray) -> np.ndarray:
-        """Update with reading ``y`` (taken after ``u_prev`` was applied); return ``x_hat``."""

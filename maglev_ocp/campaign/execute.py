@@ -75,11 +75,6 @@ def worker_cache(key: Any, factory: Callable[[], Any]) -> Any:
     return _CACHE[key]
 
 
-def cache_info() -> dict[str, Any]:
-    """Keys and size of this process's cache (for diagnostics and tests)."""
-    return {"pid": os.getpid(), "n": len(_CACHE), "keys": [str(k_)[:80] for k_ in _CACHE]}
-
-
 def run_real(scenario: dict[str, Any], seed: int, workdir: Path, save: SaveSettings) -> dict[str, Any]:
     """The shipped run function: validate the scenario and run it with the scenario runner.
 

@@ -1,9 +1,9 @@
-"""Shipped campaigns for the headline job: run them, tabulate success rates, measure scaling.
+"""Shipped campaigns: tabulate success rates and executions, measure scaling.
 
-:func:`run_shipped` runs ``campaigns/<name>.yaml`` into ``<results>/campaigns/<name>/``
-(resuming what is there) and writes ``<results>/campaigns/robustness.md``, the
-Markdown table the README quotes; :func:`scaling` runs one campaign afresh on
-1, 2, ... workers and tabulates the wall times.
+:func:`markdown_table` and :func:`executions_table` make the Markdown tables of
+``results/campaigns/robustness.md`` (the README quotes them) from campaign
+results and their folders; :func:`scaling` runs one campaign afresh on 1, 2,
+... workers and tabulates the wall times.
 """
 
 from __future__ import annotations
@@ -21,7 +21,6 @@ from .config import load_campaign
 
 #: Folder of the shipped campaign files (``campaigns/`` at the repository root).
 CAMPAIGN_DIR = Path(__file__).resolve().parents[2] / "campaigns"
-ROBUSTNESS = ("robustness_fl", "robustness_nmpc")
 
 
 def campaign_path(name: str) -> Path:
@@ -70,40 +69,6 @@ def executions_table(campaigns_dir: Path, names: tuple[str, ...]) -> str:
                     f"| {e.get('efficiency', float('nan')):.2f} | {e.get('load_avg_1m', float('nan')):.1f} |"
                 )
     return "\n".join(lines) + f"\n\n({os.cpu_count()} CPUs on the machine that wrote this.)\n"
-
-
-def run_shipped(
-    results_dir: str | os.PathLike, names: tuple[str, ...] = ROBUSTNESS, workers: int = 2, progress: bool = True
-) -> dict[str, CampaignResult]:
-    """Run (or resume) shipped campaigns into ``<results_dir>/campaigns/<name>`` and write ``robustness.md``.
-
-    Parameters
-    ----------
-    results_dir : path
-        The results folder (``results``).
-    names : tuple of str
-        Shipped campaigns to run (default: the two robustness campaigns).
-    workers : int
-        Worker processes of the local Dask cluster.
-    progress : bool
-        Progress bars.
-
-    Returns
-    -------
-    dict
-        Campaign name -> :class:`CampaignResult`.
-    """
-    out = Path(results_dir) / "campaigns"
-    results = {}
-    for name in names:
-        results[name] = run_campaign(campaign_path(name), out / name, workers=workers, progress=progress)
-    text = (
-        "# Campaign results\n\nSuccess: every target settled within 0.1 mm on both axes (true state) and "
-        "no stop hit.\nRegenerate with `maglev campaign campaigns/<name>.yaml --out results/campaigns/<name> "
-        f"--workers {workers}`.\n\n" + markdown_table(results) + "\n" + executions_table(out, names)
-    )
-    atomic_write_text(out / ("robustness.md" if set(names) <= set(ROBUSTNESS) else "campaigns.md"), text)
-    return results
 
 
 @dataclass

@@ -19,14 +19,15 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from ..runner import run_scenario
+from ..scenario import scenario_from_dict
 from .config import SaveSettings
 
 
 def run_scenario_dict(scenario: dict[str, Any], seed: int, workdir: Path, save: SaveSettings) -> dict[str, Any]:
     """Validate ``scenario``, run it, keep the files ``save`` asks for in ``workdir``; return its metrics."""
-    from ..runner import run_scenario
-    from ..scenario import scenario_from_dict
-
     name = str(scenario.get("name", "run"))
     scn = scenario_from_dict(scenario, source=f"campaign run {name}")
     result = run_scenario(scn, seed=seed, progress=False)  # controller from the process cache
@@ -53,8 +54,6 @@ def _metrics_of(result: Any) -> dict[str, Any]:
 
 
 def _plain(o: Any) -> Any:
-    import numpy as np
-
     if isinstance(o, np.generic):
         return o.item()
     if isinstance(o, np.ndarray):

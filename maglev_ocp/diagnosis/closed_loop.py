@@ -1,6 +1,7 @@
 """Closed-loop view of a gap: the same scenario on the model, on the rig with an effect, and compensated.
 
-Three runs of one scenario (:func:`maglev_ocp.runner.run_scenario`, same seed):
+Three runs of one scenario (:func:`maglev_ocp.runner.run_scenario`, the one closed loop
+of :mod:`maglev_ocp.loop`, same seed):
 
 ``model``
     the scenario's plant *without* the effect: what the controller's model
@@ -49,7 +50,13 @@ from ..config import atomic_write_bytes, atomic_write_text
 from ..effects import EFFECTS
 from ..errors import UserError
 from ..params import Params
+from ..plant.config import deep_merge
+from ..runner import _as_scenario, build_controller, run_scenario
+from ..scenario import scenario_from_dict
+from ..signals import PARAM_NAMES
 from .candidates import CandidateSpec, _accel_function, library_specs
+from .diagnose import DiagnoseSettings, diagnose
+from .generate import GeneratorSettings, generate_dataset
 
 
 @functools.lru_cache(maxsize=32)
@@ -274,8 +281,6 @@ def fitted_from_report(path: str | os.PathLike, effect: str) -> dict[str, float]
 
 def _spec_values(spec: CandidateSpec, fitted: dict[str, float], p_base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fitted-value vector of ``spec`` and the augmented parameter vector from readable names."""
-    from ..signals import PARAM_NAMES
-
     w = []
     p = np.array(p_base, float)
     for f in spec.free:
@@ -317,10 +322,6 @@ def closed_loop_view(
     fit_settings : GeneratorSettings, optional
         Size of the generated diagnosis dataset.
     """
-    from ..runner import _as_scenario, build_controller, run_scenario
-    from .diagnose import DiagnoseSettings, diagnose
-    from .generate import GeneratorSettings, generate_dataset
-
     if effect not in EFFECTS:
         raise UserError(f"--effect: unknown effect {effect!r}; choose from {', '.join(EFFECTS)}")
     sc = _as_scenario(scenario).with_seed(seed)
@@ -394,9 +395,6 @@ def closed_loop_view(
 
 def _with(sc, over: dict):
     """Scenario copy with ``over`` merged into its resolved settings (nested mappings merge)."""
-    from ..plant.config import deep_merge
-    from ..scenario import scenario_from_dict
-
     data = json.loads(json.dumps(sc.resolved(), default=_jsonable))
     return scenario_from_dict(deep_merge(data, over), source=sc.source, root_dir=sc.root_dir)
 
