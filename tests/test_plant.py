@@ -449,6 +449,37 @@ def test_open_loop_parabola_at_a_locked_gap_matches_seed_eq_5():
     assert 2 * c[0] / 0.5 == pytest.approx(L1, rel=1e-3)  # d_ddot = -L1 u1, quantized readings
 
 
+def test_open_loop_run_is_the_plant_stepped_by_hand():
+    """run_open_loop (the closed loop with a replaying controller) logs what stepping the plant by hand logs."""
+    cfg = PlantConfig.from_profile("default")
+    seq = np.column_stack([0.3 * np.sin(np.arange(120) / 9.0), 1.4 + 0.2 * np.cos(np.arange(120) / 7.0)])
+    x0 = np.array([0.019, 0, 0.004, 0])
+    log = run_open_loop(Plant(cfg, NOMINAL, seed=4), seq, x0=x0, file="o.csv")
+    plant = Plant(cfg, NOMINAL, seed=4)
+    plant.reset(x0)
+    for u in seq:
+        plant.step(u)
+    for c in ("t", "g", "d", "i_q", "i_d", "g_true", "d_dot_true"):
+        np.testing.assert_array_equal(log[c], plant.log[c])
+    assert log.file == "o.csv" and log.meta["controller"] == "open-loop"
+
+
+def test_closed_loop_run_lets_a_controller_error_through():
+    """A data generator must not write half a run silently: the controller's exception propagates."""
+
+    class Broken(PIDController):
+        def step(self, y, ref):
+            if y.t > 0.01:
+                raise RuntimeError("broken controller")
+            return super().step(y, ref)
+
+    plant = Plant(PlantConfig.from_profile("ideal"), NOMINAL, seed=0)
+    with pytest.raises(RuntimeError, match="broken controller"):
+        run_closed_loop(plant, Broken(NOMINAL), lambda t: Reference(g=0.02, d=0.0), 0.1)
+    with pytest.raises(ValueError, match="shorter than two periods"):
+        run_closed_loop(plant, PIDController(NOMINAL), lambda t: Reference(g=0.02, d=0.0), 0.001)
+
+
 def test_plant_speed_default_profile():
     """At least 10 s of simulated time per second with the default profile (best of 5).
 

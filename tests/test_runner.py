@@ -16,12 +16,13 @@ import yaml
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
 from maglev_ocp.errors import UserError
+from maglev_ocp.loop import ClosedLoop, RigLogRecorder, TraceRecorder
 from maglev_ocp.metrics import compute_metrics, target_metrics
 from maglev_ocp.model import get_model
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.reference import Move, ReferencePlan, Target
 from maglev_ocp.riglog import read_dataset
-from maglev_ocp.runner import build_controller, run_scenario, summary_table
+from maglev_ocp.runner import build_controller, build_run, plan_run, run_scenario, summary_table
 from maglev_ocp.scenario import Checks, scenario_from_dict
 
 SHORT = {
@@ -211,6 +212,45 @@ def test_a_failing_controller_ends_the_run_not_the_process(kind, tmp_path):
     assert not res.passed
     m = json.loads((tmp_path / kind / "metrics.json").read_text())
     assert m["error"] and m["passed"] is False
+
+
+def test_scenario_trace_and_rig_log_come_from_the_one_loop():
+    """One ClosedLoop with both recorders: the runner's log and the rig-log run of the same steps agree."""
+    sc = scenario_from_dict({**SHORT, "targets": [{"g": 0.02, "d": 0.0, "hold": 0.1}]}, "s.yaml")
+    rp = plan_run(sc)
+    ctrl, plant = build_run(sc, _HoverPD(), cache={})
+    trace, riglog = TraceRecorder(rp.n), RigLogRecorder(rp.n)
+    loop = ClosedLoop(plant, ctrl, [trace, riglog], on_error="stop")
+    loop.reset(np.array([sc.start.g, 0.0, sc.start.d, 0.0]), rp.reference(0))
+    assert loop.run(rp.reference, rp.n) == rp.n == 100 and loop.error is None
+    log = riglog.log(plant, "r.csv")
+    np.testing.assert_array_equal(log["g"], trace.Y[:, 0])  # same readings
+    np.testing.assert_array_equal(log["d_true"], trace.X[:, 2])
+    np.testing.assert_array_equal(log["g_ref"], rp.refs[:, 0])
+    free = trace.limited == 0  # the plant logs the command after its limiter
+    np.testing.assert_array_equal(log["i_q"][free], trace.U[free, 0])
+    # and the runner's own stages give the same trace bit for bit
+    res = run_scenario(sc, progress=False, controller=_HoverPD())
+    np.testing.assert_array_equal(res.columns["g"], trace.Y[:, 0])
+    np.testing.assert_array_equal(res.columns["i_q_applied"], trace.UA[:, 0])
+
+
+def test_loop_error_policy():
+    """on_error='raise' lets a controller's exception through; 'stop' ends the run with the message kept."""
+    sc = scenario_from_dict({**SHORT, "plant": {"profile": "ideal"}}, "s.yaml")
+    _, plant = build_run(sc, _HoverPD(), cache={})
+    ref = Reference(g=0.02, d=0.0)
+    loop = ClosedLoop(plant, _HoverPD(fail_at=3), on_error="raise")
+    loop.reset(None, ref)
+    with pytest.raises(RuntimeError, match="solver exploded"):
+        loop.run(lambda i: ref, 10)
+    assert loop.steps == 3
+    loop = ClosedLoop(plant, _HoverPD(nan_at=4), on_error="stop")
+    loop.reset(None, ref)
+    assert loop.run(lambda i: ref, 10) == 4
+    assert "non-finite currents" in loop.error and "t = 0.004 s" in loop.error
+    with pytest.raises(ValueError, match="on_error"):
+        ClosedLoop(plant, _HoverPD(), on_error="ignore")
 
 
 def test_c_backend_without_generated_code_is_a_clear_user_error(monkeypatch):
