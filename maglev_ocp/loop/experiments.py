@@ -117,6 +117,84 @@ def _trim(log: RunLog, n: int) -> RunLog:
     return RunLog(log.file, {c: v[:n] for c, v in log.columns.items()}, log.locked, dict(log.meta))
 
 
+def _hover_run(
+    plant: Plant, params: Params, des: SeedCalibrationDesign, g_mm: float, d_mm: float, rs: np.random.SeedSequence
+) -> RunLog:
+    """Hover run (seed V.B, V.C): d locked at ``d_mm``, i_q = 0, the gap held at ``g_mm``, then excited."""
+    g, d = g_mm * 1e-3, d_mm * 1e-3
+    h = des.hover
+    exc = ExcitationSettings(
+        g=AxisExcitation(center=g, amplitude=h.amplitude_mm * 1e-3, freqs_hz=h.freqs_hz),
+        d=AxisExcitation(center=d, amplitude=0.0, freqs_hz=[1.0]),
+        fade_in=min(0.5, h.duration_s / 4),
+    )
+    sos = SumOfSines(exc, seed=rs)
+    t_q = h.quiet_s
+
+    def ref(t: float) -> Reference:
+        return Reference(g=g, d=d) if t < t_q else sos(t - t_q)
+
+    pid = PIDController(params, PIDSettings(control_d=False, i_q_fixed=0.0), plant.Ts)
+    log = run_closed_loop(
+        plant,
+        pid,
+        ref,
+        h.duration_s,
+        x0=np.array([g, 0.0, d, 0.0]),
+        lock="d",
+        file=f"hover_d{_tag(d_mm)}_g{_tag(g_mm)}.csv",
+    )
+    log.meta.update({"experiment": "hover", "gap_mm": g_mm, "d_mm": d_mm})
+    return log
+
+
+def _parabola_run(
+    plant: Plant, params: Params, des: SeedCalibrationDesign, g_mm: float, d_mm: float, rs: np.random.SeedSequence
+) -> RunLog:
+    """Parabola run (seed V.A, eq. (5)): gap locked at ``g_mm``, d held at ``d_mm``, then a constant i_q."""
+    g, d0 = g_mm * 1e-3, d_mm * 1e-3
+    pb = des.parabola
+    L1 = params.C1 * float(get_model().shape(g)[3])
+    travel = abs(pb.d_end_mm - pb.d_start_mm) * 1e-3
+    t_move = math.sqrt(2 * travel / max(L1 * abs(pb.i_q), 1e-6))  # d = L1 |i_q| t^2 / 2 covers the travel
+    pid = PIDController(params, PIDSettings(control_g=False, i_d_fixed=0.0), plant.Ts)
+    drv = _ParabolaDriver(pid, pb.hold_s, pb.i_q, plant.Ts)
+    ref0 = Reference(g=g, d=d0)
+    log = run_closed_loop(
+        plant,
+        drv,
+        lambda t: ref0,
+        pb.hold_s + 1.25 * t_move,
+        x0=np.array([g, 0.0, d0, 0.0]),
+        lock="g",
+        file=f"parabola_g{_tag(g_mm)}.csv",
+    )
+    # the run ends where the mover passes d_end (before any stop)
+    sgn = 1.0 if pb.d_end_mm >= pb.d_start_mm else -1.0
+    past = np.flatnonzero(sgn * (log["d"] - pb.d_end_mm * 1e-3) > 0)
+    if past.size:
+        log = _trim(log, int(past[0]) + 1)
+    log.meta.update({"experiment": "parabola", "gap_mm": g_mm, "i_q": pb.i_q})
+    return log
+
+
+def _free_run(
+    plant: Plant, params: Params, des: SeedCalibrationDesign, index: float, _: float, rs: np.random.SeedSequence
+) -> RunLog:
+    """Free 2-DOF run number ``index`` (seed IV, V.D): both regulators track sums of sines."""
+    fr = des.free
+    exc = ExcitationSettings(
+        g=AxisExcitation(center=fr.g_center_mm * 1e-3, amplitude=fr.g_amplitude_mm * 1e-3, freqs_hz=fr.g_freqs_hz),
+        d=AxisExcitation(center=0.0, amplitude=fr.d_amplitude_mm * 1e-3, freqs_hz=fr.d_freqs_hz),
+        fade_in=fr.fade_in_s,
+    )
+    sos = SumOfSines(exc, seed=rs)
+    pid = PIDController(params, PIDSettings(), plant.Ts)
+    log = run_closed_loop(plant, pid, sos, fr.duration_s, lock="none", file=f"free_{int(index) + 1}.csv")
+    log.meta.update({"experiment": "free"})
+    return log
+
+
 def generate_seed_calibration(
     out_dir: str | os.PathLike,
     *,
@@ -156,8 +234,6 @@ def generate_seed_calibration(
     ss = np.random.SeedSequence(int(seed))
     ss_plant, ss_ref = ss.spawn(2)
     plant = Plant(cfg, params, seed=ss_plant)
-    Ts = plant.Ts
-    m = get_model()
 
     jobs = []
     for d_mm in des.hover.d_positions_mm:
@@ -169,72 +245,12 @@ def generate_seed_calibration(
         jobs.append(("free", float(i), 0.0))
     ref_seeds = ss_ref.spawn(len(jobs))
 
+    run_of = {"hover": _hover_run, "parabola": _parabola_run, "free": _free_run}
     runs: list[RunLog] = []
     for (kind, a, b), rs in tqdm(
         list(zip(jobs, ref_seeds, strict=True)), desc="seed calibration runs", unit="run", disable=not progress
     ):
-        if kind == "hover":
-            g, d = a * 1e-3, b * 1e-3
-            h = des.hover
-            exc = ExcitationSettings(
-                g=AxisExcitation(center=g, amplitude=h.amplitude_mm * 1e-3, freqs_hz=h.freqs_hz),
-                d=AxisExcitation(center=d, amplitude=0.0, freqs_hz=[1.0]),
-                fade_in=min(0.5, h.duration_s / 4),
-            )
-            sos = SumOfSines(exc, seed=rs)
-            t_q = h.quiet_s
-
-            def ref(t: float, sos=sos, t_q=t_q, g=g, d=d) -> Reference:
-                return Reference(g=g, d=d) if t < t_q else sos(t - t_q)
-
-            pid = PIDController(params, PIDSettings(control_d=False, i_q_fixed=0.0), Ts)
-            log = run_closed_loop(
-                plant,
-                pid,
-                ref,
-                h.duration_s,
-                x0=np.array([g, 0.0, d, 0.0]),
-                lock="d",
-                file=f"hover_d{_tag(b)}_g{_tag(a)}.csv",
-            )
-            log.meta.update({"experiment": "hover", "gap_mm": a, "d_mm": b})
-        elif kind == "parabola":
-            g, d0 = a * 1e-3, b * 1e-3
-            pb = des.parabola
-            L1 = params.C1 * float(m.shape(g)[3])
-            travel = abs(pb.d_end_mm - pb.d_start_mm) * 1e-3
-            t_move = math.sqrt(2 * travel / max(L1 * abs(pb.i_q), 1e-6))
-            pid = PIDController(params, PIDSettings(control_g=False, i_d_fixed=0.0), Ts)
-            drv = _ParabolaDriver(pid, pb.hold_s, pb.i_q, Ts)
-            ref0 = Reference(g=g, d=d0)
-            log = run_closed_loop(
-                plant,
-                drv,
-                lambda t, r=ref0: r,
-                pb.hold_s + 1.25 * t_move,
-                x0=np.array([g, 0.0, d0, 0.0]),
-                lock="g",
-                file=f"parabola_g{_tag(a)}.csv",
-            )
-            # the run ends where the mover passes d_end (before any stop)
-            sgn = 1.0 if pb.d_end_mm >= pb.d_start_mm else -1.0
-            past = np.flatnonzero(sgn * (log["d"] - pb.d_end_mm * 1e-3) > 0)
-            if past.size:
-                log = _trim(log, int(past[0]) + 1)
-            log.meta.update({"experiment": "parabola", "gap_mm": a, "i_q": pb.i_q})
-        else:
-            fr = des.free
-            exc = ExcitationSettings(
-                g=AxisExcitation(
-                    center=fr.g_center_mm * 1e-3, amplitude=fr.g_amplitude_mm * 1e-3, freqs_hz=fr.g_freqs_hz
-                ),
-                d=AxisExcitation(center=0.0, amplitude=fr.d_amplitude_mm * 1e-3, freqs_hz=fr.d_freqs_hz),
-                fade_in=fr.fade_in_s,
-            )
-            sos = SumOfSines(exc, seed=rs)
-            pid = PIDController(params, PIDSettings(), Ts)
-            log = run_closed_loop(plant, pid, sos, fr.duration_s, lock="none", file=f"free_{int(a) + 1}.csv")
-            log.meta.update({"experiment": "free"})
+        log = run_of[kind](plant, params, des, a, b, rs)
         if plant.events:
             log.meta["stop_events"] = [str(e) for e in plant.events]
         runs.append(log)
@@ -250,7 +266,7 @@ def generate_seed_calibration(
     return write_dataset(
         out_dir,
         runs,
-        sample_time=Ts,
+        sample_time=plant.Ts,
         encoder_resolution=k.encoder_resolution,
         meta=meta,
         description="the seed's calibration experiments (sections IV, V) on the plant simulator",
