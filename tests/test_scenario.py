@@ -151,7 +151,10 @@ def test_nan_and_inf_are_refused_as_such(tmp_path, change, key):
         ({"plant": {"stops": {"enabled": True, "g": [0.017, 0.030]}}}, "targets[1].g", "plant.stops.g"),
         ({"plant": {"stops": {"enabled": True, "d": [-0.01, 0.01]}}}, "targets[1].d", "plant.stops.d"),
         (
-            {"random_targets": {"n": 3, "g": [0.015, 0.025]}, "plant": {"stops": {"enabled": True, "g": [0.0155, 0.03]}}},
+            {
+                "random_targets": {"n": 3, "g": [0.015, 0.025]},
+                "plant": {"stops": {"enabled": True, "g": [0.0155, 0.03]}},
+            },
             "random_targets.g",
             "plant.stops.g",
         ),
