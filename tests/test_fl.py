@@ -78,7 +78,7 @@ def test_inverse_is_exact_including_cogging(model, g, gd, d, dd, ag, ad, cog):
     assert a[1] == pytest.approx(ad, abs=tol)
     assert a[0] < ag  # really out of reach
     for di in (-1e-3, 1e-3):  # i_d is the vertex of the vertical quadratic: no other i_d opens faster
-        assert _accel(model, x, u + [0.0, di], p)[0] <= a[0] + 1e-12
+        assert _accel(model, x, u + np.array([0.0, di]), p)[0] <= a[0] + 1e-12
 
 
 @settings(max_examples=40, deadline=None)

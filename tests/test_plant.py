@@ -506,7 +506,7 @@ def test_hover_envelope_check_uses_the_model():
 def test_plant_that_cannot_hover_says_so_instead_of_commanding_0A():
     """A rig whose true parameters have no hover current at the start: a one-line error, not a silent 0 A."""
     plant = Plant(ideal(), NOMINAL.with_(C3=3.0), seed=0)
-    with pytest.raises(ConfigError, match="cannot hover at g = 15.00 mm"):
+    with pytest.raises(ConfigError, match=r"cannot hover at g = 15\.00 mm"):
         plant.reset(np.array([0.015, 0.0, 0.0, 0.0]))
     # the gap locked in its fixture needs no hover current
     y = plant.reset(np.array([0.015, 0.0, 0.0, 0.0]), lock="g")
