@@ -1,12 +1,19 @@
 # Two commands set up a fresh machine (only Python needed):
 #   make run    - create .venv, install, run the headline job (writes results/)
 #   make test   - create .venv, install, run the test suite (not-slow, then slow)
+#   make peer   - create .venv-peer (project + acados, apart from .venv), run benchmarks/peer_acados.py
 PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 STAMP   = $(VENV)/.installed
+# The acados peer lives in its own environment: its wheel (comma-deps-acados) overwrites CasADi's core
+# library inside the casadi package with its own build, after which sqpmethod (diagnose, calibrate) is gone.
+PEER_VENV  ?= .venv-peer
+PEER_BIN    = $(PEER_VENV)/bin
+PEER_STAMP  = $(PEER_VENV)/.installed
+PEER_ARGS  ?=
 
-.PHONY: run test test-fast test-slow lint bench clean-venv
+.PHONY: run test test-fast test-slow lint bench peer clean-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -34,6 +41,16 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks.run_all
+
+$(PEER_STAMP): pyproject.toml
+	$(PYTHON) -m venv $(PEER_VENV)
+	$(PEER_BIN)/python -m pip install --quiet --upgrade pip
+	$(PEER_BIN)/python -m pip install --quiet -e .
+	$(PEER_BIN)/python -m pip install --quiet comma-deps-acados
+	touch $(PEER_STAMP)
+
+peer: $(PEER_STAMP)
+	$(PEER_BIN)/python benchmarks/peer_acados.py $(PEER_ARGS)
 
 clean-venv:
 	rm -rf $(VENV)

@@ -39,11 +39,13 @@ warm start, 730 / 1164 for PARTIAL_CONDENSING BALANCE).
 
 Run::
 
-    .venv/bin/python benchmarks/peer_acados.py                  # N = 20, table
-    .venv/bin/python benchmarks/peer_acados.py --realtime --json out.json  # SCHED_FIFO, also the numbers
+    make peer                                                        # N = 20, table
+    make peer PEER_ARGS='--realtime --json out.json'                  # SCHED_FIFO, also the numbers
 
-acados comes from the optional extra (``pip install comma-deps-acados``); when
-it is not installed this prints why and exits 0 (skipped).
+acados (``comma-deps-acados``) lives in its own environment, built and used by
+``make peer`` (``.venv-peer/``): its wheel replaces CasADi's core library, which
+must not happen to the project's ``.venv``. When acados is not installed this
+prints why and exits 0 (skipped).
 """
 
 from __future__ import annotations
@@ -70,7 +72,7 @@ def setup_acados() -> str | None:
     try:
         import acados  # comma-deps-acados
     except ImportError:
-        return "acados is not installed (pip install comma-deps-acados, the optional 'peer' extra)"
+        return "acados is not installed (run `make peer`: it builds .venv-peer with comma-deps-acados)"
     os.environ.setdefault("ACADOS_SOURCE_DIR", acados.DIR)
     os.environ.setdefault("ACADOS_PYTHON_INTERFACE_PATH", acados.TEMPLATE_DIR)
     os.environ.setdefault("TERA_PATH", acados.TERA_PATH)

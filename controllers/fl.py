@@ -170,7 +170,7 @@ class FeedbackLinearization:
     ``stats`` of each step: ``unreachable`` (demanded attraction out of reach,
     clipped), ``sat_g``/``sat_d`` (current limits active), ``v_g``/``v_d``
     (demanded accelerations), ``dist_g``/``dist_d`` (disturbance estimates),
-    and ``solver_failure = fallback = 0`` (a closed-form law cannot fail).
+    and ``solver_failure`` / ``fallback`` (0 normally; see :meth:`step` for when they are 1).
     """
 
     name = "fl"
@@ -187,6 +187,8 @@ class FeedbackLinearization:
         )
         self._z = np.zeros(2)
         self._u_prev = np.zeros(2)
+        self._u_good: np.ndarray | None = None  # last finite command of the law
+        self._x0 = (0.020, 0.0)  # reading at reset (where the hover fallback is taken before any estimate)
         self._started = False
 
     def reset(self, y0: Measurement, ref: Reference) -> None:
@@ -194,21 +196,38 @@ class FeedbackLinearization:
         self.observer.reset(np.asarray(y0.y, dtype=float))
         self._z = np.zeros(2)
         self._u_prev = np.zeros(2)
+        self._u_good = None
+        self._x0 = (float(y0.y[0]), float(y0.y[1]))
         self._started = False
 
     def step(self, y: Measurement, ref: Reference) -> ControlOutput:
-        """Observer update with the last command, then the control law."""
-        if self._started:
-            x_hat = self.observer.step(y.y, self._u_prev)
-        else:
+        """Observer update with the last command, then the control law.
+
+        Never commands a non-finite current: a non-finite reading is skipped
+        (the observer predicts only), and if the law still returns a non-finite
+        current the controller holds a safe one (:meth:`_safe_current`) and keeps
+        its integrators. Either case sets ``fallback = 1`` in ``stats`` (a failed
+        law also ``solver_failure = 1``), which the run's metrics count.
+        """
+        fallback = 0
+        if not self._started:
             x_hat = self.observer.x_hat.copy()
             self._started = True
+        elif math.isfinite(y.y[0]) and math.isfinite(y.y[1]):
+            x_hat = self.observer.step(y.y, self._u_prev)
+        else:  # a reading that cannot be used: prediction only (as the NMPC's observer does)
+            x_hat = self.observer.predict(self._u_prev)
+            self.observer.x_hat = x_hat.copy()
+            fallback = 1
         r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
         dist = self.observer.disturbance
         u, z_next, v, fl = self._law(x_hat, dist, r, self._z, self._p, self._gains)
-        if not (math.isfinite(u[0]) and math.isfinite(u[1])):  # not for finite inputs; never command NaN
-            u = np.zeros(2)
-        self._z = z_next
+        law_failed = not (math.isfinite(u[0]) and math.isfinite(u[1]))
+        if law_failed:
+            u, fallback = self._safe_current(x_hat), 1
+        else:
+            self._z = z_next
+            self._u_good = u
         self._u_prev = u
         stats = {
             "unreachable": int(fl[0]),
@@ -218,10 +237,35 @@ class FeedbackLinearization:
             "v_d": float(v[1]),
             "dist_g": float(dist[0]),
             "dist_d": float(dist[1]),
-            "solver_failure": 0,
-            "fallback": 0,
+            "solver_failure": int(law_failed),
+            "fallback": fallback,
         }
         return ControlOutput(u=u, x_hat=x_hat, stats=stats)
+
+    def _safe_current(self, x_hat: np.ndarray) -> np.ndarray:
+        """Current to hold when the law has none: the last good command, else the hover current at ``x_hat``.
+
+        The hover current (seed eq. (8) with cogging, ``model.u_eq``) is taken at
+        the state estimate if it is finite, else at the reading the run started
+        from; it is clipped to the settings' limits, the gap axis first.
+
+        Raises
+        ------
+        ValueError
+            If neither a good command nor a finite hover current exists (the
+            controller's parameters cannot hover here).
+        """
+        if self._u_good is not None:
+            return np.array(self._u_good, dtype=float)
+        g, d = (float(x_hat[0]), float(x_hat[2])) if np.all(np.isfinite(x_hat)) else self._x0
+        u = np.asarray(get_model().u_eq(g, d, self._p), dtype=float).ravel()
+        if not np.all(np.isfinite(u)):
+            raise ValueError(f"fl: no finite current to hold at g = {g * 1e3:.2f} mm, d = {d * 1e3:.2f} mm")
+        s = self.settings
+        id_lim = min(s.i_axis_max, s.i_amp_max)  # vertical axis first, as in the law
+        i_d = min(max(u[1], -id_lim), id_lim)
+        i_q_lim = min(s.i_axis_max, math.sqrt(max(s.i_amp_max**2 - i_d**2, 0.0)))
+        return np.array([min(max(u[0], -i_q_lim), i_q_lim), i_d])
 
 
 __all__ = [

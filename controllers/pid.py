@@ -30,6 +30,7 @@ from pydantic import Field
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
 from maglev_ocp.config import Strict
+from maglev_ocp.errors import ConfigError
 from maglev_ocp.model import get_model
 from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL, Params
@@ -129,6 +130,7 @@ class PIDController:
             self._buf.set_res(i, memoryview(a))
         self._int = np.zeros(2)  # integral of the position errors (g, d) [m s]
         self._u_prev = np.zeros(2)
+        self._ueq_good = (0.0, 0.0)  # last finite hover current (set at reset)
 
     def schedule(self, g: float, d: float) -> tuple[np.ndarray, float, float, float]:
         """Equilibrium currents and linear gains at ``(g, d)``: ``(u_eq, b_v, a21, L1)``."""
@@ -141,7 +143,13 @@ class PIDController:
         self.observer.reset(y0.y)
         self._int[:] = 0.0
         u_eq, *_ = self.schedule(float(y0.y[0]), float(y0.y[1]))
-        self._u_prev = self._clip(np.where(np.isfinite(u_eq), u_eq, 0.0))[0]
+        if not np.all(np.isfinite(u_eq)):  # 0 A here would drop the mover: say so instead
+            raise ConfigError(
+                f"pid: the controller's model has no hover current at g = {float(y0.y[0]) * 1e3:.2f} mm, "
+                f"d = {float(y0.y[1]) * 1e3:.2f} mm (seed eq. (8) has no real root); check controller_params"
+            )
+        self._ueq_good = (float(u_eq[0]), float(u_eq[1]))
+        self._u_prev = self._clip(u_eq)[0]
 
     def _clip(self, u: np.ndarray) -> tuple[np.ndarray, bool, bool]:
         """Limit: each axis to ±i_axis_max, then i_q to what the amplitude leaves after i_d."""
@@ -153,14 +161,22 @@ class PIDController:
         return np.array([i_q, i_d]), i_q != u[0], i_d != u[1]
 
     def step(self, y: Measurement, ref: Reference) -> ControlOutput:
-        """Currents for the next period from reading ``y`` and reference ``ref``."""
+        """Currents for the next period from reading ``y`` and reference ``ref``.
+
+        If the model has no hover current at the reference (seed eq. (8) has no
+        real root there), the last good hover current is held instead of 0 A and
+        ``stats["fallback"] = 1`` (counted in the run's metrics).
+        """
         s = self.settings
         x_hat = self.observer.step(y.y, self._u_prev)
         g_hat, g_dot_hat, d_hat, d_dot_hat = x_hat.tolist()
         u_eq, b_v, a21, L1 = self.schedule(ref.g, ref.d)
         iq_eq, id_eq = u_eq.tolist()
-        if not (math.isfinite(iq_eq) and math.isfinite(id_eq)):  # no hover possible there
-            iq_eq, id_eq = 0.0, 0.0
+        hover_fallback = not (math.isfinite(iq_eq) and math.isfinite(id_eq))
+        if hover_fallback:  # the model cannot hover at this reference: hold the last good hover current
+            iq_eq, id_eq = self._ueq_good
+        else:
+            self._ueq_good = (iq_eq, id_eq)
         ff = 1.0 if s.feedforward else 0.0
         e_g, e_d = ref.g - g_hat, ref.d - d_hat
         ed_g, ed_d = ref.g_dot - g_dot_hat, ref.d_dot - d_dot_hat
@@ -187,6 +203,8 @@ class PIDController:
                 self._int[1] = iq_int / kid
         self._u_prev = u
         stats = {"i_q_eq": iq_eq, "i_d_eq": id_eq, "saturated": bool(q_sat or d_sat)}
+        if hover_fallback:  # the column appears only in runs that needed it (NaN = 0 in the other rows)
+            stats["fallback"] = 1
         return ControlOutput(u=u, x_hat=x_hat, stats=stats)
 
 

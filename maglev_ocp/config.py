@@ -22,9 +22,13 @@ M = TypeVar("M", bound=BaseModel)
 
 
 class Strict(BaseModel):
-    """Base for every settings model: unknown keys are errors, values are checked."""
+    """Base for every settings model: unknown keys are errors, values are checked.
 
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False)
+    NaN and infinite numbers are refused in every field (a NaN passes no range
+    check in a useful way and an infinite limit is never what a setting means).
+    """
+
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False, allow_inf_nan=False)
 
 
 def format_validation_error(err: ValidationError, source: str) -> str:
@@ -37,6 +41,8 @@ def format_validation_error(err: ValidationError, source: str) -> str:
             msg = "unknown key"
         elif e["type"] == "missing":
             msg = "required key missing"
+        elif e["type"] == "finite_number":
+            msg = f"NaN/inf is not allowed (got {e.get('input')!r}); give a finite number"
         parts.append(f"{loc}: {msg}")
     more = f" (+{len(err.errors()) - 3} more)" if len(err.errors()) > 3 else ""
     return f"{source}: " + "; ".join(parts) + more

@@ -67,13 +67,22 @@ class Params:
 
 
 class ParamsFile(Strict):
-    """Schema of a parameter YAML file (all keys optional; defaults from Table III)."""
+    """Schema of a parameter YAML file (all keys optional; defaults from Table III).
+
+    Every entry must be finite (NaN/inf refused by :class:`~maglev_ocp.config.Strict`)
+    and physical: the lumped constants C1..C4 of seed eq. (2), the masses and the
+    cogging decay length ``ell`` are positive (C3 = C4 = 0 would leave no current
+    that can hold the mover, seed eq. (8)); the cogging amplitude ``xi0`` is
+    non-negative (0: no cogging). Whether the set can hover over the whole
+    envelope needs the model and is checked where parameters meet it
+    (:func:`maglev_ocp.plant.config.hover_envelope_error`).
+    """
 
     format: str = Field("maglev-params/1", pattern=r"^maglev-params/1$")
     C1: float = Field(Params.C1, gt=0, lt=1e4)
     C2: float = Field(Params.C2, gt=0, lt=1e5)
-    C3: float = Field(Params.C3, ge=0, lt=1e4)
-    C4: float = Field(Params.C4, ge=0, lt=1e3)
+    C3: float = Field(Params.C3, gt=0, lt=1e4)
+    C4: float = Field(Params.C4, gt=0, lt=1e3)
     xi0: float = Field(Params.xi0, ge=0, lt=1e3)
     ell: float = Field(Params.ell, gt=0, lt=1.0)
     Mh: float = Field(Params.Mh, gt=0, lt=1e3)
@@ -81,12 +90,12 @@ class ParamsFile(Strict):
 
 
 class ParamOverrides(Strict):
-    """Partial parameter set, e.g. a scenario's ``plant.params`` block."""
+    """Partial parameter set, e.g. a scenario's ``plant.params`` block (same bounds as :class:`ParamsFile`)."""
 
     C1: float | None = Field(None, gt=0, lt=1e4)
     C2: float | None = Field(None, gt=0, lt=1e5)
-    C3: float | None = Field(None, ge=0, lt=1e4)
-    C4: float | None = Field(None, ge=0, lt=1e3)
+    C3: float | None = Field(None, gt=0, lt=1e4)
+    C4: float | None = Field(None, gt=0, lt=1e3)
     xi0: float | None = Field(None, ge=0, lt=1e3)
     ell: float | None = Field(None, gt=0, lt=1.0)
     Mh: float | None = Field(None, gt=0, lt=1e3)

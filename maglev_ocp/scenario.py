@@ -60,7 +60,9 @@ from pydantic_core import InitErrorDetails
 from . import constants as k
 from .config import Strict, load_yaml, parse_model
 from .errors import ConfigError, UserError
+from .model import get_model
 from .params import NOMINAL, ParamOverrides, Params, load_params
+from .plant.config import check_hover_envelope
 from .reference import ReferenceSettings, Target
 
 #: Controller types: module, settings class, controller class (imported lazily).
@@ -224,6 +226,8 @@ class PlantSpec(BaseModel):
             e = err.errors()[0]
             loc = ".".join(str(x) for x in e["loc"])
             msg = "unknown key" if e["type"] == "extra_forbidden" else e["msg"]
+            if e["type"] == "finite_number":
+                msg = f"NaN/inf is not allowed (got {e.get('input')!r}); give a finite number"
             raise ConfigError(f"{source}: plant.{loc}: {msg}") from None
 
     def params_resolved(self) -> Params:
@@ -394,9 +398,114 @@ class Scenario(Strict):
         return self.plant.params_resolved()
 
     def check_resolvable(self) -> None:
-        """Resolve everything that can fail (files, plant keys, controller module): ConfigError on failure."""
-        self.controller_model_params()
-        self.plant_config()
+        """Resolve everything that can fail (files, plant keys, controller module): ConfigError on failure.
+
+        Then check that the settings can work together (:meth:`check_consistent`).
+        """
+        cp = self.controller_model_params()
+        cfg = self.plant_config()
+        self.check_consistent(cp, cfg)
+
+    def positions(self) -> list[tuple[str, float, float]]:
+        """Where the mover must hover: ``(key, g, d)`` for the start, every target and the random-target box corners."""
+        out = [("start", self.start.g, self.start.d)]
+        out += [(f"targets[{i}]", t.g, t.d) for i, t in enumerate(self.targets)]
+        rt = self.random_targets
+        if rt is not None:
+            ds = sorted({*rt.d, *((0.0,) if rt.d[0] < 0.0 < rt.d[1] else ())})
+            out += [("random_targets", g, d) for g in rt.g for d in ds]
+        return out
+
+    def check_consistent(self, ctrl_params: Params, plant_cfg: Any) -> None:
+        """Refuse settings that cannot work together (one-line :class:`ConfigError` naming the keys).
+
+        - the controller's and the rig's parameters must give a real, finite
+          hover current over the whole tracking envelope (seed eq. (8));
+        - hovering at the start and at every target must fit the controller's
+          and (if switched on) the plant's current limits;
+        - the start and the targets must lie inside the plant's stops (if switched on);
+        - the NMPC's soft gap band must be a band (``g_min < g_max``) holding every target;
+        - with ``checks.all_settled``, every hold must be longer than ``checks.min_settled_s``.
+        """
+        check_hover_envelope(ctrl_params, "controller_params")
+        check_hover_envelope(self.plant_params(), "plant.params")
+        self._check_limits(ctrl_params, plant_cfg)
+        self._check_stops(plant_cfg)
+        self._check_soft_gap()
+        if self.checks.all_settled:
+            holds = [(f"targets[{i}].hold", t.hold) for i, t in enumerate(self.targets)]
+            if self.random_targets is not None:
+                holds.append(("random_targets.hold", self.random_targets.hold))
+            for key, hold in holds:
+                if hold <= self.checks.min_settled_s:
+                    raise ConfigError(
+                        f"{key}: {hold:g} s is not longer than checks.min_settled_s = {self.checks.min_settled_s:g} s, "
+                        "so the target can never count as settled"
+                    )
+
+    def _check_limits(self, ctrl_params: Params, plant_cfg: Any) -> None:
+        """Hover currents at every position within the controller's and the plant's current limits."""
+        u_eq = get_model().u_eq
+        st = self.controller.settings
+        ctrl_lims = [
+            (f"controller.{n}", float(getattr(st, n))) for n in ("i_amp_max", "current_limit") if hasattr(st, n)
+        ]
+        ctrl_axis = [(f"controller.{n}", float(getattr(st, n))) for n in ("i_axis_max",) if hasattr(st, n)]
+        cl = plant_cfg.current_limits
+        plant_amp = [("plant.current_limits.amplitude", cl.amplitude)] if cl.enabled else []
+        plant_axis = [("plant.current_limits.axis", cl.axis)] if cl.enabled else []
+        for who, params, amp_lims, axis_lims in (
+            ("the controller's model", ctrl_params, ctrl_lims, ctrl_axis),
+            ("the rig", self.plant_params(), plant_amp, plant_axis),
+        ):
+            if not (amp_lims or axis_lims):
+                continue
+            p = params.vector()
+            for where, g, d in self.positions():
+                u = np.asarray(u_eq(g, d, p), dtype=float).ravel()
+                need_amp, need_axis = math.hypot(u[0], u[1]), float(np.max(np.abs(u)))
+                for key, lim in amp_lims:
+                    if need_amp > lim:
+                        raise ConfigError(
+                            f"{key}: {lim:g} A is below the {need_amp:.2f} A {who} needs to hover at {where} "
+                            f"(g = {g * 1e3:.2f} mm, d = {d * 1e3:.2f} mm); raise it or move the target"
+                        )
+                for key, lim in axis_lims:
+                    if need_axis > lim:
+                        raise ConfigError(
+                            f"{key}: {lim:g} A is below the {need_axis:.2f} A per axis {who} needs to hover at "
+                            f"{where} (g = {g * 1e3:.2f} mm, d = {d * 1e3:.2f} mm); raise it or move the target"
+                        )
+
+    def _check_stops(self, plant_cfg: Any) -> None:
+        """Start and targets strictly inside the plant's stops (if they are switched on)."""
+        stops = plant_cfg.stops
+        if not stops.enabled:
+            return
+        for where, g, d in self.positions():
+            for axis, v in (("g", g), ("d", d)):
+                lo, hi = getattr(stops, axis)
+                if not lo < v < hi:
+                    raise ConfigError(f"{where}.{axis}: {v:g} m is not inside plant.stops.{axis} [{lo:g}, {hi:g}] m")
+
+    def _check_soft_gap(self) -> None:
+        """The NMPC's soft gap band: ``g_min < g_max``, every position inside it (if the band is on)."""
+        sg = getattr(self.controller.settings, "soft_gap", None)
+        if sg is None:
+            return
+        if not sg.g_min < sg.g_max:
+            raise ConfigError(
+                f"controller.soft_gap: g_min = {sg.g_min:g} m must be below g_max = {sg.g_max:g} m "
+                "(the band the predicted gap is kept in)"
+            )
+        if sg.stride <= 0:
+            return
+        for where, g, _ in self.positions():
+            if not sg.g_min <= g <= sg.g_max:
+                raise ConfigError(
+                    f"{where}.g: {g:g} m is outside controller.soft_gap [{sg.g_min:g}, {sg.g_max:g}] m, "
+                    "so the NMPC would be penalized for reaching it"
+                )
 
     def resolved(self) -> dict[str, Any]:
         """The scenario with every default filled in and random targets drawn (loadable again).

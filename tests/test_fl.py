@@ -62,14 +62,41 @@ def test_inverse_at_rest_is_the_models_hover_current(model, p_nom, g, d):
     cog=st.booleans(),
 )
 def test_inverse_is_exact_including_cogging(model, g, gd, d, dd, ag, ad, cog):
-    """The model driven by the inverse's currents produces exactly the demanded accelerations."""
+    """The model driven by the inverse's currents produces exactly the demanded accelerations; where the
+    demanded opening acceleration is out of reach (flagged), the horizontal one is still exact and the gap
+    gets the largest opening acceleration the field can give, which falls short of the demand."""
     p = (NOMINAL if cog else NOMINAL.without_cogging()).vector()
     x = [g, gd, d, dd]
     u, unr = model_inverse_function()(x, [ag, ad], p)
-    if float(unr):
-        return  # demanded opening acceleration out of reach: covered by the guard test
-    a = _accel(model, x, np.asarray(u).ravel(), p)
-    np.testing.assert_allclose(a, [ag, ad], rtol=0, atol=1e-9 * (1 + abs(ag) + abs(ad)))
+    u = np.asarray(u).ravel()
+    a = _accel(model, x, u, p)
+    tol = 1e-9 * (1 + abs(ag) + abs(ad))
+    assert np.all(np.isfinite(u))
+    if not float(unr):
+        np.testing.assert_allclose(a, [ag, ad], rtol=0, atol=tol)
+        return
+    assert a[1] == pytest.approx(ad, abs=tol)
+    assert a[0] < ag  # really out of reach
+    for di in (-1e-3, 1e-3):  # i_d is the vertex of the vertical quadratic: no other i_d opens faster
+        assert _accel(model, x, u + np.array([0.0, di]), p)[0] <= a[0] + 1e-12
+
+
+@settings(max_examples=40, deadline=None)
+@given(g=st.floats(0.012, 0.028), d=st.floats(-0.055, 0.055), excess=st.floats(0.1, 100.0), cog=st.booleans())
+def test_unreachable_demand_is_flagged(model, g, d, excess, cog):
+    """Demanding more opening acceleration than the vertex of the vertical quadratic gives (L3^2 / (4 L4) above
+    the zero-current one) always sets the unreachable flag; a demand just below it never does."""
+    p = (NOMINAL if cog else NOMINAL.without_cogging()).vector()
+    x = [g, 0.0, d, 0.0]
+    u0, _ = model_inverse_function()(x, [0.0, 0.0], p)
+    iq = float(np.asarray(u0).ravel()[0])
+    a0 = _accel(model, x, [iq, 0.0], p)[0]
+    *_, f3, f4 = (float(v) for v in model.shape(g))
+    a_max = a0 + (NOMINAL.C3 * f3) ** 2 / (4 * NOMINAL.C4 * f4)  # vertex of a0 + L3 i - L4 i^2
+    _, unr = model_inverse_function()(x, [a_max + excess, 0.0], p)
+    assert float(unr) == 1
+    _, unr = model_inverse_function()(x, [a_max - 1e-6 * abs(a_max) - 1e-9, 0.0], p)
+    assert float(unr) == 0
 
 
 def test_smaller_root_without_cancellation(model):
@@ -224,3 +251,39 @@ def test_cogging_blind_model_relies_on_the_disturbance_estimate():
     assert np.all(errs["aware"] <= 1e-5)
     # blind: the horizontal cogging force xi(15 mm) sin(3 pi / 2) / Mh ~ 0.63 m/s^2 over kp = w^2 -> ~44 um
     assert errs["blind"][1] > 2e-5
+
+
+def test_law_failure_before_any_good_command_holds_the_hover_current(model, p_nom):
+    """A non-finite law output on the very first step: the hover current at the reading (seed eq. (8) with
+    cogging), flagged as a fallback and a failure, never 0 A; the integrators are kept."""
+    ctrl = FeedbackLinearization(FLSettings(integral=True), NOMINAL)
+    law = ctrl._law
+    ctrl._law = lambda *a: [np.full(2, np.nan), np.full(2, np.nan), *law(*a)[2:]]
+    y0 = Measurement(0.0, np.array([0.018, 0.01]), None)
+    ref = Reference(g=0.018, d=0.01)
+    ctrl.reset(y0, ref)
+    out = ctrl.step(y0, ref)
+    np.testing.assert_allclose(out.u, np.asarray(model.u_eq(0.018, 0.01, p_nom)).ravel(), rtol=1e-12)
+    assert out.stats["fallback"] == 1 and out.stats["solver_failure"] == 1
+    assert np.all(ctrl._z == 0.0)
+    # a good step, then a failing one: the last good command is held
+    ctrl._law = law
+    good = ctrl.step(y0, ref)
+    assert good.stats["fallback"] == 0
+    ctrl._law = lambda *a: [np.full(2, np.nan), *law(*a)[1:]]
+    held = ctrl.step(y0, ref)
+    np.testing.assert_array_equal(held.u, good.u)
+    assert held.stats["fallback"] == 1
+
+
+def test_non_finite_reading_is_skipped_by_the_observer():
+    """A NaN reading: the observer predicts only (its estimate stays finite) and the step is flagged."""
+    ctrl = FeedbackLinearization(FLSettings(), NOMINAL)
+    y0 = Measurement(0.0, np.array([0.020, 0.0]), None)
+    ref = Reference(g=0.020, d=0.0)
+    ctrl.reset(y0, ref)
+    ctrl.step(y0, ref)
+    out = ctrl.step(Measurement(0.001, np.array([np.nan, 0.0]), None), ref)
+    assert np.all(np.isfinite(out.x_hat)) and np.all(np.isfinite(out.u))
+    assert out.stats["fallback"] == 1 and out.stats["solver_failure"] == 0
+    assert np.all(np.isfinite(ctrl.step(y0, ref).x_hat))

@@ -496,3 +496,71 @@ def test_plant_speed_default_profile():
             plant.step(ctrl_u)
         best = min(best, time.process_time() - t0)
     assert 0.5 / best >= 10.0, f"{0.5 / best:.1f} s simulated per wall second"
+
+
+# ------------------------------------------------------- impossible parameters, NaN hover currents
+def test_parameter_files_refuse_impossible_constants(tmp_path):
+    """C3 = C4 = 0 (no current can hold the mover), zero masses, NaN: refused on load, naming the key."""
+    from maglev_ocp.params import load_params
+
+    for text, key, what in [
+        ("C3: 0\nC4: 0\n", "C3", "greater than 0"),
+        ("Mv: 0\n", "Mv", "greater than 0"),
+        ("ell: 0\n", "ell", "greater than 0"),
+        ("xi0: -1\n", "xi0", "greater than or equal to 0"),
+        ("C1: .nan\n", "C1", "NaN/inf is not allowed"),
+        ("C2: .inf\n", "C2", "NaN/inf is not allowed"),
+    ]:
+        path = tmp_path / "p.yaml"
+        path.write_text(text)
+        with pytest.raises(ConfigError) as ei:
+            load_params(path)
+        assert f"{path}: {key}: " in str(ei.value) and what in str(ei.value), str(ei.value)
+
+
+def test_hover_envelope_check_uses_the_model():
+    """Real, finite hover currents (seed eq. (8)) at every gap of the envelope: nominal passes; a field too weak
+    to balance the magnets (small C3, large C4) or a huge cogging force fails, naming the keys; a limit below the
+    hover current at 15 mm (3.33 A, MODEL.md) fails."""
+    from maglev_ocp.plant.config import hover_envelope_error
+
+    assert hover_envelope_error(NOMINAL) is None
+    assert hover_envelope_error(NOMINAL, limit=k.i_amp_max) is None
+    msg = hover_envelope_error(NOMINAL.with_(C3=3.0))
+    assert msg.startswith("C2, C3, C4:") and "15.0 mm" in msg
+    assert "xi0, ell" in hover_envelope_error(NOMINAL.with_(xi0=900.0, ell=0.5))
+    assert "3.33 A" in hover_envelope_error(NOMINAL, limit=3.0)
+    assert "C3, C4" in hover_envelope_error(NOMINAL.with_(C3=0.0, C4=0.0))
+    assert "NaN/inf" in hover_envelope_error(NOMINAL.with_(Mh=math.nan))
+
+
+def test_plant_that_cannot_hover_says_so_instead_of_commanding_0A():
+    """A rig whose true parameters have no hover current at the start: a one-line error, not a silent 0 A."""
+    plant = Plant(ideal(), NOMINAL.with_(C3=3.0), seed=0)
+    with pytest.raises(ConfigError, match=r"cannot hover at g = 15\.00 mm"):
+        plant.reset(np.array([0.015, 0.0, 0.0, 0.0]))
+    # the gap locked in its fixture needs no hover current
+    y = plant.reset(np.array([0.015, 0.0, 0.0, 0.0]), lock="g")
+    assert y.info["i_d_applied"] == 0.0
+
+
+def test_pid_holds_the_last_hover_current_where_its_model_cannot_hover(monkeypatch):
+    """A reference where the PID's model has no hover current: the last good one is held (not 0 A) and the
+    step is flagged; a start where it has none is a clear error."""
+    from maglev_ocp.blocks import Measurement
+
+    ctrl = PIDController(NOMINAL)
+    y0 = Measurement(0.0, np.array([0.020, 0.0]), None)
+    ref = Reference(g=0.020, d=0.0)
+    ctrl.reset(y0, ref)
+    good = ctrl.step(y0, ref)
+    assert "fallback" not in good.stats
+    u_eq = good.stats["i_d_eq"]
+    real = ctrl.schedule
+    monkeypatch.setattr(ctrl, "schedule", lambda g, d: (np.full(2, np.nan), *real(g, d)[1:]))
+    out = ctrl.step(y0, ref)
+    assert out.stats["fallback"] == 1
+    assert out.stats["i_d_eq"] == u_eq
+    assert abs(out.u[1] - good.u[1]) < 0.1  # the hover current, not a 1.5 A drop to 0 A
+    with pytest.raises(ConfigError, match="no hover current"):
+        ctrl.reset(y0, ref)

@@ -89,6 +89,103 @@ def test_bad_scenarios_name_file_and_key(tmp_path, change, key):
     assert key in msg, msg
 
 
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.mark.parametrize(
+    ("change", "key"),
+    [
+        ({"targets": [{"g": 0.020, "d": 0.0, "hold": NAN}]}, "targets.0.hold"),
+        ({"controller": {"type": "fl", "omega_g": INF}}, "controller.omega_g"),
+        ({"controller": {"type": "nmpc", "soft_gap": {"g_min": NAN}}}, "controller.soft_gap.g_min"),
+        ({"plant": {"process_noise": {"g": NAN}}}, "plant.process_noise.g"),
+        ({"plant": {"params": {"C2": -INF}}}, "plant.params.C2"),
+        ({"controller_params": {"C1": NAN}}, "controller_params.C1"),
+        ({"reference": {"ramp_fraction": NAN}}, "reference.ramp_fraction"),
+        ({"start": {"g": INF}}, "start.g"),
+        ({"checks": {"max_settle_time_s": INF}}, "checks.max_settle_time_s"),
+    ],
+)
+def test_nan_and_inf_are_refused_as_such(tmp_path, change, key):
+    """NaN/inf anywhere: the key and "NaN/inf is not allowed", not a misleading range message."""
+    with pytest.raises(ConfigError) as ei:
+        load_scenario(_write(tmp_path, {**GOOD, **change}))
+    msg = str(ei.value)
+    assert f"{key}: NaN/inf is not allowed" in msg, msg
+    assert "should be" not in msg, msg
+
+
+@pytest.mark.parametrize(
+    ("change", "key", "what"),
+    [
+        # physically impossible parameters (C3 = C4 = 0 gave i_d,eq = inf and NaN currents)
+        ({"controller_params": {"C3": 0, "C4": 0}}, "controller_params.C3", "greater than 0"),
+        ({"plant": {"params": {"C4": 0.0}}}, "plant.params.C4", "greater than 0"),
+        ({"plant": {"params": {"Mv": 0.0}}}, "plant.params.Mv", "greater than 0"),
+        ({"plant": {"params": {"ell": -1e-3}}}, "plant.params.ell", "greater than 0"),
+        ({"plant": {"params": {"xi0": -1.0}}}, "plant.params.xi0", "greater than or equal to 0"),
+        ({"plant": {"mismatch": {"overrides": {"C3": 0.0}}}}, "plant.mismatch.overrides.C3", "greater than 0"),
+        # positive, but no real hover current somewhere in the envelope (seed eq. (8))
+        ({"controller_params": {"C3": 1e-3, "C4": 900.0}}, "controller_params: C2, C3, C4", "no current holds"),
+        ({"plant": {"params": {"C3": 3.0}}}, "plant.params: C2, C3, C4", "g = 15.0 mm"),
+        ({"plant": {"params": {"xi0": 900.0, "ell": 0.5}}}, "plant.params: C2, C3, C4, xi0, ell", "no real root"),
+        # settings that cannot work together
+        (
+            {"controller": {"type": "nmpc", "soft_gap": {"g_min": 0.026, "g_max": 0.014}}},
+            "controller.soft_gap",
+            "must be below g_max",
+        ),
+        (
+            {"controller": {"type": "nmpc", "soft_gap": {"g_min": 0.018, "g_max": 0.029}}},
+            "targets[1].g",
+            "outside controller.soft_gap",
+        ),
+        ({"controller": {"type": "fl", "i_amp_max": 1.0}}, "controller.i_amp_max", "needs to hover at start"),
+        ({"controller": {"type": "pid", "i_axis_max": 2.0}}, "controller.i_axis_max", "per axis"),
+        ({"controller": {"type": "nmpc", "current_limit": 2.5}}, "controller.current_limit", "targets[1]"),
+        (
+            {"plant": {"current_limits": {"enabled": True, "amplitude": 2.0}}},
+            "plant.current_limits.amplitude",
+            "the rig needs",
+        ),
+        ({"plant": {"stops": {"enabled": True, "g": [0.017, 0.030]}}}, "targets[1].g", "plant.stops.g"),
+        ({"plant": {"stops": {"enabled": True, "d": [-0.01, 0.01]}}}, "targets[1].d", "plant.stops.d"),
+        (
+            {
+                "random_targets": {"n": 3, "g": [0.015, 0.025]},
+                "plant": {"stops": {"enabled": True, "g": [0.0155, 0.03]}},
+            },
+            "random_targets.g",
+            "plant.stops.g",
+        ),
+        ({"targets": [{"g": 0.020, "d": 0.0, "hold": 0.04}]}, "targets[0].hold", "checks.min_settled_s"),
+    ],
+)
+def test_settings_that_cannot_work_are_refused(tmp_path, change, key, what):
+    """Impossible parameters and settings that cannot work together: one line naming the key and what is wrong."""
+    path = _write(tmp_path, {**GOOD, **change})
+    with pytest.raises(ConfigError) as ei:
+        load_scenario(path)
+    msg = str(ei.value)
+    assert "\n" not in msg
+    assert msg.startswith(str(path)), msg
+    assert key in msg and what in msg, msg
+
+
+def test_settings_at_the_edge_still_work(tmp_path):
+    """The checks refuse only what cannot work: limits just above the hover currents, a band holding the
+    targets, stops just outside them, a soft-gap band that is switched off."""
+    ok = [
+        {"controller": {"type": "fl", "i_amp_max": 3.5}},  # hover needs <= 3.4 A at 16 mm, d = 45 mm
+        {"controller": {"type": "nmpc", "soft_gap": {"g_min": 0.0155, "g_max": 0.0205}}},
+        {"controller": {"type": "nmpc", "soft_gap": {"g_min": 0.018, "g_max": 0.029, "stride": 0}}},
+        {"plant": {"stops": {"enabled": True, "g": [0.0155, 0.0205], "d": [-0.001, 0.046]}}},
+        {"plant": {"params": {"C4": 1e-6}}},
+    ]
+    for change in ok:
+        load_scenario(_write(tmp_path, {**GOOD, **change}))
+
+
 def test_yaml_that_does_not_parse(tmp_path):
     path = _write(tmp_path, "name: [unclosed\n")
     with pytest.raises(ConfigError, match="does not parse"):

@@ -16,6 +16,7 @@ one-line :class:`~maglev_ocp.errors.ConfigError` s naming file and key).
 from __future__ import annotations
 
 import copy
+import math
 import os
 from pathlib import Path
 from typing import Any, Literal
@@ -27,6 +28,7 @@ from .. import constants as k
 from ..config import Strict, dump_yaml, load_yaml, parse_model
 from ..effects import EFFECTS, EffectSet
 from ..errors import ConfigError
+from ..model import get_model
 from ..params import ParamOverrides, Params
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
@@ -288,6 +290,77 @@ class PlantConfig(Strict):
         return "\n".join(f"{a:<{w}}  {b}" for a, b in rows)
 
 
+# ------------------------------------------------------------ physical parameters
+def _envelope_grid(n_g: int = 21) -> list[tuple[float, float]]:
+    """Points ``(g, d)`` that bound the hover currents over the tracking envelope.
+
+    Every gap of ``g_envelope`` at ``d = 0`` (no cogging, seed eq. (8)) and at
+    ``d = t1 / 2`` (where both cogging terms of seed eq. (9) peak, see MODEL.md).
+    """
+    gs = np.linspace(k.g_envelope[0], k.g_envelope[1], n_g)
+    return [(float(g), d) for g in gs for d in (0.0, k.t1 / 2)]
+
+
+def hover_envelope_error(params: Params, limit: float | None = None) -> str | None:
+    """Why ``params`` cannot hold the mover somewhere in the tracking envelope, or None if they can.
+
+    Uses the shared model's hover currents (``get_model().u_eq``: the root of
+    smaller magnitude of the vertical balance, seed eq. (8), with cogging): they
+    must be real and finite at every gap of the envelope (15..25 mm), with and
+    without cogging. With ``limit`` [A], the hover current's amplitude must
+    also stay within it.
+
+    Parameters
+    ----------
+    params : Params
+        Parameter set to check.
+    limit : float, optional
+        Largest current amplitude the hover may need [A].
+
+    Returns
+    -------
+    str or None
+        One-line reason naming the keys involved and what is allowed.
+    """
+    p = params.vector()
+    if not np.all(np.isfinite(p)):
+        bad = [n for n, v in params.as_dict().items() if not math.isfinite(v)]
+        return f"{', '.join(bad)}: NaN/inf is not allowed"
+    nonpos = [n for n in ("C1", "C2", "C3", "C4", "ell", "Mh", "Mv") if getattr(params, n) <= 0]
+    if nonpos or params.xi0 < 0:
+        keys = ", ".join([*nonpos, *(["xi0"] if params.xi0 < 0 else [])])
+        return f"{keys}: C1..C4, ell, Mh, Mv must be > 0 and xi0 >= 0 (got {_values(params, keys)})"
+    u_eq = get_model().u_eq
+    for g, d in _envelope_grid():
+        u = np.asarray(u_eq(g, d, p), dtype=float).ravel()
+        where = f"g = {g * 1e3:.1f} mm, d = {d * 1e3:.1f} mm"
+        if not np.all(np.isfinite(u)):
+            # vertical balance C4 f4 i^2 - C3 f3 i + (C2 f2 + ... - G) = 0 has no real root there
+            keys = "C2, C3, C4" if d == 0.0 else "C2, C3, C4, xi0, ell"
+            return (
+                f"{keys}: no current holds the mover at {where} (seed eq. (8) has no real root; got "
+                f"{_values(params, keys)}); the hover current must be real and finite over the envelope "
+                f"g {k.g_envelope[0] * 1e3:g}..{k.g_envelope[1] * 1e3:g} mm"
+            )
+        if limit is not None and math.hypot(u[0], u[1]) > limit:
+            return (
+                f"C2, C3, C4: hovering at {where} needs {math.hypot(u[0], u[1]):.2f} A, more than the "
+                f"{limit:g} A current limit (got {_values(params, 'C2, C3, C4')})"
+            )
+    return None
+
+
+def _values(params: Params, keys: str) -> str:
+    return ", ".join(f"{n} = {getattr(params, n):.6g}" for n in keys.split(", "))
+
+
+def check_hover_envelope(params: Params, source: str, limit: float | None = None) -> None:
+    """Raise a one-line :class:`ConfigError` ``source: <reason>`` if :func:`hover_envelope_error` finds one."""
+    why = hover_envelope_error(params, limit)
+    if why is not None:
+        raise ConfigError(f"{source}: {why}")
+
+
 # ---------------------------------------------------------------------- file access
 def available_profiles() -> list[str]:
     """Names of the shipped rig profiles."""
@@ -354,7 +427,9 @@ __all__ = [
     "RelativeSpread",
     "Stops",
     "available_profiles",
+    "check_hover_envelope",
     "deep_merge",
+    "hover_envelope_error",
     "load_plant_config",
     "profile_data",
 ]

@@ -29,6 +29,7 @@ import numpy as np
 from .. import constants as k
 from ..blocks import Measurement
 from ..effects import EffectSet
+from ..errors import ConfigError
 from ..model import get_model, rk4
 from ..params import NOMINAL, Params
 from ..riglog import RunLog
@@ -291,11 +292,26 @@ class Plant:
         return cq, cd, (cq != iq or cd != id_)
 
     def hover_currents(self, x: np.ndarray) -> np.ndarray:
-        """Currents that hold the true (nominal-model) plant still at ``x`` (zeros if it cannot hover)."""
+        """Currents that hold the true (nominal-model) plant still at ``x``.
+
+        A locked axis needs no current (the fixture holds it). Raises
+        :class:`~maglev_ocp.errors.ConfigError` if the free gap axis cannot hover
+        there (seed eq. (8) has no real root with the true parameters): a NaN
+        turned into 0 A would silently drop the mover onto the stop.
+        """
         u = np.asarray(get_model().u_eq(x[0], x[2], self._p)).ravel()
         if self._lock == "d":
             u[0] = 0.0
-        return np.where(np.isfinite(u), u, 0.0)
+        if self._lock == "g" and not math.isfinite(u[1]):
+            u[1] = 0.0
+        if not np.all(np.isfinite(u)):
+            tp = self.true_params
+            raise ConfigError(
+                f"plant: the rig cannot hover at g = {x[0] * 1e3:.2f} mm, d = {x[2] * 1e3:.2f} mm: no real hover "
+                f"current (seed eq. (8)) with the true parameters C2 = {tp.C2:.6g}, C3 = {tp.C3:.6g}, "
+                f"C4 = {tp.C4:.6g}, xi0 = {tp.xi0:.6g}; check plant.params and plant.mismatch"
+            )
+        return u
 
     @property
     def t(self) -> float:
