@@ -13,6 +13,7 @@ from maglev_ocp.diagnosis import DiagnoseSettings, diagnose
 from maglev_ocp.diagnosis.candidates import CandidateSpec, residuals_with
 from maglev_ocp.diagnosis.generate import GeneratorSettings, generate_dataset, vibration_force
 from maglev_ocp.diagnosis.localize import Samples, channel_floor, period_scan
+from maglev_ocp.diagnosis.report import write_report
 from maglev_ocp.diagnosis.residuals import ResidualSettings, RunInput, ZeroPhaseFilter, prepare_run
 from maglev_ocp.diagnosis.selftest import selftest_plant
 from maglev_ocp.params import NOMINAL
@@ -153,7 +154,7 @@ def test_verdict_none_on_a_clean_dataset(clean_dataset, tmp_path):
     for f in d.floors.values():
         assert not f.significant
         assert f.floor < 0.05
-    d.save(tmp_path)
+    write_report(d, tmp_path)
     rep = json.loads((tmp_path / "report.json").read_text())
     assert rep["verdict"] == "none"
     for key in ("effects", "regions", "noise_floor", "baseline_params"):
@@ -176,7 +177,7 @@ def test_cogging_is_attributed_with_its_parameters(cogging_dataset, tmp_path):
     # The augmented model's short simulated windows follow the held-out runs better.
     tr = d.trajectories.rms
     assert tr["augmented"]["g"] < tr["baseline"]["g"]
-    d.save(tmp_path)
+    write_report(d, tmp_path)
     for f in ("report.md", "report.json", "residual_maps.png", "spectra.png", "overlay.png"):
         assert (tmp_path / f).is_file()
 
