@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from maglev_ocp import constants as k
-from maglev_ocp.estimation.batch import BatchSettings, batch_estimate, filtered_acceleration, gaussian_kernel
+from maglev_ocp.estimation.batch import BatchSettings, batch_estimate
+from maglev_ocp.estimation.ident import filtered_acceleration, gaussian_kernel
 from maglev_ocp.estimation.data import RunData, observe
 from maglev_ocp.estimation.npfisi import NPFISI, NPFISISettings, run_npfisi
 from maglev_ocp.observers import estimate_states

@@ -36,7 +36,7 @@ import numpy as np
 from .. import constants as k
 from ..model import get_model
 from ..params import Params
-from .batch import filtered_acceleration, gaussian_kernel
+from .ident import filtered_acceleration, gaussian_kernel
 from .data import RunData
 from .npfisi import NPFISIResult, run_npfisi
 
