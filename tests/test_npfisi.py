@@ -179,3 +179,42 @@ def test_batch_recovers_vertical_parameters_and_reports_uncertainty(hover_runs):
     np.testing.assert_allclose(c, c.T, atol=1e-12)
     # C4 is the least determined of the three
     assert res.rel_stderr("C4") > max(res.rel_stderr("C2"), res.rel_stderr("C3"))
+    # data the model fits: Ipopt converged, no warning
+    assert res.converged and res.info["pass2"]["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    assert res.warnings == []
+    # an Ipopt that stops early is reported, never taken for a result
+    cut = batch_estimate(hover_runs, NOMINAL, BatchSettings(names=("C1", "C2", "C3", "C4"), max_iter=1))
+    assert not cut.converged and cut.info["pass2"]["status"] == "Maximum_Iterations_Exceeded"
+    assert any("Ipopt did not converge" in w for w in cut.warnings)
+
+
+def test_batch_on_a_rig_with_saturation_keeps_C4_physical_and_says_the_model_does_not_fit():
+    """Magnetic saturation (not in the model) drives the unconstrained C4 negative: held at 0 and flagged."""
+    from controllers.pid import PIDController, PIDSettings
+    from maglev_ocp.blocks import Reference
+    from maglev_ocp.plant import Plant, PlantConfig
+    from maglev_ocp.plant.drive import run_closed_loop
+
+    cfg = PlantConfig.from_profile(
+        "ideal",
+        overrides={"quantization": {"enabled": True}, "effects": {"saturation": {"enabled": True, "loss_8mm": 0.5}}},
+    )
+    plant = Plant(cfg, TRUE, seed=3)
+    runs = []
+    for i, g in enumerate((0.010, 0.012, 0.016, 0.020, 0.024)):
+        w = 2 * np.pi * np.array([1.1, 2.9, 4.7])
+        ph = np.array([0.3, 1.9, 4.0]) + i
+
+        def ref(t, g=g, w=w, ph=ph):
+            return Reference(g=g + min(t / 0.3, 1.0) * 2e-4 * float(np.sum(np.sin(w * t + ph))), d=0.0)
+
+        ctrl = PIDController(NOMINAL, PIDSettings(control_d=False))
+        log = run_closed_loop(plant, ctrl, ref, 1.5, x0=np.array([g, 0, 0, 0]), lock="d", file=f"h{i}.csv")
+        runs.append(RunData(log.file, log.t, log.y, log.u, ("d",)).with_states(NOMINAL))
+    res = batch_estimate(runs, NOMINAL, BatchSettings(names=("C2", "C3", "C4")))
+    assert res.info["below_physical_bound"]["C4"] < -0.05  # what the fit gave without the bound
+    assert res.values["C4"] >= 0.0 and min(res.values.values()) >= 0.0
+    assert "C4" in res.info["at_bound"]
+    assert any("below its physical bound" in w for w in res.warnings)
+    assert any("correlated" in w for w in res.warnings)  # the whiteness check sees the unmodelled effect
+    assert res.to_dict()["warnings"] == res.warnings and "**Warning:**" in res.table()
