@@ -13,8 +13,8 @@ solved by CasADi's SQP method with the Gauss-Newton Hessian ``J^T J`` (a custom
 ``hess_lag``).
 The data ``Z`` is an NLP parameter, so a solver is built once per candidate and
 re-solved for other data (the amplifier lag's current filter). Standard errors
-come from the same Gauss-Newton Hessian, inflated by the residual's
-autocorrelation (``n / n_eff``).
+come from the same Gauss-Newton Hessian in a Newey-West sandwich per run and
+channel (:func:`maglev_ocp.estimation.ident.hac_stderr`).
 
 The amplifier lag is the one dynamic effect: the plant filters the commanded
 currents (:meth:`AmplifierLag.filter_currents`, reused here as it is), and the
@@ -36,7 +36,7 @@ import scipy.optimize as spo
 import scipy.sparse as spa
 
 from ..effects import EFFECTS, AmplifierLag, EffectSet
-from ..estimation.ident import autocorr_factor, gauss_newton_stderr
+from ..estimation.ident import autocorr_factor, hac_stderr
 from ..params import Params
 from ..signals import PARAM_NAMES
 from .residuals import PreparedRun, Residual, ZeroPhaseFilter, residual_of
@@ -318,6 +318,9 @@ class Dataset:
         self.m_c = [meas[mask[:, c], c] for c in range(2)]
         self.n_c = [int(mask[:, c].sum()) for c in range(2)]
         self.n = sum(self.n_c)
+        # independent blocks of the stacked residual (channel-major, then run): one per run and channel
+        sizes = [r.n for c in range(2) for r in self.runs if r.valid[c]]
+        self.block_bounds = np.cumsum([0, *sizes])
         self._poly: list[tuple] | None = None
 
     def weighted_residual(self, a: np.ndarray) -> np.ndarray:
@@ -381,7 +384,7 @@ class FitResult:
     w : ndarray
         Fitted values (physical units), order of ``spec.free``.
     stderr : ndarray
-        Standard errors (autocorrelation-inflated); NaN where the data do not determine a value.
+        Standard errors (Newey-West sandwich); NaN where the data do not determine a value.
     sse : float
         Weighted sum of squares on the training data.
     n : int
@@ -556,7 +559,8 @@ class CandidateFitter:
         r = r.ravel()
         sse = float(r @ r)
         infl = _inflation(r, self.data)
-        stderr = gauss_newton_stderr(J, sse, self.data.n, infl) * scale
+        half = math.ceil(self.data.filt.M / self.data.filt.decimate)
+        stderr = hac_stderr(J, r, self.data.block_bounds, half) * scale
         ok = status in CONVERGED and math.isfinite(sse)
         return FitResult(spec, s_opt * scale, stderr, sse, self.data.n, infl, success=ok, status=status)
 

@@ -30,11 +30,18 @@ understates the uncertainty. Two corrections:
   ``H^-1 S H^-1``) with lags from :func:`correlation_length`: the batch fit's;
 - :func:`autocorr_factor` (Geyer's initial positive sequence estimate of the
   variance inflation ``n / n_eff``) applied to ``s^2 (J^T J)^-1``
-  (:func:`gauss_newton_stderr`): the diagnosis's, whose information criterion
-  also needs the effective sample size (:func:`effective_sample_size`).
+  (:func:`gauss_newton_stderr`).
 
-``benchmarks/ident_toolkit_compare.py`` compares the filters and the two
-standard errors on simulated data with known truth (bias, coverage).
+``benchmarks/ident_toolkit_compare.py`` compares both kernels and the standard
+errors on simulated data with known truth (300 replicates of 20 s, a slow
+unmodelled disturbance): the two kernels give the same bias and RMSE (within
+2 %); Newey-West standard errors match the estimates' spread (ratio 0.96-1.02,
+95 % intervals cover 96 %), the Geyer-inflated ones overstate it 2.7 times
+(cover 100 %) and the naive ones understate it 2 times (cover 57-65 %). So
+both fits report Newey-West standard errors (the calibration via
+:func:`sandwich_covariance`, the diagnosis via :func:`hac_stderr`); the Geyer
+factor remains what it is good for, the effective sample size of the
+diagnosis's information criterion and bin floors (:func:`effective_sample_size`).
 
 A variance that comes out negative (rounding, or an indefinite covariance) is
 reported as NaN, never clipped to a standard error of zero
@@ -43,6 +50,7 @@ reported as NaN, never clipped to a standard error of zero
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -252,6 +260,48 @@ def gauss_newton_stderr(J: np.ndarray, sse: float, n: int, inflation: float = 1.
     return out
 
 
+def hac_stderr(J: np.ndarray, r: np.ndarray, bounds: np.ndarray, half: int) -> np.ndarray:
+    """Newey-West sandwich standard errors with independent blocks; NaN for directions the data do not determine.
+
+    Parameters
+    ----------
+    J : ndarray, shape (n, k)
+        Jacobian of the (weighted) residual at the estimate.
+    r : ndarray, shape (n,)
+        Weighted residual.
+    bounds : ndarray
+        Block boundaries (``bounds[i]:bounds[i+1]`` is block ``i``, e.g. one run and channel).
+    half : int
+        Half-width of the filter kernel in (decimated) samples: each block's lag is its
+        residual's :func:`correlation_length`, at least ``2 half`` (the filter's own span)
+        and at most ``20 half``, both capped at a quarter of the block.
+
+    Notes
+    -----
+    The Hessian is equilibrated by its diagonal, and pseudo-inverted when near
+    singular, as in :func:`gauss_newton_stderr`.
+    """
+    k_ = J.shape[1]
+    d = np.sqrt(np.maximum(np.einsum("ij,ij->j", J, J), 0.0))
+    out = np.full(k_, np.nan)
+    ok = d > 1e-12 * max(d.max(initial=0.0), 1e-300)
+    if not ok.any():
+        return out
+    Jn = J[:, ok] / d[ok]
+    Hn = Jn.T @ Jn
+    ev = np.linalg.eigvalsh(Hn)
+    Hinv = np.linalg.pinv(Hn, rcond=1e-10) if ev.min() <= 1e-10 * ev.max() else np.linalg.inv(Hn)
+    S = np.zeros_like(Hn)
+    for a, b in itertools.pairwise(bounds):
+        if b - a < 2:
+            continue
+        cap = max((b - a) // 4, 1)
+        lag = max(min(2 * half, cap), correlation_length(r[a:b], min(20 * half, cap)))
+        S += newey_west(Jn[a:b], r[a:b], lag)
+    out[ok] = stderr_from_variance(np.diag(Hinv @ S @ Hinv)) / d[ok]
+    return out
+
+
 def sandwich_covariance(
     J: np.ndarray, r: np.ndarray, bounds: np.ndarray, lags: list[int]
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -292,6 +342,7 @@ __all__ = [
     "filtered_acceleration",
     "gauss_newton_stderr",
     "gaussian_kernel",
+    "hac_stderr",
     "kaiser_kernel",
     "newey_west",
     "sandwich_covariance",
