@@ -223,3 +223,30 @@ def test_closed_loop_view_shows_the_gap_and_its_compensation(tmp_path):
     assert rows["compensated"]["max_rms_error_d_m"] < rows["rig"]["max_rms_error_d_m"] - 0.5 * gap
     v.save(tmp_path)
     assert (tmp_path / "closed_loop.json").is_file() and (tmp_path / "closed_loop.png").is_file()
+
+
+def test_a_fit_whose_solver_did_not_converge_is_flagged_and_not_evidence(model):
+    """An SQP cut off after one iteration is reported as not converged, and its score is never significant."""
+    from maglev_ocp.diagnosis.attribution import VerdictRules, score
+    from maglev_ocp.diagnosis.candidates import CandidateFitter, Dataset, library_specs
+
+    p_true = BASE.with_(xi0=3.0, ell=4.2e-3).vector()
+    filt = ZeroPhaseFilter(ResidualSettings())
+    runs = [prepare_run(_zoh_run(model, p_true, n=4000, seed=s, q=k.encoder_resolution), filt) for s in (1, 2)]
+    data = Dataset(runs, np.array([10.0, 10.0]), filt)
+    p0 = BASE.vector()
+    spec = library_specs()["cogging"]
+    full = CandidateFitter(spec, data, p0).solve()
+    assert full.success and full.status in ("converged", "stalled")
+    assert np.all(np.isfinite(full.stderr[:2])) and np.all(full.stderr[:2] > 0)
+    cut = CandidateFitter(spec, data, p0)
+    cut.chunk, cut.max_chunks = 1, 1
+    res = cut.solve()
+    assert not res.success and res.status == "iteration limit"
+    base = CandidateFitter(CandidateSpec("baseline"), data, p0).solve()
+    before = residuals_with(CandidateSpec("baseline"), None, runs, p0)
+    rules = VerdictRules(z_min=0.0, bic_margin=-1e12)  # thresholds any fit passes: only convergence can fail it
+    good = score("cogging", full, base, before, residuals_with(spec, full, runs, p0), np.ones(2), rules, {}, {})
+    bad = score("cogging", res, base, before, residuals_with(spec, res, runs, p0), np.ones(2), rules, {}, {})
+    assert good.significant and not bad.significant
+    assert bad.to_dict()["converged"] is False and bad.to_dict()["solver_status"] == "iteration limit"
