@@ -518,13 +518,6 @@ class EffectSet:
                 i += 1
         return out
 
-    def motor_currents(self, x: Expr, u: Expr, theta: Expr) -> Expr:
-        """Currents in the motor's true dq frame from the amplifiers' output currents ``u``."""
-        th = self.split(theta)
-        for e in self.effects:
-            u = e.currents(u, x, th[e.name])
-        return u
-
     def terms(self, x: Expr, u: Expr, p: Expr, theta: Expr) -> Terms:
         """All acceleration terms with the effects applied (``u``: amplifier output currents)."""
         th = self.split(theta)
@@ -565,14 +558,6 @@ class EffectSet:
     def accel_function(self) -> ca.Function:
         """Cached CasADi Function ``accel_<names>(x, u, p, theta) -> a`` (a = (g_ddot, d_ddot))."""
         return _accel_function(self.names)
-
-    def describe(self) -> str:
-        """Text table of the set's parameters (name, default, bounds, unit)."""
-        lines = [f"{'parameter':<32} {'default':>12} {'lo':>12} {'hi':>12}  unit"]
-        for e in self.effects:
-            for q in e.params:
-                lines.append(f"{e.name + '.' + q.name:<32} {q.default:12.5g} {q.lo:12.5g} {q.hi:12.5g}  {q.unit}")
-        return "\n".join(lines)
 
 
 @functools.lru_cache(maxsize=64)

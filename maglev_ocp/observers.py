@@ -140,40 +140,6 @@ class HighGainObserver:
         return self.dist.copy()
 
 
-def estimate_states(
-    y: np.ndarray,
-    u: np.ndarray,
-    params: Params = NOMINAL,
-    settings: ObserverSettings | None = None,
-    Ts: float = k.Ts,
-) -> np.ndarray:
-    """Run the observer over a logged run (offline use, e.g. the estimator).
-
-    Parameters
-    ----------
-    y : ndarray, shape (N, 2)
-        Encoder readings ``(g, d)`` [m].
-    u : ndarray, shape (N, 2)
-        Commanded currents ``(i_q, i_d)`` [A]; row k is applied after reading k.
-    params, settings, Ts
-        As for :class:`HighGainObserver`.
-
-    Returns
-    -------
-    ndarray, shape (N, 4)
-        State estimates; row k uses readings up to k.
-    """
-    obs = HighGainObserver(params, settings, Ts)
-    y = np.asarray(y, float)
-    u = np.asarray(u, float)
-    out = np.empty((len(y), 4))
-    obs.reset(y[0])
-    out[0] = obs.x_hat
-    for i in range(1, len(y)):
-        out[i] = obs.step(y[i], u[i - 1])
-    return out
-
-
 def observer_update(x_hat, dist, u_prev, y, p, L, Ts: float, disturbance: bool, skip_nonfinite: bool = False):
     """Symbolic predictor-corrector update of :class:`HighGainObserver` (SX or MX).
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import time
 
 import numpy as np
@@ -25,6 +26,7 @@ from maglev_ocp.loop.experiments import (
     SeedCalibrationDesign,
     generate_seed_calibration,
 )
+from maglev_ocp.estimation.procedures import COGGING_LAW_BOUNDS, _fit_cogging_law
 from maglev_ocp.params import NOMINAL, Params, load_params
 from maglev_ocp.riglog import read_dataset, write_dataset
 
@@ -158,6 +160,28 @@ def test_cli_calibrate_and_its_errors(small, tmp_path, capsys):
     assert main(["calibrate", str(tmp_path / "bad"), "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
     assert "dataset.yaml" in err and len(err.strip().splitlines()) == 1
+
+
+def test_clean_dataset_calibrates_without_warnings(small):
+    _, _, res = small
+    assert res.converged and res.warnings == []
+    assert res.to_dict()["warnings"] == [] and "WARNING" not in res.table()
+
+
+def test_cogging_law_recovers_the_law_and_flags_data_that_do_not_follow_it():
+    """Seed V.C law fit: exact on the law; a start outside the bounds (forces that hardly decay) is clipped."""
+    g = np.linspace(0.010, 0.025, 8)
+    xi0, ell, warn = _fit_cogging_law(g, 4.0 * np.exp(-(g - 0.010) / 3.6e-3), np.ones_like(g))
+    assert xi0 == pytest.approx(4.0, rel=1e-6) and ell == pytest.approx(3.6e-3, rel=1e-6) and warn == ""
+    # forces nearly flat in the gap (e.g. guide friction in the hover runs): the log-linear start has
+    # ell = 0.5 m, outside the bounds (scipy raised "Initial guess is outside of provided bounds")
+    xi0, ell, warn = _fit_cogging_law(g, 2.0 * np.exp(-(g - 0.010) / 0.5), np.ones_like(g))
+    lo, hi = COGGING_LAW_BOUNDS
+    assert lo[1] <= ell <= hi[1] and ell == pytest.approx(hi[1], rel=1e-3)
+    assert "ell" in warn and "bound" in warn
+    # nothing positive to fit: NaN and the reason
+    xi0, ell, warn = _fit_cogging_law(g, -np.ones_like(g), np.ones_like(g))
+    assert math.isnan(xi0) and math.isnan(ell) and "do not determine" in warn
 
 
 @pytest.mark.slow

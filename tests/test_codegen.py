@@ -25,7 +25,7 @@ from maglev_ocp.blocks import Reference
 from maglev_ocp.codegen import KINDS, controller_codes, generate_controllers
 from maglev_ocp.codegen.build import HARNESS, find_compiler
 from maglev_ocp.fastcall import BufferedFunction
-from maglev_ocp.observers import HighGainObserver, ObserverSettings, estimate_states
+from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL
 
 CC = find_compiler()
@@ -251,7 +251,7 @@ def test_fl_and_observer_compiled_and_harness(tmp_path):
     got = np.genfromtxt(tmp_path / "fl.csv", delimiter=",", names=True)
     for col in ("i_q", "i_d"):
         assert np.max(np.abs(got[col] - py.columns[col])) <= I_TOL
-    # the observer alone replays the log's own currents, as estimate_states does
+    # the observer alone replays the log's own currents, as the stepped Python observer does
     r = subprocess.run(
         [str(out / HARNESS), "observer", str(log), "-o", str(tmp_path / "obs.csv")],
         capture_output=True,
@@ -262,9 +262,11 @@ def test_fl_and_observer_compiled_and_harness(tmp_path):
     got = np.genfromtxt(tmp_path / "obs.csv", delimiter=",", names=True)
     y = np.column_stack([py.columns["g"], py.columns["d"]])
     u = np.column_stack([py.columns["i_q"], py.columns["i_d"]])
-    ref = estimate_states(
-        y, u, sc.controller_model_params(), ObserverSettings(eps=fl_s.observer_eps, disturbance=fl_s.disturbance)
+    obs = HighGainObserver(
+        sc.controller_model_params(), ObserverSettings(eps=fl_s.observer_eps, disturbance=fl_s.disturbance)
     )
+    obs.reset(y[0])
+    ref = np.vstack([obs.x_hat, *(obs.step(y[i], u[i - 1]) for i in range(1, len(y)))])
     est = np.column_stack([got["g_hat"], got["g_dot_hat"], got["d_hat"], got["d_dot_hat"]])
     assert np.max(np.abs(est - ref)) <= 1e-12
     # a CSV with a missing column is refused with the file and the column named

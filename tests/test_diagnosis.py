@@ -13,6 +13,7 @@ from maglev_ocp.diagnosis import DiagnoseSettings, diagnose
 from maglev_ocp.diagnosis.candidates import CandidateSpec, residuals_with
 from maglev_ocp.diagnosis.generate import GeneratorSettings, generate_dataset, vibration_force
 from maglev_ocp.diagnosis.localize import Samples, channel_floor, period_scan
+from maglev_ocp.diagnosis.report import write_report
 from maglev_ocp.diagnosis.residuals import ResidualSettings, RunInput, ZeroPhaseFilter, prepare_run
 from maglev_ocp.diagnosis.selftest import selftest_plant
 from maglev_ocp.params import NOMINAL
@@ -153,7 +154,7 @@ def test_verdict_none_on_a_clean_dataset(clean_dataset, tmp_path):
     for f in d.floors.values():
         assert not f.significant
         assert f.floor < 0.05
-    d.save(tmp_path)
+    write_report(d, tmp_path)
     rep = json.loads((tmp_path / "report.json").read_text())
     assert rep["verdict"] == "none"
     for key in ("effects", "regions", "noise_floor", "baseline_params"):
@@ -176,7 +177,7 @@ def test_cogging_is_attributed_with_its_parameters(cogging_dataset, tmp_path):
     # The augmented model's short simulated windows follow the held-out runs better.
     tr = d.trajectories.rms
     assert tr["augmented"]["g"] < tr["baseline"]["g"]
-    d.save(tmp_path)
+    write_report(d, tmp_path)
     for f in ("report.md", "report.json", "residual_maps.png", "spectra.png", "overlay.png"):
         assert (tmp_path / f).is_file()
 
@@ -222,3 +223,30 @@ def test_closed_loop_view_shows_the_gap_and_its_compensation(tmp_path):
     assert rows["compensated"]["max_rms_error_d_m"] < rows["rig"]["max_rms_error_d_m"] - 0.5 * gap
     v.save(tmp_path)
     assert (tmp_path / "closed_loop.json").is_file() and (tmp_path / "closed_loop.png").is_file()
+
+
+def test_a_fit_whose_solver_did_not_converge_is_flagged_and_not_evidence(model):
+    """An SQP cut off after one iteration is reported as not converged, and its score is never significant."""
+    from maglev_ocp.diagnosis.attribution import VerdictRules, score
+    from maglev_ocp.diagnosis.candidates import CandidateFitter, Dataset, library_specs
+
+    p_true = BASE.with_(xi0=3.0, ell=4.2e-3).vector()
+    filt = ZeroPhaseFilter(ResidualSettings())
+    runs = [prepare_run(_zoh_run(model, p_true, n=4000, seed=s, q=k.encoder_resolution), filt) for s in (1, 2)]
+    data = Dataset(runs, np.array([10.0, 10.0]), filt)
+    p0 = BASE.vector()
+    spec = library_specs()["cogging"]
+    full = CandidateFitter(spec, data, p0).solve()
+    assert full.success and full.status in ("converged", "stalled")
+    assert np.all(np.isfinite(full.stderr[:2])) and np.all(full.stderr[:2] > 0)
+    cut = CandidateFitter(spec, data, p0)
+    cut.chunk, cut.max_chunks = 1, 1
+    res = cut.solve()
+    assert not res.success and res.status == "iteration limit"
+    base = CandidateFitter(CandidateSpec("baseline"), data, p0).solve()
+    before = residuals_with(CandidateSpec("baseline"), None, runs, p0)
+    rules = VerdictRules(z_min=0.0, bic_margin=-1e12)  # thresholds any fit passes: only convergence can fail it
+    good = score("cogging", full, base, before, residuals_with(spec, full, runs, p0), np.ones(2), rules, {}, {})
+    bad = score("cogging", res, base, before, residuals_with(spec, res, runs, p0), np.ones(2), rules, {}, {})
+    assert good.significant and not bad.significant
+    assert bad.to_dict()["converged"] is False and bad.to_dict()["solver_status"] == "iteration limit"

@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 
 from maglev_ocp import constants as k
-from maglev_ocp.estimation.batch import BatchSettings, batch_estimate, filtered_acceleration, gaussian_kernel
+from maglev_ocp.estimation.batch import BatchSettings, batch_estimate
 from maglev_ocp.estimation.data import RunData, observe
+from maglev_ocp.estimation.ident import filtered_acceleration, gaussian_kernel
 from maglev_ocp.estimation.npfisi import NPFISI, NPFISISettings, run_npfisi
-from maglev_ocp.observers import estimate_states
+from maglev_ocp.observers import HighGainObserver
 from maglev_ocp.params import NOMINAL
 
 TRUE = NOMINAL.scaled({"C1": 1.04, "C2": 0.97, "C3": 1.03, "C4": 1.05, "xi0": 0.95, "ell": 1.04})
@@ -67,14 +68,25 @@ def hover_runs():
     return runs
 
 
-def test_vectorized_observer_matches_estimate_states():
+def _stepped_observer(y: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The observer stepped sample by sample (the reference the vectorized one must equal)."""
+    obs = HighGainObserver(NOMINAL)
+    out = np.empty((len(y), 4))
+    obs.reset(y[0])
+    out[0] = obs.x_hat
+    for i in range(1, len(y)):
+        out[i] = obs.step(y[i], u[i - 1])
+    return out
+
+
+def test_vectorized_observer_matches_the_stepped_observer():
     rng = np.random.default_rng(0)
     n = 1500
     t = np.arange(n) * k.Ts
     y = np.column_stack([0.02 + 1e-4 * np.sin(7 * t), 0.01 * np.sin(2 * t)])
     y = np.round(y / 1e-5) * 1e-5
     u = np.column_stack([0.1 * np.sin(3 * t), 1.5 + 0.05 * rng.standard_normal(n)])
-    ref = estimate_states(y, u, NOMINAL)
+    ref = _stepped_observer(y, u)
     fast = observe(y, u, NOMINAL)
     assert fast.shape == (n, 4)
     np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-12)
@@ -167,3 +179,42 @@ def test_batch_recovers_vertical_parameters_and_reports_uncertainty(hover_runs):
     np.testing.assert_allclose(c, c.T, atol=1e-12)
     # C4 is the least determined of the three
     assert res.rel_stderr("C4") > max(res.rel_stderr("C2"), res.rel_stderr("C3"))
+    # data the model fits: Ipopt converged, no warning
+    assert res.converged and res.info["pass2"]["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    assert res.warnings == []
+    # an Ipopt that stops early is reported, never taken for a result
+    cut = batch_estimate(hover_runs, NOMINAL, BatchSettings(names=("C1", "C2", "C3", "C4"), max_iter=1))
+    assert not cut.converged and cut.info["pass2"]["status"] == "Maximum_Iterations_Exceeded"
+    assert any("Ipopt did not converge" in w for w in cut.warnings)
+
+
+def test_batch_on_a_rig_with_saturation_keeps_C4_physical_and_says_the_model_does_not_fit():
+    """Magnetic saturation (not in the model) drives the unconstrained C4 negative: held at 0 and flagged."""
+    from controllers.pid import PIDController, PIDSettings
+    from maglev_ocp.blocks import Reference
+    from maglev_ocp.plant import Plant, PlantConfig
+    from maglev_ocp.plant.drive import run_closed_loop
+
+    cfg = PlantConfig.from_profile(
+        "ideal",
+        overrides={"quantization": {"enabled": True}, "effects": {"saturation": {"enabled": True, "loss_8mm": 0.5}}},
+    )
+    plant = Plant(cfg, TRUE, seed=3)
+    runs = []
+    for i, g in enumerate((0.010, 0.012, 0.016, 0.020, 0.024)):
+        w = 2 * np.pi * np.array([1.1, 2.9, 4.7])
+        ph = np.array([0.3, 1.9, 4.0]) + i
+
+        def ref(t, g=g, w=w, ph=ph):
+            return Reference(g=g + min(t / 0.3, 1.0) * 2e-4 * float(np.sum(np.sin(w * t + ph))), d=0.0)
+
+        ctrl = PIDController(NOMINAL, PIDSettings(control_d=False))
+        log = run_closed_loop(plant, ctrl, ref, 1.5, x0=np.array([g, 0, 0, 0]), lock="d", file=f"h{i}.csv")
+        runs.append(RunData(log.file, log.t, log.y, log.u, ("d",)).with_states(NOMINAL))
+    res = batch_estimate(runs, NOMINAL, BatchSettings(names=("C2", "C3", "C4")))
+    assert res.info["below_physical_bound"]["C4"] < -0.05  # what the fit gave without the bound
+    assert res.values["C4"] >= 0.0 and min(res.values.values()) >= 0.0
+    assert "C4" in res.info["at_bound"]
+    assert any("below its physical bound" in w for w in res.warnings)
+    assert any("correlated" in w for w in res.warnings)  # the whiteness check sees the unmodelled effect
+    assert res.to_dict()["warnings"] == res.warnings and "**Warning:**" in res.table()

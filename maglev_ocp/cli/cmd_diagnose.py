@@ -179,12 +179,9 @@ def _dataset(args) -> int:
     ds = read_dataset(folder)
     d = diagnose(ds, params=params, settings=st, progress=True)
     print(d.table())
-    if args.no_figures:
-        from ..diagnosis.report import write_report
+    from ..diagnosis.report import write_report
 
-        write_report(d, args.out, figures=False)
-    else:
-        d.save(args.out)
+    write_report(d, args.out, figures=not args.no_figures)
     print(f"report: {Path(args.out) / 'report.md'}")
     return 0
 

@@ -9,10 +9,14 @@ Modules: :mod:`residuals` (filtered equation-error residuals), :mod:`localize`
 (floor, binning, spectrum, period scan, regions), :mod:`candidates` (library
 effects fitted as CasADi NLPs), :mod:`attribution` (held-out scores, verdict),
 :mod:`simulate_compare` (short-window simulated trajectories), :mod:`diagnose`
-(the pipeline), :mod:`report`, :mod:`generate` (diagnosis datasets on the
-plant), :mod:`selftest`, :mod:`closed_loop`.
+(the pipeline, stage by stage), :mod:`result` (the :class:`Diagnosis` type, its
+JSON and text summary), :mod:`report` (Markdown and figures), :mod:`generate`
+(diagnosis datasets on the plant), :mod:`selftest`, :mod:`closed_loop`. The
+filter and the standard errors are the identification toolkit's
+(:mod:`maglev_ocp.estimation.ident`), shared with the calibration.
 """
 
-from .diagnose import LIBRARY, DiagnoseSettings, Diagnosis, diagnose
+from .diagnose import LIBRARY, diagnose
+from .result import DiagnoseSettings, Diagnosis
 
 __all__ = ["LIBRARY", "DiagnoseSettings", "Diagnosis", "diagnose"]

@@ -36,8 +36,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..estimation.ident import autocorr_factor
 from .candidates import FitResult
-from .residuals import Residual, autocorr_factor
+from .residuals import Residual
 
 
 def stack(res: Sequence[Residual], floors: np.ndarray) -> np.ndarray:
@@ -118,7 +119,7 @@ class EffectScore:
     delta_bic : float
         Training-run information criterion minus the baseline's (negative is better).
     significant : bool
-        ``z >= z_min`` and ``delta_bic <= -bic_margin``.
+        ``z >= z_min`` and ``delta_bic <= -bic_margin``, on a converged fit.
     selected : bool
         Part of the verdict.
     confusable_with : list of str
@@ -159,6 +160,8 @@ class EffectScore:
             "z_heldout": self.z,
             "delta_bic": self.delta_bic,
             "significant": self.significant,
+            "converged": self.fit.success if self.fit is not None else True,
+            "solver_status": self.fit.status if self.fit is not None else "none",
             "per_channel_rms": self.per_channel,
             "confusable_with": self.confusable_with,
             "note": self.note,
@@ -215,7 +218,9 @@ def score(
         if math.isfinite(b):
             chans[cname] = [b, a]
     dbic = (fit.bic() - base_fit.bic()) if fit is not None else 0.0
-    sig = bool(z >= rules.z_min and dbic <= -rules.bic_margin)
+    # A fit whose solver did not converge is reported, never counted as evidence.
+    converged = fit is None or fit.success
+    sig = bool(z >= rules.z_min and dbic <= -rules.bic_margin and converged)
     return EffectScore(
         name,
         fit,

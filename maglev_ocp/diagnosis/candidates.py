@@ -13,8 +13,8 @@ solved by CasADi's SQP method with the Gauss-Newton Hessian ``J^T J`` (a custom
 ``hess_lag``).
 The data ``Z`` is an NLP parameter, so a solver is built once per candidate and
 re-solved for other data (the amplifier lag's current filter). Standard errors
-come from the same Gauss-Newton Hessian, inflated by the residual's
-autocorrelation (``n / n_eff``).
+come from the same Gauss-Newton Hessian in a Newey-West sandwich per run and
+channel (:func:`maglev_ocp.estimation.ident.hac_stderr`).
 
 The amplifier lag is the one dynamic effect: the plant filters the commanded
 currents (:meth:`AmplifierLag.filter_currents`, reused here as it is), and the
@@ -36,11 +36,14 @@ import scipy.optimize as spo
 import scipy.sparse as spa
 
 from ..effects import EFFECTS, AmplifierLag, EffectSet
+from ..estimation.ident import autocorr_factor, hac_stderr
 from ..params import Params
 from ..signals import PARAM_NAMES
-from .residuals import PreparedRun, Residual, ZeroPhaseFilter, autocorr_factor, residual_of
+from .residuals import PreparedRun, Residual, ZeroPhaseFilter, residual_of
 
 _DEBUG = False  # print the SQP iterations
+#: Solver outcomes of :meth:`CandidateFitter.solve` that count as a converged fit.
+CONVERGED: tuple[str, ...] = ("converged", "stalled")
 
 
 # ------------------------------------------------------------------------- specs
@@ -315,20 +318,19 @@ class Dataset:
         self.m_c = [meas[mask[:, c], c] for c in range(2)]
         self.n_c = [int(mask[:, c].sum()) for c in range(2)]
         self.n = sum(self.n_c)
+        # independent blocks of the stacked residual (channel-major, then run): one per run and channel
+        sizes = [r.n for c in range(2) for r in self.runs if r.valid[c]]
+        self.block_bounds = np.cumsum([0, *sizes])
         self._poly: list[tuple] | None = None
 
     def weighted_residual(self, a: np.ndarray) -> np.ndarray:
         """Stacked weighted residual for per-period accelerations ``a`` (N_tot, 2)."""
         return np.concatenate([self.sqrt_w[c] * (self.m_c[c] - self.W_c[c] @ a[:, c]) for c in range(2)])
 
-    def channels_present(self) -> tuple[bool, bool]:
-        """Whether the vertical / horizontal channel has data."""
-        return self.n_c[0] > 0, self.n_c[1] > 0
-
     def _polyphase(self) -> list[tuple]:
         # Per run: (offset, base, n_seg, pad, nb, Q, D, Wq, S) for the polyphase form of W (see filter_mx).
         if self._poly is None:
-            D = self.filt.settings.decimate
+            D = self.filt.decimate
             w_a = self.filt.w_a
             Q = -(-len(w_a) // D)
             wpad = np.zeros(D * Q)
@@ -382,7 +384,7 @@ class FitResult:
     w : ndarray
         Fitted values (physical units), order of ``spec.free``.
     stderr : ndarray
-        Standard errors (autocorrelation-inflated); NaN where the data do not determine a value.
+        Standard errors (Newey-West sandwich); NaN where the data do not determine a value.
     sse : float
         Weighted sum of squares on the training data.
     n : int
@@ -392,7 +394,9 @@ class FitResult:
     extra : dict
         Values not in ``w`` (the lag's bandwidth and delay).
     success : bool
-        Solver status.
+        The fit converged (SQP's test, or the objective stopped improving); see ``status``.
+    status : str
+        ``converged``, ``stalled``, ``iteration limit`` or ``failed`` (see :meth:`CandidateFitter.solve`).
     """
 
     spec: CandidateSpec
@@ -403,6 +407,7 @@ class FitResult:
     inflation: float
     extra: dict[str, float] = field(default_factory=dict)
     success: bool = True
+    status: str = "converged"
 
     @property
     def k(self) -> int:
@@ -422,12 +427,6 @@ class FitResult:
         """Fitted values by key, plus the lag's extra values."""
         out = {f.key: float(v) for f, v in zip(self.spec.free, self.w, strict=True)}
         out.update({k_: float(v) for k_, v in self.extra.items()})
-        return out
-
-    def stderrs(self) -> dict[str, float]:
-        """Standard errors by key."""
-        out = {f.key: float(s) for f, s in zip(self.spec.free, self.stderr, strict=True)}
-        out.update({k_[: -len("_stderr")]: float(v) for k_, v in self.extra.items() if k_.endswith("_stderr")})
         return out
 
 
@@ -552,29 +551,41 @@ class CandidateFitter:
         best = None
         Zv = ca.DM(np.ascontiguousarray(np.asarray(Z, float)).ravel())  # column-major vec of the 8 x N matrix
         for x0 in starts:
-            x = np.clip(np.asarray(x0) / scale, lo, hi)
-            f_prev = math.inf
-            ok = False
-            for _ in range(self.max_chunks):
-                sol = self._solver(x0=x, lbx=lo, ubx=hi, p=Zv)
-                x = np.asarray(sol["x"]).ravel()
-                f = float(sol["f"])
-                ok = bool(self._solver.stats().get("success", False))
-                # Converged when SQP says so, or when a chunk of Gauss-Newton steps no longer lowers the
-                # objective (directions the data leave undetermined then only crawl).
-                if ok or f_prev - f <= self.rtol * abs(f):
-                    ok = True
-                    break
-                f_prev = f
-            if best is None or f < best[0]:
-                best = (f, x, ok)
-        f, s_opt, ok = best
+            x, f, status = self._solve_from(np.clip(np.asarray(x0) / scale, lo, hi), lo, hi, Zv)
+            if best is None or f < best[0] or not math.isfinite(best[0]):
+                best = (f, x, status)
+        f, s_opt, status = best
         r, J = (np.asarray(v) for v in self._rj(s_opt, Zv))
         r = r.ravel()
         sse = float(r @ r)
         infl = _inflation(r, self.data)
-        stderr = _stderr(J, sse, self.data.n, infl) * scale
-        return FitResult(spec, s_opt * scale, stderr, sse, self.data.n, infl, success=bool(ok))
+        half = math.ceil(self.data.filt.M / self.data.filt.decimate)
+        stderr = hac_stderr(J, r, self.data.block_bounds, half) * scale
+        ok = status in CONVERGED and math.isfinite(sse)
+        return FitResult(spec, s_opt * scale, stderr, sse, self.data.n, infl, success=ok, status=status)
+
+    def _solve_from(self, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, Zv: ca.DM) -> tuple[np.ndarray, float, str]:
+        """SQP in chunks of :attr:`chunk` iterations from ``x``: ``(x, f, status)``.
+
+        ``status`` is ``converged`` (SQP's own test), ``stalled`` (a chunk of
+        Gauss-Newton steps no longer lowers the objective: directions the data
+        leave undetermined then only crawl; accepted), ``iteration limit`` (still
+        improving after :attr:`max_chunks` chunks) or ``failed`` (non-finite objective).
+        """
+        f_prev = math.inf
+        f = math.nan
+        for _ in range(self.max_chunks):
+            sol = self._solver(x0=x, lbx=lo, ubx=hi, p=Zv)
+            x = np.asarray(sol["x"]).ravel()
+            f = float(sol["f"])
+            if not (math.isfinite(f) and np.all(np.isfinite(x))):
+                return x, math.inf, "failed"
+            if self._solver.stats().get("success", False):
+                return x, f, "converged"
+            if f_prev - f <= self.rtol * abs(f):
+                return x, f, "stalled"
+            f_prev = f
+        return x, f, "iteration limit"
 
 
 @functools.lru_cache(maxsize=64)
@@ -596,26 +607,6 @@ def _inflation(r: np.ndarray, data: Dataset) -> float:
             tot += n
             i += n
     return out / tot if tot else 1.0
-
-
-def _stderr(J: np.ndarray, sse: float, n: int, infl: float) -> np.ndarray:
-    """Standard errors from the Gauss-Newton Hessian; NaN for directions the data do not determine."""
-    k_ = J.shape[1]
-    H = J.T @ J
-    s2 = sse / max(n - k_, 1) * infl
-    d = np.sqrt(np.maximum(np.diag(H), 0.0))
-    out = np.full(k_, np.nan)
-    ok = d > 1e-12 * max(d.max(initial=0.0), 1e-300)
-    if not ok.any():
-        return out
-    Hn = H[np.ix_(ok, ok)] / np.outer(d[ok], d[ok])
-    ev = np.linalg.eigvalsh(Hn)
-    if ev.min() <= 1e-10 * ev.max():
-        cov = np.linalg.pinv(Hn, rcond=1e-10)
-    else:
-        cov = np.linalg.inv(Hn)
-    out[ok] = np.sqrt(np.maximum(np.diag(cov), 0.0) * s2) / d[ok]
-    return out
 
 
 def fit_candidate(
@@ -716,7 +707,7 @@ def _fit_lag(fitter: CandidateFitter, data: Dataset, u_runs: Sequence[np.ndarray
     se_t = math.sqrt(2 * s2 / c2) if c2 > 0 else math.nan
     th = lag_theta(t_best, Ts)
     extra = {**th, "effective_delay_s": t_best, "effective_delay_s_stderr": se_t}
-    return FitResult(fitter.spec, fr.w, fr.stderr, fr.sse, fr.n, fr.inflation, extra, fr.success)
+    return FitResult(fitter.spec, fr.w, fr.stderr, fr.sse, fr.n, fr.inflation, extra, fr.success, fr.status)
 
 
 def residuals_with(

@@ -32,10 +32,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydantic import Field
 from tqdm import tqdm
 
-from ..config import Strict
 from ..errors import DataError
 from ..params import NOMINAL, Params
 from ..riglog import Dataset as RigDataset
@@ -51,11 +49,8 @@ from .candidates import (
     residuals_with,
 )
 from .localize import (
-    BinStats,
     ChannelFloor,
-    PeriodScan,
     Region,
-    Spectrum,
     bin_stats,
     channel_floor,
     dominant_band,
@@ -65,181 +60,12 @@ from .localize import (
     regions_from_map,
     spectrum,
 )
-from .residuals import CHANNELS, Residual, ResidualSettings, RunInput, ZeroPhaseFilter, prepare_run
+from .residuals import CHANNELS, PreparedRun, Residual, ResidualSettings, RunInput, ZeroPhaseFilter, prepare_run
+from .result import ChannelView, DiagnoseSettings, Diagnosis, HeldOut
 from .simulate_compare import TrajectoryComparison, compare_trajectories
 
 #: The candidate library, in report order.
 LIBRARY: tuple[str, ...] = tuple(library_specs())
-
-
-class DiagnoseSettings(Strict):
-    """Settings of :func:`diagnose` (all have defaults that suit 1 kHz rig logs).
-
-    Attributes
-    ----------
-    fc_hz, numtaps, decimate : float, int, int
-        Residual filter (see :class:`~.residuals.ResidualSettings`).
-    holdout_every : int
-        Hold out every n-th run (at least one).
-    candidates : list of str or None
-        Restrict the candidate library (default: all; ``parameter_error`` is
-        dropped against a calibrated baseline, which absorbs it).
-    z_min, bic_margin, closes_min, confusable_z, second_min : float
-        Verdict thresholds (see :class:`~.attribution.VerdictRules`).
-    n_null : int
-        Null draws (circular shifts) of the period scan's threshold.
-    seed : int
-        Seed of the null draws and subsampling (same seed, same report).
-    horizon_s : float
-        Window of the simulated-trajectory comparison [s].
-    simulate : bool
-        Run the trajectory comparison.
-    """
-
-    fc_hz: float = Field(15.0, gt=0.5, le=200.0)
-    numtaps: int = Field(401, ge=31, le=4001)
-    decimate: int = Field(8, ge=1, le=100)
-    holdout_every: int = Field(3, ge=2, le=20)
-    candidates: list[str] | None = None
-    z_min: float = Field(4.0, gt=0)
-    bic_margin: float = Field(10.0, ge=0)
-    closes_min: float = Field(0.5, gt=0, le=1)
-    confusable_z: float = Field(2.0, ge=0)
-    second_min: float = Field(0.5, gt=0, le=1)
-    n_null: int = Field(8, ge=3, le=200)
-    seed: int = Field(0, ge=0)
-    horizon_s: float = Field(0.05, gt=0.002, le=1.0)
-    simulate: bool = True
-
-    def rules(self) -> VerdictRules:
-        """Verdict thresholds."""
-        return VerdictRules(self.z_min, self.bic_margin, self.closes_min, self.confusable_z, self.second_min)
-
-
-@dataclass
-class ChannelView:
-    """Localization of one channel for one model (baseline or augmented).
-
-    Attributes
-    ----------
-    map_gd : BinStats
-        Residual over gap x position, with per-bin floors.
-    bins : dict of BinStats
-        1-D views over each feature.
-    spectrum : Spectrum or None
-        Welch PSD and peak bands.
-    period : PeriodScan or None
-        Least-squares period scan in d.
-    band : list of float or None
-        Band holding most of the residual's excess power.
-    """
-
-    map_gd: BinStats
-    bins: dict[str, BinStats]
-    spectrum: Spectrum | None
-    period: PeriodScan | None
-    band: list[float] | None
-
-
-@dataclass
-class HeldOut:
-    """The held-out data of a diagnosis, for scoring other models on the same samples (self-check).
-
-    Attributes
-    ----------
-    runs : list of PreparedRun
-        Held-out runs.
-    u : list of ndarray
-        Their commanded currents.
-    floors : ndarray
-        Channel floors used for normalization [m/s^2].
-    baseline : list of Residual
-        Baseline residuals of the held-out runs.
-    """
-
-    runs: list
-    u: list
-    floors: np.ndarray
-    baseline: list
-
-
-@dataclass
-class Diagnosis:
-    """Everything a diagnosis found (see :mod:`.report` for the files it writes).
-
-    Attributes
-    ----------
-    verdict : Verdict
-        The verdict and the reasons.
-    scores : list of EffectScore
-        Candidates (and any pair tried), ranked best first.
-    floors : dict
-        ``{channel: ChannelFloor}`` of the baseline.
-    remaining : dict
-        ``{channel: ChannelFloor}`` after the selected effect(s) (or the best candidate).
-    baseline_params : Params
-        The baseline model.
-    baseline_mode : str
-        ``calibrated`` or ``given``.
-    baseline_stderr : dict
-        Standard errors of the calibrated constants.
-    views_before, views_after : dict
-        ``{channel: ChannelView}`` of the baseline and of the final model (all runs).
-    regions : list of Region
-        Where the baseline residual exceeds the floor.
-    remaining_regions : list of Region
-        Where the final model's residual still does.
-    trajectories : TrajectoryComparison or None
-        Short-window simulation errors on the held-out runs.
-    train, test : list of str
-        Run names used for fitting and for scoring.
-    timing : dict
-        Seconds per stage.
-    residuals_before, residuals_after : list of Residual
-        Baseline and final residuals of every run (for figures).
-    final_model : str
-        Label of the final model (``baseline`` or the selected effects).
-    """
-
-    verdict: Verdict
-    scores: list[EffectScore]
-    floors: dict[str, ChannelFloor]
-    remaining: dict[str, ChannelFloor]
-    baseline_params: Params
-    baseline_mode: str
-    baseline_stderr: dict[str, float]
-    views_before: dict[str, ChannelView]
-    views_after: dict[str, ChannelView]
-    regions: list[Region]
-    remaining_regions: list[Region]
-    trajectories: TrajectoryComparison | None
-    train: list[str]
-    test: list[str]
-    timing: dict[str, float] = field(default_factory=dict)
-    residuals_before: list[Residual] = field(default_factory=list)
-    residuals_after: list[Residual] = field(default_factory=list)
-    final_model: str = "baseline"
-    settings: DiagnoseSettings | None = None
-    quantization_floor: float = math.nan
-    heldout: HeldOut | None = None
-
-    def to_json(self) -> dict:
-        """The ``report.json`` content."""
-        from .report import report_json
-
-        return report_json(self)
-
-    def table(self) -> str:
-        """Text summary (printed by ``maglev diagnose``)."""
-        from .report import summary_table
-
-        return summary_table(self)
-
-    def save(self, out_dir) -> None:
-        """Write ``report.json``, ``report.md`` and the figures into ``out_dir``."""
-        from .report import write_report
-
-        write_report(self, out_dir)
 
 
 # ------------------------------------------------------------------------ helpers
@@ -378,13 +204,340 @@ def _regions(views: dict[str, ChannelView], floors: dict[str, ChannelFloor]) -> 
 
 
 # ------------------------------------------------------------------------ pipeline
+@dataclass
+class _Split:
+    """Stage 1: the runs split and filtered (training and held-out)."""
+
+    filt: ZeroPhaseFilter
+    train_in: list[RunInput]
+    test_in: list[RunInput]
+    train: list[PreparedRun]
+    test: list[PreparedRun]
+    has: tuple[bool, bool]  # the training runs carry a vertical / horizontal channel
+
+    @property
+    def u_train(self) -> list[np.ndarray]:
+        """Commanded currents of the training runs."""
+        return [r.u for r in self.train_in]
+
+    @property
+    def u_test(self) -> list[np.ndarray]:
+        """Commanded currents of the held-out runs."""
+        return [r.u for r in self.test_in]
+
+
+@dataclass
+class _Baseline:
+    """Stage 2: the baseline model, its residuals and the noise floors."""
+
+    spec: CandidateSpec
+    given: bool
+    p: np.ndarray
+    params: Params
+    stderr: dict[str, float]
+    cal_free: tuple
+    fit: FitResult
+    b_train: list[Residual]
+    b_test: list[Residual]
+    floors: dict[str, ChannelFloor]
+    fvec: np.ndarray
+    data_train: Dataset
+    q_floor: float
+    noise_lag: int
+
+    def floors_of(self, spec: CandidateSpec, fit: FitResult | None, split: _Split) -> dict[str, ChannelFloor]:
+        """Channel floors of the residuals of a fitted candidate (training and held-out runs)."""
+        a_train = residuals_with(spec, fit, split.train, self.p, split.u_train)
+        a_test = residuals_with(spec, fit, split.test, self.p, split.u_test)
+        return {
+            CHANNELS[c]: fl
+            for c in range(2)
+            if (fl := channel_floor(a_train, a_test, c, self.q_floor, max_lag=self.noise_lag)) is not None
+        }
+
+
+@dataclass
+class _Localization:
+    """Stage 3: where the baseline misses, and whether there is a gap at all."""
+
+    views: dict[str, ChannelView]
+    evidence: list[str]
+    infl: np.ndarray
+    fs: float
+
+    @property
+    def gap_detected(self) -> bool:
+        """Any evidence of a gap beyond the floor."""
+        return bool(self.evidence)
+
+
+@dataclass
+class _Attribution:
+    """Stages 4 and 5: candidates, verdict, the final model and what it leaves."""
+
+    specs: dict[str, CandidateSpec]
+    fits: dict[str, FitResult]
+    scores: list[EffectScore]
+    verdict: Verdict
+    best: EffectScore | None
+    final_spec: CandidateSpec | None = None
+    final_fit: FitResult | None = None
+    remaining: dict[str, ChannelFloor] = field(default_factory=dict)
+
+
+def _split(dataset: RigDataset, st: DiagnoseSettings) -> _Split:
+    """Stage 1: hold out whole runs, filter every run; refuse runs too short for the filter."""
+    runs = runs_from_dataset(dataset)
+    Ts = float(dataset.sample_time)
+    filt = ZeroPhaseFilter(ResidualSettings(st.fc_hz, st.numtaps | 1, st.decimate), Ts)
+    train_in, test_in = split_runs(runs, st.holdout_every)
+    train = [(ri, pr) for ri in train_in if (pr := prepare_run(ri, filt)).n > 0]
+    test = [(ri, pr) for ri in test_in if (pr := prepare_run(ri, filt)).n > 0]
+    if not train or not test:
+        raise DataError(
+            f"{dataset.folder or 'dataset'}: runs are too short for the residual filter "
+            f"({st.numtaps} taps at {Ts:g} s); need at least {3 * st.numtaps} samples per run"
+        )
+    tr = [b for _, b in train]
+    has = (any(r.valid[0] for r in tr), any(r.valid[1] for r in tr))
+    return _Split(filt, [a for a, _ in train], [a for a, _ in test], tr, [b for _, b in test], has)
+
+
+def _baseline(split: _Split, params: Params | None, st: DiagnoseSettings, warnings: list[str]) -> _Baseline:
+    """Stage 2: the baseline (C1..C4 calibrated on the training runs unless ``params`` is given), noise floors."""
+    filt, train, test = split.filt, split.train, split.test
+    given = params is not None
+    base = params if given else NOMINAL.without_cogging()
+    p0 = base.vector()
+    base_spec = CandidateSpec("baseline")
+    cal_free = calibration_free(base, *split.has) if not given else ()
+    if cal_free:
+        r0 = residuals_with(base_spec, None, train, p0)
+        w0 = np.array([1.0 / max(_rms_channel(r0, c), 1e-6) for c in range(2)])
+        cal_spec = CandidateSpec("baseline", free=cal_free, note="C1..C4 calibrated on the training runs")
+        fit0 = fit_candidate(cal_spec, Dataset(train, w0, filt), p0)
+        _check_fit(fit0, "baseline calibration (first pass)", warnings)
+        p_base = _params_with(p0, fit0)
+    else:
+        p_base = p0
+    base_params = Params.from_vector(p_base)
+    b_train = residuals_with(base_spec, None, train, p_base)
+    b_test = residuals_with(base_spec, None, test, p_base)
+    q_floor = filt.quantization_floor()
+    # The residual's noise is correlated over the filter's main lobe: 2 fs / fc decimated samples.
+    noise_lag = max(4, math.ceil(2.0 / (st.fc_hz * filt.Ts * st.decimate)))
+    floors: dict[str, ChannelFloor] = {}
+    for c in range(2):
+        fl = channel_floor(b_train, b_test, c, q_floor, max_lag=noise_lag)
+        if fl is not None:
+            floors[CHANNELS[c]] = fl
+    fvec = np.array([floors[ch].floor if ch in floors else 1.0 for ch in CHANNELS])
+    fvec = np.maximum(fvec, 1e-9)
+    data_train = Dataset(train, 1.0 / fvec, filt)
+    base_stderr: dict[str, float] = {}
+    if cal_free:
+        cal_free2 = calibration_free(base_params, *split.has)
+        base_fit = fit_candidate(CandidateSpec("baseline", free=cal_free2), data_train, p_base)
+        _check_fit(base_fit, "baseline calibration", warnings)
+        base_stderr = {k_.split(".", 1)[1]: float(s) for k_, s in zip(base_fit.spec.keys, base_fit.stderr, strict=True)}
+    else:
+        cal_free2 = ()
+        base_fit = fit_candidate(base_spec, data_train, p_base)
+    return _Baseline(
+        base_spec, given, p_base, base_params, base_stderr, cal_free2, base_fit, b_train, b_test, floors, fvec,
+        data_train, q_floor, noise_lag,
+    )  # fmt: skip
+
+
+def _localize(split: _Split, base: _Baseline, st: DiagnoseSettings, rng: np.random.Generator) -> _Localization:
+    """Stage 3: the baseline residual over the state, its spectrum and period scan; the evidence of a gap."""
+    fs = 1.0 / (split.filt.Ts * st.decimate)
+    infl = np.array([base.floors[ch].inflation if ch in base.floors else 1.0 for ch in CHANNELS])
+    views = _views(base.b_train + base.b_test, base.fvec, infl, fs, st.fc_hz, rng, st.n_null)
+    evidence = []
+    for ch, fl in base.floors.items():
+        if fl.significant:
+            evidence.append(
+                f"{ch}: the residual has state structure beyond the floor (held-out map gain "
+                f"{fl.gain:.1%}, z = {fl.z:.1f})"
+            )
+    for c, ch in enumerate(CHANNELS):
+        # A spectral line counts as a gap only if the training and the held-out runs both show it.
+        lines = _consistent_lines(base.b_train, base.b_test, c, fs, st.fc_hz)
+        if lines:
+            pk = lines[0]
+            evidence.append(
+                f"{ch}: spectral line at {pk['peak_hz']:.2f} Hz ({pk['ratio']:.0f}x the PSD around it, "
+                "in training and held-out runs)"
+            )
+    for ch, v in views.items():
+        if v.period is not None and v.period.significant:
+            evidence.append(
+                f"{ch}: periodic in d with period {v.period.best_period * 1e3:.2f} mm"
+                + (f" (= {v.period.match})" if v.period.match else "")
+            )
+    return _Localization(views, evidence, infl, fs)
+
+
+def _fit_and_score(
+    name: str, spec: CandidateSpec, split: _Split, base: _Baseline, rules: VerdictRules, note: str, pair: bool
+) -> tuple[FitResult, EffectScore]:
+    """Fit one candidate (or pair) on the training runs and score it on the held-out runs."""
+    fit = fit_candidate(spec, base.data_train, base.p, u_runs=split.u_train)
+    after = residuals_with(spec, fit, split.test, base.p, split.u_test)
+    vals, errs = _readable(fit, pair=pair)
+    return fit, score(name, fit, base.fit, base.b_test, after, base.fvec, rules, vals, errs, note)
+
+
+def _attribute(
+    split: _Split, base: _Baseline, loc: _Localization, st: DiagnoseSettings, progress: bool, warnings: list[str]
+) -> _Attribution:
+    """Stage 4: every library effect fitted on top of the baseline, scored on the held-out runs; verdict."""
+    rules = st.rules()
+    lib = library_specs()
+    names = [n for n in (st.candidates or LIBRARY) if n in lib]
+    if not base.given:
+        names = [n for n in names if n != "parameter_error"]
+    specs: dict[str, CandidateSpec] = {}
+    fits: dict[str, FitResult] = {}
+    scores: list[EffectScore] = []
+    for name in tqdm(names, desc="candidates", disable=not progress, leave=False):
+        spec = lib[name].with_free(base.cal_free) if base.cal_free else lib[name]
+        fit, sc = _fit_and_score(name, spec, split, base, rules, lib[name].note, pair=False)
+        _check_fit(fit, f"candidate {name}", warnings)
+        specs[name], fits[name] = spec, fit
+        scores.append(sc)
+    verdict, best = decide(scores, loc.gap_detected, rules, loc.evidence)
+    return _Attribution(specs, fits, scores, verdict, best)
+
+
+def _second_effect(
+    split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]
+) -> None:
+    """Stage 4b: if a significant gap remains after the best effect, try it with each other significant one."""
+    rules = st.rules()
+    best = att.best
+    att.final_spec, att.final_fit = base.spec, None
+    if best is None:
+        return
+    att.final_spec, att.final_fit = att.specs[best.name], att.fits[best.name]
+    att.remaining = base.floors_of(att.final_spec, att.final_fit, split)
+    still = any(f.significant for f in att.remaining.values())
+    if still and best.closes < 0.9:
+        others = [
+            s for s in rank(att.scores) if s.significant and s.name != best.name and s.name not in best.confusable_with
+        ][:3]
+        pair_scores = []
+        for o in others:
+            spec = combine(att.specs[best.name], att.specs[o.name])
+            fit, ps = _fit_and_score(spec.name, spec, split, base, rules, spec.note, pair=True)
+            _check_fit(fit, f"candidate pair {spec.name}", warnings)
+            Ra_best2, Ra_pair2 = best.r2_after, ps.r2_after
+            extra = (Ra_best2 - Ra_pair2) / max(Ra_best2 - 1.0, Ra_best2 - Ra_pair2, 1e-12)
+            zp = paired_z(best.e_after, ps.e_after)
+            pair_scores.append((extra, zp, ps, spec, fit))
+            att.scores.append(ps)
+        good = [t for t in pair_scores if t[1] >= rules.z_min and t[0] >= rules.second_min and t[2].fit.success]
+        if good:
+            extra, zp, ps, spec, fit = max(good, key=lambda t: t[0])
+            if att.verdict.verdict != "unexplained" or ps.closes >= rules.closes_min:
+                att.verdict = Verdict(
+                    ps.name,
+                    ps.name.split("+"),
+                    True,
+                    [
+                        *att.verdict.reasons,
+                        f"a significant gap remained; adding {ps.name.split('+')[1]} closes {extra:.0%} of it "
+                        f"(paired z = {zp:.1f}): {ps.name}",
+                    ],
+                )
+                ps.selected = True
+                att.final_spec, att.final_fit = spec, fit
+                att.remaining = base.floors_of(spec, fit, split)
+    if att.verdict.verdict == "unexplained":
+        att.verdict.reasons.append(
+            f"no candidate, alone or with a second one, closes {rules.closes_min:.0%} of the gap: unexplained"
+        )
+
+
+def _settle_verdict(base: _Baseline, att: _Attribution) -> None:
+    """No effect claimed: the final model is the baseline and its gap remains; mark the selected scores."""
+    verdict = att.verdict
+    if verdict.verdict in ("none", "unexplained"):
+        att.final_spec, att.final_fit = base.spec, None
+        att.remaining = base.floors
+    in_verdict = set(verdict.verdict.replace("|", "+").split("+"))
+    for s in att.scores:
+        s.selected = verdict.verdict not in ("none", "unexplained") and (
+            s.name in in_verdict or s.name == verdict.verdict
+        )
+
+
+@dataclass
+class _Quantification:
+    """Stage 5: the final model's residuals and views, regions, simulated trajectories."""
+
+    residuals_after: list[Residual]
+    views_after: dict[str, ChannelView]
+    regions: list[Region]
+    remaining_regions: list[Region]
+    trajectories: TrajectoryComparison | None
+
+
+def _quantify(
+    split: _Split,
+    base: _Baseline,
+    loc: _Localization,
+    att: _Attribution,
+    st: DiagnoseSettings,
+    rng: np.random.Generator,
+) -> _Quantification:
+    """Stage 5: residuals of the final model, remaining regions, short-window simulations on held-out runs."""
+    spec, fit = att.final_spec, att.final_fit
+    all_after = residuals_with(spec, fit, split.train, base.p, split.u_train) + residuals_with(
+        spec, fit, split.test, base.p, split.u_test
+    )
+    views_after = _views(all_after, base.fvec, loc.infl, loc.fs, st.fc_hz, rng, st.n_null)
+    regions = _regions(loc.views, base.floors) if loc.gap_detected else []
+    rem = att.remaining
+    remaining_regions = _regions(views_after, rem) if any(f.significant for f in rem.values()) else []
+    if att.verdict.verdict == "unexplained":
+        # Where the unexplained gap is (the baseline's: no candidate closes it).
+        regions_unexpl = remaining_regions or regions
+        if regions_unexpl:
+            att.verdict.reasons.append(
+                "unexplained gap: "
+                + "; ".join(
+                    f"{r.channel} g {r.g_range_m[0] * 1e3:.1f}..{r.g_range_m[1] * 1e3:.1f} mm, d "
+                    f"{r.d_range_m[0] * 1e3:.0f}..{r.d_range_m[1] * 1e3:.0f} mm"
+                    + (f", {r.freq_band_hz[0]:.2f}..{r.freq_band_hz[1]:.2f} Hz" if r.freq_band_hz else "")
+                    for r in regions_unexpl[:3]
+                )
+            )
+    traj = None
+    if st.simulate:
+        models = {"baseline": (base.spec, None)}
+        pvecs = {"baseline": base.p}
+        if fit is not None:
+            models["augmented"] = (spec, fit)
+            pvecs["augmented"] = base.p
+        traj = compare_trajectories(split.test_in, models, pvecs, horizon=st.horizon_s)
+    return _Quantification(all_after, views_after, regions, remaining_regions, traj)
+
+
+def _check_fit(fit: FitResult, what: str, warnings: list[str]) -> None:
+    """Record a fit whose solver did not converge (never silently marked ok)."""
+    if not fit.success:
+        warnings.append(f"{what}: the fit's solver did not converge ({fit.status}); not counted as evidence")
+
+
 def diagnose(
     dataset: RigDataset,
     params: Params | None = None,
     settings: DiagnoseSettings | None = None,
     progress: bool = False,
 ) -> Diagnosis:
-    """Diagnose the gap between the model and a dataset.
+    """Diagnose the gap between the model and a dataset (the stages of the module docstring).
 
     Parameters
     ----------
@@ -401,247 +554,58 @@ def diagnose(
     Returns
     -------
     Diagnosis
+        With ``warnings`` naming every fit whose solver did not converge.
     """
     st = settings or DiagnoseSettings()
-    rules = st.rules()
     rng = np.random.default_rng(np.random.SeedSequence(st.seed))
     timing: dict[str, float] = {}
+    warnings: list[str] = []
     t_all = time.perf_counter()
     cpu_all = time.process_time()
 
-    runs = runs_from_dataset(dataset)
-    Ts = float(dataset.sample_time)
-    filt = ZeroPhaseFilter(ResidualSettings(st.fc_hz, st.numtaps | 1, st.decimate), Ts)
-    train_in, test_in = split_runs(runs, st.holdout_every)
-    train = [prepare_run(r, filt) for r in train_in]
-    test = [prepare_run(r, filt) for r in test_in]
-    keep = [(ri, pr) for ri, pr in zip(train_in, train, strict=True) if pr.n > 0]
-    train_in, train = [a for a, _ in keep], [b for _, b in keep]
-    keep = [(ri, pr) for ri, pr in zip(test_in, test, strict=True) if pr.n > 0]
-    test_in, test = [a for a, _ in keep], [b for _, b in keep]
-    if not train or not test:
-        raise DataError(
-            f"{dataset.folder or 'dataset'}: runs are too short for the residual filter "
-            f"({st.numtaps} taps at {Ts:g} s); need at least {3 * st.numtaps} samples per run"
-        )
-    u_train = [r.u for r in train_in]
-    u_test = [r.u for r in test_in]
-    has = (any(r.valid[0] for r in train), any(r.valid[1] for r in train))
-    timing["prepare_s"] = time.perf_counter() - t_all
+    def lap(name: str, t0: float) -> float:
+        now = time.perf_counter()
+        timing[name] = now - t0
+        return now
 
-    # ---------------------------------------------------------------- baseline
-    t0 = time.perf_counter()
-    given = params is not None
-    base = params if given else NOMINAL.without_cogging()
-    p0 = base.vector()
-    base_spec = CandidateSpec("baseline")
-    r0 = residuals_with(base_spec, None, train, p0)
-    w0 = np.array([1.0 / max(_rms_channel(r0, c), 1e-6) for c in range(2)])
-    cal_free = calibration_free(base, *has) if not given else ()
-    base_stderr: dict[str, float] = {}
-    if cal_free:
-        cal_spec = CandidateSpec("baseline", free=cal_free, note="C1..C4 calibrated on the training runs")
-        fit0 = fit_candidate(cal_spec, Dataset(train, w0, filt), p0)
-        p_base = _params_with(p0, fit0)
-    else:
-        p_base = p0
-    base_params = Params.from_vector(p_base)
-    b_train = residuals_with(base_spec, None, train, p_base)
-    b_test = residuals_with(base_spec, None, test, p_base)
-    q_floor = filt.quantization_floor()
-    # The residual's noise is correlated over the filter's main lobe: 2 fs / fc decimated samples.
-    noise_lag = max(4, math.ceil(2.0 / (st.fc_hz * Ts * st.decimate)))
-    floors: dict[str, ChannelFloor] = {}
-    for c in range(2):
-        fl = channel_floor(b_train, b_test, c, q_floor, max_lag=noise_lag)
-        if fl is not None:
-            floors[CHANNELS[c]] = fl
-    fvec = np.array([floors[ch].floor if ch in floors else 1.0 for ch in CHANNELS])
-    fvec = np.maximum(fvec, 1e-9)
-    data_train = Dataset(train, 1.0 / fvec, filt)
-    if cal_free:
-        cal_free2 = calibration_free(base_params, *has)
-        base_fit = fit_candidate(CandidateSpec("baseline", free=cal_free2), data_train, p_base)
-        base_stderr = {k_.split(".", 1)[1]: float(s) for k_, s in zip(base_fit.spec.keys, base_fit.stderr, strict=True)}
-    else:
-        cal_free2 = ()
-        base_fit = fit_candidate(base_spec, data_train, p_base)
-    timing["baseline_s"] = time.perf_counter() - t0
-
-    # ------------------------------------------------------------ localization
-    t0 = time.perf_counter()
-    fs = 1.0 / (Ts * st.decimate)
-    infl = np.array([floors[ch].inflation if ch in floors else 1.0 for ch in CHANNELS])
-    all_before = b_train + b_test
-    views_before = _views(all_before, fvec, infl, fs, st.fc_hz, rng, st.n_null)
-    evidence = []
-    for ch, fl in floors.items():
-        if fl.significant:
-            evidence.append(
-                f"{ch}: the residual has state structure beyond the floor (held-out map gain "
-                f"{fl.gain:.1%}, z = {fl.z:.1f})"
-            )
-    for c, ch in enumerate(CHANNELS):
-        # A spectral line counts as a gap only if the training and the held-out runs both show it.
-        lines = _consistent_lines(b_train, b_test, c, fs, st.fc_hz)
-        if lines:
-            pk = lines[0]
-            evidence.append(
-                f"{ch}: spectral line at {pk['peak_hz']:.2f} Hz ({pk['ratio']:.0f}x the PSD around it, "
-                "in training and held-out runs)"
-            )
-    for ch, v in views_before.items():
-        if v.period is not None and v.period.significant:
-            evidence.append(
-                f"{ch}: periodic in d with period {v.period.best_period * 1e3:.2f} mm"
-                + (f" (= {v.period.match})" if v.period.match else "")
-            )
-    gap_detected = bool(evidence)
-    timing["localize_s"] = time.perf_counter() - t0
-
-    # -------------------------------------------------------------- candidates
-    t0 = time.perf_counter()
-    lib = library_specs()
-    names = [n for n in (st.candidates or LIBRARY) if n in lib]
-    if not given:
-        names = [n for n in names if n != "parameter_error"]
-    specs: dict[str, CandidateSpec] = {}
-    fits: dict[str, FitResult] = {}
-    scores: list[EffectScore] = []
-    for name in tqdm(names, desc="candidates", disable=not progress, leave=False):
-        spec = lib[name].with_free(cal_free2) if cal_free2 else lib[name]
-        fit = fit_candidate(spec, data_train, p_base, u_runs=u_train)
-        after = residuals_with(spec, fit, test, p_base, u_test)
-        vals, errs = _readable(fit, pair=False)
-        specs[name], fits[name] = spec, fit
-        scores.append(score(name, fit, base_fit, b_test, after, fvec, rules, vals, errs, lib[name].note))
-    verdict, best = decide(scores, gap_detected, rules, evidence)
-    timing["candidates_s"] = time.perf_counter() - t0
-
-    # ------------------------------------------------- second effect / pairs
-    t0 = time.perf_counter()
-    final_spec, final_fit = base_spec, None
-    list(verdict.selected)
-    if best is not None:
-        final_spec, final_fit = specs[best.name], fits[best.name]
-        a_train = residuals_with(final_spec, final_fit, train, p_base, u_train)
-        a_test = residuals_with(final_spec, final_fit, test, p_base, u_test)
-        rem = {
-            CHANNELS[c]: fl
-            for c in range(2)
-            if (fl := channel_floor(a_train, a_test, c, q_floor, max_lag=noise_lag)) is not None
-        }
-        still = any(f.significant for f in rem.values())
-        if still and best.closes < 0.9:
-            others = [
-                s for s in rank(scores) if s.significant and s.name != best.name and s.name not in best.confusable_with
-            ][:3]
-            pair_scores = []
-            for o in others:
-                spec = combine(specs[best.name], specs[o.name])
-                fit = fit_candidate(spec, data_train, p_base, u_runs=u_train)
-                after = residuals_with(spec, fit, test, p_base, u_test)
-                vals, errs = _readable(fit, pair=True)
-                ps = score(spec.name, fit, base_fit, b_test, after, fvec, rules, vals, errs, spec.note)
-                Ra_best2, Ra_pair2 = best.r2_after, ps.r2_after
-                extra = (Ra_best2 - Ra_pair2) / max(Ra_best2 - 1.0, Ra_best2 - Ra_pair2, 1e-12)
-                zp = paired_z(best.e_after, ps.e_after)
-                pair_scores.append((extra, zp, ps, spec, fit))
-                scores.append(ps)
-            good = [t for t in pair_scores if t[1] >= rules.z_min and t[0] >= rules.second_min]
-            if good:
-                extra, zp, ps, spec, fit = max(good, key=lambda t: t[0])
-                if verdict.verdict != "unexplained" or ps.closes >= rules.closes_min:
-                    verdict = Verdict(
-                        ps.name,
-                        ps.name.split("+"),
-                        True,
-                        [
-                            *verdict.reasons,
-                            f"a significant gap remained; adding {ps.name.split('+')[1]} closes {extra:.0%} of it "
-                            f"(paired z = {zp:.1f}): {ps.name}",
-                        ],
-                    )
-                    ps.name.split("+")
-                    ps.selected = True
-                    final_spec, final_fit = spec, fit
-                    a_train = residuals_with(final_spec, final_fit, train, p_base, u_train)
-                    a_test = residuals_with(final_spec, final_fit, test, p_base, u_test)
-                    rem = {
-                        CHANNELS[c]: fl
-                        for c in range(2)
-                        if (fl := channel_floor(a_train, a_test, c, q_floor, max_lag=noise_lag)) is not None
-                    }
-        if verdict.verdict == "unexplained":
-            verdict.reasons.append(
-                f"no candidate, alone or with a second one, closes {rules.closes_min:.0%} of the gap: unexplained"
-            )
-    if verdict.verdict in ("none", "unexplained"):
-        # No effect is claimed: the final model is the baseline, and the gap that remains is its gap.
-        final_spec, final_fit = base_spec, None
-        rem = floors
-    in_verdict = set(verdict.verdict.replace("|", "+").split("+"))
-    for s in scores:
-        s.selected = verdict.verdict not in ("none", "unexplained") and (
-            s.name in in_verdict or s.name == verdict.verdict
-        )
-    timing["pairs_s"] = time.perf_counter() - t0
-
-    # ---------------------------------------------------------- quantification
-    t0 = time.perf_counter()
-    show_spec, show_fit = (final_spec, final_fit)
-    all_after = residuals_with(show_spec, show_fit, train, p_base, u_train) + residuals_with(
-        show_spec, show_fit, test, p_base, u_test
-    )
-    views_after = _views(all_after, fvec, infl, fs, st.fc_hz, rng, st.n_null)
-    regions = _regions(views_before, floors) if gap_detected else []
-    remaining_regions = _regions(views_after, rem) if any(f.significant for f in rem.values()) else []
-    if verdict.verdict == "unexplained":
-        # Where the unexplained gap is (the baseline's: no candidate closes it).
-        regions_unexpl = remaining_regions or regions
-        if regions_unexpl:
-            verdict.reasons.append(
-                "unexplained gap: "
-                + "; ".join(
-                    f"{r.channel} g {r.g_range_m[0] * 1e3:.1f}..{r.g_range_m[1] * 1e3:.1f} mm, d "
-                    f"{r.d_range_m[0] * 1e3:.0f}..{r.d_range_m[1] * 1e3:.0f} mm"
-                    + (f", {r.freq_band_hz[0]:.2f}..{r.freq_band_hz[1]:.2f} Hz" if r.freq_band_hz else "")
-                    for r in regions_unexpl[:3]
-                )
-            )
-    traj = None
-    if st.simulate:
-        models = {"baseline": (base_spec, None)}
-        pvecs = {"baseline": p_base}
-        if final_fit is not None:
-            models["augmented"] = (show_spec, show_fit)
-            pvecs["augmented"] = p_base
-        traj = compare_trajectories(test_in, models, pvecs, horizon=st.horizon_s)
-    timing["quantify_s"] = time.perf_counter() - t0
+    split = _split(dataset, st)
+    t0 = lap("prepare_s", t_all)
+    base = _baseline(split, params, st, warnings)
+    t0 = lap("baseline_s", t0)
+    loc = _localize(split, base, st, rng)
+    t0 = lap("localize_s", t0)
+    att = _attribute(split, base, loc, st, progress, warnings)
+    t0 = lap("candidates_s", t0)
+    _second_effect(split, base, att, st, warnings)
+    _settle_verdict(base, att)
+    t0 = lap("pairs_s", t0)
+    q = _quantify(split, base, loc, att, st, rng)
+    lap("quantify_s", t0)
     timing["total_s"] = time.perf_counter() - t_all
     timing["cpu_s"] = time.process_time() - cpu_all
     return Diagnosis(
-        verdict=verdict,
-        scores=rank(scores),
-        floors=floors,
-        remaining=rem,
-        baseline_params=base_params,
-        baseline_mode="given" if given else "calibrated",
-        baseline_stderr=base_stderr,
-        views_before=views_before,
-        views_after=views_after,
-        regions=regions,
-        remaining_regions=remaining_regions,
-        trajectories=traj,
-        train=[r.name for r in train_in],
-        test=[r.name for r in test_in],
+        verdict=att.verdict,
+        scores=rank(att.scores),
+        floors=base.floors,
+        remaining=att.remaining,
+        baseline_params=base.params,
+        baseline_mode="given" if base.given else "calibrated",
+        baseline_stderr=base.stderr,
+        views_before=loc.views,
+        views_after=q.views_after,
+        regions=q.regions,
+        remaining_regions=q.remaining_regions,
+        trajectories=q.trajectories,
+        train=[r.name for r in split.train_in],
+        test=[r.name for r in split.test_in],
         timing=timing,
-        residuals_before=all_before,
-        residuals_after=all_after,
-        final_model=show_spec.name if show_fit is not None else "baseline",
+        residuals_before=base.b_train + base.b_test,
+        residuals_after=q.residuals_after,
+        final_model=att.final_spec.name if att.final_fit is not None else "baseline",
         settings=st,
-        quantization_floor=q_floor,
-        heldout=HeldOut(test, u_test, fvec, b_test),
+        quantization_floor=base.q_floor,
+        heldout=HeldOut(split.test, split.u_test, base.fvec, base.b_test),
+        warnings=warnings,
     )
 
 
@@ -678,6 +642,7 @@ __all__ = [
     "ChannelView",
     "DiagnoseSettings",
     "Diagnosis",
+    "HeldOut",
     "combine",
     "diagnose",
     "runs_from_dataset",

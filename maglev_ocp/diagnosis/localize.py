@@ -46,7 +46,8 @@ import scipy.signal as sps
 import scipy.stats as st
 
 from .. import constants as k
-from .residuals import CHANNELS, Residual, autocorr_factor
+from ..estimation.ident import autocorr_factor
+from .residuals import CHANNELS, Residual
 
 #: Features used for 1-D maps and binned views, with plot units scale.
 FEATURES_1D: tuple[str, ...] = ("g", "d", "g_dot", "d_dot", "i_q", "i_d", "di_q", "di_d")

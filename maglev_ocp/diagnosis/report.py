@@ -1,135 +1,20 @@
 """Writing a diagnosis: ``report.json``, ``report.md`` and figures (PNG, Agg backend).
 
-``report.json`` holds at least the keys the issue asks for::
-
-    {"verdict": "cogging" | "none" | "unexplained" | "<effect>" | "a|b" | "a+b",
-     "effects": [{"name", "params", "heldout_rms_before", "heldout_rms_after", "reduction", "selected", ...}],
-     "regions": [{"channel", "g_range_m", "d_range_m", "freq_band_hz", "excess_over_floor", ...}],
-     "noise_floor": {"vertical": {...}, "horizontal": {...}},
-     "baseline_params": {"C1": ..., ...}}
-
-plus the reasons of the verdict, the remaining regions, the localization
-summaries (spectral lines, period scan), the simulated-trajectory errors, the
-train/held-out split and the timing. ``a|b`` is a confusable set (the effects
-explain the held-out runs equally well), ``a+b`` two effects together.
+The result type and the JSON content are :mod:`.result`'s; this module adds the
+Markdown report and the figures.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..config import atomic_write_bytes, atomic_write_text
 from ..signals import label
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .diagnose import Diagnosis
-
-
-def _clean(x):
-    """JSON-safe copy: numpy scalars to float, NaN/inf to None."""
-    if isinstance(x, dict):
-        return {str(k): _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, (np.floating, float)):
-        v = float(x)
-        return v if math.isfinite(v) else None
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    if isinstance(x, np.ndarray):
-        return _clean(x.tolist())
-    return x
-
-
-def report_json(d: Diagnosis) -> dict:
-    """The content of ``report.json``."""
-    loc = {}
-    for ch, v in d.views_before.items():
-        loc[ch] = {
-            "spectral_peaks": v.spectrum.peaks if v.spectrum is not None else [],
-            "dominant_band_hz": v.band,
-            "period_scan": v.period.to_dict() if v.period is not None else None,
-        }
-    out = {
-        "verdict": d.verdict.verdict,
-        "verdict_effects": d.verdict.selected if d.verdict.verdict not in ("none", "unexplained") else [],
-        "reasons": d.verdict.reasons,
-        "effects": [s.to_dict() for s in d.scores],
-        "regions": [r.to_dict() for r in d.regions],
-        "remaining_regions": [r.to_dict() for r in d.remaining_regions],
-        "noise_floor": {ch: f.to_dict() for ch, f in d.floors.items()},
-        "remaining_floor": {ch: f.to_dict() for ch, f in d.remaining.items()},
-        "quantization_floor_m_s2": d.quantization_floor,
-        "baseline_params": d.baseline_params.as_dict(),
-        "baseline_mode": d.baseline_mode,
-        "baseline_stderr": d.baseline_stderr,
-        "localization": loc,
-        "trajectories": d.trajectories.to_dict() if d.trajectories is not None else None,
-        "final_model": d.final_model,
-        "split": {"train": d.train, "heldout": d.test},
-        "timing_s": d.timing,
-        "settings": d.settings.model_dump() if d.settings is not None else None,
-    }
-    return _clean(out)
-
-
-def summary_table(d: Diagnosis) -> str:
-    """Text summary: verdict, floors, ranked candidates, regions."""
-    lines = [f"verdict: {d.verdict.verdict}"]
-    lines += [f"  - {r}" for r in d.verdict.reasons]
-    lines.append(
-        f"baseline ({d.baseline_mode}): "
-        + ", ".join(f"{n}={getattr(d.baseline_params, n):.5g}" for n in ("C1", "C2", "C3", "C4", "xi0"))
-    )
-    lines.append("")
-    lines.append(f"{'channel':<11} {'rms [m/s^2]':>12} {'floor':>10} {'quant.':>9} {'map gain':>9} {'z':>7}  gap")
-    for ch, f in d.floors.items():
-        lines.append(
-            f"{ch:<11} {f.rms:12.4g} {f.floor:10.3g} {f.quantization:9.2g} {f.gain:9.1%} {f.z:7.1f}  "
-            f"{'yes' if f.significant else 'no'}"
-        )
-    lines.append("")
-    head = f"{'candidate':<32} {'before':>9} {'after':>9} {'reduction':>9} {'closes':>7} {'z':>7} {'dBIC':>8}  sel"
-    lines += [head, "-" * len(head)]
-    for s in d.scores:
-        lines.append(
-            f"{s.name:<32} {s.heldout_rms_before:9.4g} {s.heldout_rms_after:9.4g} {s.reduction:9.1%} "
-            f"{s.closes:7.0%} {s.z:7.1f} {s.delta_bic:8.0f}  {'*' if s.selected else ''}"
-        )
-    for s in d.scores:
-        if s.selected:
-            lines.append(
-                f"  {s.name}: "
-                + ", ".join(
-                    f"{k}={v:.4g}" + (f"±{s.stderr[k]:.2g}" if s.stderr.get(k) is not None else "")
-                    for k, v in s.params.items()
-                )
-            )
-    if d.regions:
-        lines.append("")
-        lines.append("regions where the baseline residual exceeds the floor:")
-        for r in d.regions:
-            band = f", band {r.freq_band_hz[0]:.2f}..{r.freq_band_hz[1]:.2f} Hz" if r.freq_band_hz else ""
-            lines.append(
-                f"  {r.channel:<10} g {r.g_range_m[0] * 1e3:6.2f}..{r.g_range_m[1] * 1e3:6.2f} mm, "
-                f"d {r.d_range_m[0] * 1e3:7.2f}..{r.d_range_m[1] * 1e3:7.2f} mm{band}, "
-                f"{r.excess_over_floor:.2f} x floor (z {r.z:.1f})"
-            )
-    if d.trajectories is not None:
-        lines.append("")
-        lines.append(f"simulated {d.trajectories.horizon * 1e3:.0f} ms windows on held-out runs, rms error [mm]:")
-        for lab, e in d.trajectories.rms.items():
-            lines.append(f"  {lab:<10} " + "  ".join(f"{ax} {v * 1e3:.4f}" for ax, v in e.items() if v is not None))
-    lines.append(f"\ntime: {d.timing.get('total_s', float('nan')):.1f} s")
-    return "\n".join(lines)
+from .result import Diagnosis, report_json, summary_table
 
 
 # --------------------------------------------------------------------------- figures
@@ -307,6 +192,7 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
     j = report_json(d)
     md = [f"# Sim-to-real gap diagnosis\n\n**Verdict: `{d.verdict.verdict}`**\n"]
     md += [f"- {r}" for r in d.verdict.reasons]
+    md += [f"\n**Warning:** {w}" for w in d.warnings]
     md.append(
         f"\nBaseline ({d.baseline_mode}): "
         + ", ".join(f"{n} = {getattr(d.baseline_params, n):.5g}" for n in ("C1", "C2", "C3", "C4", "xi0"))

@@ -23,14 +23,16 @@ The residual of a channel (vertical: the gap ``g``; horizontal: the position
 - The filtered series is decimated (the filter is band-limited), which also
   makes the residual samples less correlated.
 
-The noise floor of a residual comes from the data (see :mod:`.localize`); this
-module also gives the analytic quantization part, ``q / sqrt(12) * ||w||``
-with ``w`` the filter applied to the encoder reading.
+The filter, the autocorrelation factor and the standard errors are those of
+the identification toolkit shared with the calibration
+(:mod:`maglev_ocp.estimation.ident`). The noise floor of a residual comes from
+the data (see :mod:`.localize`); the filter also gives the analytic
+quantization part, ``q / sqrt(12) * ||w||`` with ``w`` the filter applied to
+the encoder reading.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,6 +41,7 @@ import scipy.sparse as spa
 
 from .. import constants as k
 from ..errors import DataError
+from ..estimation import ident
 
 #: Channel names, in the order of the residual's columns.
 CHANNELS: tuple[str, str] = ("vertical", "horizontal")
@@ -140,8 +143,8 @@ class PreparedRun:
         return len(self.centers)
 
 
-class ZeroPhaseFilter:
-    """The one zero-phase FIR low-pass used on both sides of the residual.
+class ZeroPhaseFilter(ident.ZeroPhaseFilter):
+    """The diagnosis's zero-phase filter: the toolkit's Kaiser kernel, plus the velocity smoother.
 
     Parameters
     ----------
@@ -154,54 +157,16 @@ class ZeroPhaseFilter:
     def __init__(self, settings: ResidualSettings, Ts: float = k.Ts) -> None:
         if settings.numtaps % 2 == 0:
             raise ValueError("numtaps must be odd (zero phase)")
+        super().__init__(ident.kaiser_kernel(settings.fc_hz, settings.numtaps, Ts), Ts, settings.decimate)
         self.settings = settings
-        self.Ts = Ts
-        fs = 1.0 / Ts
-        self.h = sps.firwin(settings.numtaps, settings.fc_hz, window=("kaiser", 8.0), fs=fs)
-        self.M = settings.numtaps // 2
-        # Encoder side: h * D2 (length numtaps + 2), model side: h * K (length numtaps + 1).
-        self.w_y = np.convolve(self.h, np.array([1.0, -2.0, 1.0])) / Ts**2
-        self.w_a = np.convolve(self.h, np.array([0.5, 0.5]))
-        b, a = sps.butter(2, settings.vel_fc_hz, fs=fs)
+        b, a = sps.butter(2, settings.vel_fc_hz, fs=1.0 / Ts)
         self._vel_ba = (b, a)
-
-    def centers(self, N: int) -> np.ndarray:
-        """Decimated centre samples where both filters are fully inside a run of N samples."""
-        lo, hi = self.M + 1, N - 2 - self.M
-        if hi < lo:
-            return np.zeros(0, dtype=int)
-        return np.arange(lo, hi + 1, self.settings.decimate)
-
-    def encoder_accel(self, y: np.ndarray, centers: np.ndarray) -> np.ndarray:
-        """Filtered acceleration ``h * D2(y)`` at ``centers`` (y of shape (N,) or (N, m))."""
-        full = sps.oaconvolve(
-            np.asarray(y, float), self.w_y[:, None] if np.ndim(y) == 2 else self.w_y, mode="valid", axes=0
-        )
-        # full[j] is centred on sample j + M + 1.
-        return full[centers - self.M - 1]
-
-    def model_matrix(self, N: int, centers: np.ndarray) -> spa.csr_matrix:
-        """Sparse ``(n_c, N-1)`` matrix of ``h * K`` acting on per-period accelerations ``a[0..N-2]``."""
-        L = len(self.w_a)
-        rows = np.repeat(np.arange(len(centers)), L)
-        cols = (centers[:, None] - self.M - 1 + np.arange(L)[None, :]).ravel()
-        vals = np.tile(self.w_a, len(centers))
-        return spa.csr_matrix((vals, (rows, cols)), shape=(len(centers), N - 1))
-
-    def smooth(self, x: np.ndarray, centers: np.ndarray) -> np.ndarray:
-        """Low-passed ``x`` (same FIR ``h``, unit DC gain) at ``centers``."""
-        full = sps.oaconvolve(np.asarray(x, float), self.h, mode="valid")
-        return full[centers - self.M]
 
     def velocity(self, y: np.ndarray) -> np.ndarray:
         """Zero-phase smoothed velocity per period (at the mid-period instants), shape (N-1,)."""
         b, a = self._vel_ba
         ys = sps.filtfilt(b, a, np.asarray(y, float), padlen=min(3 * max(len(a), len(b)), len(y) - 1))
         return np.diff(ys) / self.Ts
-
-    def quantization_floor(self, q: float = k.encoder_resolution) -> float:
-        """Rms of the filtered acceleration due to white quantization noise (q^2 / 12) [m/s^2]."""
-        return q / math.sqrt(12.0) * float(np.linalg.norm(self.w_y))
 
 
 def prepare_run(run: RunInput, filt: ZeroPhaseFilter) -> PreparedRun:
@@ -240,7 +205,7 @@ def prepare_run(run: RunInput, filt: ZeroPhaseFilter) -> PreparedRun:
     u_prev = np.vstack([u[:1], u[:-2]])
     Z = np.column_stack([y_mid[:, 0], v[:, 0], y_mid[:, 1], v[:, 1], u[:-1, 0], u[:-1, 1], u_prev])
     meas = filt.encoder_accel(y, centers)
-    W = filt.model_matrix(N, centers)
+    W = filt.period_matrix(N, centers)
     t = run.t0 + centers * run.Ts
     du = np.vstack([np.zeros((1, 2)), np.diff(u, axis=0) / run.Ts])
     feat = {
@@ -284,34 +249,6 @@ def residual_of(run: PreparedRun, accel: np.ndarray) -> Residual:
     return Residual(run, r, model)
 
 
-def autocorr_factor(r: np.ndarray, max_lag: int = 200) -> float:
-    """Variance inflation ``1 + 2 sum rho_k`` of an autocorrelated series (initial positive sequence).
-
-    ``n_eff = n / factor`` is the number of effectively independent samples
-    of a mean or a sum of squares; used by the information criterion and the
-    bin floors.
-    """
-    r = np.asarray(r, float)
-    r = r[np.isfinite(r)] - np.nanmean(r)
-    n = len(r)
-    if n < 8:
-        return 1.0
-    nfft = 1 << math.ceil(math.log2(2 * n))
-    f = np.fft.rfft(r, nfft)
-    ac = np.fft.irfft(f * np.conj(f), nfft)[: min(max_lag, n - 1) + 1]
-    if ac[0] <= 0:
-        return 1.0
-    rho = ac / ac[0]
-    s = 0.0
-    # Geyer's initial positive sequence: sum pairs while they stay positive.
-    for i in range(1, len(rho) - 1, 2):
-        pair = rho[i] + rho[i + 1]
-        if pair <= 0:
-            break
-        s += pair
-    return max(1.0, 1.0 + 2.0 * s)
-
-
 __all__ = [
     "CHANNELS",
     "CHANNEL_AXIS",
@@ -321,7 +258,6 @@ __all__ = [
     "ResidualSettings",
     "RunInput",
     "ZeroPhaseFilter",
-    "autocorr_factor",
     "prepare_run",
     "residual_of",
 ]

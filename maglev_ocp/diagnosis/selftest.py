@@ -54,6 +54,7 @@ from .candidates import CandidateSpec, FitResult, residuals_with
 from .diagnose import LIBRARY, DiagnoseSettings, Diagnosis, diagnose
 from .generate import OUT_OF_LIBRARY, GeneratorSettings, generate_dataset
 from .localize import bin_stats, edges_for, pool
+from .report import write_report
 from .residuals import CHANNELS
 
 Draw = Callable[[np.random.Generator], tuple[dict, dict]]
@@ -603,7 +604,7 @@ def run_selftest(
             res = SelftestResult(settings, cases)
             res.save(out_dir)
             if keep_reports:
-                diag.save(Path(out_dir) / f"case_{i:02d}")
+                write_report(diag, Path(out_dir) / f"case_{i:02d}")
     return SelftestResult(settings, cases)
 
 

@@ -1,5 +1,7 @@
 """Parameter estimation and the seed's calibration procedures (seed sections IV and V).
 
+* :mod:`.ident` - the identification toolkit shared with the diagnosis: zero-phase filtering of
+  accelerations and regressors, HAC (Newey-West) standard errors, effective sample sizes;
 * :mod:`.data` - logged runs as the estimators see them (:class:`RunData`), the vectorized observer;
 * :mod:`.npfisi` - the reduced-order NPFISI estimator of the seed's eq. (3);
 * :mod:`.batch` - all parameters at once by filtered equation error (CasADi NLP), with standard errors;

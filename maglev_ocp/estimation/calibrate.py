@@ -108,6 +108,19 @@ class CalibrationResult:
     skipped: dict[str, str] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ views
+    @property
+    def warnings(self) -> list[str]:
+        """Why the calibration may not be trusted: batch fit (solver, bounds, whiteness) and V.C's cogging law."""
+        out = list(self.batch.warnings) if self.batch is not None else []
+        if self.vc is not None and self.vc.warning:
+            out.append(self.vc.warning)
+        return out
+
+    @property
+    def converged(self) -> bool:
+        """The batch fit's solver converged (True without a batch fit: nothing was solved)."""
+        return self.batch is None or self.batch.converged
+
     def weakly_determined(self) -> dict[str, str]:
         """Parameters the data pins down poorly (relative standard error above 2 %, or not seen at all)."""
         out = {}
@@ -168,6 +181,8 @@ class CalibrationResult:
             "masses": {"Mh": self.params.Mh, "Mv": self.params.Mv},
             "procedures": procs,
             "batch": self.batch.to_dict() if self.batch is not None else None,
+            "converged": self.converged,
+            "warnings": self.warnings,
             "runs": self.groups.summary(),
             "timing_s": self.timing,
         }
@@ -205,6 +220,9 @@ class CalibrationResult:
         else:
             lines.append(f"Every parameter has a relative standard error below {100 * WEAK_REL_STDERR:g} %.")
         lines.append(self.least_determined()[0].upper() + self.least_determined()[1:])
+        if self.warnings:
+            lines.append("")
+            lines += [f"WARNING: {w}" for w in self.warnings]
         ran = [k for k, r in (("V.A", self.va), ("V.B", self.vb), ("V.C", self.vc), ("V.D", self.vd)) if r]
         lines.append("")
         lines.append(

@@ -5,7 +5,7 @@ readings and commanded currents of one run, which axes a fixture held, and
 the velocity estimates of the high-gain observer
 (:mod:`maglev_ocp.observers`). The observer is run here as one CasADi
 ``mapaccum`` over the whole run (:func:`observe`), the same predictor-corrector
-equations as :func:`maglev_ocp.observers.estimate_states` (identical numbers,
+equations as stepping :class:`maglev_ocp.observers.HighGainObserver` (identical numbers,
 checked in the tests) but about fifty times faster, which is what keeps a full
 calibration under a minute.
 """
@@ -13,7 +13,6 @@ calibration under a minute.
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -157,7 +156,7 @@ def observe(
 ) -> np.ndarray:
     """State estimates of a logged run by the high-gain observer, vectorized.
 
-    Same equations and numbers as :func:`maglev_ocp.observers.estimate_states`
+    Same equations and numbers as stepping :class:`~maglev_ocp.observers.HighGainObserver`
     (gain from :class:`~maglev_ocp.observers.HighGainObserver`), evaluated as
     one CasADi ``mapaccum`` instead of a Python loop.
 
@@ -251,11 +250,6 @@ class RunData:
         return len(self.t)
 
     @property
-    def free_axes(self) -> tuple[str, ...]:
-        """Axes that moved (not locked)."""
-        return tuple(a for a in ("g", "d") if a not in self.locked)
-
-    @property
     def state_mask(self) -> np.ndarray:
         """1 for the state rows of the free axes, 0 for the locked ones (shape (4,))."""
         m = np.ones(4)
@@ -281,16 +275,6 @@ class RunData:
         x[:, 0] = self.y[:, 0]
         x[:, 2] = self.y[:, 1]
         return x
-
-
-def prepare(
-    runs: Sequence[RunData], params: Params = NOMINAL, settings: ObserverSettings | None = None
-) -> list[RunData]:
-    """Run the observer on every run that has no state estimates yet."""
-    for r in runs:
-        if r.x_hat is None:
-            r.with_states(params, settings)
-    return list(runs)
 
 
 def runs_from_dataset(dataset, params: Params = NOMINAL, settings: ObserverSettings | None = None) -> list[RunData]:

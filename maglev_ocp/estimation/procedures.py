@@ -36,8 +36,8 @@ import numpy as np
 from .. import constants as k
 from ..model import get_model
 from ..params import Params
-from .batch import filtered_acceleration, gaussian_kernel
 from .data import RunData
+from .ident import filtered_acceleration, gaussian_kernel
 from .npfisi import NPFISIResult, run_npfisi
 
 #: The seed's three values of eps.
@@ -340,6 +340,10 @@ class CoggingResult:
     equilibrium : list of dict
         Measured equilibrium currents at the cogging peak with predictions
         without and with the fitted cogging (Fig. 7).
+    npfisi : NPFISIResult or None
+        The NPFISI run over all peak runs.
+    warning : str
+        Why the cogging law is missing or doubtful (empty if it fitted).
     """
 
     eps: float
@@ -351,6 +355,7 @@ class CoggingResult:
     d_peak: float
     equilibrium: list[dict]
     npfisi: NPFISIResult | None = None
+    warning: str = ""
 
     def xi_seed(self, g: np.ndarray | float) -> np.ndarray:
         """Seed-style estimate ``xi(g) = Mv (C2_peak - C2_d0) f2(g)`` [N] (one C2 over all gaps)."""
@@ -372,6 +377,7 @@ class CoggingResult:
             "xi0": self.xi0,
             "ell": self.ell,
             "equilibrium": self.equilibrium,
+            "warning": self.warning,
         }
 
     def table(self) -> str:
@@ -391,26 +397,54 @@ class CoggingResult:
         return "\n".join(lines)
 
 
-def _fit_cogging_law(g: np.ndarray, xi: np.ndarray, w: np.ndarray) -> tuple[float, float]:
-    """Weighted least squares of ``xi = xi0 exp(-(g - 10 mm)/ell)`` (NaN, NaN if not determined)."""
+#: Bounds of the V.C cogging law ``(xi0 [N], ell [m])``: physical (xi0 >= 0, ell > 0) and plausible.
+COGGING_LAW_BOUNDS: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 2e-4), (1e3, 0.1))
+
+
+def _fit_cogging_law(g: np.ndarray, xi: np.ndarray, w: np.ndarray) -> tuple[float, float, str]:
+    """Weighted least squares of ``xi = xi0 exp(-(g - 10 mm)/ell)`` within :data:`COGGING_LAW_BOUNDS`.
+
+    Returns ``(xi0, ell, warning)``: NaN, NaN and the reason when the law is not
+    determined or the fit fails; the values and a warning when an estimate ends
+    on a bound (the peak forces do not follow the law); ``warning`` is empty otherwise.
+    """
     from scipy.optimize import least_squares
 
     ok = np.isfinite(xi) & np.isfinite(w)
     g, xi, w = g[ok], xi[ok], w[ok]
     if len(g) < 3 or np.max(xi) <= 0:
-        return math.nan, math.nan
+        return math.nan, math.nan, "V.C: the peak cogging forces do not determine the law (fewer than 3, or none > 0)"
     pos = xi > 0.05 * np.max(xi)
     if pos.sum() >= 2:  # start from a log-linear fit of the clearly positive points
         b, a = np.polyfit(g[pos] - k.g_cog_ref, np.log(xi[pos]), 1)
         x0 = [math.exp(a), -1.0 / b if b < 0 else 5e-3]
     else:
         x0 = [float(np.max(xi)), 5e-3]
+    lo, hi = (np.array(b_) for b_ in COGGING_LAW_BOUNDS)
+    # the log-linear start can fall outside the bounds (e.g. forces that hardly decay with the gap)
+    x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
 
     def res(v):
         return w * (xi - v[0] * np.exp(-(g - k.g_cog_ref) / v[1]))
 
-    sol = least_squares(res, x0, bounds=([0.0, 2e-4], [1e3, 0.1]), x_scale=[max(x0[0], 1e-3), 1e-3])
-    return float(sol.x[0]), float(sol.x[1])
+    try:
+        sol = least_squares(res, x0, bounds=(lo, hi), x_scale=[max(x0[0], 1e-3), 1e-3])
+    except (ValueError, np.linalg.LinAlgError) as err:
+        return math.nan, math.nan, f"V.C: the cogging law fit failed ({err})"
+    if not (sol.success and np.all(np.isfinite(sol.x))):
+        return math.nan, math.nan, f"V.C: the cogging law fit did not converge ({sol.message})"
+    xi0, ell = float(sol.x[0]), float(sol.x[1])
+    at = [n for n, v, a, b_ in zip(("xi0", "ell"), sol.x, lo, hi, strict=True) if min(v - a, b_ - v) <= 1e-6 * (b_ - a)]
+    if at:
+        return (
+            xi0,
+            ell,
+            (
+                f"V.C: cogging law {', '.join(at)} at its bound (xi0 = {xi0:.3g} N, ell = {ell * 1e3:.3g} mm): "
+                "the peak cogging forces do not follow xi0 exp(-(g - 10 mm)/ell)"
+            ),
+        )
+    return xi0, ell, ""
 
 
 def procedure_vc(
@@ -443,9 +477,9 @@ def procedure_vc(
     if len(per_gap) >= 3:
         g = np.array([q["g"] for q in per_gap])
         xi = np.array([q["xi"] for q in per_gap])
-        xi0, ell = _fit_cogging_law(g, xi, np.ones_like(g))
+        xi0, ell, warning = _fit_cogging_law(g, xi, np.ones_like(g))
     else:
-        xi0, ell = math.nan, math.nan
+        xi0, ell, warning = math.nan, math.nan, "V.C: fewer than 3 gaps with runs at the peak and at d = 0"
     # Fig. 7: measured equilibrium currents at the peak vs predictions without / with cogging
     eq = []
     p_nc = base0.vector()
@@ -457,7 +491,7 @@ def procedure_vc(
         q["i_d_no_cogging"] = equilibrium_i_d(q["g"], q["d"], p_nc)
         q["i_d_with_cogging"] = equilibrium_i_d(q["g"], q["d"], p_c) if p_c is not None else math.nan
         eq.append(q)
-    return CoggingResult(eps, C2_peak, C2_d0, per_gap, xi0, ell, d_peak, eq, res_all)
+    return CoggingResult(eps, C2_peak, C2_d0, per_gap, xi0, ell, d_peak, eq, res_all, warning)
 
 
 # ----------------------------------------------------------------------- V.D

@@ -1,0 +1,309 @@
+"""The result of a diagnosis (:class:`Diagnosis`), its JSON content and its text summary.
+
+Plain data built by :func:`maglev_ocp.diagnosis.diagnose.diagnose`; the files
+(``report.json``, ``report.md``, figures) are written by
+:func:`maglev_ocp.diagnosis.report.write_report`. ``report.json`` holds at
+least the keys the issue asks for::
+
+    {"verdict": "cogging" | "none" | "unexplained" | "<effect>" | "a|b" | "a+b",
+     "effects": [{"name", "params", "heldout_rms_before", "heldout_rms_after", "reduction", "selected", ...}],
+     "regions": [{"channel", "g_range_m", "d_range_m", "freq_band_hz", "excess_over_floor", ...}],
+     "noise_floor": {"vertical": {...}, "horizontal": {...}},
+     "baseline_params": {"C1": ..., ...}}
+
+plus the reasons of the verdict, the remaining regions, the localization
+summaries (spectral lines, period scan), the simulated-trajectory errors, the
+train/held-out split, the timing and the ``warnings`` (fits whose solver did
+not converge). ``a|b`` is a confusable set (the effects explain the held-out
+runs equally well), ``a+b`` two effects together.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydantic import Field
+
+from ..config import Strict
+from ..params import Params
+from .attribution import EffectScore, Verdict, VerdictRules
+from .localize import BinStats, ChannelFloor, PeriodScan, Region, Spectrum
+from .residuals import Residual
+from .simulate_compare import TrajectoryComparison
+
+
+class DiagnoseSettings(Strict):
+    """Settings of :func:`diagnose` (all have defaults that suit 1 kHz rig logs).
+
+    Attributes
+    ----------
+    fc_hz, numtaps, decimate : float, int, int
+        Residual filter (see :class:`~.residuals.ResidualSettings`).
+    holdout_every : int
+        Hold out every n-th run (at least one).
+    candidates : list of str or None
+        Restrict the candidate library (default: all; ``parameter_error`` is
+        dropped against a calibrated baseline, which absorbs it).
+    z_min, bic_margin, closes_min, confusable_z, second_min : float
+        Verdict thresholds (see :class:`~.attribution.VerdictRules`).
+    n_null : int
+        Null draws (circular shifts) of the period scan's threshold.
+    seed : int
+        Seed of the null draws and subsampling (same seed, same report).
+    horizon_s : float
+        Window of the simulated-trajectory comparison [s].
+    simulate : bool
+        Run the trajectory comparison.
+    """
+
+    fc_hz: float = Field(15.0, gt=0.5, le=200.0)
+    numtaps: int = Field(401, ge=31, le=4001)
+    decimate: int = Field(8, ge=1, le=100)
+    holdout_every: int = Field(3, ge=2, le=20)
+    candidates: list[str] | None = None
+    z_min: float = Field(4.0, gt=0)
+    bic_margin: float = Field(10.0, ge=0)
+    closes_min: float = Field(0.5, gt=0, le=1)
+    confusable_z: float = Field(2.0, ge=0)
+    second_min: float = Field(0.5, gt=0, le=1)
+    n_null: int = Field(8, ge=3, le=200)
+    seed: int = Field(0, ge=0)
+    horizon_s: float = Field(0.05, gt=0.002, le=1.0)
+    simulate: bool = True
+
+    def rules(self) -> VerdictRules:
+        """Verdict thresholds."""
+        return VerdictRules(self.z_min, self.bic_margin, self.closes_min, self.confusable_z, self.second_min)
+
+
+@dataclass
+class ChannelView:
+    """Localization of one channel for one model (baseline or augmented).
+
+    Attributes
+    ----------
+    map_gd : BinStats
+        Residual over gap x position, with per-bin floors.
+    bins : dict of BinStats
+        1-D views over each feature.
+    spectrum : Spectrum or None
+        Welch PSD and peak bands.
+    period : PeriodScan or None
+        Least-squares period scan in d.
+    band : list of float or None
+        Band holding most of the residual's excess power.
+    """
+
+    map_gd: BinStats
+    bins: dict[str, BinStats]
+    spectrum: Spectrum | None
+    period: PeriodScan | None
+    band: list[float] | None
+
+
+@dataclass
+class HeldOut:
+    """The held-out data of a diagnosis, for scoring other models on the same samples (self-check).
+
+    Attributes
+    ----------
+    runs : list of PreparedRun
+        Held-out runs.
+    u : list of ndarray
+        Their commanded currents.
+    floors : ndarray
+        Channel floors used for normalization [m/s^2].
+    baseline : list of Residual
+        Baseline residuals of the held-out runs.
+    """
+
+    runs: list
+    u: list
+    floors: np.ndarray
+    baseline: list
+
+
+@dataclass
+class Diagnosis:
+    """Everything a diagnosis found (see :mod:`.report` for the files it writes).
+
+    Attributes
+    ----------
+    verdict : Verdict
+        The verdict and the reasons.
+    scores : list of EffectScore
+        Candidates (and any pair tried), ranked best first.
+    floors : dict
+        ``{channel: ChannelFloor}`` of the baseline.
+    remaining : dict
+        ``{channel: ChannelFloor}`` after the selected effect(s) (or the best candidate).
+    baseline_params : Params
+        The baseline model.
+    baseline_mode : str
+        ``calibrated`` or ``given``.
+    baseline_stderr : dict
+        Standard errors of the calibrated constants.
+    views_before, views_after : dict
+        ``{channel: ChannelView}`` of the baseline and of the final model (all runs).
+    regions : list of Region
+        Where the baseline residual exceeds the floor.
+    remaining_regions : list of Region
+        Where the final model's residual still does.
+    trajectories : TrajectoryComparison or None
+        Short-window simulation errors on the held-out runs.
+    train, test : list of str
+        Run names used for fitting and for scoring.
+    timing : dict
+        Seconds per stage.
+    residuals_before, residuals_after : list of Residual
+        Baseline and final residuals of every run (for figures).
+    final_model : str
+        Label of the final model (``baseline`` or the selected effects).
+    settings : DiagnoseSettings or None
+        The settings used.
+    quantization_floor : float
+        Analytic quantization part of the noise floor [m/s^2].
+    heldout : HeldOut or None
+        Held-out data for scoring other models (self-check).
+    warnings : list of str
+        Fits whose solver did not converge (their candidates are not counted as evidence).
+    """
+
+    verdict: Verdict
+    scores: list[EffectScore]
+    floors: dict[str, ChannelFloor]
+    remaining: dict[str, ChannelFloor]
+    baseline_params: Params
+    baseline_mode: str
+    baseline_stderr: dict[str, float]
+    views_before: dict[str, ChannelView]
+    views_after: dict[str, ChannelView]
+    regions: list[Region]
+    remaining_regions: list[Region]
+    trajectories: TrajectoryComparison | None
+    train: list[str]
+    test: list[str]
+    timing: dict[str, float] = field(default_factory=dict)
+    residuals_before: list[Residual] = field(default_factory=list)
+    residuals_after: list[Residual] = field(default_factory=list)
+    final_model: str = "baseline"
+    settings: DiagnoseSettings | None = None
+    quantization_floor: float = math.nan
+    heldout: HeldOut | None = None
+    warnings: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        """The ``report.json`` content."""
+        return report_json(self)
+
+    def table(self) -> str:
+        """Text summary (printed by ``maglev diagnose``)."""
+        return summary_table(self)
+
+
+def _clean(x):
+    """JSON-safe copy: numpy scalars to float, NaN/inf to None."""
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        v = float(x)
+        return v if math.isfinite(v) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
+    if isinstance(x, np.ndarray):
+        return _clean(x.tolist())
+    return x
+
+
+def report_json(d: Diagnosis) -> dict:
+    """The content of ``report.json``."""
+    loc = {}
+    for ch, v in d.views_before.items():
+        loc[ch] = {
+            "spectral_peaks": v.spectrum.peaks if v.spectrum is not None else [],
+            "dominant_band_hz": v.band,
+            "period_scan": v.period.to_dict() if v.period is not None else None,
+        }
+    out = {
+        "verdict": d.verdict.verdict,
+        "verdict_effects": d.verdict.selected if d.verdict.verdict not in ("none", "unexplained") else [],
+        "reasons": d.verdict.reasons,
+        "effects": [s.to_dict() for s in d.scores],
+        "regions": [r.to_dict() for r in d.regions],
+        "remaining_regions": [r.to_dict() for r in d.remaining_regions],
+        "noise_floor": {ch: f.to_dict() for ch, f in d.floors.items()},
+        "remaining_floor": {ch: f.to_dict() for ch, f in d.remaining.items()},
+        "quantization_floor_m_s2": d.quantization_floor,
+        "baseline_params": d.baseline_params.as_dict(),
+        "baseline_mode": d.baseline_mode,
+        "baseline_stderr": d.baseline_stderr,
+        "localization": loc,
+        "trajectories": d.trajectories.to_dict() if d.trajectories is not None else None,
+        "final_model": d.final_model,
+        "split": {"train": d.train, "heldout": d.test},
+        "timing_s": d.timing,
+        "settings": d.settings.model_dump() if d.settings is not None else None,
+        "warnings": d.warnings,
+    }
+    return _clean(out)
+
+
+def summary_table(d: Diagnosis) -> str:
+    """Text summary: verdict, floors, ranked candidates, regions."""
+    lines = [f"verdict: {d.verdict.verdict}"]
+    lines += [f"  - {r}" for r in d.verdict.reasons]
+    lines.append(
+        f"baseline ({d.baseline_mode}): "
+        + ", ".join(f"{n}={getattr(d.baseline_params, n):.5g}" for n in ("C1", "C2", "C3", "C4", "xi0"))
+    )
+    lines.append("")
+    lines.append(f"{'channel':<11} {'rms [m/s^2]':>12} {'floor':>10} {'quant.':>9} {'map gain':>9} {'z':>7}  gap")
+    for ch, f in d.floors.items():
+        lines.append(
+            f"{ch:<11} {f.rms:12.4g} {f.floor:10.3g} {f.quantization:9.2g} {f.gain:9.1%} {f.z:7.1f}  "
+            f"{'yes' if f.significant else 'no'}"
+        )
+    lines.append("")
+    head = f"{'candidate':<32} {'before':>9} {'after':>9} {'reduction':>9} {'closes':>7} {'z':>7} {'dBIC':>8}  sel"
+    lines += [head, "-" * len(head)]
+    for s in d.scores:
+        lines.append(
+            f"{s.name:<32} {s.heldout_rms_before:9.4g} {s.heldout_rms_after:9.4g} {s.reduction:9.1%} "
+            f"{s.closes:7.0%} {s.z:7.1f} {s.delta_bic:8.0f}  {'*' if s.selected else ''}"
+        )
+    for s in d.scores:
+        if s.selected:
+            lines.append(
+                f"  {s.name}: "
+                + ", ".join(
+                    f"{k}={v:.4g}" + (f"±{s.stderr[k]:.2g}" if s.stderr.get(k) is not None else "")
+                    for k, v in s.params.items()
+                )
+            )
+    if d.regions:
+        lines.append("")
+        lines.append("regions where the baseline residual exceeds the floor:")
+        for r in d.regions:
+            band = f", band {r.freq_band_hz[0]:.2f}..{r.freq_band_hz[1]:.2f} Hz" if r.freq_band_hz else ""
+            lines.append(
+                f"  {r.channel:<10} g {r.g_range_m[0] * 1e3:6.2f}..{r.g_range_m[1] * 1e3:6.2f} mm, "
+                f"d {r.d_range_m[0] * 1e3:7.2f}..{r.d_range_m[1] * 1e3:7.2f} mm{band}, "
+                f"{r.excess_over_floor:.2f} x floor (z {r.z:.1f})"
+            )
+    if d.trajectories is not None:
+        lines.append("")
+        lines.append(f"simulated {d.trajectories.horizon * 1e3:.0f} ms windows on held-out runs, rms error [mm]:")
+        for lab, e in d.trajectories.rms.items():
+            lines.append(f"  {lab:<10} " + "  ".join(f"{ax} {v * 1e3:.4f}" for ax, v in e.items() if v is not None))
+    lines += [f"warning: {w}" for w in d.warnings]
+    lines.append(f"\ntime: {d.timing.get('total_s', float('nan')):.1f} s")
+    return "\n".join(lines)
+
+
+__all__ = ["ChannelView", "DiagnoseSettings", "Diagnosis", "HeldOut", "report_json", "summary_table"]
