@@ -19,6 +19,7 @@ import pytest
 
 from maglev_ocp.cli import main
 from maglev_ocp.estimation.calibrate import calibrate
+from maglev_ocp.estimation.procedures import COGGING_LAW_BOUNDS, _fit_cogging_law
 from maglev_ocp.loop.experiments import (
     FreeDesign,
     HoverDesign,
@@ -26,7 +27,6 @@ from maglev_ocp.loop.experiments import (
     SeedCalibrationDesign,
     generate_seed_calibration,
 )
-from maglev_ocp.estimation.procedures import COGGING_LAW_BOUNDS, _fit_cogging_law
 from maglev_ocp.params import NOMINAL, Params, load_params
 from maglev_ocp.riglog import read_dataset, write_dataset
 

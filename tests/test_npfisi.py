@@ -192,8 +192,8 @@ def test_batch_on_a_rig_with_saturation_keeps_C4_physical_and_says_the_model_doe
     """Magnetic saturation (not in the model) drives the unconstrained C4 negative: held at 0 and flagged."""
     from controllers.pid import PIDController, PIDSettings
     from maglev_ocp.blocks import Reference
+    from maglev_ocp.loop.drive import run_closed_loop
     from maglev_ocp.plant import Plant, PlantConfig
-    from maglev_ocp.plant.drive import run_closed_loop
 
     cfg = PlantConfig.from_profile(
         "ideal",
