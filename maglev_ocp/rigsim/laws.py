@@ -195,7 +195,16 @@ class Friction(Law):
             "v_reg": 1e-3,
         },
         "dahl": {"Fc_g": 0.25, "Fc_d": 0.25, "sigma": 2e4, "b_g": 0.5, "b_d": 0.5},
-        "lugre": {"Fc_g": 0.15, "Fc_d": 0.15, "Fs_g": 0.1, "Fs_d": 0.1, "vs": 5e-3, "sigma0": 3e4, "b_g": 0.5, "b_d": 0.5},
+        "lugre": {
+            "Fc_g": 0.15,
+            "Fc_d": 0.15,
+            "Fs_g": 0.1,
+            "Fs_d": 0.1,
+            "vs": 5e-3,
+            "sigma0": 3e4,
+            "b_g": 0.5,
+            "b_d": 0.5,
+        },
     }
 
     def __init__(self, family: str | None = None, **params: float):
@@ -278,7 +287,9 @@ class EndEffect(Law):
         if self.family == "quadratic":
             return 1.0 - p["c2"] * np.maximum(np.abs(d) - p["d_edge"], 0.0) ** 2
         L, w = k.pm * k.tau, p["w"]
-        return 1.0 - (p["loss_p"] * _softplus((d - p["e_p"]) / w) + p["loss_n"] * _softplus((-d - p["e_n"]) / w)) * w / L
+        return (
+            1.0 - (p["loss_p"] * _softplus((d - p["e_p"]) / w) + p["loss_n"] * _softplus((-d - p["e_n"]) / w)) * w / L
+        )
 
     def ripple(self, d):
         """Relative thrust at ``d`` (pole-pitch ripple)."""

@@ -119,7 +119,7 @@ class Rig:
         self.rotate_laws = [law for law in self.laws if law.has_rotate]
         self.read_laws = [law for law in self.laws if law.has_read]
         delay = float(self.amp.p["delay_samples"])
-        self.n_delay, self.frac = int(math.floor(delay)), delay - math.floor(delay)
+        self.n_delay, self.frac = math.floor(delay), delay - math.floor(delay)
         Ts = settings.Ts
         if self.frac > 1e-12:  # the delayed command arrives at frac * Ts into the period
             self.sub = [(0.0, self.frac * Ts, "old"), (self.frac * Ts, (1 - self.frac) * Ts, "new")]
@@ -143,7 +143,9 @@ class Rig:
         for law in self.factor_laws:
             law.factors(g, d, f)
         km, kc, rho, thr = f
-        a_up = rho * (c.C2 * sh.f2 * km * km - c.C3 * sh.f3 * i_d * km * kc + c.C4 * sh.f4 * (i_q * i_q + i_d * i_d) * kc * kc)
+        a_up = rho * (
+            c.C2 * sh.f2 * km * km - c.C3 * sh.f3 * i_d * km * kc + c.C4 * sh.f4 * (i_q * i_q + i_d * i_d) * kc * kc
+        )
         a_x = rho * c.C1 * sh.f1 * i_q * km * kc * thr
         if self.nominal_cogging:
             fx, fn = cogging(g, d, c)
