@@ -217,3 +217,14 @@ def test_bad_effect_specs_are_refused():
         build_laws({"friction": {"family": "magic"}})
     with pytest.raises(ValueError, match="unknown parameters"):
         build_laws({"friction": {"family": "dahl", "vs": 1.0}})
+
+
+def test_nominal_cogging_can_be_left_out():
+    N = 600
+    ref = _hover_ref(1, N, 12e-3, 0.25 * 19.05e-3)  # a quarter slot pitch: eq. (9) cogging near its peak
+    with_cog = simulate(Rig(NOMINAL, [], RigSettings.ideal(n_runs=1)), ref, np.random.default_rng(0))
+    without = simulate(
+        Rig(NOMINAL, [], RigSettings.ideal(n_runs=1, nominal_cogging=False)), ref, np.random.default_rng(0)
+    )
+    # the controller (no cogging in its model) needs a different thrust current to hold d against it
+    assert abs(with_cog.u[0, -1, 0] - without.u[0, -1, 0]) > 0.05

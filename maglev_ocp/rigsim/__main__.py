@@ -22,6 +22,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--draw", action="store_true", help="draw a random scenario from the seed (ignores --effects)")
     ap.add_argument("--runs", type=int, default=6, help="number of runs (default 6)")
     ap.add_argument("--duration", type=float, default=10.0, help="length of each run [s] (default 10)")
+    ap.add_argument(
+        "--no-nominal-cogging",
+        action="store_true",
+        help="leave out the cogging of seed eq. (9) (MODEL.md's shared law)",
+    )
     args = ap.parse_args(argv)
     names = [n.strip() for n in args.effects.split(",") if n.strip()]
     unknown = [n for n in names if n not in LAWS]
@@ -33,7 +38,12 @@ def main(argv: list[str] | None = None) -> int:
         print("error: --runs must be >= 1 and --duration within 0.01..3600 s", file=sys.stderr)
         return 2
     t0 = time.perf_counter()
-    folder = generate(args.out, effects, args.seed, RigSettings(n_runs=args.runs, duration=args.duration))
+    folder = generate(
+        args.out,
+        effects,
+        args.seed,
+        RigSettings(n_runs=args.runs, duration=args.duration, nominal_cogging=not args.no_nominal_cogging),
+    )
     truth = json.loads((folder / "truth.json").read_text())
     print(f"wrote {folder} in {time.perf_counter() - t0:.1f} s; expected verdict: {truth['expected_verdict']}")
     for name, e in truth["effects"].items():

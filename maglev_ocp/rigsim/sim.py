@@ -67,6 +67,9 @@ class RigSettings:
         Integration sub-steps per period (a fractional delay makes it two).
     locked : list of str
         Fixture per run: ``""``, ``"g"`` or ``"d"`` (default: all free).
+    nominal_cogging : bool
+        The rig has the cogging of seed eq. (9) (MODEL.md makes it part of the shared model); off,
+        the only cogging is a ``cogging`` effect's.
     """
 
     Ts: float = k.Ts
@@ -81,6 +84,7 @@ class RigSettings:
     stops: bool = True
     n_sub: int = 1
     locked: list[str] = field(default_factory=list)
+    nominal_cogging: bool = True
     controller: ControllerSettings = field(default_factory=ControllerSettings)
     excitation: ExcitationSettings = field(default_factory=ExcitationSettings)
 
@@ -112,7 +116,7 @@ class Rig:
         self.res: Resonance | None = by.get("resonance")  # type: ignore[assignment]
         self.temp: TemperatureDrift | None = by.get("temperature_drift")  # type: ignore[assignment]
         cog = by.get("cogging")
-        self.nominal_cogging = not (isinstance(cog, Cogging) and cog.p["replace"])
+        self.nominal_cogging = settings.nominal_cogging and not (isinstance(cog, Cogging) and cog.p["replace"])
         self.factor_laws = [law for law in self.laws if law.has_factors]
         self.force_laws = [law for law in self.laws if law.has_force]
         self.held_laws = [law for law in self.laws if law.has_held]
