@@ -16,7 +16,7 @@ import pkgutil
 import sys
 from collections.abc import Sequence
 
-from ..errors import UserError
+from ..errors import UserError, one_line
 
 EPILOG = """examples:
   maglev model --gaps 10 15 20 25 --json
@@ -49,20 +49,62 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``maglev`` console script."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "handler", None):
-        parser.print_help()
-        return 2
+    """Entry point of the ``maglev`` console script.
+
+    Every failure ends here as one line on stderr: bad input (a
+    :class:`~maglev_ocp.errors.UserError`, an unreadable or unwritable path, a
+    file nested too deeply, a resource limit) exits 2, an interrupt (SIGINT)
+    exits 130, and anything unforeseen exits 1 with ``internal error`` (set
+    ``MAGLEV_DEBUG=1`` to see its traceback). Never a traceback otherwise.
+    """
+    command = "maglev"
     try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "handler", None):
+            parser.print_help()
+            return 2
+        command = f"maglev {args.command}"
         return int(args.handler(args) or 0)
-    except UserError as err:
-        print(f"maglev {args.command}: error: {err}", file=sys.stderr)
-        return err.exit_code
     except KeyboardInterrupt:
-        print(f"maglev {args.command}: interrupted", file=sys.stderr)
+        _say(f"{command}: interrupted")
         return 130
+    except BaseException as err:
+        if isinstance(err, SystemExit) or os.environ.get("MAGLEV_DEBUG"):
+            raise
+        text, code = describe_failure(err)
+        _say(f"{command}: {text}")
+        return code
+
+
+def describe_failure(err: BaseException) -> tuple[str, int]:
+    """One-line text and exit code of a failure (see :func:`main`)."""
+    if isinstance(err, UserError):
+        return f"error: {err}", err.exit_code
+    if isinstance(err, RecursionError):
+        return "error: input nested too deeply (recursion limit)", 2
+    if isinstance(err, MemoryError):
+        return "error: out of memory (input too large)", 2
+    if isinstance(err, BrokenPipeError):
+        return "error: output pipe closed", 2
+    if isinstance(err, OSError):
+        where = f"{err.filename}: " if err.filename else ""
+        return one_line(f"error: {where}{err.strerror or err}"), 2
+    if isinstance(err, (ValueError, OverflowError)):
+        return one_line(f"error: {err}"), 2
+    return one_line(f"internal error: {type(err).__name__}: {err} (MAGLEV_DEBUG=1 shows the traceback)"), 1
+
+
+def _say(line: str) -> None:
+    """Print one line on stderr, whatever state stdout/stderr are in."""
+    try:
+        sys.stdout.flush()
+    except Exception:
+        pass
+    try:
+        print(line, file=sys.stderr, flush=True)
+    except Exception:
+        pass
 
 
 def add_command(sub, name: str, help: str, description: str, example: str) -> argparse.ArgumentParser:
