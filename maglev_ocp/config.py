@@ -229,11 +229,11 @@ def _check_ancestors(path: Path, what: str, label: str) -> None:
     _probe_write(base, f"{what}: {label}")
 
 
-def check_output_dir(path: str | os.PathLike, what: str = "--out") -> Path:
+def check_output_dir(path: str | os.PathLike, what: str = "--out", replaced: bool = True) -> Path:
     """Check, before any work, that a results folder can be written at ``path``; nothing is created.
 
     Refuses an empty path, the current directory (or one of its ancestors, or the
-    home folder: a result folder is replaced whole), a path under a regular
+    home folder) when the folder is ``replaced`` whole, a path under a regular
     file, an existing file where the folder should be, and a location we cannot
     write to (read-only file system, permissions), with one line naming the path.
 
@@ -248,7 +248,7 @@ def check_output_dir(path: str | os.PathLike, what: str = "--out") -> Path:
     p = Path(raw)
     full = p.absolute()
     cwd = Path.cwd().absolute()
-    if full == cwd or full in cwd.parents or full == Path.home().absolute() or full == full.parent:
+    if replaced and (full == cwd or full in cwd.parents or full == Path.home().absolute() or full == full.parent):
         raise ConfigError(
             f"{what}: {raw}: refusing to use this folder for results (it would be replaced); give a sub-folder"
         )
