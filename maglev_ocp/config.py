@@ -229,13 +229,18 @@ def _check_ancestors(path: Path, what: str, label: str) -> None:
     _probe_write(base, f"{what}: {label}")
 
 
-def check_output_dir(path: str | os.PathLike, what: str = "--out", replaced: bool = True) -> Path:
+def check_output_dir(
+    path: str | os.PathLike, what: str = "--out", replaced: bool = True, expect: tuple[str, ...] = ()
+) -> Path:
     """Check, before any work, that a results folder can be written at ``path``; nothing is created.
 
     Refuses an empty path, the current directory (or one of its ancestors, or the
     home folder) when the folder is ``replaced`` whole, a path under a regular
     file, an existing file where the folder should be, and a location we cannot
     write to (read-only file system, permissions), with one line naming the path.
+    With ``expect`` (file names a result of the command has), an existing folder
+    with files must hold one of them: a folder that is not an earlier result
+    (the user's data, say) is never replaced.
 
     Returns
     -------
@@ -256,6 +261,11 @@ def check_output_dir(path: str | os.PathLike, what: str = "--out", replaced: boo
         if not p.is_dir():
             raise ConfigError(f"{what}: {raw} exists and is not a folder")
         _probe_write(p, f"{what}: {raw}")
+        if expect and any(p.iterdir()) and not any((p / name).exists() for name in expect):
+            raise ConfigError(
+                f"{what}: {raw} holds files but is not an earlier result of this command "
+                f"(no {' or '.join(expect)}); give a new or empty folder"
+            )
     _check_ancestors(full, what, raw)
     return p
 

@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"--eps: {e:g} is outside 1e-5..1")
     if not Path(args.dataset).exists():
         raise UserError(f"DATASET: {args.dataset}: no such folder")
-    check_output_dir(args.out)
+    check_output_dir(args.out, expect=("params.yaml", "calibration.json"))
     prior = load_params(args.prior) if args.prior else NOMINAL
     res = calibrate(args.dataset, prior=prior, eps_list=tuple(args.eps), progress=not args.no_progress)
     with replace_dir(args.out) as tmp:

@@ -53,7 +53,9 @@ def run(args: argparse.Namespace) -> int:
     from ..config import check_output_dir, replace_dir
     from ..params import NOMINAL, load_params
 
-    out = check_output_dir(args.out)  # before the (slow) code generation; refuses the current directory
+    out = check_output_dir(
+        args.out, expect=("maglev_controller.h", "Makefile")
+    )  # before the (slow) code generation; refuses the current directory
     kinds = [s.strip() for s in args.controllers.split(",") if s.strip()]
     bad = [s for s in kinds if s not in KINDS]
     if bad or not kinds:

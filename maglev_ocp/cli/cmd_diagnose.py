@@ -37,6 +37,10 @@ Other modes:
 """
 
 
+#: Files of a diagnosis report folder (an existing --out must hold one to be replaced).
+REPORT_FILES: tuple[str, ...] = ("report.json", "report.md")
+
+
 def register(sub) -> None:
     """Add the ``diagnose`` subcommand."""
     from . import add_command
@@ -165,12 +169,14 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _dataset(args) -> int:
+    from ..config import check_output_dir, replace_dir
     from ..diagnosis import diagnose
     from ..params import load_params
     from ..riglog import read_dataset
 
     if not args.out:
         raise UserError("--out DIR is required")
+    check_output_dir(args.out, expect=REPORT_FILES)
     folder = Path(args.dataset)
     if not (folder / "dataset.yaml").is_file():
         raise UserError(f"{folder}: not a dataset folder (no dataset.yaml)")
@@ -179,17 +185,19 @@ def _dataset(args) -> int:
     ds = read_dataset(folder)
     d = diagnose(ds, params=params, settings=st, progress=True)
     print(d.table())
-    if args.no_figures:
-        from ..diagnosis.report import write_report
+    with replace_dir(args.out) as tmp:
+        if args.no_figures:
+            from ..diagnosis.report import write_report
 
-        write_report(d, args.out, figures=False)
-    else:
-        d.save(args.out)
+            write_report(d, tmp, figures=False)
+        else:
+            d.save(tmp)
     print(f"report: {Path(args.out) / 'report.md'}")
     return 0
 
 
 def _selftest(args) -> int:
+    from ..config import check_output_dir, replace_dir
     from ..diagnosis.selftest import DRAWS, SelftestSettings, run_selftest
 
     if args.selftest < 1:
@@ -208,7 +216,12 @@ def _selftest(args) -> int:
         diagnose=_settings(args, simulate=False),
         truths=args.truths,
     )
-    res = run_selftest(st, progress=True, out_dir=args.out, keep_reports=args.keep_reports)
+    if args.out:
+        check_output_dir(args.out, expect=("selftest.json", "selftest.md"))
+        with replace_dir(args.out) as tmp:
+            res = run_selftest(st, progress=True, out_dir=tmp, keep_reports=args.keep_reports)
+    else:
+        res = run_selftest(st, progress=True, out_dir=None, keep_reports=args.keep_reports)
     print(res.table())
     if args.out:
         print(f"written: {Path(args.out) / 'selftest.md'}")
@@ -218,11 +231,14 @@ def _selftest(args) -> int:
 def _generate(args) -> int:
     import numpy as np
 
+    from ..config import check_output_dir, replace_dir
     from ..diagnosis.generate import generate_dataset
     from ..diagnosis.selftest import selftest_plant
     from ..params import NOMINAL
+    from ..riglog import read_dataset
 
     _check_effect(args.effect, allow_none=True)
+    check_output_dir(args.generate, "--generate", expect=("dataset.yaml",))
     eff = _kv(args.effect_param)
     params = NOMINAL.without_cogging()
     effects: dict = {}
@@ -251,13 +267,15 @@ def _generate(args) -> int:
         extra_info=info,
         progress=True,
     )
-    gen.save(args.generate)
-    print(gen.dataset.table())
+    with replace_dir(args.generate) as tmp:  # a generated dataset carries its truth: replaced whole, not appended
+        gen.save(tmp)
+    print(read_dataset(args.generate).table())
     print(f"written: {args.generate}")
     return 0
 
 
 def _scenario(args) -> int:
+    from ..config import check_output_dir, replace_dir
     from ..diagnosis.closed_loop import closed_loop_view, fitted_from_report
     from ..diagnosis.generate import GeneratorSettings
 
@@ -266,6 +284,8 @@ def _scenario(args) -> int:
     _check_effect(args.effect)
     if not Path(args.scenario).is_file():
         raise UserError(f"{args.scenario}: no such scenario file")
+    if args.out:
+        check_output_dir(args.out, expect=("closed_loop.json", "closed_loop.md"))
     fitted = fitted_from_report(args.fitted_from, args.effect) if args.fitted_from else None
     view = closed_loop_view(
         args.scenario,
@@ -277,6 +297,7 @@ def _scenario(args) -> int:
     )
     print(view.table())
     if args.out:
-        view.save(args.out)
+        with replace_dir(args.out) as tmp:
+            view.save(tmp)
         print(f"written: {Path(args.out) / 'closed_loop.md'}")
     return 0

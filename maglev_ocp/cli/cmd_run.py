@@ -15,6 +15,10 @@ EXAMPLES = """examples:
   maglev run scenarios/traverse_20mm_fl.yaml --out /tmp/tr --no-figures"""
 
 
+#: Files a scenario's result folder has (an existing OUT/<name>/ must hold one to be replaced).
+RESULT_FILES: tuple[str, ...] = ("metrics.json", "error.txt", "scenario.yaml")
+
+
 def register(sub) -> None:
     """Add the ``run`` subcommand."""
     from . import add_command
@@ -60,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     if dup:
         raise UserError(f"two scenarios share the name {dup[0]!r} (their results would overwrite each other)")
     for sc in scenarios:
-        check_output_dir(out / sc.name, f"--out (scenario {sc.name})")
+        check_output_dir(out / sc.name, f"--out (scenario {sc.name})", expect=RESULT_FILES)
     cache: dict = {}
     rows = []
     ok = True
