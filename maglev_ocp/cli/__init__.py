@@ -13,7 +13,9 @@ import argparse
 import importlib
 import os
 import pkgutil
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from ..errors import UserError, one_line
@@ -58,6 +60,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ``MAGLEV_DEBUG=1`` to see its traceback). Never a traceback otherwise.
     """
     command = "maglev"
+    interrupts: list[int] = []
+    previous = _catch_sigint(interrupts)
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -72,9 +76,35 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BaseException as err:
         if isinstance(err, SystemExit) or os.environ.get("MAGLEV_DEBUG"):
             raise
+        if interrupts:  # a library turned the KeyboardInterrupt into another error (seen in matplotlib)
+            _say(f"{command}: interrupted")
+            return 130
         text, code = describe_failure(err)
         _say(f"{command}: {text}")
         return code
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
+def _catch_sigint(interrupts: list[int]):
+    """Note every SIGINT in ``interrupts`` (then raise KeyboardInterrupt as usual); returns the previous handler.
+
+    Only in the main thread and only where SIGINT has Python's default handler;
+    ``None`` where nothing was installed.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is not signal.default_int_handler:
+        return None
+
+    def _handler(signum, frame):
+        interrupts.append(signum)
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, _handler)
+    return previous
 
 
 def describe_failure(err: BaseException) -> tuple[str, int]:
