@@ -253,7 +253,11 @@ def check_output_dir(
     p = Path(raw)
     full = p.absolute()
     cwd = Path.cwd().absolute()
-    if replaced and (full == cwd or full in cwd.parents or full == Path.home().absolute() or full == full.parent):
+    if replaced and full == cwd:
+        raise ConfigError(
+            f"{what}: {raw}: refusing to write into the current directory (it would be replaced); give a sub-folder"
+        )
+    if replaced and (full in cwd.parents or full == Path.home().absolute() or full == full.parent):
         raise ConfigError(
             f"{what}: {raw}: refusing to use this folder for results (it would be replaced); give a sub-folder"
         )
