@@ -355,6 +355,28 @@ def _sigint_deferred() -> Iterator[None]:
         raise KeyboardInterrupt
 
 
+@contextlib.contextmanager
+def sigint_ignored() -> Iterator[None]:
+    """Ignore SIGINT (in the main thread) while the block runs.
+
+    Worker processes started inside the block inherit the ignored SIGINT (and
+    Python then installs no KeyboardInterrupt handler in them), so a Ctrl-C on
+    the terminal's process group reaches only the parent, which shuts its
+    workers down: no tracebacks from the workers.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _swap(new: Path, final: Path) -> None:
     old = None
     if final.exists() or final.is_symlink():

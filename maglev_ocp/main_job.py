@@ -38,7 +38,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-from .config import atomic_write_text, replace_dir
+from .config import atomic_write_text, replace_dir, sigint_ignored
 
 SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
 
@@ -121,6 +121,18 @@ def _calibration_task(out_dir: str) -> dict[str, Any]:
         return {"ok": False, "error": f"{type(err).__name__}: {err}", "wall_s": time.perf_counter() - t0}
 
 
+def _submit_all(pool: ProcessPoolExecutor, a: argparse.Namespace, out: Path, names: list[str]) -> dict:
+    """Submit the job's tasks; returns future -> task name."""
+    futs = {}
+    if not a.no_min_time:
+        futs[pool.submit(_min_time_task, str(out / "min_time"))] = "__min_time__"
+    if not a.no_calibration:
+        futs[pool.submit(_calibration_task, str(out / "calibration"))] = "__calibration__"
+    for n in names:
+        futs[pool.submit(_run_scenario_task, str(SCENARIO_DIR / f"{n}.yaml"), str(out / n))] = n
+    return futs
+
+
 def _ignore_sigint() -> None:
     """Worker initializer: SIGINT is the parent's to handle (workers stop when the pool shuts down)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -143,7 +155,7 @@ def write_simulation(out: Path) -> int:
     """A 2 s plant simulation: the seed's excitation experiment (PID regulators), via ``maglev simulate``."""
     from .cli import main as cli_main
 
-    return cli_main(
+    code = cli_main(
         [
             "simulate",
             "--experiment",
@@ -158,6 +170,9 @@ def write_simulation(out: Path) -> int:
             "--no-progress",
         ]
     )
+    if code == 130:  # interrupted (the CLI said so): stop the job too
+        raise KeyboardInterrupt
+    return code
 
 
 def _fmt(v: float | None, scale: float = 1.0, nd: int = 3) -> str:
@@ -338,13 +353,8 @@ def _main(argv: list[str] | None) -> int:
     with ProcessPoolExecutor(
         max_workers=a.jobs, mp_context=multiprocessing.get_context("spawn"), initializer=_ignore_sigint
     ) as pool:
-        futs = {}
-        if not a.no_min_time:
-            futs[pool.submit(_min_time_task, str(out / "min_time"))] = "__min_time__"
-        if not a.no_calibration:
-            futs[pool.submit(_calibration_task, str(out / "calibration"))] = "__calibration__"
-        for n in names:
-            futs[pool.submit(_run_scenario_task, str(SCENARIO_DIR / f"{n}.yaml"), str(out / n))] = n
+        with sigint_ignored():  # workers are spawned by submit(): they inherit the ignored SIGINT
+            futs = _submit_all(pool, a, out, names)
         try:
             for fut in tqdm(as_completed(futs), total=len(futs), desc="headline", unit="task"):
                 name = futs[fut]

@@ -646,3 +646,17 @@ def test_unforeseen_errors_are_one_line_with_exit_1(monkeypatch, tmp_path):
     monkeypatch.setattr(cmd_model, "table", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt()))
     code, out, err = cli("model")
     assert_one_line_failure(code, out, err, "interrupted", exit_code=130)
+
+
+def test_a_campaign_whose_runs_all_failed_exits_1_with_one_line(tmp_path, tiny, monkeypatch):
+    import maglev_ocp.campaign  # noqa: F401 - loads the module below
+
+    ex = sys.modules["maglev_ocp.campaign.execute"]
+
+    def broken(scenario, seed, workdir, save):
+        raise RuntimeError("solver exploded")
+
+    monkeypatch.setattr(ex, "run_real", broken)
+    f = _campaign(tmp_path, tiny, n_runs=2)
+    code, out, err = cli("campaign", str(f), "--out", str(tmp_path / "o"), "--workers", "1", "--quiet")
+    assert_one_line_failure(code, out, err, "every run", "failed", exit_code=1)

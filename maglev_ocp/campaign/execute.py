@@ -48,7 +48,7 @@ from typing import Any
 
 import yaml
 
-from ..config import atomic_write_text
+from ..config import atomic_write_text, sigint_ignored
 from ..errors import UserError
 from .config import Campaign, SaveSettings
 from .expand import RunSpec, apply_overrides, expand
@@ -426,9 +426,10 @@ def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
         finally:
             client.close()
         return
-    cluster = LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR
-    )
+    with sigint_ignored():  # the worker processes inherit SIG_IGN: Ctrl-C is the client's (no worker tracebacks)
+        cluster = LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR
+        )
     client = Client(cluster)
     try:
         client.register_plugin(plugin_cls())
