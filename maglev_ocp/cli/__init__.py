@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import os
 import pkgutil
 import signal
@@ -135,6 +136,15 @@ def _say(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
     except Exception:
         pass
+
+
+def check_range(flag: str, v: float, lo: float, hi: float, unit: str = "", lo_open: bool = False) -> None:
+    """A command-line number must be finite and in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``); one-line UserError."""
+    u = f" {unit}" if unit else ""
+    if math.isnan(v):
+        raise UserError(f"{flag}: NaN is not allowed; give a number in {lo:g}..{hi:g}{u}")
+    if not (math.isfinite(v) and (lo < v if lo_open else lo <= v) and v <= hi):
+        raise UserError(f"{flag}: {v:g}{u} is outside {'(' if lo_open else ''}{lo:g}..{hi:g}{u}")
 
 
 def add_command(sub, name: str, help: str, description: str, example: str) -> argparse.ArgumentParser:

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 from ..errors import UserError
+from . import check_range
 
 
 def register(sub) -> None:
@@ -49,8 +49,7 @@ def run(args: argparse.Namespace) -> int:
     from ..params import NOMINAL, load_params
 
     for e in args.eps:
-        if not (math.isfinite(e) and 1e-5 <= e <= 1.0):
-            raise UserError(f"--eps: {e:g} is outside 1e-5..1")
+        check_range("--eps", e, 1e-5, 1.0)
     if not Path(args.dataset).exists():
         raise UserError(f"DATASET: {args.dataset}: no such folder")
     check_output_dir(args.out, expect=("params.yaml", "calibration.json"))

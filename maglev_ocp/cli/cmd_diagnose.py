@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 from ..errors import UserError
+from . import check_range
 
 DESCRIPTION = """\
 Diagnose the sim-to-real gap of a rig-log dataset (maglev-rig-log/1, closed- or
@@ -132,8 +133,7 @@ def _check_effect(name: str | None, allow_none: bool = False) -> None:
 def _settings(args, **kw):
     from ..diagnosis.diagnose import LIBRARY, DiagnoseSettings
 
-    if not (math.isfinite(args.fc) and 0.5 < args.fc <= 200):
-        raise UserError(f"--fc: {args.fc} Hz is outside (0.5, 200]")
+    check_range("--fc", args.fc, 0.5, 200.0, "Hz", lo_open=True)
     if args.candidates:
         bad = [c for c in args.candidates if c not in LIBRARY]
         if bad:
@@ -146,8 +146,7 @@ def _generator(args):
 
     if not 2 <= args.runs <= 100:
         raise UserError(f"--runs: {args.runs} is outside 2..100")
-    if not (math.isfinite(args.duration) and 2.0 <= args.duration <= 600.0):
-        raise UserError(f"--duration: {args.duration} s is outside 2..600 s")
+    check_range("--duration", args.duration, 2.0, 600.0, "s")
     return GeneratorSettings(n_runs=args.runs, run_duration=args.duration)
 
 

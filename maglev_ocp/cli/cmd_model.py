@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 
-from ..errors import UserError
+from . import check_range
 
 #: Figure formats ``--plot`` writes (by the file's suffix).
 PLOT_SUFFIXES: tuple[str, ...] = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff")
@@ -109,8 +108,7 @@ def run(args: argparse.Namespace) -> int:
         check_output_file(args.plot, "--plot", PLOT_SUFFIXES)
     params = load_params(args.params) if args.params else NOMINAL
     for g in args.gaps:
-        if not (math.isfinite(g) and 1.0 <= g <= 100.0):
-            raise UserError(f"--gaps: {g} mm is outside 1..100 mm")
+        check_range("--gaps", g, 1.0, 100.0, "mm")
     rows = table(args.gaps, params)
     if args.json:
         print(json.dumps(rows, indent=2))

@@ -137,8 +137,9 @@ def _mm_tag(v_mm: float) -> str:
 
 
 def _check_range(name: str, v: float, lo: float, hi: float, unit: str) -> None:
-    if not (math.isfinite(v) and lo <= v <= hi):
-        raise UserError(f"{name}: {v:g} {unit} is outside {lo:g}..{hi:g} {unit}")
+    from . import check_range
+
+    check_range(name, v, lo, hi, unit)
 
 
 def plot_run(run, path: Path) -> None:
