@@ -197,6 +197,12 @@ def test_simulate_appends_to_an_existing_dataset(tmp_path):
     assert sorted(r.file for r in ds.runs) == ["hover_g18p0_d0p0.csv", "hover_g20p0_d0p0.csv"]
     assert len(ds.run("hover_g20p0_d0p0.csv")) == 30
     assert not (out / "hover_g20p0_d0p0.png").exists()
+    # runs made with another seed keep the dataset-level metadata of their own simulation
+    assert cli("simulate", "--duration", "0.02", "--g", "16", "--seed", "5", "--out", str(out), "--no-progress")[0] == 0
+    ds = read_dataset(out)
+    assert ds.meta["seed"] == 5 and len(ds.runs) == 3
+    assert ds.run("hover_g18p0_d0p0.csv").meta["dataset_meta"]["seed"] == 0
+    assert "dataset_meta" not in ds.run("hover_g16p0_d0p0.csv").meta
 
 
 def test_simulate_refuses_a_dataset_with_another_encoder_before_simulating(tmp_path, dataset):

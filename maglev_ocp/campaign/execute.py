@@ -48,7 +48,7 @@ from typing import Any
 
 import yaml
 
-from ..config import atomic_write_text, sigint_ignored
+from ..config import atomic_write_text, load_yaml, sigint_ignored
 from ..errors import UserError
 from .config import Campaign, SaveSettings
 from .expand import RunSpec, apply_overrides, expand
@@ -349,7 +349,9 @@ def _check_plan(out_dir: Path, camp: Campaign) -> None:
     """Refuse an OUT made by a different campaign (before anything is written)."""
     p = out_dir / "campaign.yaml"
     if p.exists():
-        old = yaml.safe_load(p.read_text()) or {}
+        old = load_yaml(p) or {}
+        if not isinstance(old, dict):
+            raise UserError(f"{p}: not a campaign record; use another --out")
         if old.get("name") not in (None, camp.name):
             raise UserError(f"{out_dir}: holds campaign {old.get('name')!r}, not {camp.name!r}; use another --out")
 
