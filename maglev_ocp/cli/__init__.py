@@ -122,7 +122,7 @@ def describe_failure(err: BaseException) -> tuple[str, int]:
         where = f"{err.filename}: " if err.filename else ""
         return one_line(f"error: {where}{err.strerror or err}"), 2
     if isinstance(err, (ValueError, OverflowError)):
-        return one_line(f"error: {err}"), 2
+        return one_line(f"error: {err or type(err).__name__}"), 2
     return one_line(f"internal error: {type(err).__name__}: {err} (MAGLEV_DEBUG=1 shows the traceback)"), 1
 
 
