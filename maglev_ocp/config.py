@@ -261,6 +261,8 @@ def check_output_dir(
         raise ConfigError(
             f"{what}: {raw}: refusing to use this folder for results (it would be replaced); give a sub-folder"
         )
+    if len(os.fsencode(f".{full.name}.tmp-12345678")) > 255:
+        raise ConfigError(f"{what}: folder name of {len(full.name)} characters is too long (keep it under 230)")
     if p.exists():
         if not p.is_dir():
             raise ConfigError(f"{what}: {raw} exists and is not a folder")
@@ -286,6 +288,8 @@ def check_output_file(path: str | os.PathLike, what: str = "--out", suffixes: tu
         raise ConfigError(
             f"{what}: {raw}: unsupported file type {p.suffix or '(none)'!r}; use one of {', '.join(suffixes)}"
         )
+    if len(os.fsencode(f".{p.name}.12345678{p.suffix or '.tmp'}")) > 255:
+        raise ConfigError(f"{what}: file name of {len(p.name)} characters is too long (keep it under 230)")
     if p.exists() and not p.is_file():
         raise ConfigError(f"{what}: {raw} exists and is not a regular file")
     _check_ancestors(p.absolute(), what, raw)
