@@ -304,7 +304,9 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(argv: list[str] | None) -> int:
     """The job (see the module docstring)."""
-    ap = argparse.ArgumentParser(
+    from .cli import OneLineParser
+
+    ap = OneLineParser(
         prog="python -m maglev_ocp.main_job",
         description="Regenerate results/: model table, a plant simulation, the "
         "minimum-time bounds and the headline closed-loop scenarios.",

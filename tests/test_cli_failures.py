@@ -666,3 +666,19 @@ def test_a_campaign_whose_runs_all_failed_exits_1_with_one_line(tmp_path, tiny, 
     f = _campaign(tmp_path, tiny, n_runs=2)
     code, out, err = cli("campaign", str(f), "--out", str(tmp_path / "o"), "--workers", "1", "--quiet")
     assert_one_line_failure(code, out, err, "every run", "failed", exit_code=1)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["run"],
+        ["run", "x.yaml", "--out", "o", "--seed", "abc"],
+        ["simulate", "--lock", "x"],
+        ["frobnicate"],
+        ["model", "--gaps"],
+        ["campaign", "c.yaml", "--out", "o", "--workers", "1", "--scheduler", "tcp://x:1"],
+    ],
+)
+def test_usage_errors_are_one_line(args):
+    code, out, err = cli(*args)
+    assert_one_line_failure(code, out, err, "error:", "--help")

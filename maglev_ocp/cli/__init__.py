@@ -32,9 +32,18 @@ class _Formatter(argparse.RawDescriptionHelpFormatter):
     pass
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """Argument parser whose usage errors are one line (``maglev run: error: ... (see maglev run --help)``)."""
+
+    def error(self, message: str):  # type: ignore[override]
+        """Print one line and exit 2 (argparse would print the whole usage first)."""
+        _say(one_line(f"{self.prog}: error: {message} (see {self.prog} --help)"))
+        raise SystemExit(2)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the top-level parser with every discovered subcommand."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="maglev",
         description=(
             "maglev-ocp: model, simulate, identify, control and diagnose the 2-DOF PMLSM magnetic levitation stage."
