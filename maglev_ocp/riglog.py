@@ -21,6 +21,7 @@ write and read bit for bit.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import math
@@ -510,10 +511,11 @@ def _read_csv_rows(path: Path) -> tuple[list[str], list[list[str]]]:
     reader = csv.reader(io.StringIO(text))
     lines: list[list[str]] = []
     try:
-        for row in reader:
-            lines.append(row)
-            if len(lines) == 1:
-                _check_header(path, row)
+        with wide_csv_fields():
+            for row in reader:
+                lines.append(row)
+                if len(lines) == 1:
+                    _check_header(path, row)
     except csv.Error as err:
         r = reader.line_num - 1
         where = "header (line 1)" if r <= 0 else f"row {r} (line {r + 1})"
@@ -536,6 +538,21 @@ def _read_csv_rows(path: Path) -> tuple[list[str], list[list[str]]]:
                     f"(the limit is {MAX_CELL_CHARS})"
                 )
     return header, body
+
+
+@contextlib.contextmanager
+def wide_csv_fields(limit: int = 1 << 26) -> Iterator[None]:
+    """Let the ``csv`` module read fields up to ``limit`` characters inside the block.
+
+    The module's default (131072) would stop a huge cell with an error that
+    names only the line; with the limit raised, the reader's own cell check
+    (:data:`MAX_CELL_CHARS`) names the row and the column.
+    """
+    previous = csv.field_size_limit(limit)
+    try:
+        yield
+    finally:
+        csv.field_size_limit(previous)
 
 
 def _check_header(path: Path, row: list[str]) -> None:

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError, UserError
-from ..riglog import MAX_CELL_CHARS, MAX_COLUMNS
+from ..riglog import MAX_CELL_CHARS, MAX_COLUMNS, wide_csv_fields
 
 EXAMPLES = """examples:
   maglev simulate --experiment hover --g 15 --duration 2 --out data/hover15
@@ -79,7 +79,8 @@ def read_current_sequence(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         raise DataError(f"{path}: cannot read: {err.__class__.__name__}") from None
     reader = csv.reader(text.splitlines())
     try:
-        rows = list(reader)
+        with wide_csv_fields():
+            rows = list(reader)
     except csv.Error as err:
         raise DataError(f"{path}: line {reader.line_num}: not valid CSV: {err}") from None
     while rows and not any(c.strip() for c in rows[-1]):
