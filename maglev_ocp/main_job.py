@@ -17,9 +17,12 @@ Regenerates ``results/``:
     One table over the headline scenarios, the traverse against the
     minimum-time bound, and the cogging-aware against the cogging-blind model.
 
-Scenarios run in ``--jobs`` worker processes (default 2); each writes its own
-folder atomically file by file, so a failing scenario never loses the others.
-Exit code 0 if every headline scenario passes its tolerance checks, else 1.
+Scenarios run in ``--jobs`` worker processes (default 2); each folder is
+written into a temporary sibling and swapped in whole
+(:func:`maglev_ocp.config.replace_dir`), so a failing or interrupted task never
+leaves a folder that mixes two runs, and never loses the others. Exit code 0 if
+every headline scenario passes its tolerance checks, 1 if one fails, 2 on bad
+input (checked before any work), 130 on an interrupt (SIGINT).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing
+import signal
 import sys
 import time
 import traceback
@@ -34,7 +38,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-from .config import atomic_write_text
+from .config import atomic_write_text, replace_dir, sigint_ignored
 
 SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
 
@@ -71,11 +75,13 @@ def _run_scenario_task(path: str, out_dir: str) -> dict[str, Any]:
     try:
         from .runner import run_scenario
 
-        res = run_scenario(path, out_dir=out_dir, progress=False)
+        res = run_scenario(path, progress=False)
+        with replace_dir(out_dir) as tmp:
+            res.save(tmp)
         return {"ok": True, "metrics": res.metrics.to_dict(), "wall_s": time.perf_counter() - t0}
     except Exception as err:
-        Path(out_dir).mkdir(parents=True, exist_ok=True)
-        atomic_write_text(Path(out_dir) / "error.txt", traceback.format_exc())
+        with replace_dir(out_dir) as tmp:
+            atomic_write_text(tmp / "error.txt", traceback.format_exc())
         return {"ok": False, "error": f"{type(err).__name__}: {err}", "wall_s": time.perf_counter() - t0}
 
 
@@ -86,7 +92,8 @@ def _min_time_task(out_dir: str) -> dict[str, Any]:
         from .ocp import traverse_bounds
 
         b = traverse_bounds(tuple(g * 1e-3 for g in TRAVERSE_GAPS), progress=False)
-        b.save(out_dir)
+        with replace_dir(out_dir) as tmp:
+            b.save(tmp)
         rows = [
             {
                 "g_mm": round(r.start[0] * 1e3, 3),
@@ -107,10 +114,28 @@ def _calibration_task(out_dir: str) -> dict[str, Any]:
     try:
         from .loop.experiments import regenerate_results
 
-        res = regenerate_results(out_dir, progress=False)
+        with replace_dir(out_dir) as tmp:
+            res = regenerate_results(tmp, progress=False)
         return {"ok": True, "table": res.table(), "wall_s": time.perf_counter() - t0}
     except Exception as err:
         return {"ok": False, "error": f"{type(err).__name__}: {err}", "wall_s": time.perf_counter() - t0}
+
+
+def _submit_all(pool: ProcessPoolExecutor, a: argparse.Namespace, out: Path, names: list[str]) -> dict:
+    """Submit the job's tasks; returns future -> task name."""
+    futs = {}
+    if not a.no_min_time:
+        futs[pool.submit(_min_time_task, str(out / "min_time"))] = "__min_time__"
+    if not a.no_calibration:
+        futs[pool.submit(_calibration_task, str(out / "calibration"))] = "__calibration__"
+    for n in names:
+        futs[pool.submit(_run_scenario_task, str(SCENARIO_DIR / f"{n}.yaml"), str(out / n))] = n
+    return futs
+
+
+def _ignore_sigint() -> None:
+    """Worker initializer: SIGINT is the parent's to handle (workers stop when the pool shuts down)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def write_model_table(out: Path) -> str:
@@ -130,7 +155,7 @@ def write_simulation(out: Path) -> int:
     """A 2 s plant simulation: the seed's excitation experiment (PID regulators), via ``maglev simulate``."""
     from .cli import main as cli_main
 
-    return cli_main(
+    code = cli_main(
         [
             "simulate",
             "--experiment",
@@ -145,6 +170,9 @@ def write_simulation(out: Path) -> int:
             "--no-progress",
         ]
     )
+    if code == 130:  # interrupted (the CLI said so): stop the job too
+        raise KeyboardInterrupt
+    return code
 
 
 def _fmt(v: float | None, scale: float = 1.0, nd: int = 3) -> str:
@@ -260,8 +288,25 @@ def summary_markdown(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``python -m maglev_ocp.main_job``."""
-    ap = argparse.ArgumentParser(
+    """Entry point of ``python -m maglev_ocp.main_job``: every failure is one line (see :func:`maglev_ocp.cli.main`)."""
+    from .cli import describe_failure
+
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:
+        print("main_job: interrupted", file=sys.stderr)
+        return 130
+    except Exception as err:
+        text, code = describe_failure(err)
+        print(f"main_job: {text}", file=sys.stderr)
+        return code
+
+
+def _main(argv: list[str] | None) -> int:
+    """The job (see the module docstring)."""
+    from .cli import OneLineParser
+
+    ap = OneLineParser(
         prog="python -m maglev_ocp.main_job",
         description="Regenerate results/: model table, a plant simulation, the "
         "minimum-time bounds and the headline closed-loop scenarios.",
@@ -284,6 +329,7 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     from tqdm.auto import tqdm
 
+    from .config import check_output_dir
     from .errors import UserError
     from .scenario import load_scenario
 
@@ -293,6 +339,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if a.jobs < 1:
             raise UserError(f"--jobs: {a.jobs} must be at least 1")
+        check_output_dir(out, replaced=False)
         for n in names:
             load_scenario(SCENARIO_DIR / f"{n}.yaml")  # bad input: one line, exit 2, before any work
     except UserError as err:
@@ -305,23 +352,25 @@ def main(argv: list[str] | None = None) -> int:
     bounds: dict[str, Any] | None = None
     calib: dict[str, Any] | None = None
     # fresh worker processes (spawn): a forked CasADi cannot load its IPOPT plugin here
-    with ProcessPoolExecutor(max_workers=a.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futs = {}
-        if not a.no_min_time:
-            futs[pool.submit(_min_time_task, str(out / "min_time"))] = "__min_time__"
-        if not a.no_calibration:
-            futs[pool.submit(_calibration_task, str(out / "calibration"))] = "__calibration__"
-        for n in names:
-            futs[pool.submit(_run_scenario_task, str(SCENARIO_DIR / f"{n}.yaml"), str(out / n))] = n
-        for fut in tqdm(as_completed(futs), total=len(futs), desc="headline", unit="task"):
-            name = futs[fut]
-            r = fut.result()
-            if name == "__min_time__":
-                bounds = r
-            elif name == "__calibration__":
-                calib = r
-            else:
-                results[name] = r
+    with ProcessPoolExecutor(
+        max_workers=a.jobs, mp_context=multiprocessing.get_context("spawn"), initializer=_ignore_sigint
+    ) as pool:
+        with sigint_ignored():  # workers are spawned by submit(): they inherit the ignored SIGINT
+            futs = _submit_all(pool, a, out, names)
+        try:
+            for fut in tqdm(as_completed(futs), total=len(futs), desc="headline", unit="task"):
+                name = futs[fut]
+                r = fut.result()
+                if name == "__min_time__":
+                    bounds = r
+                elif name == "__calibration__":
+                    calib = r
+                else:
+                    results[name] = r
+        except KeyboardInterrupt:
+            # Start nothing new; the running tasks finish their folders (each is swapped in whole).
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
     ordered = {n: results[n] for n in names}
     if bounds and bounds.get("ok"):
         print(bounds["table"])
