@@ -25,6 +25,7 @@ largest currents, and ``passed`` with the list of ``failed_checks``.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -414,4 +415,207 @@ def failed_checks(m: Metrics, checks: Any) -> list[str]:
     return out
 
 
-__all__ = ["FAILURE_STATUSES", "Metrics", "TargetMetrics", "compute_metrics", "failed_checks", "target_metrics"]
+# ------------------------------------------------------------------ disturbances
+@dataclass
+class DisturbanceMetrics:
+    """How a controller rode out one scheduled disturbance (``plant.disturbances``).
+
+    The window runs from the disturbance's start to the next disturbance, the
+    next target switch or the end of the run, whichever comes first; a cable's
+    window is the rest of the run (it pulls through every move). Errors are of
+    the TRUE state against the reference (the held target).
+
+    Attributes
+    ----------
+    index : int
+        Position in ``plant.disturbances``.
+    kind : str
+        Its ``type`` (``force_pulse``, ``force_step``, ``payload``, ``cable``).
+    t_start, t_end : float
+        The window [s].
+    peak_error_g_m, peak_error_d_m : float
+        Largest absolute error per axis in the window [m].
+    recovery_time_s : float or None
+        From the start until both axes are back within the tolerance for good
+        (to the end of the window); 0 if they never left it, None if they are
+        not back by the end of the window, and None for a cable (its effect
+        on each move shows in the targets' settle times).
+    stop_hits : int
+        Stop impacts in the window.
+    max_current_A : float
+        Largest commanded current amplitude in the window [A].
+    time_at_limit_s : float
+        Time the commanded currents sat on a current limit (either axis within
+        1 mA of ``i_axis_max`` or the amplitude within 1 mA of ``i_amp_max``) [s].
+    rms_error_after_m : float or None
+        RMS error (both axes together) from recovery to the end of the window [m].
+    """
+
+    index: int
+    kind: str
+    t_start: float
+    t_end: float
+    peak_error_g_m: float
+    peak_error_d_m: float
+    recovery_time_s: float | None
+    stop_hits: int
+    max_current_A: float
+    time_at_limit_s: float
+    rms_error_after_m: float | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict (JSON)."""
+        return dict(self.__dict__)
+
+
+def disturbance_events(disturbances: list) -> list[tuple[int, str, float]]:
+    """``(index, type, start time)`` of each scheduled disturbance, in time order."""
+    out = []
+    for i, d in enumerate(disturbances):
+        t0 = d.time if d.type == "payload" else d.start
+        out.append((i, d.type, float(t0)))
+    return sorted(out, key=lambda e: (e[2], e[0]))
+
+
+def disturbance_metrics(
+    columns: dict[str, np.ndarray],
+    disturbances: list,
+    stop_times: list[float],
+    tolerance: float = k.position_tolerance,
+    i_axis_max: float = k.i_axis_max,
+    i_amp_max: float = k.i_amp_max,
+    Ts: float = k.Ts,
+) -> list[DisturbanceMetrics]:
+    """Metrics of each scheduled disturbance of a run (see :class:`DisturbanceMetrics`).
+
+    Parameters
+    ----------
+    columns : dict of str to ndarray
+        The run's log columns (``t``, ``g_true``, ``d_true``, ``g_ref``, ``d_ref``,
+        ``g_target``, ``d_target``, ``i_q``, ``i_d``), as the runner writes them.
+    disturbances : list
+        The plant's ``disturbances`` settings.
+    stop_times : list of float
+        Times of the run's stop impacts [s].
+    tolerance : float
+        Positioning tolerance [m].
+    i_axis_max, i_amp_max : float
+        Current limits [A] (the time at the limit is counted against them).
+    Ts : float
+        Control period [s].
+    """
+    t = np.asarray(columns["t"], dtype=float)
+    if not len(t):
+        return []
+    eg = np.abs(columns["g_true"] - columns["g_ref"])
+    ed = np.abs(columns["d_true"] - columns["d_ref"])
+    iq, id_ = np.asarray(columns["i_q"], float), np.asarray(columns["i_d"], float)
+    amp = np.hypot(iq, id_)
+    at_lim = (np.maximum(np.abs(iq), np.abs(id_)) >= i_axis_max - 1e-3) | (amp >= i_amp_max - 1e-3)
+    tg = np.stack([columns["g_target"], columns["d_target"]], axis=1)
+    switches = t[1:][np.any(tg[1:] != tg[:-1], axis=1)]
+    events = disturbance_events(disturbances)
+    t_run_end = float(t[-1]) + Ts
+    out = []
+    for j, (idx, kind, t0) in enumerate(events):
+        ends = [t_run_end, *[e[2] for e in events[j + 1 :] if e[2] > t0], *switches[switches > t0 + 1e-9]]
+        t1 = t_run_end if kind == "cable" else min(ends)
+        w = (t >= t0 - 1e-9) & (t < t1 - 1e-9)
+        if not w.any():
+            continue
+        tw, egw, edw = t[w], eg[w], ed[w]
+        outside = np.nonzero((egw > tolerance) | (edw > tolerance))[0]
+        if not len(outside):
+            rec: float | None = 0.0
+            after = slice(0, len(tw))
+        elif outside[-1] == len(tw) - 1:
+            rec, after = None, slice(len(tw), len(tw))
+        else:
+            rec = float(tw[outside[-1] + 1] - t0)
+            after = slice(outside[-1] + 1, len(tw))
+        if kind == "cable":
+            rec, after = None, slice(0, len(tw))
+        e2 = egw[after] ** 2 + edw[after] ** 2
+        out.append(
+            DisturbanceMetrics(
+                index=idx,
+                kind=kind,
+                t_start=t0,
+                t_end=t1,
+                peak_error_g_m=float(egw.max()),
+                peak_error_d_m=float(edw.max()),
+                recovery_time_s=rec,
+                stop_hits=sum(1 for ts in stop_times if t0 - 1e-9 <= ts < t1 + Ts),
+                max_current_A=float(amp[w].max()),
+                time_at_limit_s=float(at_lim[w].sum() * Ts),
+                rms_error_after_m=float(np.sqrt(e2.mean())) if len(e2) else None,
+            )
+        )
+    return out
+
+
+def run_disturbance_metrics(result: Any) -> list[DisturbanceMetrics]:
+    """:func:`disturbance_metrics` of a :class:`maglev_ocp.runner.RunResult` (its plant's disturbances).
+
+    The current limits are the controller's own (``i_axis_max``, ``i_amp_max``
+    or ``current_limit`` in its settings) where it has them, else the amplifier's.
+    """
+    sc = result.scenario
+    st = sc.controller.settings
+    i_amp = float(getattr(st, "i_amp_max", getattr(st, "current_limit", k.i_amp_max)))
+    i_axis = float(getattr(st, "i_axis_max", k.i_axis_max))
+    # StopEvent text: "t = 0.123 s: g hit its lower stop at ..."
+    stops = [float(m.group(1)) for e in result.metrics.stop_events if (m := re.match(r"t = ([-\d.eE+]+) s", e))]
+    return disturbance_metrics(result.columns, list(sc.plant_config().disturbances), stops, sc.tolerance, i_axis, i_amp)
+
+
+def disturbance_table(results: list[tuple[str, Any]]) -> str:
+    """Text table, one row per disturbance of each run: who rides it out better (NMPC vs FL side by side).
+
+    Parameters
+    ----------
+    results : list of (name, RunResult)
+        Runs to tabulate (runs without disturbances are left out). Name them
+        so that the same disturbance scenario's runs sort next to each other
+        (``push_g_fl``, ``push_g_nmpc``).
+    """
+    head = (
+        f"{'scenario':<24} {'ctrl':>5} {'disturbance':>12} {'t0 [s]':>7} {'peak g [um]':>11} {'peak d [um]':>11} "
+        f"{'back [ms]':>9} {'stops':>5} {'max|i| [A]':>10} {'at lim [ms]':>11} {'rms after [um]':>14} {'settled':>8}"
+    )
+    lines = [head, "-" * len(head)]
+    for name, res in sorted(results, key=lambda r: r[0]):
+        if res is None:
+            continue
+        n_ok = sum(tm.settled for tm in res.metrics.targets)
+        settled = f"{n_ok}/{len(res.metrics.targets)}"
+        for dm in run_disturbance_metrics(res):
+            back = (
+                "-"
+                if dm.kind == "cable"
+                else "never"
+                if dm.recovery_time_s is None
+                else f"{dm.recovery_time_s * 1e3:.0f}"
+            )
+            rms = "-" if dm.rms_error_after_m is None else f"{dm.rms_error_after_m * 1e6:.1f}"
+            lines.append(
+                f"{name:<24} {res.metrics.controller:>5} {dm.kind:>12} {dm.t_start:>7.3f} "
+                f"{dm.peak_error_g_m * 1e6:>11.1f} {dm.peak_error_d_m * 1e6:>11.1f} {back:>9} {dm.stop_hits:>5} "
+                f"{dm.max_current_A:>10.2f} {dm.time_at_limit_s * 1e3:>11.0f} {rms:>14} {settled:>8}"
+            )
+    return "\n".join(lines)
+
+
+__all__ = [
+    "FAILURE_STATUSES",
+    "DisturbanceMetrics",
+    "Metrics",
+    "TargetMetrics",
+    "compute_metrics",
+    "disturbance_events",
+    "disturbance_metrics",
+    "disturbance_table",
+    "failed_checks",
+    "run_disturbance_metrics",
+    "target_metrics",
+]

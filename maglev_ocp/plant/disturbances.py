@@ -33,6 +33,7 @@ them is accurate).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Annotated, Literal
 
 import numpy as np
@@ -166,6 +167,52 @@ class DisturbanceSchedule:
         return with_payload(base, self.mass_at(t))
 
 
+def persistent_loads(items: list) -> list[tuple[int, float, float, Callable[[float], float]]]:
+    """The gap-axis loads that stay on, at each time they change: what the mover must then hover under.
+
+    Parameters
+    ----------
+    items : list of disturbance settings
+
+    Returns
+    -------
+    list of (index, time, payload, extra_g)
+        For each payload, force step on ``g`` and cable (``index`` in ``items``),
+        at its ``time`` [s]: the payload carried from then [kg] and the
+        constant force on ``g`` from then as a function of the gap,
+        ``extra_g(g) -> F_g`` [N] (force steps plus the cable's weight and
+        spring; pulses end, so they are not loads).
+    """
+    events = []
+    for i, d in enumerate(items):
+        if isinstance(d, Payload):
+            events.append((i, d.time))
+        elif isinstance(d, ForceStep) and d.axis == "g":
+            events.append((i, d.start))
+        elif isinstance(d, Cable) and (d.weight_g or d.stiffness_g):
+            events.append((i, d.start))
+    out = []
+    for i, t in sorted(events, key=lambda e: e[1]):
+        on = [d for d in items if _on_by(d, t)]
+        mass = math.fsum(d.mass for d in on if isinstance(d, Payload))
+        steps = math.fsum(d.amplitude for d in on if isinstance(d, ForceStep) and d.axis == "g")
+        cables = [d for d in on if isinstance(d, Cable)]
+
+        def extra_g(g: float, steps: float = steps, cables: list = cables) -> float:
+            return steps + math.fsum(c.weight_g - c.stiffness_g * (g - c.rest_g) for c in cables)
+
+        out.append((i, t, mass, extra_g))
+    return out
+
+
+def _on_by(d, t: float) -> bool:
+    if isinstance(d, Payload):
+        return d.time <= t
+    if isinstance(d, ForceStep | Cable):
+        return d.start <= t
+    return False
+
+
 __all__ = [
     "Cable",
     "Disturbance",
@@ -173,5 +220,6 @@ __all__ = [
     "ForcePulse",
     "ForceStep",
     "Payload",
+    "persistent_loads",
     "with_payload",
 ]
