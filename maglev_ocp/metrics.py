@@ -511,7 +511,7 @@ def disturbance_metrics(
     ed = np.abs(columns["d_true"] - columns["d_ref"])
     iq, id_ = np.asarray(columns["i_q"], float), np.asarray(columns["i_d"], float)
     amp = np.hypot(iq, id_)
-    at_lim = (np.maximum(np.abs(iq), np.abs(id_)) >= i_axis_max - 1e-3) | (amp >= i_amp_max - 1e-3)
+    at_lim = (np.maximum(np.abs(iq), np.abs(id_)) >= 0.995 * i_axis_max) | (amp >= 0.995 * i_amp_max)
     tg = np.stack([columns["g_target"], columns["d_target"]], axis=1)
     switches = t[1:][np.any(tg[1:] != tg[:-1], axis=1)]
     events = disturbance_events(disturbances)
