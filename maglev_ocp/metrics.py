@@ -569,40 +569,62 @@ def run_disturbance_metrics(result: Any) -> list[DisturbanceMetrics]:
     return disturbance_metrics(result.columns, list(sc.plant_config().disturbances), stops, sc.tolerance, i_axis, i_amp)
 
 
-def disturbance_table(results: list[tuple[str, Any]]) -> str:
-    """Text table, one row per disturbance of each run: who rides it out better (NMPC vs FL side by side).
+def disturbance_rows(name: str, result: Any) -> list[dict[str, Any]]:
+    """One plain row per scheduled disturbance of a run (scenario, controller, targets settled, the metrics)."""
+    n_ok = sum(tm.settled for tm in result.metrics.targets)
+    base = {
+        "scenario": name,
+        "controller": result.metrics.controller,
+        "settled": f"{n_ok}/{len(result.metrics.targets)}",
+    }
+    return [{**base, **dm.to_dict()} for dm in run_disturbance_metrics(result)]
 
-    Parameters
-    ----------
-    results : list of (name, RunResult)
-        Runs to tabulate (runs without disturbances are left out). Name them
-        so that the same disturbance scenario's runs sort next to each other
-        (``push_g_fl``, ``push_g_nmpc``).
+
+_DIST_COLS = (
+    ("scenario", "scenario", "<24"),
+    ("ctrl", "controller", ">5"),
+    ("disturbance", "kind", ">12"),
+    ("t0 [s]", "t_start", ">7"),
+    ("peak g [um]", "peak_error_g_m", ">11"),
+    ("peak d [um]", "peak_error_d_m", ">11"),
+    ("back in tol [ms]", "recovery_time_s", ">16"),
+    ("stops", "stop_hits", ">5"),
+    ("max|i| [A]", "max_current_A", ">10"),
+    ("at limit [ms]", "time_at_limit_s", ">13"),
+    ("rms after [um]", "rms_error_after_m", ">14"),
+    ("settled", "settled", ">8"),
+)
+
+
+def _dist_cell(key: str, row: dict[str, Any]) -> str:
+    v = row[key]
+    if key == "recovery_time_s":
+        return "-" if row["kind"] == "cable" else "never" if v is None else f"{v * 1e3:.0f}"
+    if key in ("peak_error_g_m", "peak_error_d_m", "rms_error_after_m"):
+        return "-" if v is None else f"{v * 1e6:.1f}"
+    if key == "time_at_limit_s":
+        return f"{v * 1e3:.0f}"
+    if key == "t_start":
+        return f"{v:.3f}"
+    if key == "max_current_A":
+        return f"{v:.2f}"
+    return str(v)
+
+
+def disturbance_table(rows: list[dict[str, Any]], markdown: bool = False) -> str:
+    """Table of :func:`disturbance_rows`: who rides each disturbance out better (NMPC vs FL side by side).
+
+    Rows are sorted by scenario name, so name the runs of one disturbance
+    alike (``push_g_fl``, ``push_g_nmpc``). ``markdown=True`` gives a Markdown table.
     """
-    head = (
-        f"{'scenario':<24} {'ctrl':>5} {'disturbance':>12} {'t0 [s]':>7} {'peak g [um]':>11} {'peak d [um]':>11} "
-        f"{'back [ms]':>9} {'stops':>5} {'max|i| [A]':>10} {'at lim [ms]':>11} {'rms after [um]':>14} {'settled':>8}"
-    )
+    rows = sorted(rows, key=lambda r: (r["scenario"], r["index"]))
+    if markdown:
+        lines = ["| " + " | ".join(h for h, _, _ in _DIST_COLS) + " |", "|" + "---|" * len(_DIST_COLS)]
+        lines += ["| " + " | ".join(_dist_cell(key, r) for _, key, _ in _DIST_COLS) + " |" for r in rows]
+        return "\n".join(lines)
+    head = " ".join(f"{h:{fmt}}" for h, _, fmt in _DIST_COLS)
     lines = [head, "-" * len(head)]
-    for name, res in sorted(results, key=lambda r: r[0]):
-        if res is None:
-            continue
-        n_ok = sum(tm.settled for tm in res.metrics.targets)
-        settled = f"{n_ok}/{len(res.metrics.targets)}"
-        for dm in run_disturbance_metrics(res):
-            back = (
-                "-"
-                if dm.kind == "cable"
-                else "never"
-                if dm.recovery_time_s is None
-                else f"{dm.recovery_time_s * 1e3:.0f}"
-            )
-            rms = "-" if dm.rms_error_after_m is None else f"{dm.rms_error_after_m * 1e6:.1f}"
-            lines.append(
-                f"{name:<24} {res.metrics.controller:>5} {dm.kind:>12} {dm.t_start:>7.3f} "
-                f"{dm.peak_error_g_m * 1e6:>11.1f} {dm.peak_error_d_m * 1e6:>11.1f} {back:>9} {dm.stop_hits:>5} "
-                f"{dm.max_current_A:>10.2f} {dm.time_at_limit_s * 1e3:>11.0f} {rms:>14} {settled:>8}"
-            )
+    lines += [" ".join(f"{_dist_cell(key, r):{fmt}}" for _, key, fmt in _DIST_COLS) for r in rows]
     return "\n".join(lines)
 
 
@@ -614,6 +636,7 @@ __all__ = [
     "compute_metrics",
     "disturbance_events",
     "disturbance_metrics",
+    "disturbance_rows",
     "disturbance_table",
     "failed_checks",
     "run_disturbance_metrics",
