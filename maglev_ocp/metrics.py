@@ -420,10 +420,12 @@ def failed_checks(m: Metrics, checks: Any) -> list[str]:
 class DisturbanceMetrics:
     """How a controller rode out one scheduled disturbance (``plant.disturbances``).
 
-    The window runs from the disturbance's start to the next disturbance, the
-    next target switch or the end of the run, whichever comes first; a cable's
-    window is the rest of the run (it pulls through every move). Errors are of
-    the TRUE state against the reference (the held target).
+    The hold window runs from the disturbance's start to the next disturbance,
+    the next target switch or the end of the run, whichever comes first. A
+    payload or a cable stays on through the later moves, so its window is the
+    rest of the run (recovery is still judged in the hold window). Errors are
+    of the TRUE state against the reference (the held target). Disturbances
+    that start together count as one (``kind`` joined by ``+``).
 
     Attributes
     ----------
@@ -437,9 +439,9 @@ class DisturbanceMetrics:
         Largest absolute error per axis in the window [m].
     recovery_time_s : float or None
         From the start until both axes are back within the tolerance for good
-        (to the end of the window); 0 if they never left it, None if they are
-        not back by the end of the window, and None for a cable (its effect
-        on each move shows in the targets' settle times).
+        (to the end of the hold window); 0 if they never left it, None if they
+        are not back by the end of it, and None for a cable (its effect on
+        each move shows in the targets' settle times).
     stop_hits : int
         Stop impacts in the window.
     max_current_A : float
@@ -448,7 +450,8 @@ class DisturbanceMetrics:
         Time the commanded currents sat on a current limit (either axis within
         1 mA of ``i_axis_max`` or the amplitude within 1 mA of ``i_amp_max``) [s].
     rms_error_after_m : float or None
-        RMS error (both axes together) from recovery to the end of the window [m].
+        RMS error (both axes together) from recovery to the end of the window [m] (a payload's or a
+        cable's window holds the later moves: then it is a tracking error against the plan).
     """
 
     index: int
@@ -469,12 +472,17 @@ class DisturbanceMetrics:
 
 
 def disturbance_events(disturbances: list) -> list[tuple[int, str, float]]:
-    """``(index, type, start time)`` of each scheduled disturbance, in time order."""
-    out = []
+    """``(index, type, start time)`` of the scheduled disturbances, in time order.
+
+    Disturbances that start together are one event: the index of the first,
+    their types joined by ``+``.
+    """
+    ev: dict[float, tuple[int, list[str]]] = {}
     for i, d in enumerate(disturbances):
-        t0 = d.time if d.type == "payload" else d.start
-        out.append((i, d.type, float(t0)))
-    return sorted(out, key=lambda e: (e[2], e[0]))
+        t0 = float(d.time if d.type == "payload" else d.start)
+        _, kinds = ev.setdefault(t0, (i, []))
+        kinds.append(d.type)
+    return [(i, "+".join(kinds), t0) for t0, (i, kinds) in sorted(ev.items())]
 
 
 def disturbance_metrics(
@@ -519,21 +527,24 @@ def disturbance_metrics(
     out = []
     for j, (idx, kind, t0) in enumerate(events):
         ends = [t_run_end, *[e[2] for e in events[j + 1 :] if e[2] > t0], *switches[switches > t0 + 1e-9]]
-        t1 = t_run_end if kind == "cable" else min(ends)
+        t_hold = min(ends)
+        persistent = "payload" in kind or "cable" in kind
+        t1 = t_run_end if persistent else t_hold
         w = (t >= t0 - 1e-9) & (t < t1 - 1e-9)
         if not w.any():
             continue
         tw, egw, edw = t[w], eg[w], ed[w]
-        outside = np.nonzero((egw > tolerance) | (edw > tolerance))[0]
+        n_hold = int(np.sum(tw < t_hold - 1e-9))
+        outside = np.nonzero((egw[:n_hold] > tolerance) | (edw[:n_hold] > tolerance))[0]
         if not len(outside):
             rec: float | None = 0.0
             after = slice(0, len(tw))
-        elif outside[-1] == len(tw) - 1:
+        elif outside[-1] == n_hold - 1:
             rec, after = None, slice(len(tw), len(tw))
         else:
             rec = float(tw[outside[-1] + 1] - t0)
             after = slice(outside[-1] + 1, len(tw))
-        if kind == "cable":
+        if "cable" in kind:
             rec, after = None, slice(0, len(tw))
         e2 = egw[after] ** 2 + edw[after] ** 2
         out.append(
@@ -599,7 +610,7 @@ _DIST_COLS = (
 def _dist_cell(key: str, row: dict[str, Any]) -> str:
     v = row[key]
     if key == "recovery_time_s":
-        return "-" if row["kind"] == "cable" else "never" if v is None else f"{v * 1e3:.0f}"
+        return "-" if "cable" in row["kind"] else "never" if v is None else f"{v * 1e3:.0f}"
     if key in ("peak_error_g_m", "peak_error_d_m", "rms_error_after_m"):
         return "-" if v is None else f"{v * 1e6:.1f}"
     if key == "time_at_limit_s":
