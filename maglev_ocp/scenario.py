@@ -29,7 +29,10 @@ Every key (SI units):
 ``plant``
     ``profile`` (``default``, ``ideal``), ``file`` (a plant YAML), ``params``
     (the rig's nominal parameters, before the profile's random mismatch), and any
-    key of a plant file (``process_noise``, ``effects``, ``mismatch``, ...).
+    key of a plant file (``process_noise``, ``effects``, ``mismatch``, ...), among
+    them ``delay_samples`` (computation delay, control periods) and
+    ``disturbances`` (force pulses / steps, payloads, a cable:
+    :mod:`maglev_ocp.plant.disturbances`).
 ``reference``
     How targets become references (:class:`~maglev_ocp.reference.ReferenceSettings`).
 ``start``

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -134,10 +136,9 @@ def test_predictor_without_plan_gives_the_delay_free_response_n_samples_late():
     assert np.max(np.abs(b[:, [0, 2]] - a[:, [0, 2]])) > 1e-4  # it is late, not on time
 
 
-@pytest.mark.slow
 def test_tour_with_one_period_delay_fl_predictor():
     """Default rig profile, one-period delay: every tour target settles within 0.1 mm with steady RMS <= 6 um."""
-    res = run_scenario("scenarios/tour_fl_delay1.yaml", progress=False, figures=False)
+    res = run_scenario(Path(__file__).parents[1] / "scenarios" / "tour_fl_delay1.yaml", progress=False, figures=False)
     m = res.metrics
     assert all(t.settled for t in m.targets)
     assert m.max_rms_error_g_m <= 6e-6 and m.max_rms_error_d_m <= 6e-6
