@@ -258,6 +258,8 @@ class FeedbackLinearization:
         """
         self._plan = plan
         self._plan_rows = None
+        if plan is not None and self.delay:  # sample it now, not inside a timed step
+            self._plan_ahead(0.0)
 
     def reset(self, y0: Measurement, ref: Reference) -> None:
         """Start a run at reading ``y0`` (mover assumed at rest); clear integrators."""
