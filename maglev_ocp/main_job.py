@@ -79,6 +79,12 @@ HEADLINE: tuple[str, ...] = (
     "near_stops_fl",
 )
 
+#: Disturbance scenarios (pushes, payload, cable, moves near the stops): run for the NMPC-vs-FL table in
+#: ``summary.md``. Their checks are reported there like every other scenario's, but a failure is a finding
+#: of the comparison (e.g. a controller that hits a stop under a payload it does not know), not a broken
+#: job, so they do not set the exit code.
+STRESS: frozenset[str] = frozenset(n for n in HEADLINE if n.split("_")[0] in ("push", "payload", "cable", "near"))
+
 #: Gaps of the traverse comparison [mm].
 TRAVERSE_GAPS: tuple[int, ...] = (15, 20, 25)
 
@@ -438,7 +444,8 @@ def _main(argv: list[str] | None) -> int:
         + "\n",
     )
     print(f"wrote {out}/summary.md ({wall:.0f} s)")
-    ok = all(r.get("ok") and r["metrics"]["passed"] for r in ordered.values()) and rc_sim == 0
+    ok = all(r.get("ok") and (r["metrics"]["passed"] or n in STRESS) for n, r in ordered.items()) and rc_sim == 0
+    ok = ok and all(r.get("ok") for r in ordered.values())
     ok = ok and (calib is None or bool(calib.get("ok")))
     return 0 if ok else 1
 
