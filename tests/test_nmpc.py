@@ -8,10 +8,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from controllers.nmpc import NMPC, NMPCSettings
-from controllers.nmpc_plan import half_duration, move_at
-from controllers.nmpc_qp import ADMMSettings, admm_iteration
-from controllers.nmpc_step import StepBuilder
+from controllers.nmpc import NMPC, NMPCSettings, StepBuilder
+from controllers.nmpc.planner import half_duration, move_at
+from controllers.nmpc.qp import admm_iteration
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import Controller, Measurement, Reference
 from maglev_ocp.config import parse_model
@@ -126,7 +125,7 @@ def test_planner_profile_is_consistent():
 def test_admm_converges_to_the_qp_solution_with_active_disks():
     """The fixed-budget ADMM agrees with an exact solve of the same condensed QP (active current disks)."""
     st = NMPCSettings(current_limit=4.0, reference="plan", qp="dense")
-    b = StepBuilder(st.step_config("plan"))
+    b = StepBuilder(st, "plan")
     init, prep = b.build_init(), b.build_prep()
     p = NOMINAL.vector()
     ref = np.zeros((6, st.horizon + 1))
@@ -150,7 +149,7 @@ def test_admm_converges_to_the_qp_solution_with_active_disks():
         4.0,
         st.soft_gap.w_linear,
         st.soft_gap.w_quadratic,
-        ADMMSettings(a.rho_scale, a.rho_g_rel, a.sigma, a.alpha),
+        a,
     )
 
     def run(n):
@@ -188,7 +187,7 @@ def test_riccati_and_dense_admm_give_the_same_step():
     ref[0], ref[3] = 0.02, 0.05
     outs = {}
     for qp in ("dense", "riccati"):
-        b = StepBuilder(NMPCSettings(reference="plan", qp=qp, current_limit=6.0).step_config("plan"))
+        b = StepBuilder(NMPCSettings(reference="plan", qp=qp, current_limit=6.0), "plan")
         init, step = b.build_init(), b.build_step()
         s0 = np.asarray(init([0.02, -0.05, 0], ref, p)).ravel()
         s0[b.layout.slices()["xhat"]] = [0.0203, 0.01, -0.048, 0.2]  # off the plan: disks active

@@ -145,6 +145,11 @@ class NMPC:
         self.layout, self.step_function, self.init_function = fns.layout, fns.step, fns.init
         return fns
 
+    @property
+    def step_evaluator(self) -> Evaluator:
+        """The evaluator of ``nmpc_step`` in use (after :meth:`prepare` or :meth:`reset`)."""
+        return self._step
+
     def reset(self, y0: Measurement, ref: Reference) -> None:
         """Start at rest at the reading ``y0``, aiming at ``ref``."""
         self._mode = self.reference.resolve_mode(self.settings.reference)

@@ -7,6 +7,12 @@ import os
 import time
 from pathlib import Path
 
+# Importing maglev_ocp.codegen registers the C backend with the runner (maglev_ocp.runner.register_backend);
+# the CLI imports every cmd_* module, so ``backend: c`` works for every command (run, campaign, bench, ...).
+from ..codegen import KINDS, controller_codes
+from ..codegen.build import build_folder
+from ..codegen.sources import generate_sources
+from ..codegen.templates import DEFAULT_CFLAGS
 from ..errors import UserError
 
 
@@ -56,10 +62,6 @@ def _check_out(out: str) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev codegen``."""
-    from ..codegen import KINDS, controller_codes
-    from ..codegen.build import build_folder
-    from ..codegen.sources import generate_sources
-    from ..codegen.templates import DEFAULT_CFLAGS
     from ..params import NOMINAL, load_params
 
     out = _check_out(args.out)
