@@ -202,7 +202,12 @@ def build_acados(
     c.lh, c.uh = np.array([0.0]), np.array([cfg.current_limit**2])
     # soft gap bound (in metres: our penalties are per mm and per mm^2)
     w1, w2 = cfg.soft_gap.w_linear * 1e3, cfg.soft_gap.w_quadratic * 1e6
-    c.idxbx, c.lbx, c.ubx, c.idxsbx = np.array([0]), np.array([cfg.soft_gap.g_min]), np.array([cfg.soft_gap.g_max]), np.array([0])
+    c.idxbx, c.lbx, c.ubx, c.idxsbx = (
+        np.array([0]),
+        np.array([cfg.soft_gap.g_min]),
+        np.array([cfg.soft_gap.g_max]),
+        np.array([0]),
+    )
     ocp.cost.zl = ocp.cost.zu = np.array([w1]) / Ts
     ocp.cost.Zl = ocp.cost.Zu = np.array([w2]) / Ts
     c.idxbx_e, c.lbx_e, c.ubx_e, c.idxsbx_e = (

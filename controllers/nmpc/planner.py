@@ -1,4 +1,4 @@
-"""Stage 2a of the step, reference planning inside the NMPC step: rest-to-rest moves at the current-limited acceleration.
+"""Stage 2a of the step, reference planning: rest-to-rest moves at the current-limited acceleration.
 
 A 100 mm move takes about 90 ms at the current limits, four times a 20 ms
 horizon, so the NMPC tracks a planned reference: when the target changes, the
