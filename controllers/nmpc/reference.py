@@ -51,6 +51,18 @@ def fn_node(d: StepDesign) -> ca.Function:
     )
 
 
+def resolve_mode(setting: str, shaping: str | None) -> str:
+    """The reference mode a step is built for: the setting ``reference``, ``auto`` resolved.
+
+    ``auto`` is ``preview`` when the runner gives a trajectory plan (``shaping``
+    other than ``step``), else ``plan``; ``shaping=None``: no runner plan (e.g. a
+    bare rig log).
+    """
+    if setting == "auto":
+        return "preview" if (shaping is not None and shaping != "step") else "plan"
+    return setting
+
+
 class HorizonReference:
     """The ``ref`` input of the step: the reference at ``t + j Ts``, ``j = 0..N`` (rows :data:`REF_FIELDS`).
 
@@ -79,11 +91,8 @@ class HorizonReference:
         self._cache = None
 
     def resolve_mode(self, setting: str) -> str:
-        """``plan``/``preview`` for the setting ``reference`` (``auto``: preview when the plan has a trajectory)."""
-        if setting == "auto":
-            shaping = getattr(self.plan, "shaping", None)
-            return "preview" if (self.plan is not None and shaping != "step") else "plan"
-        return setting
+        """``plan``/``preview`` for the setting ``reference`` given the runner's plan (:func:`resolve_mode`)."""
+        return resolve_mode(setting, None if self.plan is None else getattr(self.plan, "shaping", "trajectory"))
 
     def matrix(self, mode: str, t: float, ref: Reference) -> np.ndarray:
         """Reference input of the step at time ``t``: ``N_REF`` rows, one column per node."""
@@ -134,4 +143,4 @@ class HorizonReference:
         return cols.T
 
 
-__all__ = ["N_REF", "HorizonReference", "fn_node"]
+__all__ = ["N_REF", "HorizonReference", "fn_node", "resolve_mode"]

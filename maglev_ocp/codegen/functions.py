@@ -27,6 +27,7 @@ import numpy as np
 from controllers.fl import FLAG_FIELDS, GAIN_FIELDS
 from controllers.nmpc import step_functions
 from controllers.nmpc.layout import MEAS_TABLE, N_MEAS, STATS_TABLE
+from controllers.nmpc.reference import resolve_mode
 
 from .. import constants as k
 from ..observers import ObserverSettings
@@ -404,15 +405,12 @@ def observer_code(eps: float, disturbance: bool, params: Params) -> ControllerCo
 
 
 def resolve_nmpc_mode(settings, shaping: str | None) -> str:
-    """The NMPC's reference mode as :meth:`controllers.nmpc.NMPC._resolve_mode` picks it.
+    """The NMPC's reference mode as the controller picks it (:func:`controllers.nmpc.reference.resolve_mode`).
 
     ``shaping`` is the scenario's ``reference.shaping`` (``None``: no reference
     plan from a runner, e.g. a bare rig log).
     """
-    mode = settings.reference
-    if mode == "auto":
-        mode = "preview" if (shaping is not None and shaping != "step") else "plan"
-    return mode
+    return resolve_mode(settings.reference, shaping)
 
 
 __all__ = [
