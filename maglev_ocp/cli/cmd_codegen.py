@@ -6,6 +6,12 @@ import argparse
 import os
 import time
 
+# Importing maglev_ocp.codegen registers the C backend with the runner (maglev_ocp.runner.register_backend);
+# the CLI imports every cmd_* module, so ``backend: c`` works for every command (run, campaign, bench, ...).
+from ..codegen import KINDS, controller_codes
+from ..codegen.build import build_folder
+from ..codegen.sources import generate_sources
+from ..codegen.templates import DEFAULT_CFLAGS
 from ..errors import UserError
 
 
@@ -46,10 +52,6 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev codegen``."""
-    from ..codegen import KINDS, controller_codes
-    from ..codegen.build import build_folder
-    from ..codegen.sources import generate_sources
-    from ..codegen.templates import DEFAULT_CFLAGS
     from ..config import check_output_dir, replace_dir
     from ..params import NOMINAL, load_params
 
