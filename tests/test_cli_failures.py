@@ -37,7 +37,7 @@ TINY_SCENARIO = {
     "seed": 1,
     "controller": {"type": "pid"},
     "plant": {"profile": "default"},
-    "targets": [{"g": 0.020, "d": 0.000, "hold": 0.05}],
+    "targets": [{"g": 0.020, "d": 0.000, "hold": 0.06}],
 }
 
 
