@@ -57,7 +57,16 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 from pydantic_core import InitErrorDetails
 
 from . import constants as k
@@ -246,20 +255,13 @@ class TargetSpec(Strict):
     d: float
     hold: float = Field(gt=0, le=3600)
 
-    @field_validator("g")
+    @field_validator("g", "d")
     @classmethod
-    def _g_in_envelope(cls, v: float) -> float:
-        lo, hi = k.g_envelope
+    def _in_envelope(cls, v: float, info: ValidationInfo) -> float:
+        lo, hi = k.g_envelope if info.field_name == "g" else k.d_envelope
         if not (math.isfinite(v) and lo - _EPS <= v <= hi + _EPS):
-            raise ValueError(f"{v!r} m is outside the tracking envelope [{lo}, {hi}] m (gap 15..25 mm)")
-        return v
-
-    @field_validator("d")
-    @classmethod
-    def _d_in_envelope(cls, v: float) -> float:
-        lo, hi = k.d_envelope
-        if not (math.isfinite(v) and lo - _EPS <= v <= hi + _EPS):
-            raise ValueError(f"{v!r} m is outside the tracking envelope [{lo}, {hi}] m (d -50..50 mm)")
+            span = "gap 15..25 mm" if info.field_name == "g" else "d -50..50 mm"
+            raise ValueError(f"{v!r} m is outside the tracking envelope [{lo}, {hi}] m ({span})")
         return v
 
 
