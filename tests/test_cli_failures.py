@@ -298,7 +298,7 @@ def test_nan_in_settings_says_nan_and_numbers_are_plain(tmp_path):
     bad = {**TINY_SCENARIO, "targets": [{"g": 0.02, "d": 0.0, "hold": float("nan")}]}
     f = write_yaml(tmp_path / "s.yaml", bad)
     code, out, err = cli("run", str(f), "--out", str(tmp_path / "o"))
-    assert_one_line_failure(code, out, err, "NaN is not allowed", "targets.0.hold")
+    assert_one_line_failure(code, out, err, "NaN/inf is not allowed", "targets.0.hold")
     assert "np.float64" not in err
     bad = {**TINY_SCENARIO, "targets": [{"g": 0.048, "d": 0.0, "hold": 0.1}]}
     code, out, err = cli("run", str(write_yaml(tmp_path / "g.yaml", bad)), "--out", str(tmp_path / "o"))
