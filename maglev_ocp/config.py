@@ -40,11 +40,11 @@ class Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False, allow_inf_nan=False)
 
 
-def format_validation_error(err: ValidationError, source: str) -> str:
-    """Make a one-line message from a pydantic error: ``file: key.path: what``."""
+def format_validation_error(err: ValidationError, source: str, prefix: str = "") -> str:
+    """Make a one-line message from a pydantic error: ``file: key.path: what`` (``prefix`` before each key)."""
     parts = []
     for e in err.errors()[:3]:
-        loc = ".".join(str(x) for x in e["loc"]) or "<top>"
+        loc = prefix + (".".join(str(x) for x in e["loc"]) or "<top>")
         msg = e["msg"]
         if e["type"] == "extra_forbidden":
             msg = "unknown key"

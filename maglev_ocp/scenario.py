@@ -70,7 +70,7 @@ from pydantic import (
 from pydantic_core import InitErrorDetails
 
 from . import constants as k
-from .config import Strict, load_yaml, parse_model
+from .config import Strict, format_validation_error, load_yaml, parse_model
 from .errors import ConfigError, UserError
 from .model import get_model
 from .params import NOMINAL, ParamOverrides, Params, load_params
@@ -236,12 +236,7 @@ class PlantSpec(BaseModel):
         try:
             return PlantConfig.model_validate(data)
         except ValidationError as err:
-            e = err.errors()[0]
-            loc = ".".join(str(x) for x in e["loc"])
-            msg = "unknown key" if e["type"] == "extra_forbidden" else e["msg"]
-            if e["type"] == "finite_number":
-                msg = f"NaN/inf is not allowed (got {e.get('input')!r}); give a finite number"
-            raise ConfigError(f"{source}: plant.{loc}: {msg}") from None
+            raise ConfigError(format_validation_error(err, source, prefix="plant.")) from None
 
     def params_resolved(self) -> Params:
         """The rig's nominal parameters (the profile's mismatch perturbs them in the plant)."""
