@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from controllers.fl import FeedbackLinearization
+from controllers.fl import FeedbackLinearization, law_stats
 from controllers.nmpc import NMPC, StepFunctions
 
 from .. import constants as k
@@ -135,6 +135,8 @@ class CompiledFL(FeedbackLinearization):
         super().__init__(settings, params, Ts)
         if abs(Ts - k.Ts) > 1e-15:
             raise UserError(f"the C backend is generated for Ts = {k.Ts} s, got {Ts}")
+        if self.delay:
+            raise UserError("fl: the C backend has no delay predictor yet; use delay_samples: 0 or backend: python")
         self.build = compile_codes([fl_code(self.settings, params)], cflags, progress)
         lib = CompiledLibrary(self.build.library)
         self._c_init = lib.function("fl_init")
@@ -155,17 +157,14 @@ class CompiledFL(FeedbackLinearization):
         u, st, xh, dist, v, fl = self._c_step(self._state, y.y, r, self._p, self._gains)
         self._state = st.copy()
         u = u.copy()
+        law_failed = not bool(np.all(np.isfinite(u)))
+        if law_failed:  # hold a safe current, flagged (as the Python FL does), never 0 A
+            u = self._safe_current(xh)
+        else:
+            self._u_good = u
         self._u_prev = u
         stats = {
-            "unreachable": int(fl[0]),
-            "sat_g": int(fl[1]),
-            "sat_d": int(fl[2]),
-            "v_g": float(v[0]),
-            "v_d": float(v[1]),
-            "dist_g": float(dist[0]),
-            "dist_d": float(dist[1]),
-            "solver_failure": 0,
-            "fallback": 0,
+            **law_stats(fl, v, dist, law_failed, int(law_failed)),
             "kernel_us": self._c_step.last_us,
             "kernel_cpu_us": self._c_step.last_cpu_us,
         }
