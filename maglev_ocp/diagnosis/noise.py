@@ -734,6 +734,43 @@ def noise_check(
     return NoiseCheck(CHANNELS[channel], model, fl, model.quantization_floor(w_y), rms, wh, peaks, spec)
 
 
+def confirm_peaks(
+    peaks: Sequence[SpectralPeak],
+    parts: Sequence[Sequence[Residual]],
+    model: NoiseModel,
+    channel: int,
+    false_alarm: float = 1e-2,
+) -> list[SpectralPeak]:
+    """Peaks that every part of the data (e.g. training and held-out runs) shows on its own.
+
+    In each part the mean of ``PSD / model`` over the peak's half-power band must
+    exceed the chi-square level of that band's pooled bins (``false_alarm`` per
+    peak and part). A peak of one run only (a transient) is not confirmed.
+    """
+    specs = [wide_spectrum(p, channel, model.Ts) for p in parts]
+    out = []
+    for pk in peaks:
+        ok = True
+        for sp in specs:
+            if sp is None:
+                ok = False
+                break
+            w = max(pk.damping * pk.freq_hz, sp.df)
+            sel = (sp.f >= pk.freq_hz - w) & (sp.f <= pk.freq_hz + w)
+            if not sel.any():
+                ok = False
+                break
+            ratio = float(np.mean(sp.psd[sel] / np.maximum(model.psd(sp.f[sel]), 1e-300)))
+            # Pooled bins of a Hann Welch estimate overlap by about half: count half of them.
+            dof = sp.dof * max(1.0, sel.sum() / 2.0)
+            if ratio < st.chi2.isf(false_alarm, dof) / dof:
+                ok = False
+                break
+        if ok:
+            out.append(pk)
+    return out
+
+
 def consistent_peaks(a: Sequence[SpectralPeak], b: Sequence[SpectralPeak]) -> list[SpectralPeak]:
     """Peaks of ``a`` that ``b`` also shows (overlapping bands or frequencies within 5 %)."""
     out = []
@@ -749,18 +786,114 @@ def consistent_peaks(a: Sequence[SpectralPeak], b: Sequence[SpectralPeak]) -> li
     return out
 
 
+# ------------------------------------------------------------------ resonance guard
+#: Name of the flag the verdict reads: a candidate that only closes a narrow resonance is no evidence.
+GUARD_FLAG = "absorbs_resonance"
+
+
+@dataclass
+class ResonanceGuard:
+    """Whether a candidate's improvement is a narrow resonance it cannot explain.
+
+    A lag (or a delay) scales the residual's content by a factor that varies
+    smoothly with frequency; it cannot produce a narrow peak. If most of what
+    it removes from the residual (weighted by the residual filter, i.e. what
+    its held-out score sees) lies inside the bands of the residual's peaks,
+    its score comes from the resonance, not from a lag.
+
+    Attributes
+    ----------
+    candidate : str
+        Candidate name.
+    absorbs_resonance : bool
+        Most of its improvement lies in the peaks' bands (the flag :data:`GUARD_FLAG`).
+    fraction_in_peaks : float
+        Share of its (filter-weighted) PSD reduction inside the peaks' bands.
+    peak_left : float
+        Power left in the peaks' bands after the candidate, over before (1: untouched).
+    peaks_hz : list of float
+        Frequencies of the peaks checked [Hz].
+    """
+
+    candidate: str
+    absorbs_resonance: bool
+    fraction_in_peaks: float
+    peak_left: float
+    peaks_hz: list[float]
+
+    def to_dict(self) -> dict:
+        """JSON-ready view."""
+        return dict(self.__dict__)
+
+
+def resonance_guard(
+    candidate: str,
+    before: Sequence[Residual],
+    after: Sequence[Residual],
+    peaks: Sequence[SpectralPeak],
+    h: np.ndarray,
+    Ts: float = k.Ts,
+    share: float = 0.5,
+) -> ResonanceGuard:
+    """Check a candidate's improvement against the residual's resonance peaks (see :class:`ResonanceGuard`).
+
+    Parameters
+    ----------
+    candidate : str
+        Candidate name.
+    before, after : sequences of Residual
+        The same runs under the baseline and under the candidate (wide-band residuals present).
+    peaks : sequence of SpectralPeak
+        The baseline residual's peaks (any channel).
+    h : ndarray
+        The residual filter's kernel (its power response weights the reduction).
+    Ts : float
+        Sample period [s].
+    share : float
+        The candidate absorbs a resonance when more than this share of its reduction lies in the peaks.
+    """
+    if not peaks:
+        return ResonanceGuard(candidate, False, 0.0, 1.0, [])
+    tot, inside, pb, pa = 0.0, 0.0, 0.0, 0.0
+    for c, ch in enumerate(CHANNELS):
+        pks = [p for p in peaks if p.channel == ch]
+        if not pks:
+            continue
+        sb, sa = wide_spectrum(before, c, Ts), wide_spectrum(after, c, Ts)
+        if sb is None or sa is None or len(sb.f) != len(sa.f):
+            continue
+        H2 = np.abs(np.fft.rfft(h, 2 * (len(sb.f) - 1))) ** 2
+        H2 = np.interp(sb.f, np.fft.rfftfreq(2 * (len(sb.f) - 1), Ts), H2)
+        red = (sb.psd - sa.psd) * H2
+        mask = np.zeros(len(sb.f), bool)
+        for p in pks:
+            w = max(3 * p.damping * p.freq_hz, sb.df)
+            mask |= (sb.f >= min(p.band_hz[0], p.freq_hz - w)) & (sb.f <= max(p.band_hz[1], p.freq_hz + w))
+        tot += float(np.sum(np.maximum(red, 0.0)))
+        inside += float(np.sum(np.maximum(red[mask], 0.0)))
+        pb += float(np.sum(sb.psd[mask]))
+        pa += float(np.sum(sa.psd[mask]))
+    frac = inside / tot if tot > 0 else 0.0
+    left = pa / pb if pb > 0 else 1.0
+    return ResonanceGuard(candidate, bool(tot > 0 and frac > share), frac, left, [p.freq_hz for p in peaks])
+
+
 __all__ = [
+    "GUARD_FLAG",
     "NoiseCheck",
+    "ResonanceGuard",
     "NoiseModel",
     "SpectralPeak",
     "Whiteness",
     "WideSpectrum",
+    "confirm_peaks",
     "consistent_peaks",
     "find_peaks",
     "fit_noise_model",
     "fit_resonance",
     "noise_check",
     "noise_psd",
+    "resonance_guard",
     "whiteness",
     "wide_spectrum",
 ]
