@@ -99,7 +99,7 @@ def plant_effects(spec: CandidateSpec, fit: FitResult | None, p: np.ndarray) -> 
                 v = dflt[key]
             used.add(key)
             q = next(x for x in EFFECTS[name].params if f"{name}.{x.name}" == key)
-            block[key.split(".", 1)[1]] = int(round(v)) if q.integer else float(v)
+            block[key.split(".", 1)[1]] = round(v) if q.integer else float(v)
         effects[name] = block
     if spec.lag and fit is not None:
         effects["amplifier_lag"] = {

@@ -881,8 +881,8 @@ def resonance_guard(
 __all__ = [
     "GUARD_FLAG",
     "NoiseCheck",
-    "ResonanceGuard",
     "NoiseModel",
+    "ResonanceGuard",
     "SpectralPeak",
     "Whiteness",
     "WideSpectrum",
