@@ -564,9 +564,12 @@ def _band_region(
         i = np.clip(np.searchsorted(e, x, side="right") - 1, 0, 9)
         cnt = np.bincount(i, minlength=10)
         m = np.where(cnt > 20, np.bincount(i, weights=p, minlength=10) / np.maximum(cnt, 1), np.nan)
-        # A place only where the power is clearly uneven (the largest bin twice the median).
-        uneven = np.any(np.isfinite(m)) and np.nanmax(m) > 2.0 * np.nanmedian(m)
-        ok = np.flatnonzero(np.isfinite(m) & (m >= 0.5 * np.nanmax(m))) if uneven else np.zeros(0, int)
+        # A place only where the power is significantly uneven: a bin's mean power of a band-limited
+        # process over n samples carries about n_eff = 2 B Ts n independent ones (relative error sqrt(2 / n_eff)).
+        rel = np.sqrt(2.0 / np.maximum(cnt * 2.0 * (hi - lo) * Ts, 1.0))
+        med = float(np.nanmedian(m)) if np.any(np.isfinite(m)) else 0.0
+        high = np.isfinite(m) & (m > 2.0 * med) & (m > med * (1.0 + 4.0 * rel)) & (m >= 0.5 * np.nanmax(m))
+        ok = np.flatnonzero(high)
         out.append([float(e[ok.min()]), float(e[ok.max() + 1])] if len(ok) else [float(e[0]), float(e[-1])])
     return out[0], out[1]
 
