@@ -99,7 +99,9 @@ def plant_effects(spec: CandidateSpec, fit: FitResult | None, p: np.ndarray) -> 
                 v = dflt[key]
             used.add(key)
             q = next(x for x in EFFECTS[name].params if f"{name}.{x.name}" == key)
-            block[key.split(".", 1)[1]] = round(v) if q.integer else float(v)
+            # Solver round-off may step a hair outside the plant's range (e.g. -1e-12 for a bound at 0).
+            v = min(max(float(v), q.lo), q.hi)
+            block[key.split(".", 1)[1]] = round(v) if q.integer else v
         effects[name] = block
     if spec.lag and fit is not None:
         effects["amplifier_lag"] = {
