@@ -113,13 +113,13 @@ def plant_effects(spec: CandidateSpec, fit: FitResult | None, p: np.ndarray) -> 
     return params, effects, dropped
 
 
-def plant_file(params: dict, effects: dict, profile: str = "default", note: str | None = None) -> dict:
+def plant_file(params: dict, effects: dict, profile: str = "default") -> dict:
     """A complete plant-file mapping (loadable by :func:`maglev_ocp.plant.load_plant_config`).
 
     The constants go to ``mismatch.overrides`` with no random spread; the
     profile supplies noise, quantization, limits and stops.
     """
-    out: dict = {
+    return {
         "profile": profile,
         "mismatch": {
             "relative": {n: 0.0 for n in PLANT_PARAMS},
@@ -127,9 +127,6 @@ def plant_file(params: dict, effects: dict, profile: str = "default", note: str 
         },
         "effects": effects,
     }
-    if note:
-        out["description"] = note
-    return out
 
 
 # ------------------------------------------------------------------------ force

@@ -716,9 +716,10 @@ def consequence_stage(split: _Split, base: _Baseline, att: _Attribution, st: Dia
         sizes,
         matters,
         negligible,
-        plant_file(p_m, e_m, note=f"augmented model of a diagnosis: {label}"),
-        plant_file(p_b, e_b, note="baseline model of a diagnosis"),
+        plant_file(p_m, e_m),
+        plant_file(p_b, e_b),
         dropped,
+        label,
     )
 
 

@@ -376,8 +376,17 @@ def write_model_files(d: Diagnosis, out_dir: str | os.PathLike) -> list[Path]:
     written = []
     if d.consequences is None:
         return written
-    for name, data in (("model.yaml", d.consequences.model_file), ("baseline.yaml", d.consequences.baseline_file)):
-        atomic_write_text(out / name, yaml.safe_dump(_plain(data), sort_keys=False))
+    c = d.consequences
+    head = (
+        "# {what} of a gap diagnosis (maglev diagnose), as a plant file: constants in mismatch.overrides,\n"
+        "# every library effect with its fitted law or off. Load with maglev_ocp.plant.load_plant_config,\n"
+        "# or in a scenario: plant: {{file: {name}}}.\n"
+    )
+    for name, data, what in (
+        ("model.yaml", c.model_file, f"Augmented model ({c.label})"),
+        ("baseline.yaml", c.baseline_file, "Baseline model"),
+    ):
+        atomic_write_text(out / name, head.format(what=what, name=name) + yaml.safe_dump(_plain(data), sort_keys=False))
         written.append(out / name)
     return written
 

@@ -189,6 +189,8 @@ class Consequences:
         The baseline as a plant file (``baseline.yaml``).
     dropped : list of str
         Fitted keys the plant file cannot carry.
+    label : str
+        The augmented model's name (``baseline`` if no effect was found).
     """
 
     sizes: list[EffectSize]
@@ -197,6 +199,7 @@ class Consequences:
     model_file: dict
     baseline_file: dict
     dropped: list[str] = field(default_factory=list)
+    label: str = "baseline"
 
     def to_dict(self) -> dict:
         """JSON-ready view."""
@@ -204,6 +207,7 @@ class Consequences:
             "effects": [s.to_dict() for s in self.sizes],
             "matters": self.matters,
             "negligible": self.negligible,
+            "model": self.label,
             "model_file": "model.yaml",
             "baseline_file": "baseline.yaml",
             "dropped_from_model_file": self.dropped,
