@@ -12,8 +12,9 @@ For every effect a diagnosis finds:
   on the shared model — the ``ideal`` plant profile with the diagnosis's
   constants — once without and once with the fitted effect in the plant,
   controllers unaware of it. The added tracking error in µm is the effect's
-  consequence; below :data:`NEGLIGIBLE_M` (a tenth of the 0.1 mm goal) the
-  effect is *detectable but negligible*.
+  consequence; if it adds less than :data:`NEGLIGIBLE_M` (a tenth of the
+  0.1 mm goal) to either controller's largest tracking error, the effect is
+  *detectable but negligible*.
 
 The fitted model is also written as a plant file (:func:`plant_file`):
 ``mismatch.overrides`` hold the constants, ``effects`` every library effect
@@ -270,7 +271,8 @@ class EffectSize:
     closed_loop : dict
         :func:`closed_loop_consequence` (empty if not simulated).
     matters : bool or None
-        The effect moves either controller by at least :data:`NEGLIGIBLE_M` (None: not simulated).
+        The effect adds at least :data:`NEGLIGIBLE_M` to either controller's largest
+        tracking error (None: not simulated).
     summary : str
         One line: size, consequence and whether it matters for the goal.
     dropped : list of str
@@ -324,7 +326,8 @@ def effect_size(
         # Without the effect: the same fitted constants, but the cogging law (xi0) as the baseline had it.
         p0 = dict(params, xi0=float(pv[PARAM_NAMES.index("xi0")]))
         size.closed_loop = closed_loop_consequence(params, effects, p0)
-        added = max(max(v["added_max_m"], v["diff_max_m"]) for v in size.closed_loop.values())
+        # What the goal bounds is the tracking error: the effect matters if it adds a tenth of the goal to it.
+        added = max(v["added_max_m"] for v in size.closed_loop.values())
         size.matters = bool(added >= NEGLIGIBLE_M)
     size.summary = _summary(size, Ts)
     return size
