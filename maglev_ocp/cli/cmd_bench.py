@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 
+from ..codegen.bench import BACKENDS, CONTROLLER_TYPES, run_bench
 from ..errors import UserError
 
 
@@ -52,14 +53,21 @@ def _subset(value: str, allowed: tuple[str, ...], flag: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev bench``."""
-    from ..codegen.bench import BACKENDS, CONTROLLER_TYPES, run_bench
-
     controllers = _subset(args.controllers, CONTROLLER_TYPES, "--controllers")
     backends = _subset(args.backends, BACKENDS, "--backends")
     if args.warmup < 0:
         raise UserError(f"--warmup: must be >= 0, got {args.warmup}")
+    if args.out is not None:
+        from ..config import check_output_file
+
+        check_output_file(args.out)
+    scenario = None
+    if args.scenario is not None:
+        from ..scenario import load_scenario
+
+        scenario = load_scenario(args.scenario)  # bad input: one line, before the timing runs
     res = run_bench(
-        args.scenario,
+        scenario,
         controllers,
         backends,
         warmup=args.warmup,

@@ -1,0 +1,39 @@
+"""An independent rig generator: the maglev stage simulated again from the physics.
+
+A plant simulator written apart from the suite (it imports none of the
+suite's model, effects, plant, controllers, observers or estimation code; an
+import-linter contract in ``pyproject.toml`` enforces it) that writes datasets
+in the ``maglev-rig-log/1`` format, so that the gap diagnosis and calibration
+can be checked on a rig they were not built from.
+
+* :mod:`.physics` - nominal shape functions, seed eq. (2) and the cogging of eq. (9), from MODEL.md;
+* :mod:`.laws` - effects as law families (library effects and ones outside the library);
+* :mod:`.control` - the generator's own feedback-linearizing PID controller;
+* :mod:`.sim` - the rig (amplifier, encoders, noise, stops) and the closed loop (Dormand-Prince 5);
+* :mod:`.excite` - min-jerk moves at varied speeds plus dither over the gap band and the stroke;
+* :mod:`.generate` - :func:`generate` writes a dataset and its ``truth.json``;
+* :mod:`.draw` - :func:`draw` picks a random scenario for a blind self-check.
+
+Command line: ``python -m maglev_ocp.rigsim --out DIR --seed N [--effects a,b] [--draw]``.
+"""
+
+from __future__ import annotations
+
+from .draw import draw
+from .generate import expected_verdict, generate
+from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY, make_law
+from .physics import NOMINAL, Constants
+from .sim import RigSettings
+
+__all__ = [
+    "LAWS",
+    "LIBRARY_EFFECTS",
+    "NOMINAL",
+    "OUT_OF_LIBRARY",
+    "Constants",
+    "RigSettings",
+    "draw",
+    "expected_verdict",
+    "generate",
+    "make_law",
+]

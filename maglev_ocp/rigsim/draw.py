@@ -1,0 +1,214 @@
+"""Random scenarios for a blind self-check on the independent rig.
+
+:func:`draw` picks ``none``, one library effect, two or three library effects
+at once, or an effect outside the library, each with a random law family and
+parameters in physically plausible ranges that matter against the 10 um
+encoder quantization (the ranges follow NOTES.md and the library self-check's
+sizes: cogging of a few N, friction of tenths of N, a few % of ripple, lags of
+0.1-1 kHz and delays of up to 2.5 samples, saturation losing 10-35 % at the
+upper stop, commutation errors of a few electrical degrees).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
+
+Spec = dict[str, Any]
+
+
+def _u(rng: np.random.Generator, lo: float, hi: float) -> float:
+    return float(rng.uniform(lo, hi))
+
+
+def _pm(rng: np.random.Generator, lo: float, hi: float) -> float:
+    return float(rng.choice([-1.0, 1.0]) * rng.uniform(lo, hi))
+
+
+def _family(rng: np.random.Generator, name: str) -> str:
+    return str(rng.choice(LAWS[name].families))
+
+
+def _cogging(rng):
+    fam = _family(rng, "cogging")
+    replace = bool(rng.uniform() < 0.5)
+    p: Spec = {
+        "family": fam,
+        "replace": float(replace),
+        "xi0": _u(rng, 3.0, 6.0) if replace else _u(rng, 1.5, 4.0),
+        "h1": _u(rng, 0.7, 1.1) if replace else _u(rng, 0.0, 0.6),
+        "h2": _pm(rng, 0.2, 0.6),
+        "h3": _pm(rng, 0.0, 0.4),
+        "phi1": 0.0,
+        "phi2": _u(rng, -math.pi, math.pi),
+        "phi3": _u(rng, -math.pi, math.pi),
+        "kn": _u(rng, 0.5, 2.0),
+    }
+    if fam == "power":
+        p["n"] = _u(rng, 1.5, 4.0)
+    elif fam == "gauss":
+        p["w"] = _u(rng, 3e-3, 7e-3)
+    else:
+        p.update(a=_u(rng, 0.3, 0.8), l1=_u(rng, 1.5e-3, 3e-3), l2=_u(rng, 5e-3, 10e-3))
+    return p
+
+
+def _friction(rng):
+    fam = _family(rng, "friction")
+    p: Spec = {"family": fam, "Fc_g": _u(rng, 0.1, 0.4), "Fc_d": _u(rng, 0.1, 0.4)}
+    p.update(b_g=_u(rng, 0.0, 2.0), b_d=_u(rng, 0.0, 2.0))
+    if fam in ("stribeck", "lugre"):
+        p.update(Fs_g=_u(rng, 0.05, 0.2), Fs_d=_u(rng, 0.05, 0.2), vs=_u(rng, 2e-3, 1e-2))
+    if fam == "stribeck":
+        p["delta"] = _u(rng, 1.0, 2.0)
+    if fam == "dahl":
+        p["sigma"] = float(math.exp(rng.uniform(math.log(5e3), math.log(5e4))))
+    if fam == "lugre":
+        p["sigma0"] = float(math.exp(rng.uniform(math.log(1e4), math.log(1e5))))
+    return p
+
+
+def _end_effect(rng):
+    fam = _family(rng, "end_effect")
+    p: Spec = {"family": fam, "r1": _u(rng, 0.02, 0.08), "p1": _u(rng, -math.pi, math.pi)}
+    p.update(r2=_u(rng, 0.0, 0.04), p2=_u(rng, -math.pi, math.pi))
+    if fam == "cosine":
+        p.update(d_edge=_u(rng, 0.02, 0.035), w=_u(rng, 0.01, 0.025), loss=_u(rng, 0.1, 0.3))
+    elif fam == "quadratic":
+        edge = _u(rng, 0.02, 0.03)
+        p.update(d_edge=edge, c2=_u(rng, 0.1, 0.3) / (0.05 - edge) ** 2)
+    else:
+        p.update(e_p=_u(rng, 0.025, 0.04), e_n=_u(rng, 0.025, 0.04), w=_u(rng, 3e-3, 8e-3))
+        p.update(loss_p=_u(rng, 0.5, 1.5), loss_n=_u(rng, 0.5, 1.5))
+    return p
+
+
+def _saturation(rng):
+    fam = _family(rng, "saturation")
+    p: Spec = {"family": fam, "target": str(rng.choice(["magnet", "current", "both"]))}
+    if fam == "exp":
+        p.update(loss=_u(rng, 0.15, 0.35), ell=_u(rng, 2.5e-3, 4.5e-3))
+    else:
+        p.update(loss=_u(rng, 0.1, 0.3), g_knee=_u(rng, 11.5e-3, 13.5e-3), w=_u(rng, 0.5e-3, 1.5e-3))
+    return p
+
+
+def _amplifier(rng):
+    fam = _family(rng, "amplifier_lag")
+    if fam == "first":
+        return {
+            "family": fam,
+            "bandwidth_hz": float(math.exp(rng.uniform(math.log(80), math.log(600)))),
+            "delay_samples": _u(rng, 0.0, 2.5),
+        }
+    if fam == "second":
+        return {
+            "family": fam,
+            "fn_hz": float(math.exp(rng.uniform(math.log(150), math.log(800)))),
+            "zeta": _u(rng, 0.3, 0.9),
+            "delay_samples": _u(rng, 0.0, 2.0),
+        }
+    return {"family": fam, "delay_samples": _u(rng, 0.5, 2.5)}
+
+
+def _commutation(rng):
+    fam = _family(rng, "commutation_offset")
+    if fam == "constant":
+        return {"family": fam, "delta0": _pm(rng, 0.04, 0.15)}
+    return {"family": fam, "delta0": _pm(rng, 0.02, 0.08), "kappa": _pm(rng, 1.0, 3.0)}
+
+
+def _resonance(rng):
+    return {
+        "family": "frame",
+        "f_hz": _u(rng, 20.0, 80.0),
+        "zeta": _u(rng, 0.005, 0.03),
+        "m_frame": _u(rng, 40.0, 150.0),
+        "rms": _u(rng, 0.7e-5, 1.5e-5),
+    }
+
+
+def _encoder(rng):
+    fam = _family(rng, "encoder_error")
+    if fam == "scale":
+        return {"family": fam, "eps_g": _pm(rng, 0.01, 0.03), "eps_d": _pm(rng, 0.005, 0.02)}
+    return {
+        "family": fam,
+        "a_g": _u(rng, 2e-5, 5e-5),
+        "period_g": _u(rng, 4e-3, 10e-3),
+        "a_d": _u(rng, 3e-5, 1e-4),
+        "period_d": _u(rng, 15e-3, 40e-3),
+    }
+
+
+def _temperature(rng):
+    return {
+        "family": "exponential",
+        "rise": _u(rng, 10.0, 40.0),
+        "tau_th": _u(rng, 10.0, 60.0),
+        "alpha": _u(rng, -1.2e-3, -0.8e-3),
+    }
+
+
+def _cable(rng):
+    return {
+        "family": "spring",
+        "k_d": _u(rng, 5.0, 20.0),
+        "k3": _u(rng, 0.0, 3000.0),
+        "d0": _u(rng, -0.1, -0.06),
+        "c_d": _u(rng, 0.5, 3.0),
+        "w_c": _u(rng, 0.2, 0.6),
+        "L_c": 0.1,
+        "c_g": _u(rng, 0.0, 1.0),
+    }
+
+
+#: Random parameters of each effect: ``rng -> {"family": ..., param: value}``.
+DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
+    "cogging": _cogging,
+    "friction": _friction,
+    "end_effect": _end_effect,
+    "saturation": _saturation,
+    "amplifier_lag": _amplifier,
+    "commutation_offset": _commutation,
+    "resonance": _resonance,
+    "encoder_error": _encoder,
+    "temperature_drift": _temperature,
+    "cable": _cable,
+}
+
+#: Probability of each kind of scenario.
+KINDS: dict[str, float] = {"none": 0.15, "single": 0.35, "pair": 0.2, "triple": 0.1, "out_of_library": 0.2}
+
+
+def draw(seed: int, kind: str | None = None) -> dict[str, Any]:
+    """A random scenario: ``{"kind", "effects": {name: spec}, "seed"}``.
+
+    Parameters
+    ----------
+    seed : int
+        Seeds the draw (use a different seed for the dataset's own noise, or the same: they are
+        spawned separately).
+    kind : str, optional
+        Force one of :data:`KINDS` (default: drawn with their probabilities).
+    """
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157]))
+    kinds = list(KINDS)
+    kind = kind or str(rng.choice(kinds, p=np.array([KINDS[x] for x in kinds])))
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {kinds}, got {kind!r}")
+    n = {"none": 0, "single": 1, "pair": 2, "triple": 3}.get(kind, 0)
+    names = [str(x) for x in rng.choice(LIBRARY_EFFECTS, size=n, replace=False)]
+    if kind == "out_of_library":
+        names = [str(rng.choice(OUT_OF_LIBRARY))]
+    order = list(LAWS)
+    effects = {nm: DRAWS[nm](rng) for nm in sorted(names, key=order.index)}
+    return {"kind": kind, "seed": int(seed), "effects": effects}
+
+
+__all__ = ["DRAWS", "KINDS", "draw"]
