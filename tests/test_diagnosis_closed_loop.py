@@ -59,9 +59,9 @@ def test_closed_loop_from_report_cli(tmp_path):
     report, pm, em = _report(tmp_path / "rep")
     scen = _rig_scenario(tmp_path / "rig.yaml", pm, em)
     out = tmp_path / "cl"
+    cmd = [sys.executable, "-m", "maglev_ocp", "diagnose", "--closed-loop", str(scen), "--from", str(report)]
     proc = subprocess.run(
-        [sys.executable, "-m", "maglev_ocp", "diagnose", "--closed-loop", str(scen), "--from", str(report)]
-        + ["--out", str(out)],
+        [*cmd, "--out", str(out)],
         capture_output=True,
         text=True,
         timeout=600,
@@ -81,7 +81,7 @@ def test_closed_loop_from_report_needs_the_model_files(tmp_path):
     """A report without its model files is a one-line user error naming the missing file."""
     report, pm, em = _report(tmp_path / "rep", with_models=False)
     scen = _rig_scenario(tmp_path / "rig.yaml", pm, em)
-    with pytest.raises(UserError, match="baseline.yaml"):
+    with pytest.raises(UserError, match=r"baseline\.yaml"):
         closed_loop_from_report(scen, report)
     proc = subprocess.run(
         [sys.executable, "-m", "maglev_ocp", "diagnose", "--closed-loop", str(scen)],

@@ -7,6 +7,7 @@ with a lightly damped structural resonance end to end.
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -211,3 +212,43 @@ def test_model_file_loads_as_a_plant_profile(tmp_path):
 
     plant = Plant(cfg, NOMINAL, seed=0)
     assert plant.true_params.C1 == 13.0
+
+
+@pytest.mark.slow
+def test_structural_resonance_end_to_end_on_the_independent_rig(tmp_path):
+    """Independent rig (rigsim), a 35 Hz frame mode of 1 encoder count and nothing else the baseline lacks.
+
+    The diagnosis must call it ``unexplained``, with the peak's frequency within 5 %, its damping, the
+    channel and the region; the model floor stays at the noise; the spectra figure is drawn; the
+    report writes model files that load as plant profiles.
+    """
+    from maglev_ocp.diagnosis import diagnose
+    from maglev_ocp.diagnosis.report import write_report
+    from maglev_ocp.riglog import read_dataset
+    from maglev_ocp.rigsim import RigSettings, generate
+
+    f_true = 35.0
+    folder = generate(
+        tmp_path / "ds",
+        {"resonance": {"family": "frame", "f_hz": f_true, "zeta": 0.02, "rms": 1e-5}},
+        seed=101,
+        settings=RigSettings(n_runs=4, duration=8.0, nominal_cogging=False),
+    )
+    d = diagnose(read_dataset(folder))
+    assert d.verdict.verdict == "unexplained", d.verdict.reasons
+    peaks = [p for p in d.noise.peaks if p.channel == "vertical" and p.kind == "resonance"]
+    assert peaks and abs(peaks[0].freq_hz / f_true - 1) < 0.05
+    assert 0.005 < peaks[0].damping < 0.08
+    un = [u for u in d.noise.unexplained if u["kind"] == "resonance"]
+    assert un and un[0]["channel"] == "vertical" and len(un[0]["g_range_m"]) == 2
+    assert any("resonance" in r for r in d.verdict.reasons)
+    # The noise model's acceleration noise is the rig's (0.05 N force noise / Mv plus current noise),
+    # not the mode's 0.3 m/s^2, and its floor stays at or below the data's.
+    nc = d.noise.checks["vertical"]
+    assert nc.model.to_dict()["accel_noise_m_s2"] < 0.06
+    assert nc.floor < 1.05 * d.floors["vertical"].floor
+    out = write_report(d, tmp_path / "rep")
+    doc = json.loads((out / "report.json").read_text())
+    assert doc["unexplained"] and doc["noise_model"]["confirmed_peaks"]
+    assert (out / "spectra.png").stat().st_size > 10_000
+    assert load_plant_config(out / "model.yaml").enabled_effects() == ()

@@ -635,7 +635,12 @@ def find_peaks(
         f0, zeta = fit.f0, fit.zeta
         # Half-power bandwidth 2 zeta f0 against the bin spacing (the Hann window's own width is in the fit).
         resolved = 2 * zeta * f0 > 0.75 * spec.df
-        if not resolved:
+        if not band[0] - 2 * spec.df <= f0 <= band[1] + 2 * spec.df:
+            # The resonance shape does not fit this peak (e.g. an effect's content at a drive frequency):
+            # report the peak bin and bound the damping by the band's width.
+            f0, resolved = float(f[ipk]), False
+            zeta = max(band[1] - band[0], spec.df) / (2 * f0)
+        elif not resolved:
             zeta = 0.75 * spec.df / (2 * max(f0, 1e-9))
         rms = math.sqrt(max(power, 0.0))
         pk = SpectralPeak(
