@@ -22,6 +22,21 @@ any controller, locked axes allowed) and returns a :class:`Diagnosis`, whose
    simulated trajectories of the baseline and the augmented model against the
    held-out runs (:mod:`.simulate_compare`), fitted parameters with standard
    errors.
+
+Stages on the noise model (:mod:`.noise`) and the consequences
+(:mod:`.consequence`), each a function a verdict stage may call:
+
+- :func:`noise_stage` (after the localization): the floor a structured residual
+  cannot inflate, whiteness, spectral peaks with frequency and damping; peaks
+  both halves of the data show count as evidence of a gap;
+- :func:`lag_guards` and :func:`apply_resonance_guard` (after the verdict): a lag
+  whose improvement lies in a narrow resonance is not counted;
+- :func:`unexplained_stage` (after the quantification): what the final model
+  leaves beyond the noise model, with channel, band, peak and region; a ``none``
+  with a remaining resonance becomes ``unexplained``;
+- :func:`consequence_stage`: force in N and % of the weight, delay in µs,
+  closed-loop error of the shipped controllers with and without each effect
+  (negligible or not for the 0.1 mm goal), and the model files.
 """
 
 from __future__ import annotations

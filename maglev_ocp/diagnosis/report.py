@@ -28,10 +28,20 @@ def _plt():
     return plt
 
 
+def _empty(plt, text: str):
+    """A small figure that says why there is nothing to draw (never an empty figure)."""
+    fig, ax = plt.subplots(figsize=(6, 2))
+    ax.text(0.5, 0.5, text, ha="center", va="center", wrap=True)
+    ax.axis("off")
+    return fig
+
+
 def fig_maps(d: Diagnosis):
     """Residual maps over gap x position, baseline and final model, per channel."""
     plt = _plt()
     chans = list(d.views_before)
+    if not chans:
+        return _empty(plt, "no channel has enough residual samples for a map")
     fig, ax = plt.subplots(len(chans), 2, figsize=(11, 4 * len(chans)), squeeze=False)
     for i, ch in enumerate(chans):
         vals = [d.views_before[ch].map_gd, d.views_after.get(ch, d.views_before[ch]).map_gd]
@@ -70,9 +80,12 @@ def fig_spectra(d: Diagnosis):
             sp = nc.spectrum
             a.loglog(sp.f[1:], sp.psd[1:], lw=0.8, label="baseline (wide band)")
             after = d.noise.checks_after.get(ch)
+            a.loglog(sp.f[1:], nc.model.psd(sp.f[1:]), "k--", lw=1.0, label="noise model (baseline residual)")
             if after is not None and d.final_model != "baseline":
                 a.loglog(after.spectrum.f[1:], after.spectrum.psd[1:], lw=0.8, alpha=0.8, label=d.final_model)
-            a.loglog(sp.f[1:], nc.model.psd(sp.f[1:]), "k--", lw=1.0, label="noise model")
+                a.loglog(
+                    sp.f[1:], after.model.psd(sp.f[1:]), "--", color="tab:orange", lw=1.0, label="noise model (final)"
+                )
             for pk in nc.peaks:
                 a.axvspan(*pk.band_hz, color="tab:red", alpha=0.2)
                 zeta = f"ζ {pk.damping:.3f}" if pk.resolved else f"ζ < {pk.damping:.3f}"
@@ -118,7 +131,9 @@ def fig_periods(d: Diagnosis):
     from .localize import KNOWN_PERIODS
 
     chans = [ch for ch, v in d.views_before.items() if v.period is not None]
-    fig, ax = plt.subplots(1, max(len(chans), 1), figsize=(6 * max(len(chans), 1), 4), squeeze=False)
+    if not chans:
+        return _empty(plt, "no period scan: the runs do not travel far enough in d (or are too short)")
+    fig, ax = plt.subplots(1, len(chans), figsize=(6 * len(chans), 4), squeeze=False)
     for i, ch in enumerate(chans):
         a = ax[0, i]
         for v, lab in ((d.views_before[ch], "baseline"), (d.views_after.get(ch), d.final_model)):
@@ -143,6 +158,8 @@ def fig_bins(d: Diagnosis):
     plt = _plt()
     feats = ("g", "d", "g_dot", "d_dot", "i_q", "i_d", "di_q", "di_d")
     chans = list(d.views_before)
+    if not chans:
+        return _empty(plt, "no channel has enough residual samples to bin")
     fig, ax = plt.subplots(len(chans), len(feats), figsize=(2.6 * len(feats), 3 * len(chans)), squeeze=False)
     for i, ch in enumerate(chans):
         for j, fn in enumerate(feats):
@@ -216,7 +233,10 @@ def fig_candidates(d: Diagnosis):
 
 FIGURES = {
     "residual_maps.png": (fig_maps, "Residual over gap x position (bin means; dots exceed 4 floors)"),
-    "spectra.png": (fig_spectra, "Residual spectra (Welch), detected lines shaded"),
+    "spectra.png": (
+        fig_spectra,
+        "Residual spectra (Welch): wide band against the noise model, peaks with frequency and damping shaded",
+    ),
     "period_scan.png": (fig_periods, "Least-squares period scan in d"),
     "binned.png": (fig_bins, "Residual binned over states, currents and current rates (+-2 floors)"),
     "overlay.png": (fig_overlay, "Measured vs simulated short windows on a held-out run"),

@@ -25,10 +25,12 @@ The residual of a channel (vertical: the gap ``g``; horizontal: the position
 
 The filter, the autocorrelation factor and the standard errors are those of
 the identification toolkit shared with the calibration
-(:mod:`maglev_ocp.estimation.ident`). The noise floor of a residual comes from
-the data (see :mod:`.localize`); the filter also gives the analytic
-quantization part, ``q / sqrt(12) * ||w||`` with ``w`` the filter applied to
-the encoder reading.
+(:mod:`maglev_ocp.estimation.ident`). The filter gives the analytic
+quantization part of the noise floor, ``q / sqrt(12) * ||w||`` with ``w`` the
+filter applied to the encoder reading; :mod:`.noise` propagates a whole noise
+model through it. Each residual also keeps its unfiltered, full-rate version
+(``Residual.wide``) for the spectra: a structural resonance of tens of Hz lies
+above the filter's cut-off.
 """
 
 from __future__ import annotations

@@ -11,7 +11,11 @@ least the keys the issue asks for::
      "noise_floor": {"vertical": {...}, "horizontal": {...}},
      "baseline_params": {"C1": ..., ...}}
 
-plus the reasons of the verdict, the remaining regions, the localization
+plus ``unexplained`` (what the final model leaves beyond the noise model: channel,
+kind, frequency and damping or band, region), ``noise_model`` (model floors,
+whiteness, peaks, the lag's ``resonance_guard``), ``consequences`` (force, delay,
+closed-loop error per effect; which matter for the 0.1 mm goal; the model files
+``model.yaml`` / ``baseline.yaml``), the reasons of the verdict, the remaining regions, the localization
 summaries (spectral lines, period scan), the simulated-trajectory errors, the
 train/held-out split, the timing and the ``warnings`` (fits whose solver did
 not converge). ``a|b`` is a confusable set (the effects explain the held-out
