@@ -16,7 +16,7 @@ import scipy.signal as sps
 import yaml
 
 from maglev_ocp import constants as k
-from maglev_ocp.diagnosis.candidates import FitResult, library_specs
+from maglev_ocp.diagnosis.candidates import CandidateSpec, FitResult, library_specs
 from maglev_ocp.diagnosis.consequence import effect_force, effect_size, plant_effects, plant_file
 from maglev_ocp.diagnosis.localize import channel_floor
 from maglev_ocp.diagnosis.noise import noise_check, resonance_guard
@@ -252,3 +252,43 @@ def test_structural_resonance_end_to_end_on_the_independent_rig(tmp_path):
     assert doc["unexplained"] and doc["noise_model"]["confirmed_peaks"]
     assert (out / "spectra.png").stat().st_size > 10_000
     assert load_plant_config(out / "model.yaml").enabled_effects() == ()
+
+
+def test_a_large_lag_matters_in_closed_loop():
+    """A whole-sample delay behind a 200 Hz lag adds far more than a tenth of the goal: it matters."""
+    spec = library_specs()["amplifier_lag"]
+    fit = FitResult(
+        spec, np.zeros(0), np.zeros(0), 0.0, 1, 1.0,
+        {"bandwidth_hz": 200.0, "delay_samples": 1, "effective_delay_s": 1.8e-3},
+    )  # fmt: skip
+    run, u = _sweep_run(0.018)
+    s = effect_size("amplifier_lag", spec, fit, [run], [u], NOMINAL.without_cogging().vector())
+    assert s.delay_us == pytest.approx(1800.0)
+    assert s.matters is True, s.summary
+    assert max(v["added_max_m"] for v in s.closed_loop.values()) > 1e-4
+
+
+def test_the_verdict_drops_a_lag_that_absorbs_a_resonance():
+    """A lag verdict flagged by the guard becomes ``unexplained``; in a pair only the lag is dropped."""
+    from types import SimpleNamespace
+
+    from maglev_ocp.diagnosis.attribution import Verdict
+    from maglev_ocp.diagnosis.diagnose import _Attribution, apply_resonance_guard
+    from maglev_ocp.diagnosis.noise import ResonanceGuard
+
+    lib = library_specs()
+    base = SimpleNamespace(spec=CandidateSpec("baseline"), floors={"vertical": "floor"})
+    flagged = {"amplifier_lag": ResonanceGuard("amplifier_lag", True, 0.95, 0.1, [35.0])}
+    fits = {"amplifier_lag": "fit-lag", "cogging": "fit-cog"}
+    att = _Attribution(lib, fits, [], Verdict("amplifier_lag", ["amplifier_lag"], True, []), None)
+    att.final_spec, att.final_fit = lib["amplifier_lag"], "fit-lag"
+    apply_resonance_guard(base, att, flagged)
+    assert att.verdict.verdict == "unexplained" and att.final_fit is None
+    assert any("cannot explain a narrow resonance" in r for r in att.verdict.reasons)
+    att = _Attribution(lib, fits, [], Verdict("cogging+amplifier_lag", ["cogging", "amplifier_lag"], True, []), None)
+    apply_resonance_guard(base, att, flagged)
+    assert att.verdict.verdict == "cogging" and att.final_fit == "fit-cog"
+    ok = {"amplifier_lag": ResonanceGuard("amplifier_lag", False, 0.1, 0.95, [35.0])}
+    att = _Attribution(lib, fits, [], Verdict("amplifier_lag", ["amplifier_lag"], True, []), None)
+    apply_resonance_guard(base, att, ok)
+    assert att.verdict.verdict == "amplifier_lag"
