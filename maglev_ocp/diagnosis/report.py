@@ -14,6 +14,7 @@ import numpy as np
 import yaml
 
 from ..config import atomic_write_bytes, atomic_write_text
+from ..params import NOMINAL
 from ..signals import label
 from .result import Diagnosis, report_json, summary_table
 
@@ -383,7 +384,8 @@ def _consequence_markdown(d: Diagnosis) -> list[str]:
         )
     md.append(
         "\nThe augmented model is written as a plant file, `model.yaml` (the baseline as `baseline.yaml`); "
-        "a scenario runs it with `plant: {file: model.yaml}`."
+        "a scenario runs it with `plant: {file: model.yaml}`. Its constants are also in `model_params.yaml` "
+        "(a parameter file, e.g. `controller_params: {file: model_params.yaml}`)."
     )
     if c.dropped:
         md.append(f"Fitted terms a plant file cannot carry: {', '.join(c.dropped)}.")
@@ -391,7 +393,8 @@ def _consequence_markdown(d: Diagnosis) -> list[str]:
 
 
 def write_model_files(d: Diagnosis, out_dir: str | os.PathLike) -> list[Path]:
-    """Write ``model.yaml`` (augmented model) and ``baseline.yaml`` as plant files (see :mod:`.consequence`)."""
+    """Write ``model.yaml`` (augmented model) and ``baseline.yaml`` as plant files (see :mod:`.consequence`),
+    and ``model_params.yaml``, the augmented model's constants as a parameter file."""
     out = Path(out_dir)
     written = []
     if d.consequences is None:
@@ -408,6 +411,11 @@ def write_model_files(d: Diagnosis, out_dir: str | os.PathLike) -> list[Path]:
     ):
         atomic_write_text(out / name, head.format(what=what, name=name) + yaml.safe_dump(_plain(data), sort_keys=False))
         written.append(out / name)
+    # The augmented model's constants as a parameter file, for a controller's model (``--params``,
+    # ``controller_params: {file: ...}``); its effects are in model.yaml.
+    consts = {n: float(v) for n, v in c.model_file["mismatch"]["overrides"].items()}
+    NOMINAL.with_(**consts).save(out / "model_params.yaml")
+    written.append(out / "model_params.yaml")
     return written
 
 
