@@ -786,7 +786,8 @@ def diagnose(
     base = _baseline(split, params, st, warnings)
     t0 = lap("baseline_s", t0)
     loc = _localize(split, base, st, rng)
-    noise = noise_stage(split, base, loc, float(dataset.encoder_resolution), st.seed)
+    q_enc = float(dataset.encoder_resolution or 0.0) or encoder_resolution
+    noise = noise_stage(split, base, loc, q_enc, st.seed)
     t0 = lap("localize_s", t0)
     att = _attribute(split, base, loc, st, progress, warnings)
     t0 = lap("candidates_s", t0)
