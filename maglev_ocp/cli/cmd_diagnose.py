@@ -35,6 +35,11 @@ Other modes:
                           closed-loop view: the scenario on the model, on the rig with
                           the effect, and with the controller's model carrying the
                           fitted effect (settling time, steady error)
+  --closed-loop FILE --from REPORT
+                          how far the gap shrinks in closed loop, from the report
+                          itself: the scenario on its plant (the rig log) against
+                          simulations of the report's baseline.yaml and model.yaml
+                          (its verdict's fitted laws)
 """
 
 
@@ -98,6 +103,12 @@ def register(sub) -> None:
         metavar="REPORT",
         help="closed-loop view: take the fitted effect from this report.json (default: fit it)",
     )
+    p.add_argument(
+        "--closed-loop",
+        metavar="SCENARIO",
+        help="run SCENARIO on its plant and on the models of --from REPORT; compare (writes --out DIR)",
+    )
+    p.add_argument("--from", dest="from_report", metavar="REPORT", help="--closed-loop: the diagnosis report.json")
     p.set_defaults(handler=run)
 
 
@@ -154,10 +165,14 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev diagnose``."""
     if args.seed < 0:
         raise UserError(f"--seed: must be >= 0, got {args.seed}")
-    modes = [m for m in ("dataset", "selftest", "generate", "scenario") if getattr(args, m) is not None]
+    modes = [m for m in ("dataset", "selftest", "generate", "scenario", "closed_loop") if getattr(args, m) is not None]
     if len(modes) != 1:
-        raise UserError("give exactly one of DATASET, --selftest N, --generate DIR, --scenario FILE")
+        raise UserError(
+            "give exactly one of DATASET, --selftest N, --generate DIR, --scenario FILE, --closed-loop SCENARIO"
+        )
     mode = modes[0]
+    if mode == "closed_loop":
+        return _closed_loop(args)
     if mode == "selftest":
         return _selftest(args)
     if mode == "generate":
@@ -294,5 +309,22 @@ def _scenario(args) -> int:
     if args.out:
         with replace_dir(args.out) as tmp:
             view.save(tmp)
+        print(f"written: {Path(args.out) / 'closed_loop.md'}")
+    return 0
+
+
+def _closed_loop(args) -> int:
+    from ..diagnosis.closed_loop import closed_loop_from_report
+
+    if not args.from_report:
+        raise UserError("--closed-loop needs --from REPORT (a diagnosis report.json)")
+    if not Path(args.closed_loop).is_file():
+        raise UserError(f"{args.closed_loop}: no such scenario file")
+    if not Path(args.from_report).is_file():
+        raise UserError(f"{args.from_report}: no such report")
+    res = closed_loop_from_report(args.closed_loop, args.from_report, progress=True)
+    print(res.table())
+    if args.out:
+        res.save(args.out)
         print(f"written: {Path(args.out) / 'closed_loop.md'}")
     return 0

@@ -6,7 +6,10 @@ self-check (:mod:`selftest`); ``--scenario`` the closed-loop view
 (:mod:`closed_loop`).
 
 Modules: :mod:`residuals` (filtered equation-error residuals), :mod:`localize`
-(floor, binning, spectrum, period scan, regions), :mod:`candidates` (library
+(floor, binning, spectrum, period scan, regions), :mod:`noise` (noise-model
+floor, whiteness, spectral peaks with damping, the lag's resonance guard),
+:mod:`consequence` (force, delay and closed-loop consequence of an effect; the
+model as a plant file), :mod:`candidates` (library
 effects fitted as CasADi NLPs), :mod:`attribution` (held-out scores, verdict),
 :mod:`simulate_compare` (short-window simulated trajectories), :mod:`diagnose`
 (the pipeline, stage by stage), :mod:`result` (the :class:`Diagnosis` type, its

@@ -22,6 +22,21 @@ any controller, locked axes allowed) and returns a :class:`Diagnosis`, whose
    simulated trajectories of the baseline and the augmented model against the
    held-out runs (:mod:`.simulate_compare`), fitted parameters with standard
    errors.
+
+Stages on the noise model (:mod:`.noise`) and the consequences
+(:mod:`.consequence`), each a function a verdict stage may call:
+
+- :func:`noise_stage` (after the localization): the floor a structured residual
+  cannot inflate, whiteness, spectral peaks with frequency and damping; peaks
+  both halves of the data show count as evidence of a gap;
+- :func:`lag_guards` and :func:`apply_resonance_guard` (after the verdict): a lag
+  whose improvement lies in a narrow resonance is not counted;
+- :func:`unexplained_stage` (after the quantification): what the final model
+  leaves beyond the noise model, with channel, band, peak and region; a ``none``
+  with a remaining resonance becomes ``unexplained``;
+- :func:`consequence_stage`: force in N and % of the weight, delay in µs,
+  closed-loop error of the shipped controllers with and without each effect
+  (negligible or not for the 0.1 mm goal), and the model files.
 """
 
 from __future__ import annotations
@@ -34,6 +49,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm import tqdm
 
+from ..constants import encoder_resolution
 from ..errors import DataError
 from ..params import NOMINAL, Params
 from ..riglog import Dataset as RigDataset
@@ -48,6 +64,7 @@ from .candidates import (
     library_specs,
     residuals_with,
 )
+from .consequence import EffectSize, effect_size, plant_effects, plant_file
 from .localize import (
     ChannelFloor,
     Region,
@@ -60,8 +77,18 @@ from .localize import (
     regions_from_map,
     spectrum,
 )
+from .noise import (
+    GUARD_FLAG,
+    NoiseCheck,
+    ResonanceGuard,
+    SpectralPeak,
+    confirm_peaks,
+    noise_check,
+    resonance_guard,
+    wide_spectrum,
+)
 from .residuals import CHANNELS, PreparedRun, Residual, ResidualSettings, RunInput, ZeroPhaseFilter, prepare_run
-from .result import ChannelView, DiagnoseSettings, Diagnosis, HeldOut
+from .result import ChannelView, Consequences, DiagnoseSettings, Diagnosis, HeldOut, NoiseFindings
 from .simulate_compare import TrajectoryComparison, compare_trajectories
 
 #: The candidate library, in report order.
@@ -525,6 +552,192 @@ def _quantify(
     return _Quantification(all_after, views_after, regions, remaining_regions, traj)
 
 
+# ------------------------------------------------------------ noise-model stages
+def noise_stage(
+    split: _Split, base: _Baseline, loc: _Localization, q: float, seed: int = 0, excess_min: float = 1.5
+) -> NoiseFindings:
+    """Stage 3b: noise-model floors, whiteness and spectral peaks of the baseline residual (:mod:`.noise`).
+
+    Adds to the localization's evidence of a gap what the data-based floor
+    hides: peaks (resonances, lines) beyond the noise model that the training
+    and the held-out runs both show, and a filtered residual above
+    ``excess_min`` times the noise-model floor that is not white.
+    """
+    allr = base.b_train + base.b_test
+    checks: dict[str, NoiseCheck] = {}
+    peaks: list[SpectralPeak] = []
+    for c, ch in enumerate(CHANNELS):
+        nc = noise_check(allr, c, split.filt.w_y, split.filt.w_a, q, split.filt.Ts, seed)
+        if nc is None:
+            continue
+        checks[ch] = nc
+        conf = confirm_peaks(nc.peaks, [base.b_train, base.b_test], nc.model, c)
+        peaks += conf
+        for pk in conf:
+            loc.evidence.append(f"{ch}: spectral {pk.describe()}; beyond the noise model in training and held-out runs")
+        if nc.excess_ratio > excess_min and not nc.whiteness.white:
+            loc.evidence.append(
+                f"{ch}: filtered residual rms {nc.rms:.3g} m/s^2 is {nc.excess_ratio:.1f}x the noise-model floor "
+                f"{nc.floor:.3g} m/s^2 and not white (flatness {nc.whiteness.flatness:.2f} < "
+                f"{nc.whiteness.flatness_null:.2f})"
+            )
+    return NoiseFindings(checks, peaks)
+
+
+def lag_guards(split: _Split, base: _Baseline, att: _Attribution, noise: NoiseFindings) -> dict[str, ResonanceGuard]:
+    """Resonance guard of every lag-type candidate on the held-out runs (see :func:`.noise.resonance_guard`)."""
+    out = {}
+    for name, spec in att.specs.items():
+        if not spec.lag or name not in att.fits:
+            continue
+        after = residuals_with(spec, att.fits[name], split.test, base.p, split.u_test)
+        out[name] = resonance_guard(name, base.b_test, after, noise.peaks, split.filt.h, split.filt.Ts)
+    return out
+
+
+def apply_resonance_guard(base: _Baseline, att: _Attribution, guards: dict[str, ResonanceGuard]) -> None:
+    """A lag never absorbs a resonance: drop a flagged lag from the verdict (alone, the verdict is ``unexplained``).
+
+    The verdict stage may call :func:`lag_guards` itself and read each guard's
+    :data:`~.noise.GUARD_FLAG`; this stage enforces it on whatever verdict it gets.
+    """
+    v = att.verdict
+    if v.verdict in ("none", "unexplained"):
+        return
+    sep = "|" if "|" in v.verdict else "+"
+    names = v.verdict.split(sep)
+    bad = [n for n in names if n in guards and getattr(guards[n], GUARD_FLAG)]
+    if not bad:
+        return
+    for n in bad:
+        g = guards[n]
+        v.reasons.append(
+            f"{n}: {g.fraction_in_peaks:.0%} of its improvement lies in the residual's peak(s) at "
+            + ", ".join(f"{f:.2f}" for f in g.peaks_hz)
+            + " Hz; a lag scales the residual smoothly over frequency and cannot explain a narrow resonance: "
+            "not counted"
+        )
+    keep = [n for n in names if n not in bad]
+    for s_ in att.scores:
+        if s_.name in bad or s_.name == v.verdict:
+            s_.selected = False
+    if not keep:
+        v.verdict, v.selected = "unexplained", []
+        att.final_spec, att.final_fit = base.spec, None
+        att.remaining = base.floors
+        return
+    v.verdict, v.selected = sep.join(keep), keep
+    if len(keep) == 1 and keep[0] in att.fits:
+        att.final_spec, att.final_fit = att.specs[keep[0]], att.fits[keep[0]]
+
+
+def unexplained_stage(
+    split: _Split, base: _Baseline, att: _Attribution, q: _Quantification, noise: NoiseFindings, st: DiagnoseSettings
+) -> None:
+    """Stage 6: what the final model leaves beyond the noise model, with where; ``none`` becomes ``unexplained``.
+
+    A confirmed peak whose band keeps at least half its power under the final
+    model, or a filtered residual still above 1.5x the model floor and not
+    white, is listed in ``noise.unexplained`` with channel, band / peak /
+    damping and region. A ``none`` verdict with such a remainder becomes
+    ``unexplained``; an effect verdict keeps its effects and says what stays
+    unexplained.
+    """
+    after = q.residuals_after
+    q_res = noise.checks[next(iter(noise.checks))].model.q if noise.checks else encoder_resolution
+    for c, ch in enumerate(CHANNELS):
+        nc = noise_check(after, c, split.filt.w_y, split.filt.w_a, q_res, split.filt.Ts, st.seed)
+        if nc is not None:
+            noise.checks_after[ch] = nc
+    for pk in noise.peaks:
+        c = CHANNELS.index(pk.channel)
+        sb, sa = wide_spectrum(base.b_train + base.b_test, c, split.filt.Ts), wide_spectrum(after, c, split.filt.Ts)
+        if sb is None or sa is None:
+            continue
+        w = max(pk.damping * pk.freq_hz, sb.df)
+        sel = (sb.f >= pk.freq_hz - w) & (sb.f <= pk.freq_hz + w)
+        left = float(np.sum(sa.psd[sel]) / max(np.sum(sb.psd[sel]), 1e-300))
+        if left >= 0.5:
+            noise.remaining_peaks.append(pk)
+            noise.unexplained.append(
+                {
+                    "channel": pk.channel,
+                    "kind": pk.kind,
+                    "freq_hz": pk.freq_hz,
+                    "damping": pk.damping,
+                    "band_hz": pk.band_hz,
+                    "rms_m_s2": pk.rms_m_s2,
+                    "rms_m": pk.rms_m,
+                    "g_range_m": pk.g_range_m,
+                    "d_range_m": pk.d_range_m,
+                    "power_left": left,
+                    "what": pk.describe(),
+                }
+            )
+    for ch, nc in noise.checks_after.items():
+        if nc.excess_ratio > 1.5 and not nc.whiteness.white and not any(u["channel"] == ch for u in noise.unexplained):
+            regs = [r for r in (q.remaining_regions or q.regions) if r.channel == ch]
+            g_r = regs[0].g_range_m if regs else []
+            d_r = regs[0].d_range_m if regs else []
+            band = regs[0].freq_band_hz if regs else None
+            noise.unexplained.append(
+                {
+                    "channel": ch,
+                    "kind": "excess",
+                    "rms_over_model_floor": nc.excess_ratio,
+                    "band_hz": band,
+                    "g_range_m": g_r,
+                    "d_range_m": d_r,
+                    "what": f"{ch} residual {nc.excess_ratio:.1f}x the noise-model floor, not white"
+                    + (f", g {g_r[0] * 1e3:.1f}..{g_r[1] * 1e3:.1f} mm" if g_r else "")
+                    + (f", d {d_r[0] * 1e3:.0f}..{d_r[1] * 1e3:.0f} mm" if d_r else "")
+                    + (f", band {band[0]:.2f}..{band[1]:.2f} Hz" if band else ""),
+                }
+            )
+    peaks_left = [u for u in noise.unexplained if u["kind"] in ("resonance", "line")]
+    v = att.verdict
+    if v.verdict == "none" and peaks_left:
+        v.verdict, v.selected, v.gap_detected = "unexplained", [], True
+        v.reasons.append("the noise model leaves spectral peaks the data-based floor had absorbed: unexplained")
+    if peaks_left:
+        v.reasons.append("unexplained: " + "; ".join(u["what"] for u in peaks_left))
+
+
+def consequence_stage(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings) -> Consequences:
+    """Stage 7: force, delay and closed-loop consequence of every effect of the verdict; the model files."""
+    v = att.verdict
+    names = [] if v.verdict in ("none", "unexplained") else v.verdict.replace("|", "+").split("+")
+    runs = split.train + split.test
+    u_runs = split.u_train + split.u_test
+    sizes: list[EffectSize] = []
+    for n in names:
+        if n not in att.fits:
+            continue
+        sizes.append(
+            effect_size(n, att.specs[n], att.fits[n], runs, u_runs, base.p, simulate=st.simulate and st.consequence)
+        )
+    matters = [s.name for s in sizes if s.matters]
+    negligible = [s.name for s in sizes if s.matters is False]
+    if sizes and v.verdict not in ("none", "unexplained"):
+        if matters:
+            v.reasons.append(f"matters for the 0.1 mm goal: {', '.join(matters)}")
+        if negligible:
+            v.reasons.append(f"detectable but negligible for the 0.1 mm goal: {', '.join(negligible)}")
+    p_b, e_b, _ = plant_effects(base.spec, None, base.p)
+    spec = att.final_spec or base.spec
+    p_m, e_m, dropped = plant_effects(spec, att.final_fit, base.p)
+    label = spec.name if att.final_fit is not None else "baseline"
+    return Consequences(
+        sizes,
+        matters,
+        negligible,
+        plant_file(p_m, e_m),
+        plant_file(p_b, e_b),
+        dropped,
+        label,
+    )
+
+
 def _check_fit(fit: FitResult, what: str, warnings: list[str]) -> None:
     """Record a fit whose solver did not converge (never silently marked ok)."""
     if not fit.success:
@@ -573,14 +786,21 @@ def diagnose(
     base = _baseline(split, params, st, warnings)
     t0 = lap("baseline_s", t0)
     loc = _localize(split, base, st, rng)
+    q_enc = float(dataset.encoder_resolution or 0.0) or encoder_resolution
+    noise = noise_stage(split, base, loc, q_enc, st.seed)
     t0 = lap("localize_s", t0)
     att = _attribute(split, base, loc, st, progress, warnings)
     t0 = lap("candidates_s", t0)
     _second_effect(split, base, att, st, warnings)
     _settle_verdict(base, att)
+    noise.guards = lag_guards(split, base, att, noise)
+    apply_resonance_guard(base, att, noise.guards)
     t0 = lap("pairs_s", t0)
     q = _quantify(split, base, loc, att, st, rng)
-    lap("quantify_s", t0)
+    unexplained_stage(split, base, att, q, noise, st)
+    t0 = lap("quantify_s", t0)
+    cons = consequence_stage(split, base, att, st)
+    lap("consequence_s", t0)
     timing["total_s"] = time.perf_counter() - t_all
     timing["cpu_s"] = time.process_time() - cpu_all
     return Diagnosis(
@@ -606,6 +826,8 @@ def diagnose(
         quantization_floor=base.q_floor,
         heldout=HeldOut(split.test, split.u_test, base.fvec, base.b_test),
         warnings=warnings,
+        noise=noise,
+        consequences=cons,
     )
 
 
@@ -643,8 +865,13 @@ __all__ = [
     "DiagnoseSettings",
     "Diagnosis",
     "HeldOut",
+    "apply_resonance_guard",
     "combine",
+    "consequence_stage",
     "diagnose",
+    "lag_guards",
+    "noise_stage",
     "runs_from_dataset",
     "split_runs",
+    "unexplained_stage",
 ]

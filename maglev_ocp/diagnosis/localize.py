@@ -13,7 +13,9 @@ rates). The statistics account for the residual's autocorrelation: a bin of
   runs. It is an upper bound of the pure-noise rms (it includes any
   systematic part the maps miss), which makes "exceeds the floor" a
   conservative statement. The quantization-only floor of the filter is
-  reported beside it.
+  reported beside it. Anything without state structure (a resonance, a
+  vibration) enters this floor; :mod:`.noise` gives the floor of a noise
+  model that such a residual cannot inflate, and its spectral peaks.
 - **structure test**: the held-out gain of those maps, ``1 - SSE(r - m) /
   SSE(r) = (2 r.m - m.m) / r.r`` with ``m`` the training maps' prediction on
   the held-out samples. Without state structure ``m`` is fitted noise,

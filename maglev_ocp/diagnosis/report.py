@@ -11,8 +11,10 @@ import os
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from ..config import atomic_write_bytes, atomic_write_text
+from ..params import NOMINAL
 from ..signals import label
 from .result import Diagnosis, report_json, summary_table
 
@@ -27,10 +29,20 @@ def _plt():
     return plt
 
 
+def _empty(plt, text: str):
+    """A small figure that says why there is nothing to draw (never an empty figure)."""
+    fig, ax = plt.subplots(figsize=(6, 2))
+    ax.text(0.5, 0.5, text, ha="center", va="center", wrap=True)
+    ax.axis("off")
+    return fig
+
+
 def fig_maps(d: Diagnosis):
     """Residual maps over gap x position, baseline and final model, per channel."""
     plt = _plt()
     chans = list(d.views_before)
+    if not chans:
+        return _empty(plt, "no channel has enough residual samples for a map")
     fig, ax = plt.subplots(len(chans), 2, figsize=(11, 4 * len(chans)), squeeze=False)
     for i, ch in enumerate(chans):
         vals = [d.views_before[ch].map_gd, d.views_after.get(ch, d.views_before[ch]).map_gd]
@@ -51,26 +63,65 @@ def fig_maps(d: Diagnosis):
 
 
 def fig_spectra(d: Diagnosis):
-    """Welch PSD of the residual before and after, per channel, with the detected lines."""
+    """Residual spectra per channel: wide-band PSD of the baseline and the final model against the noise model,
+    the residual filter's band, the peaks with their frequency and damping; the filtered spectra if any.
+
+    Never empty: a channel without a run long enough for a spectrum says so in its panel.
+    """
     plt = _plt()
-    chans = list(d.views_before)
-    fig, ax = plt.subplots(1, len(chans), figsize=(6 * len(chans), 4), squeeze=False)
+    chans = [ch for ch in ("vertical", "horizontal") if ch in d.views_before or (d.noise and ch in d.noise.checks)]
+    chans = chans or ["vertical", "horizontal"]
+    fig, ax = plt.subplots(1, len(chans), figsize=(6.5 * len(chans), 4.2), squeeze=False)
+    fc = d.settings.fc_hz if d.settings is not None else None
     for i, ch in enumerate(chans):
         a = ax[0, i]
-        for v, lab in ((d.views_before[ch], "baseline"), (d.views_after.get(ch), d.final_model)):
-            if v is None or v.spectrum is None:
-                continue
-            a.semilogy(v.spectrum.f, v.spectrum.psd, label=lab)
-        sp = d.views_before[ch].spectrum
-        if sp is not None:
-            a.semilogy(sp.f, sp.baseline, "k:", lw=0.8, label="running median (baseline)")
-            for pk in sp.peaks:
-                a.axvspan(*pk["band_hz"], color="tab:red", alpha=0.2)
+        drawn = False
+        nc = d.noise.checks.get(ch) if d.noise is not None else None
+        if nc is not None:
+            sp = nc.spectrum
+            a.loglog(sp.f[1:], sp.psd[1:], lw=0.8, label="baseline (wide band)")
+            after = d.noise.checks_after.get(ch)
+            a.loglog(sp.f[1:], nc.model.psd(sp.f[1:]), "k--", lw=1.0, label="noise model (baseline residual)")
+            if after is not None and d.final_model != "baseline":
+                a.loglog(after.spectrum.f[1:], after.spectrum.psd[1:], lw=0.8, alpha=0.8, label=d.final_model)
+                a.loglog(
+                    sp.f[1:], after.model.psd(sp.f[1:]), "--", color="tab:orange", lw=1.0, label="noise model (final)"
+                )
+            for pk in nc.peaks:
+                a.axvspan(*pk.band_hz, color="tab:red", alpha=0.2)
+                zeta = f"ζ {pk.damping:.3f}" if pk.resolved else f"ζ < {pk.damping:.3f}"
+                a.annotate(
+                    f"{pk.freq_hz:.1f} Hz, {zeta}",
+                    (pk.freq_hz, float(np.max(sp.psd[(sp.f >= pk.band_hz[0]) & (sp.f <= pk.band_hz[1])], initial=0))),
+                    fontsize=7,
+                    color="tab:red",
+                )
+            drawn = True
+        v = d.views_before.get(ch)
+        if v is not None and v.spectrum is not None:
+            a.loglog(v.spectrum.f[1:], v.spectrum.psd[1:], lw=0.8, alpha=0.7, label="baseline (filtered)")
+            for pk in v.spectrum.peaks:
+                a.axvspan(*pk["band_hz"], color="tab:orange", alpha=0.2)
+            drawn = True
+        if fc is not None and drawn:
+            a.axvline(fc, color="0.5", lw=0.8, ls=":", label=f"filter cut-off {fc:g} Hz")
+        if not drawn:
+            a.text(
+                0.5,
+                0.5,
+                "no run is long enough for a spectrum\n(the residual filter and a Welch segment need a few s)",
+                ha="center",
+                va="center",
+                transform=a.transAxes,
+            )
+            a.set_xticks([])
+            a.set_yticks([])
+        else:
+            a.legend(fontsize=7)
+            a.grid(True, which="both", alpha=0.3)
         a.set_xlabel("frequency [Hz]")
         a.set_ylabel("PSD [(m/s^2)^2/Hz]")
         a.set_title(f"{ch} residual spectrum")
-        a.grid(True, alpha=0.3)
-        a.legend(fontsize=8)
     fig.tight_layout()
     return fig
 
@@ -81,7 +132,9 @@ def fig_periods(d: Diagnosis):
     from .localize import KNOWN_PERIODS
 
     chans = [ch for ch, v in d.views_before.items() if v.period is not None]
-    fig, ax = plt.subplots(1, max(len(chans), 1), figsize=(6 * max(len(chans), 1), 4), squeeze=False)
+    if not chans:
+        return _empty(plt, "no period scan: the runs do not travel far enough in d (or are too short)")
+    fig, ax = plt.subplots(1, len(chans), figsize=(6 * len(chans), 4), squeeze=False)
     for i, ch in enumerate(chans):
         a = ax[0, i]
         for v, lab in ((d.views_before[ch], "baseline"), (d.views_after.get(ch), d.final_model)):
@@ -106,6 +159,8 @@ def fig_bins(d: Diagnosis):
     plt = _plt()
     feats = ("g", "d", "g_dot", "d_dot", "i_q", "i_d", "di_q", "di_d")
     chans = list(d.views_before)
+    if not chans:
+        return _empty(plt, "no channel has enough residual samples to bin")
     fig, ax = plt.subplots(len(chans), len(feats), figsize=(2.6 * len(feats), 3 * len(chans)), squeeze=False)
     for i, ch in enumerate(chans):
         for j, fn in enumerate(feats):
@@ -179,7 +234,10 @@ def fig_candidates(d: Diagnosis):
 
 FIGURES = {
     "residual_maps.png": (fig_maps, "Residual over gap x position (bin means; dots exceed 4 floors)"),
-    "spectra.png": (fig_spectra, "Residual spectra (Welch), detected lines shaded"),
+    "spectra.png": (
+        fig_spectra,
+        "Residual spectra (Welch): wide band against the noise model, peaks with frequency and damping shaded",
+    ),
     "period_scan.png": (fig_periods, "Least-squares period scan in d"),
     "binned.png": (fig_bins, "Residual binned over states, currents and current rates (+-2 floors)"),
     "overlay.png": (fig_overlay, "Measured vs simulated short windows on a held-out run"),
@@ -206,6 +264,7 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
             f"| {ch} | {f.rms:.4g} | {f.floor:.3g} | {f.quantization:.2g} | {f.gain:.1%} | {f.z:.1f} | "
             f"{'yes' if f.significant else 'no'} |"
         )
+    md += _noise_markdown(d)
     md.append("\n## Candidates (held-out runs, best first)\n")
     md.append("| effect | rms before | rms after | reduction | gap closed | z | ΔBIC | selected |")
     md.append("|---|---|---|---|---|---|---|---|")
@@ -260,11 +319,115 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
             md.append(
                 f"| {lab} | " + " | ".join(f"{e[a] * 1e3:.4f}" if e[a] is not None else "-" for a in ("g", "d")) + " |"
             )
+    md += _consequence_markdown(d)
     md.append("\n## Figures\n")
     for f in figures:
         md.append(f"### {FIGURES[f][1]}\n\n![{f}]({f})\n")
     md.append(f"\nDiagnosis time: {d.timing.get('total_s', float('nan')):.1f} s.\n")
     return "\n".join(md)
+
+
+def _noise_markdown(d: Diagnosis) -> list[str]:
+    """Noise-model section: model floor, whiteness, peaks, what stays unexplained, the lag guard."""
+    if d.noise is None or not d.noise.checks:
+        return []
+    md = ["\n## Noise model (floor from quantization, encoder and acceleration noise through the filter)\n"]
+    md.append(
+        "| channel | model floor [m/s²] | quantization [m/s²] | accel. noise [m/s²] | residual rms [m/s²] | "
+        "rms / floor | white (flatness / null) |"
+    )
+    md.append("|---|---|---|---|---|---|---|")
+    for ch, c in d.noise.checks.items():
+        md.append(
+            f"| {ch} | {c.floor:.3g} | {c.quantization:.2g} | {c.model.to_dict()['accel_noise_m_s2']:.2g} | "
+            f"{c.rms:.3g} | {c.excess_ratio:.2f} | {'yes' if c.whiteness.white else 'no'} "
+            f"({c.whiteness.flatness:.2f} / {c.whiteness.flatness_null:.2f}) |"
+        )
+    if d.noise.peaks:
+        md.append("\nSpectral peaks beyond the noise model (training and held-out runs):\n")
+        md += [f"- {p.describe()}" for p in d.noise.peaks]
+    if d.noise.unexplained:
+        md.append("\n**Unexplained** (left by the final model):\n")
+        md += [f"- {u['what']}" for u in d.noise.unexplained]
+    for n, g in d.noise.guards.items():
+        if g.peaks_hz:
+            md.append(
+                f"\nResonance guard `{n}`: {g.fraction_in_peaks:.0%} of its improvement in the peaks, "
+                f"{g.peak_left:.0%} of the peaks' power left: "
+                + ("**absorbs a resonance, not counted**" if g.absorbs_resonance else "not a resonance")
+            )
+    return md
+
+
+def _consequence_markdown(d: Diagnosis) -> list[str]:
+    """Size-and-consequence section of the effects found."""
+    c = d.consequences
+    if c is None or not c.sizes:
+        return []
+    md = ["\n## Size and closed-loop consequence of the effects found\n"]
+    md.append(
+        "| effect | peak force g / d [N] | % of weight | delay [µs] | FL max error [µm] | NMPC max error [µm] | |"
+    )
+    md.append("|---|---|---|---|---|---|---|")
+    for s in c.sizes:
+        cl = s.closed_loop
+
+        def err(ctrl: str, cl=cl) -> str:
+            v = cl.get(ctrl)
+            return f"{v['without_max_m'] * 1e6:.1f} → {v['with_max_m'] * 1e6:.1f}" if v else "-"
+
+        md.append(
+            f"| {s.name} | {s.peak_force_n['g']:.3g} / {s.peak_force_n['d']:.3g} | {s.peak_force_pct_weight:.2g} | "
+            f"{f'{s.delay_us:.0f}' if s.delay_us is not None else '-'} | {err('fl')} | {err('nmpc')} | "
+            + ("matters" if s.matters else "negligible for 0.1 mm" if s.matters is False else "not simulated")
+            + " |"
+        )
+    md.append(
+        "\nThe augmented model is written as a plant file, `model.yaml` (the baseline as `baseline.yaml`); "
+        "a scenario runs it with `plant: {file: model.yaml}`. Its constants are also in `model_params.yaml` "
+        "(a parameter file, e.g. `controller_params: {file: model_params.yaml}`)."
+    )
+    if c.dropped:
+        md.append(f"Fitted terms a plant file cannot carry: {', '.join(c.dropped)}.")
+    return md
+
+
+def write_model_files(d: Diagnosis, out_dir: str | os.PathLike) -> list[Path]:
+    """Write ``model.yaml`` (augmented model) and ``baseline.yaml`` as plant files (see :mod:`.consequence`),
+    and ``model_params.yaml``, the augmented model's constants as a parameter file."""
+    out = Path(out_dir)
+    written = []
+    if d.consequences is None:
+        return written
+    c = d.consequences
+    head = (
+        "# {what} of a gap diagnosis (maglev diagnose), as a plant file: constants in mismatch.overrides,\n"
+        "# every library effect with its fitted law or off. Load with maglev_ocp.plant.load_plant_config,\n"
+        "# or in a scenario: plant: {{file: {name}}}.\n"
+    )
+    for name, data, what in (
+        ("model.yaml", c.model_file, f"Augmented model ({c.label})"),
+        ("baseline.yaml", c.baseline_file, "Baseline model"),
+    ):
+        atomic_write_text(out / name, head.format(what=what, name=name) + yaml.safe_dump(_plain(data), sort_keys=False))
+        written.append(out / name)
+    # The augmented model's constants as a parameter file, for a controller's model (``--params``,
+    # ``controller_params: {file: ...}``); its effects are in model.yaml.
+    consts = {n: float(v) for n, v in c.model_file["mismatch"]["overrides"].items()}
+    NOMINAL.with_(**consts).save(out / "model_params.yaml")
+    written.append(out / "model_params.yaml")
+    return written
+
+
+def _plain(x):
+    """YAML-safe copy (numpy scalars to Python)."""
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, np.generic):
+        return x.item()
+    return x
 
 
 def write_report(d: Diagnosis, out_dir: str | os.PathLike, figures: bool = True) -> Path:
@@ -279,9 +442,10 @@ def write_report(d: Diagnosis, out_dir: str | os.PathLike, figures: bool = True)
             atomic_write_bytes(out / name, fig)
             plt.close(fig)
             written.append(name)
+    write_model_files(d, out)
     atomic_write_text(out / "report.json", json.dumps(report_json(d), indent=2))
     atomic_write_text(out / "report.md", report_markdown(d, written))
     return out
 
 
-__all__ = ["FIGURES", "report_json", "report_markdown", "summary_table", "write_report"]
+__all__ = ["FIGURES", "report_json", "report_markdown", "summary_table", "write_model_files", "write_report"]

@@ -25,10 +25,12 @@ The residual of a channel (vertical: the gap ``g``; horizontal: the position
 
 The filter, the autocorrelation factor and the standard errors are those of
 the identification toolkit shared with the calibration
-(:mod:`maglev_ocp.estimation.ident`). The noise floor of a residual comes from
-the data (see :mod:`.localize`); the filter also gives the analytic
-quantization part, ``q / sqrt(12) * ||w||`` with ``w`` the filter applied to
-the encoder reading.
+(:mod:`maglev_ocp.estimation.ident`). The filter gives the analytic
+quantization part of the noise floor, ``q / sqrt(12) * ||w||`` with ``w`` the
+filter applied to the encoder reading; :mod:`.noise` propagates a whole noise
+model through it. Each residual also keeps its unfiltered, full-rate version
+(``Residual.wide``) for the spectra: a structural resonance of tens of Hz lies
+above the filter's cut-off.
 """
 
 from __future__ import annotations
@@ -126,6 +128,10 @@ class PreparedRun:
         Sample indices of the residual samples.
     feat : dict of ndarray
         Smoothed signals at the centres: ``t, g, d, g_dot, d_dot, i_q, i_d, di_q, di_d``.
+    d2 : ndarray, shape (N-2, 2)
+        Unfiltered second difference ``D2(y)`` at samples ``1 .. N-2`` [m/s^2]: the
+        wide-band measured acceleration, for the spectra of :mod:`.noise` (a structural
+        resonance of tens of Hz lies above the residual filter's cut-off).
     """
 
     name: str
@@ -136,6 +142,7 @@ class PreparedRun:
     meas: np.ndarray
     centers: np.ndarray
     feat: dict[str, np.ndarray] = field(default_factory=dict)
+    d2: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
     @property
     def n(self) -> int:
@@ -219,7 +226,8 @@ def prepare_run(run: RunInput, filt: ZeroPhaseFilter) -> PreparedRun:
         "di_q": filt.smooth(du[:, 0], centers),
         "di_d": filt.smooth(du[:, 1], centers),
     }
-    return PreparedRun(run.name, tuple(run.locked), valid, Z, W, meas, centers, feat)
+    d2 = (y[2:] - 2.0 * y[1:-1] + y[:-2]) / run.Ts**2
+    return PreparedRun(run.name, tuple(run.locked), valid, Z, W, meas, centers, feat, d2)
 
 
 @dataclass
@@ -234,11 +242,16 @@ class Residual:
         Residual ``measured - model`` per channel [m/s^2]; NaN in invalid channels.
     model : ndarray, shape (n_c, 2)
         Filtered model acceleration [m/s^2].
+    wide : ndarray, shape (N-2, 2) or None
+        Unfiltered residual ``D2(y) - K a`` at the full sample rate (samples
+        ``1 .. N-2``), NaN in invalid channels: what the spectra and the whiteness
+        check of :mod:`.noise` read.
     """
 
     run: PreparedRun
     r: np.ndarray
     model: np.ndarray
+    wide: np.ndarray | None = None
 
 
 def residual_of(run: PreparedRun, accel: np.ndarray) -> Residual:
@@ -246,7 +259,13 @@ def residual_of(run: PreparedRun, accel: np.ndarray) -> Residual:
     model = np.asarray(run.W @ accel)
     r = run.meas - model
     r[:, ~run.valid] = np.nan
-    return Residual(run, r, model)
+    wide = None
+    a = np.asarray(accel, float)
+    if len(run.d2) and len(a) == len(run.d2) + 1:
+        # D2 at sample k equals (a[k-1] + a[k]) / 2 under the zero-order hold (module docstring).
+        wide = run.d2 - 0.5 * (a[:-1] + a[1:])
+        wide[:, ~run.valid] = np.nan
+    return Residual(run, r, model, wide)
 
 
 __all__ = [

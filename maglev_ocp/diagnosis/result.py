@@ -11,7 +11,11 @@ least the keys the issue asks for::
      "noise_floor": {"vertical": {...}, "horizontal": {...}},
      "baseline_params": {"C1": ..., ...}}
 
-plus the reasons of the verdict, the remaining regions, the localization
+plus ``unexplained`` (what the final model leaves beyond the noise model: channel,
+kind, frequency and damping or band, region), ``noise_model`` (model floors,
+whiteness, peaks, the lag's ``resonance_guard``), ``consequences`` (force, delay,
+closed-loop error per effect; which matter for the 0.1 mm goal; the model files
+``model.yaml`` / ``baseline.yaml``), the reasons of the verdict, the remaining regions, the localization
 summaries (spectral lines, period scan), the simulated-trajectory errors, the
 train/held-out split, the timing and the ``warnings`` (fits whose solver did
 not converge). ``a|b`` is a confusable set (the effects explain the held-out
@@ -29,7 +33,9 @@ from pydantic import Field
 from ..config import Strict
 from ..params import Params
 from .attribution import EffectScore, Verdict, VerdictRules
+from .consequence import EffectSize
 from .localize import BinStats, ChannelFloor, PeriodScan, Region, Spectrum
+from .noise import NoiseCheck, ResonanceGuard, SpectralPeak
 from .residuals import Residual
 from .simulate_compare import TrajectoryComparison
 
@@ -56,6 +62,9 @@ class DiagnoseSettings(Strict):
         Window of the simulated-trajectory comparison [s].
     simulate : bool
         Run the trajectory comparison.
+    consequence : bool
+        Simulate each found effect's closed-loop consequence with the shipped
+        controllers (only with ``simulate``).
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -72,6 +81,7 @@ class DiagnoseSettings(Strict):
     seed: int = Field(0, ge=0)
     horizon_s: float = Field(0.05, gt=0.002, le=1.0)
     simulate: bool = True
+    consequence: bool = True
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""
@@ -126,6 +136,89 @@ class HeldOut:
 
 
 @dataclass
+class NoiseFindings:
+    """What the noise model says: model floors, whiteness, peaks, what stays unexplained, the lag guard.
+
+    Attributes
+    ----------
+    checks : dict
+        ``{channel: NoiseCheck}`` of the baseline residual (all runs).
+    peaks : list of SpectralPeak
+        Baseline peaks confirmed in the training and the held-out runs alone.
+    checks_after : dict
+        ``{channel: NoiseCheck}`` of the final model's residual.
+    remaining_peaks : list of SpectralPeak
+        Confirmed peaks the final model leaves (at least half their power).
+    unexplained : list of dict
+        What the final model leaves beyond the noise model, each with ``channel``,
+        ``kind`` (``resonance``, ``line`` or ``excess``), frequency / band / damping or
+        the excess, and the region (``g_range_m``, ``d_range_m``).
+    guards : dict
+        ``{candidate: ResonanceGuard}`` for every lag-type candidate; the verdict
+        reads ``guards[name].absorbs_resonance`` (:data:`~.noise.GUARD_FLAG`).
+    """
+
+    checks: dict[str, NoiseCheck]
+    peaks: list[SpectralPeak]
+    checks_after: dict[str, NoiseCheck] = field(default_factory=dict)
+    remaining_peaks: list[SpectralPeak] = field(default_factory=list)
+    unexplained: list[dict] = field(default_factory=list)
+    guards: dict[str, ResonanceGuard] = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """JSON-ready view."""
+        return {
+            "baseline": {ch: c.to_dict() for ch, c in self.checks.items()},
+            "confirmed_peaks": [p.to_dict() for p in self.peaks],
+            "final_model": {ch: c.to_dict() for ch, c in self.checks_after.items()},
+            "remaining_peaks": [p.to_dict() for p in self.remaining_peaks],
+            "resonance_guard": {n: g.to_dict() for n, g in self.guards.items()},
+        }
+
+
+@dataclass
+class Consequences:
+    """Physical size and closed-loop consequence of the found effects; the augmented model as a plant file.
+
+    Attributes
+    ----------
+    sizes : list of EffectSize
+        One per effect of the verdict.
+    matters, negligible : list of str
+        Effects that move a shipped controller by at least a tenth of the 0.1 mm
+        goal, and those that do not (detectable but negligible).
+    model_file : dict
+        The augmented model as a plant file (``model.yaml``).
+    baseline_file : dict
+        The baseline as a plant file (``baseline.yaml``).
+    dropped : list of str
+        Fitted keys the plant file cannot carry.
+    label : str
+        The augmented model's name (``baseline`` if no effect was found).
+    """
+
+    sizes: list[EffectSize]
+    matters: list[str]
+    negligible: list[str]
+    model_file: dict
+    baseline_file: dict
+    dropped: list[str] = field(default_factory=list)
+    label: str = "baseline"
+
+    def to_dict(self) -> dict:
+        """JSON-ready view."""
+        return {
+            "effects": [s.to_dict() for s in self.sizes],
+            "matters": self.matters,
+            "negligible": self.negligible,
+            "model": self.label,
+            "model_file": "model.yaml",
+            "baseline_file": "baseline.yaml",
+            "dropped_from_model_file": self.dropped,
+        }
+
+
+@dataclass
 class Diagnosis:
     """Everything a diagnosis found (see :mod:`.report` for the files it writes).
 
@@ -169,6 +262,10 @@ class Diagnosis:
         Held-out data for scoring other models (self-check).
     warnings : list of str
         Fits whose solver did not converge (their candidates are not counted as evidence).
+    noise : NoiseFindings or None
+        Noise-model floors, whiteness, spectral peaks, the unexplained remainder, the lag guard.
+    consequences : Consequences or None
+        Size and closed-loop consequence of the found effects, the model files.
     """
 
     verdict: Verdict
@@ -193,6 +290,8 @@ class Diagnosis:
     quantization_floor: float = math.nan
     heldout: HeldOut | None = None
     warnings: list[str] = field(default_factory=list)
+    noise: NoiseFindings | None = None
+    consequences: Consequences | None = None
 
     def to_json(self) -> dict:
         """The ``report.json`` content."""
@@ -250,7 +349,15 @@ def report_json(d: Diagnosis) -> dict:
         "timing_s": d.timing,
         "settings": d.settings.model_dump() if d.settings is not None else None,
         "warnings": d.warnings,
+        "noise_model": d.noise.to_dict() if d.noise is not None else None,
+        "unexplained": d.noise.unexplained if d.noise is not None else [],
+        "consequences": d.consequences.to_dict() if d.consequences is not None else None,
     }
+    if d.noise is not None:
+        for ch, c in d.noise.checks.items():
+            if ch in out["noise_floor"]:
+                out["noise_floor"][ch]["model_floor_m_s2"] = c.floor
+                out["noise_floor"][ch]["white"] = c.whiteness.white
     return _clean(out)
 
 
@@ -301,9 +408,48 @@ def summary_table(d: Diagnosis) -> str:
         lines.append(f"simulated {d.trajectories.horizon * 1e3:.0f} ms windows on held-out runs, rms error [mm]:")
         for lab, e in d.trajectories.rms.items():
             lines.append(f"  {lab:<10} " + "  ".join(f"{ax} {v * 1e3:.4f}" for ax, v in e.items() if v is not None))
+    lines += _noise_lines(d)
     lines += [f"warning: {w}" for w in d.warnings]
     lines.append(f"\ntime: {d.timing.get('total_s', float('nan')):.1f} s")
     return "\n".join(lines)
 
 
-__all__ = ["ChannelView", "DiagnoseSettings", "Diagnosis", "HeldOut", "report_json", "summary_table"]
+def _noise_lines(d: Diagnosis) -> list[str]:
+    """Summary lines of the noise model, the unexplained remainder and the effects' sizes."""
+    lines: list[str] = []
+    if d.noise is not None and d.noise.checks:
+        lines.append("")
+        lines.append("noise model (floor from quantization, encoder and acceleration noise through the filter):")
+        for ch, c in d.noise.checks.items():
+            lines.append(
+                f"  {ch:<10} model floor {c.floor:.3g} m/s^2 (quantization {c.quantization:.2g}), residual rms "
+                f"{c.rms:.3g} = {c.excess_ratio:.1f}x, {'white' if c.whiteness.white else 'not white'} "
+                f"(flatness {c.whiteness.flatness:.2f}, null {c.whiteness.flatness_null:.2f})"
+            )
+        for p in d.noise.peaks:
+            lines.append(f"  peak: {p.describe()}")
+        for u in d.noise.unexplained:
+            lines.append(f"  unexplained: {u['what']}")
+        for n, g in d.noise.guards.items():
+            if g.absorbs_resonance:
+                lines.append(
+                    f"  {n}: {g.fraction_in_peaks:.0%} of its improvement lies in the resonance peaks: "
+                    "a lag cannot explain a narrow resonance"
+                )
+    if d.consequences is not None and d.consequences.sizes:
+        lines.append("")
+        lines.append("size and consequence of the effects found:")
+        lines += [f"  {s.summary}" for s in d.consequences.sizes]
+    return lines
+
+
+__all__ = [
+    "ChannelView",
+    "Consequences",
+    "DiagnoseSettings",
+    "Diagnosis",
+    "HeldOut",
+    "NoiseFindings",
+    "report_json",
+    "summary_table",
+]

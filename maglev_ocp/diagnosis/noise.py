@@ -1,0 +1,907 @@
+"""A noise floor that a structured residual cannot inflate; whiteness; spectral peaks with damping.
+
+The floor of :mod:`.localize` is measured on the residual itself (what
+binned maps of the state cannot predict). Anything without state structure —
+a lightly damped structural resonance, a vibration — then *becomes* the floor
+and a gap disappears into it. This module derives the floor from a **model of
+the noise** instead, and checks the residual against it:
+
+- **noise model** of the wide-band residual ``r = D2(y) - K a`` (see
+  :mod:`.residuals`): white position noise of variance ``var_y`` on the encoder
+  reading (quantization ``q^2 / 12`` at least, plus encoder noise) seen through
+  the second difference, and white acceleration noise of variance ``var_a`` per
+  period (process force and current noise) seen through ``K = [1/2, 1/2]``.
+  Its one-sided PSD is
+
+  ``S(f) = 2 Ts [var_y (4 sin^2(pi f Ts) / Ts^2)^2 + var_a cos^2(pi f Ts)]``.
+
+  The two levels are fitted to the Welch PSD above the residual filter's
+  cut-off (the library's effects live below it) in the log domain with a
+  robust loss, bins of a peak excluded and ``var_y >= q^2 / 12`` (the encoder
+  resolution gives the quantization part exactly). A narrow peak, being
+  excluded and smoothed over by two broad shapes, cannot raise the levels.
+- **floor**: that noise propagated analytically through the residual filter:
+  ``floor^2 = var_y ||h * D2||^2 + var_a ||h * K||^2`` (the filtered
+  residual's rms if it were only noise).
+- **whiteness**: the residual whitened by the noise model (its spectrum
+  divided by ``sqrt(S)``) must be white: Ljung-Box over the first lags, and
+  the spectral flatness of ``PSD / S`` against its chi-square null.
+- **peaks**: bands where the PSD exceeds a running median (and the model) at
+  a Bonferroni-corrected chi-square level; each is fitted with a second-order
+  resonance ``A f^4 / ((f0^2 - f^2)^2 + (2 zeta f0 f)^2)`` (acceleration
+  response of a mode to a white force) convolved with the Welch window's
+  spectral kernel, which gives its frequency ``f0`` and damping ``zeta``; a
+  peak narrower than the resolution is a *line* (a sinusoid), with an upper
+  bound on its damping.
+- **region** of a peak: where in gap and position its band-passed power lives.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.ndimage as ndi
+import scipy.optimize as so
+import scipy.signal as sps
+import scipy.special as spc
+import scipy.stats as st
+
+from .. import constants as k
+from .residuals import CHANNELS, Residual
+
+
+# ------------------------------------------------------------------- noise model
+def noise_psd(f: np.ndarray, Ts: float, var_y: float, var_a: float) -> np.ndarray:
+    """One-sided PSD of the wide-band residual under white position and acceleration noise [(m/s^2)^2/Hz]."""
+    s = np.sin(math.pi * np.asarray(f, float) * Ts)
+    d2 = (4.0 * s**2 / Ts**2) ** 2
+    return 2.0 * Ts * (var_y * d2 + var_a * (1.0 - s**2))
+
+
+@dataclass
+class NoiseModel:
+    """Fitted noise model of one channel (see the module docstring).
+
+    Attributes
+    ----------
+    channel : str
+        ``vertical`` or ``horizontal``.
+    Ts : float
+        Sample period [s].
+    q : float
+        Encoder resolution [m].
+    var_y : float
+        Position noise variance on the reading [m^2] (at least ``q^2 / 12``).
+    var_a : float
+        Acceleration noise variance per period [(m/s^2)^2].
+    band_hz : list of float
+        Band the levels were fitted on [Hz].
+    """
+
+    channel: str
+    Ts: float
+    q: float
+    var_y: float
+    var_a: float
+    band_hz: list[float]
+
+    def psd(self, f: np.ndarray) -> np.ndarray:
+        """Model PSD at ``f`` [(m/s^2)^2/Hz]."""
+        return noise_psd(f, self.Ts, self.var_y, self.var_a)
+
+    def floor(self, w_y: np.ndarray, w_a: np.ndarray) -> float:
+        """Rms of the filtered residual due to this noise alone, ``sqrt(var_y ||w_y||^2 + var_a ||w_a||^2)``.
+
+        Parameters
+        ----------
+        w_y, w_a : ndarray
+            The residual filter on the encoder reading (``h * D2``) and on the
+            per-period accelerations (``h * K``); :class:`~.residuals.ZeroPhaseFilter`'s
+            ``w_y`` and ``w_a``.
+        """
+        return math.sqrt(self.var_y * float(w_y @ w_y) + self.var_a * float(w_a @ w_a))
+
+    def quantization_floor(self, w_y: np.ndarray) -> float:
+        """The quantization part alone, ``q / sqrt(12) ||w_y||`` [m/s^2]."""
+        return self.q / math.sqrt(12.0) * float(np.linalg.norm(w_y))
+
+    def to_dict(self) -> dict:
+        """JSON-ready view (standard deviations rather than variances)."""
+        return {
+            "position_noise_m": math.sqrt(self.var_y),
+            "quantization_m": self.q / math.sqrt(12.0),
+            "accel_noise_m_s2": math.sqrt(self.var_a),
+            "fit_band_hz": self.band_hz,
+        }
+
+
+@dataclass
+class WideSpectrum:
+    """Welch PSD of a channel's wide-band residual.
+
+    Attributes
+    ----------
+    f, psd : ndarray
+        Frequencies [Hz] and PSD [(m/s^2)^2/Hz].
+    dof : float
+        Degrees of freedom per bin.
+    nperseg : int
+        Segment length (the resolution is ``1 / (nperseg Ts)``).
+    Ts : float
+        Sample period [s].
+    """
+
+    f: np.ndarray
+    psd: np.ndarray
+    dof: float
+    nperseg: int
+    Ts: float
+
+    @property
+    def df(self) -> float:
+        """Bin spacing [Hz]."""
+        return 1.0 / (self.nperseg * self.Ts)
+
+
+def _wide_series(residuals: Sequence[Residual], channel: int) -> list[np.ndarray]:
+    out = []
+    for r in residuals:
+        if r.wide is None or not r.run.valid[channel]:
+            continue
+        x = r.wide[:, channel]
+        if np.all(np.isfinite(x)):
+            out.append(x)
+    return out
+
+
+def _welch(xs: Sequence[np.ndarray], Ts: float, seg_s: float) -> WideSpectrum | None:
+    """Welch PSD averaged over runs (weighted by their segment counts)."""
+    if not xs:
+        return None
+    longest = max(len(x) for x in xs)
+    nper = int(min(seg_s / Ts, longest))
+    if nper < 64:
+        return None
+    acc, wsum, f = None, 0.0, None
+    for x in xs:
+        if len(x) < nper:
+            continue
+        f, p = sps.welch(x, fs=1.0 / Ts, nperseg=nper, noverlap=nper // 2, detrend="constant")
+        m = 1 + 2 * (len(x) - nper) // nper
+        acc = p * m if acc is None else acc + p * m
+        wsum += m
+    if acc is None or f is None:
+        return None
+    # Hann, 50 % overlap: about 1.8 effective dof per averaged segment (Welch 1967).
+    return WideSpectrum(f, acc / wsum, max(2.0, 1.8 * wsum), nper, Ts)
+
+
+def wide_spectrum(
+    residuals: Sequence[Residual], channel: int, Ts: float = k.Ts, seg_s: float = 4.0
+) -> WideSpectrum | None:
+    """Welch PSD of the wide-band residuals of one channel (segments of ``seg_s`` within runs).
+
+    Runs shorter than a segment are skipped (a segment is never longer than the longest run).
+    """
+    return _welch(_wide_series(residuals, channel), Ts, seg_s)
+
+
+def _log_bias(dof: float) -> float:
+    """Mean of ``log(chi2(dof) / dof)``: a log-domain fit of a noisy PSD is biased low by this."""
+    return float(spc.digamma(dof / 2.0) - math.log(dof / 2.0))
+
+
+def _levels(
+    spec: WideSpectrum, p: np.ndarray, q: float, f_lo: float, tau: float, exclude: np.ndarray | None = None
+) -> tuple[float, float, list[float]]:
+    """Robust noise levels from a PSD ``p``: ``var_y`` from the top of the band, ``var_a`` from a low quantile.
+
+    Structure only ever *adds* power, so a low quantile of the per-bin estimates
+    of the acceleration-noise level (corrected for the chi-square quantile) is
+    not raised by anything that covers fewer than ``1 - tau`` of the bins. The
+    bins are those below 15 Hz, or below the frequency where the acceleration
+    noise stops dominating the quantization if that is higher; ``exclude``
+    masks the bands of peaks already found.
+    """
+    fs = 1.0 / spec.Ts
+    f = spec.f
+    vq = q**2 / 12.0
+    s_y = noise_psd(f, spec.Ts, 1.0, 0.0)
+    s_a = noise_psd(f, spec.Ts, 0.0, 1.0)
+    med_bias = st.chi2.ppf(0.5, spec.dof) / spec.dof
+    q_bias = st.chi2.ppf(tau, spec.dof) / spec.dof
+    top = (f >= 0.2 * fs) & (f <= 0.45 * fs)
+    var_y = max(vq, float(np.median(p[top] / s_y[top])) / med_bias) if top.any() else vq
+    ok = (f >= f_lo) & (f <= 0.45 * fs)
+    if exclude is not None:
+        ok &= ~exclude
+    f_hi = 15.0
+    var_a = 1e-12
+    for _ in range(2):
+        use = ok & (f <= f_hi)
+        if use.sum() < 8:
+            use = ((f >= f_lo) & (f <= 0.45 * fs)) & (f <= max(f_hi, f_lo + 8 * spec.df))
+        est = (p[use] / q_bias - var_y * s_y[use]) / s_a[use]
+        var_a = max(float(np.quantile(est, tau)), 1e-12)
+        band = [float(f[use][0]), float(f[use][-1])]
+        cross = f[(f > 0) & (var_y * s_y > var_a * s_a)]
+        fx = float(cross[0]) if len(cross) else 0.45 * fs
+        if fx <= f_hi * 1.05:
+            break
+        f_hi = fx
+    return var_y, var_a, band
+
+
+def fit_noise_model(
+    spec: WideSpectrum,
+    channel: str,
+    q: float = k.encoder_resolution,
+    f_lo: float = 1.0,
+    tau: float = 0.2,
+    false_alarm: float = 1e-3,
+) -> tuple[NoiseModel, list[SpectralPeak]]:
+    """Noise levels that peaks cannot raise, and the peaks (their fitted shapes removed before the refit).
+
+    Parameters
+    ----------
+    spec : WideSpectrum
+        The channel's wide-band spectrum.
+    channel : str
+        Channel name.
+    q : float
+        Encoder resolution [m] (``var_y >= q^2 / 12``).
+    f_lo : float
+        Lowest frequency used [Hz].
+    tau : float
+        Quantile of the acceleration-noise estimates.
+    false_alarm : float
+        Peak detection level (see :func:`find_peaks`).
+
+    Returns
+    -------
+    model : NoiseModel
+    peaks : list of SpectralPeak
+        Peaks with their fitted resonance (no regions yet).
+    """
+    p = spec.psd.copy()
+    peaks: list[SpectralPeak] = []
+    model = None
+    exclude = np.zeros(len(spec.f), bool)
+    for _ in range(3):
+        var_y, var_a, band = _levels(spec, p, q, f_lo, tau, exclude)
+        model = NoiseModel(channel, spec.Ts, q, var_y, var_a, band)
+        peaks = find_peaks(spec, model, CHANNELS.index(channel), f_lo=f_lo, false_alarm=false_alarm)
+        cleaned = spec.psd - sum((pk.shape for pk in peaks), np.zeros_like(spec.psd))
+        # Never below half the measured PSD: the fitted shapes remove the skirts, not the noise.
+        cleaned = np.maximum(cleaned, 0.5 * spec.psd)
+        for pk in peaks:
+            w = max(5 * pk.damping * pk.freq_hz, 2 * spec.df)
+            exclude |= (spec.f >= min(pk.band_hz[0], pk.freq_hz - w)) & (spec.f <= max(pk.band_hz[1], pk.freq_hz + w))
+        if np.allclose(cleaned, p, rtol=1e-3):
+            break
+        p = cleaned
+    assert model is not None
+    return model, peaks
+
+
+# ---------------------------------------------------------------------- whiteness
+@dataclass
+class Whiteness:
+    """Whiteness of a residual relative to its noise model.
+
+    Attributes
+    ----------
+    ljung_box_q : float
+        Ljung-Box statistic of the whitened residual over ``lags`` lags (runs pooled).
+    ljung_box_p : float
+        Its p-value (chi-square with ``lags`` times the number of runs dof).
+    lags : int
+        Lags tested per run.
+    flatness : float
+        Spectral flatness (geometric / arithmetic mean) of ``PSD / model`` over the band.
+    flatness_null : float
+        The flatness that noise drawn from the model (same run lengths, same Welch
+        estimate) exceeds in all but about 1 in 10^4 draws (mean - 4 sd of the draws).
+    excess_ratio : float
+        Mean of ``PSD / model`` over the band (1 for noise alone).
+    white : bool
+        Flatness at least its null level (the effect size; with tens of thousands
+        of samples the Ljung-Box p-value rejects any model misfit, so it is reported, not decisive).
+    """
+
+    ljung_box_q: float
+    ljung_box_p: float
+    lags: int
+    flatness: float
+    flatness_null: float
+    excess_ratio: float
+    white: bool
+
+    def to_dict(self) -> dict:
+        """JSON-ready view."""
+        return dict(self.__dict__)
+
+
+def _whiten(x: np.ndarray, model: NoiseModel) -> np.ndarray:
+    n = len(x)
+    X = np.fft.rfft(x - np.mean(x))
+    f = np.fft.rfftfreq(n, model.Ts)
+    S = np.maximum(model.psd(f), 1e-300)
+    return np.fft.irfft(X / np.sqrt(S), n)
+
+
+def whiteness(
+    residuals: Sequence[Residual],
+    channel: int,
+    model: NoiseModel,
+    spec: WideSpectrum,
+    lags: int = 20,
+    f_lo: float = 1.0,
+    seed: int = 0,
+    n_null: int = 12,
+) -> Whiteness:
+    """Ljung-Box and spectral-flatness checks of the residual whitened by ``model``."""
+    q_tot, dof_tot = 0.0, 0
+    for x in _wide_series(residuals, channel):
+        if len(x) < 4 * lags:
+            continue
+        e = _whiten(x, model)
+        e = e - e.mean()
+        n = len(e)
+        v = float(e @ e)
+        if v <= 0:
+            continue
+        rho = np.array([float(e[j:] @ e[:-j]) / v for j in range(1, lags + 1)])
+        q_tot += n * (n + 2) * float(np.sum(rho**2 / (n - np.arange(1, lags + 1))))
+        dof_tot += lags
+    p_lb = float(st.chi2.sf(q_tot, dof_tot)) if dof_tot else math.nan
+    flat, mean_ratio = _flatness(spec, model, f_lo)
+    # Null: noise drawn from the model with the runs' lengths, through the same Welch estimate.
+    rng = np.random.default_rng(seed)
+    lens = [len(x) for x in _wide_series(residuals, channel)]
+    null = []
+    for _ in range(n_null):
+        xs = [_colored(n, model, rng) for n in lens]
+        sp = _welch(xs, spec.Ts, spec.nperseg * spec.Ts)
+        if sp is not None:
+            null.append(_flatness(sp, model, f_lo)[0])
+    thr = float(np.mean(null) - 4 * np.std(null, ddof=1)) if len(null) > 2 else math.nan
+    return Whiteness(q_tot, p_lb, lags, flat, thr, mean_ratio, bool(not flat < thr))
+
+
+def _flatness(spec: WideSpectrum, model: NoiseModel, f_lo: float) -> tuple[float, float]:
+    """Spectral flatness and mean of ``PSD / model`` over ``f_lo .. 0.45 fs``."""
+    sel = (spec.f >= f_lo) & (spec.f <= 0.45 / spec.Ts)
+    if not sel.any():
+        return math.nan, math.nan
+    ratio = np.maximum(spec.psd[sel] / np.maximum(model.psd(spec.f[sel]), 1e-300), 1e-300)
+    return float(np.exp(np.mean(np.log(ratio))) / np.mean(ratio)), float(np.mean(ratio))
+
+
+def _colored(n: int, model: NoiseModel, rng: np.random.Generator) -> np.ndarray:
+    """A series of ``n`` samples of Gaussian noise with the model's PSD."""
+    f = np.fft.rfftfreq(n, model.Ts)
+    X = np.fft.rfft(rng.standard_normal(n)) * np.sqrt(model.psd(f) / (2 * model.Ts))
+    return np.fft.irfft(X, n)
+
+
+# -------------------------------------------------------------------------- peaks
+@dataclass
+class SpectralPeak:
+    """A peak of a channel's wide-band residual spectrum, fitted with a second-order resonance.
+
+    Attributes
+    ----------
+    channel : str
+        ``vertical`` or ``horizontal``.
+    band_hz : list of float
+        Band where the PSD exceeds its baseline [Hz].
+    peak_hz : float
+        Frequency of the largest bin [Hz].
+    freq_hz : float
+        Fitted natural frequency ``f0`` [Hz].
+    damping : float
+        Fitted damping ratio ``zeta`` (for a line: the resolution's upper bound).
+    resolved : bool
+        The peak is wider than the spectral resolution (a resonance); else a line (a sinusoid).
+    ratio : float
+        PSD over baseline at the peak.
+    power_m2_s4 : float
+        Power above the baseline in the band [(m/s^2)^2].
+    rms_m_s2 : float
+        ``sqrt(power)``: rms acceleration of the peak [m/s^2].
+    rms_m : float
+        The same as a displacement, ``rms_m_s2 / (2 pi f0)^2`` [m].
+    g_range_m, d_range_m : list of float
+        Where in gap and position the band's power lives (the visited range if it is uniform).
+    """
+
+    channel: str
+    band_hz: list[float]
+    peak_hz: float
+    freq_hz: float
+    damping: float
+    resolved: bool
+    ratio: float
+    power_m2_s4: float
+    rms_m_s2: float
+    rms_m: float
+    g_range_m: list[float] = field(default_factory=list)
+    d_range_m: list[float] = field(default_factory=list)
+    shape: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+
+    @property
+    def kind(self) -> str:
+        """``resonance`` (resolved width) or ``line``."""
+        return "resonance" if self.resolved else "line"
+
+    def to_dict(self) -> dict:
+        """JSON-ready view."""
+        out = {kk: v for kk, v in self.__dict__.items() if kk != "shape"}
+        out["kind"] = self.kind
+        return out
+
+    def describe(self) -> str:
+        """One-line description."""
+        z = f"damping {self.damping:.3f}" if self.resolved else f"damping < {self.damping:.3f} (width not resolved)"
+        where = ""
+        if self.g_range_m:
+            where = f", g {self.g_range_m[0] * 1e3:.1f}..{self.g_range_m[1] * 1e3:.1f} mm"
+        if self.d_range_m:
+            where += f", d {self.d_range_m[0] * 1e3:.0f}..{self.d_range_m[1] * 1e3:.0f} mm"
+        return (
+            f"{self.channel} {self.kind} at {self.freq_hz:.2f} Hz ({z}), band {self.band_hz[0]:.2f}.."
+            f"{self.band_hz[1]:.2f} Hz, {self.rms_m_s2:.3g} m/s^2 rms ({self.rms_m * 1e6:.2f} um){where}"
+        )
+
+
+def _window_kernel(nper: int, over: int) -> np.ndarray:
+    """Power response of the Hann window on a grid ``over`` times finer than the bins (unit sum)."""
+    w = sps.get_window("hann", nper)
+    W = np.abs(np.fft.fft(w, nper * over)) ** 2
+    W = np.fft.fftshift(W)
+    c = len(W) // 2
+    half = 4 * over
+    ker = W[c - half : c + half + 1]
+    return ker / ker.sum()
+
+
+@dataclass
+class Resonance:
+    """A second-order resonance fitted to a spectral peak.
+
+    Attributes
+    ----------
+    f0, zeta, amplitude : float
+        Natural frequency [Hz], damping ratio, and the level ``A`` of
+        ``A f^4 / ((f0^2 - f^2)^2 + (2 zeta f0 f)^2)``.
+    shape : ndarray
+        The fitted peak's PSD (window included) on the spectrum's bins.
+    """
+
+    f0: float
+    zeta: float
+    amplitude: float
+    shape: np.ndarray
+
+
+def fit_resonance(spec: WideSpectrum, background: np.ndarray, peak_hz: float, width_hz: float) -> Resonance:
+    """Fit a second-order resonance to the PSD around ``peak_hz`` (Welch window included).
+
+    Parameters
+    ----------
+    spec : WideSpectrum
+        The spectrum.
+    background : ndarray
+        PSD without the peak (same bins); a free factor scales it in the fit.
+    peak_hz, width_hz : float
+        Largest bin and the band's width (start values).
+    """
+    df = spec.df
+    half = max(8 * df, 4 * width_hz, 0.25 * peak_hz)
+    sel = (spec.f >= peak_hz - half) & (spec.f <= peak_hz + half) & (spec.f > 0)
+    f, p, b = spec.f[sel], spec.psd[sel], np.maximum(background[sel], 1e-300)
+    over = 8
+    ker = _window_kernel(spec.nperseg, over)
+
+    def shape_at(fq: np.ndarray, f0: float, zeta: float) -> np.ndarray:
+        fine = np.arange(fq[0] - 4 * df, fq[-1] + 4 * df + df / (2 * over), df / over)
+        den = (f0**2 - fine**2) ** 2 + (2 * zeta * f0 * fine) ** 2
+        sm = np.convolve(fine**4 / np.maximum(den, 1e-300), ker, mode="same")
+        return np.interp(fq, fine, sm)
+
+    def res(th: np.ndarray) -> np.ndarray:
+        m = math.exp(th[3]) * b + math.exp(th[2]) * shape_at(f, th[0], math.exp(th[1]))
+        # Log-domain residual: the bins' chi-square scatter is multiplicative.
+        return np.log(np.maximum(p, 1e-300)) - np.log(m)
+
+    z0 = max(width_hz / (2 * peak_hz), df / (2 * peak_hz))
+    s0 = shape_at(f, peak_hz, z0)
+    a0 = max(float(np.max(p - b)) / max(float(np.max(s0)), 1e-300), 1e-300)
+    x0 = np.array([peak_hz, math.log(z0), math.log(a0), 0.0])
+    lo = np.array([peak_hz - 2 * max(width_hz, df), math.log(1e-4), x0[2] - 40, -3.0])
+    hi = np.array([peak_hz + 2 * max(width_hz, df), math.log(0.5), x0[2] + 40, 3.0])
+    sol = so.least_squares(res, np.clip(x0, lo + 1e-9, hi - 1e-9), bounds=(lo, hi), x_scale=[df, 1.0, 1.0, 1.0])
+    f0, zeta, amp = float(sol.x[0]), float(math.exp(sol.x[1])), float(math.exp(sol.x[2]))
+    full = np.zeros_like(spec.f)
+    win = (spec.f > 0) & (spec.f >= f0 - 40 * max(zeta * f0, df)) & (spec.f <= f0 + 40 * max(zeta * f0, df))
+    if win.sum() >= 2:
+        full[win] = amp * shape_at(spec.f[win], f0, zeta)
+    return Resonance(f0, zeta, amp, full)
+
+
+def _band_region(
+    residuals: Sequence[Residual], channel: int, band: list[float], Ts: float
+) -> tuple[list[float], list[float]]:
+    """Gap and position range holding the band-passed residual's power (bins above half the largest)."""
+    lo, hi = max(band[0], 0.2), min(band[1], 0.49 / Ts)
+    if not hi > lo:
+        return [], []
+    sos = sps.butter(2, [lo, hi], btype="bandpass", fs=1.0 / Ts, output="sos")
+    pw, gg, dd = [], [], []
+    for r in residuals:
+        if r.wide is None or not r.run.valid[channel] or len(r.wide) < 64:
+            continue
+        x = r.wide[:, channel]
+        if not np.all(np.isfinite(x)):
+            continue
+        e = sps.sosfiltfilt(sos, x)
+        pw.append(e**2)
+        gg.append(r.run.Z[1:, 0])
+        dd.append(r.run.Z[1:, 2])
+    if not pw:
+        return [], []
+    p, g, d = np.concatenate(pw), np.concatenate(gg), np.concatenate(dd)
+    out = []
+    for x in (g, d):
+        e = np.linspace(*np.percentile(x, [1, 99]), 11)
+        if not e[-1] > e[0]:
+            out.append([float(e[0]), float(e[-1])])
+            continue
+        i = np.clip(np.searchsorted(e, x, side="right") - 1, 0, 9)
+        cnt = np.bincount(i, minlength=10)
+        m = np.where(cnt > 20, np.bincount(i, weights=p, minlength=10) / np.maximum(cnt, 1), np.nan)
+        # A place only where the power is significantly uneven: a bin's mean power of a band-limited
+        # process over n samples carries about n_eff = 2 B Ts n independent ones (relative error sqrt(2 / n_eff)).
+        rel = np.sqrt(2.0 / np.maximum(cnt * 2.0 * (hi - lo) * Ts, 1.0))
+        med = float(np.nanmedian(m)) if np.any(np.isfinite(m)) else 0.0
+        high = np.isfinite(m) & (m > 2.0 * med) & (m > med * (1.0 + 4.0 * rel)) & (m >= 0.5 * np.nanmax(m))
+        ok = np.flatnonzero(high)
+        out.append([float(e[ok.min()]), float(e[ok.max() + 1])] if len(ok) else [float(e[0]), float(e[-1])])
+    return out[0], out[1]
+
+
+def _log_median(f: np.ndarray, p: np.ndarray, df: float, rel: float = 0.35) -> np.ndarray:
+    """Geometric running median over ``f / (1 + rel) .. f (1 + rel)`` (at least +-2 Hz).
+
+    A window proportional to frequency: a resonance of damping ``zeta`` spans about
+    ``2 zeta f0``, a small part of the window for a lightly damped one, so the
+    median stays on the noise under it (a fixed few-Hz window would follow the peak).
+    """
+    lp = np.log(np.maximum(p, 1e-300))
+    out = np.empty_like(lp)
+    lo = np.searchsorted(f, np.minimum(f / (1 + rel), f - 2.0))
+    hi = np.searchsorted(f, np.maximum(f * (1 + rel), f + 2.0), side="right")
+    for i in range(len(f)):
+        out[i] = np.median(lp[lo[i] : max(hi[i], lo[i] + 1)])
+    return np.exp(out)
+
+
+def find_peaks(
+    spec: WideSpectrum,
+    model: NoiseModel,
+    channel: int = 0,
+    f_lo: float = 1.0,
+    false_alarm: float = 1e-3,
+    max_peaks: int = 4,
+) -> list[SpectralPeak]:
+    """Peaks of the PSD above both a running median and the noise model, each fitted as a resonance.
+
+    Parameters
+    ----------
+    spec : WideSpectrum
+        The channel's spectrum.
+    model : NoiseModel
+        Its noise model.
+    channel : int
+        0 vertical, 1 horizontal.
+    f_lo : float
+        Lowest frequency searched [Hz].
+    false_alarm : float
+        Per-spectrum false-alarm probability (Bonferroni over the bins).
+    max_peaks : int
+        Largest peaks kept (by power).
+    """
+    f, p = spec.f, spec.psd
+    med = _log_median(f, p, spec.df) * math.exp(-_log_bias(spec.dof))
+    base = np.maximum(med, model.psd(f))
+    sel = (f >= f_lo) & (f <= 0.45 / spec.Ts)
+    n_bins = max(int(sel.sum()), 1)
+    thr = st.chi2.isf(false_alarm / n_bins, spec.dof) / spec.dof
+    over = sel & (p > thr * base)
+    lab, n_lab = ndi.label(over)
+    out = []
+    for j in range(1, n_lab + 1):
+        ii = np.flatnonzero(lab == j)
+        band = [float(max(f[ii[0]] - spec.df / 2, 0.0)), float(f[ii[-1]] + spec.df / 2)]
+        ipk = ii[np.argmax(p[ii] / base[ii])]
+        # The peak's power: everything above the baseline over the band widened by its skirts.
+        lo_i, hi_i = max(ii[0] - 3, 0), min(ii[-1] + 3, len(f) - 1)
+        power = float(np.sum(np.maximum(p[lo_i : hi_i + 1] - base[lo_i : hi_i + 1], 0.0)) * spec.df)
+        fit = fit_resonance(spec, model.psd(f), float(f[ipk]), band[1] - band[0])
+        f0, zeta = fit.f0, fit.zeta
+        # Half-power bandwidth 2 zeta f0 against the bin spacing (the Hann window's own width is in the fit).
+        resolved = 2 * zeta * f0 > 0.75 * spec.df
+        if not band[0] - 2 * spec.df <= f0 <= band[1] + 2 * spec.df:
+            # The resonance shape does not fit this peak (e.g. an effect's content at a drive frequency):
+            # report the peak bin and bound the damping by the band's width.
+            f0, resolved = float(f[ipk]), False
+            zeta = max(band[1] - band[0], spec.df) / (2 * f0)
+        elif not resolved:
+            zeta = 0.75 * spec.df / (2 * max(f0, 1e-9))
+        rms = math.sqrt(max(power, 0.0))
+        pk = SpectralPeak(
+            CHANNELS[channel] if channel < 2 else str(channel),
+            band,
+            float(f[ipk]),
+            f0,
+            zeta,
+            bool(resolved),
+            float(p[ipk] / base[ipk]),
+            power,
+            rms,
+            rms / (2 * math.pi * max(f0, 1e-9)) ** 2,
+            shape=fit.shape,
+        )
+        out.append(pk)
+    out.sort(key=lambda q: -q.power_m2_s4)
+    kept: list[SpectralPeak] = []
+    for pk in out:
+        # A weaker peak on a stronger one's skirt is part of it.
+        if not any(abs(pk.freq_hz - o.freq_hz) < max(6 * o.damping * o.freq_hz, 3 * spec.df) for o in kept):
+            kept.append(pk)
+    return kept[:max_peaks]
+
+
+# ----------------------------------------------------------------- channel summary
+@dataclass
+class NoiseCheck:
+    """Noise model, model floor, whiteness and peaks of one channel's residual.
+
+    Attributes
+    ----------
+    channel : str
+        ``vertical`` or ``horizontal``.
+    model : NoiseModel
+        Fitted noise model.
+    floor : float
+        The model's floor of the filtered residual [m/s^2].
+    quantization : float
+        Its quantization part [m/s^2].
+    rms : float
+        Rms of the filtered residual (all runs given) [m/s^2].
+    whiteness : Whiteness
+        Whiteness checks.
+    peaks : list of SpectralPeak
+        Peaks of the wide-band spectrum.
+    spectrum : WideSpectrum
+        The spectrum (for figures).
+    """
+
+    channel: str
+    model: NoiseModel
+    floor: float
+    quantization: float
+    rms: float
+    whiteness: Whiteness
+    peaks: list[SpectralPeak]
+    spectrum: WideSpectrum
+
+    @property
+    def excess_ratio(self) -> float:
+        """Rms of the filtered residual over the model floor (1 for noise alone)."""
+        return self.rms / self.floor if self.floor > 0 else math.inf
+
+    def to_dict(self) -> dict:
+        """JSON-ready view."""
+        return {
+            "noise_model": self.model.to_dict(),
+            "model_floor_m_s2": self.floor,
+            "quantization_m_s2": self.quantization,
+            "rms_m_s2": self.rms,
+            "rms_over_model_floor": self.excess_ratio,
+            "whiteness": self.whiteness.to_dict(),
+            "peaks": [p.to_dict() for p in self.peaks],
+        }
+
+
+def noise_check(
+    residuals: Sequence[Residual],
+    channel: int,
+    w_y: np.ndarray,
+    w_a: np.ndarray,
+    q: float = k.encoder_resolution,
+    Ts: float = k.Ts,
+    seed: int = 0,
+) -> NoiseCheck | None:
+    """Noise model, model floor, whiteness and peaks of one channel (None without wide-band data)."""
+    spec = wide_spectrum(residuals, channel, Ts)
+    if spec is None:
+        return None
+    model, peaks = fit_noise_model(spec, CHANNELS[channel], q)
+    for pk in peaks:
+        band = [pk.freq_hz * (1 - 3 * pk.damping), pk.freq_hz * (1 + 3 * pk.damping)]
+        pk.g_range_m, pk.d_range_m = _band_region(residuals, channel, band, Ts)
+    fl = model.floor(w_y, w_a)
+    r = [x.r[:, channel] for x in residuals if x.run.n and x.run.valid[channel]]
+    rms = float(np.sqrt(np.mean(np.concatenate(r) ** 2))) if r else math.nan
+    wh = whiteness(residuals, channel, model, spec, seed=seed)
+    return NoiseCheck(CHANNELS[channel], model, fl, model.quantization_floor(w_y), rms, wh, peaks, spec)
+
+
+def confirm_peaks(
+    peaks: Sequence[SpectralPeak],
+    parts: Sequence[Sequence[Residual]],
+    model: NoiseModel,
+    channel: int,
+    false_alarm: float = 1e-2,
+) -> list[SpectralPeak]:
+    """Peaks that every part of the data (e.g. training and held-out runs) shows on its own.
+
+    In each part the mean of ``PSD / model`` over the peak's half-power band must
+    exceed the chi-square level of that band's pooled bins (``false_alarm`` per
+    peak and part). A peak of one run only (a transient) is not confirmed.
+    """
+    specs = [wide_spectrum(p, channel, model.Ts) for p in parts]
+    out = []
+    for pk in peaks:
+        ok = True
+        for sp in specs:
+            if sp is None:
+                ok = False
+                break
+            w = max(pk.damping * pk.freq_hz, sp.df)
+            sel = (sp.f >= pk.freq_hz - w) & (sp.f <= pk.freq_hz + w)
+            if not sel.any():
+                ok = False
+                break
+            ratio = float(np.mean(sp.psd[sel] / np.maximum(model.psd(sp.f[sel]), 1e-300)))
+            # Pooled bins of a Hann Welch estimate overlap by about half: count half of them.
+            dof = sp.dof * max(1.0, sel.sum() / 2.0)
+            if ratio < st.chi2.isf(false_alarm, dof) / dof:
+                ok = False
+                break
+        if ok:
+            out.append(pk)
+    return out
+
+
+def consistent_peaks(a: Sequence[SpectralPeak], b: Sequence[SpectralPeak]) -> list[SpectralPeak]:
+    """Peaks of ``a`` that ``b`` also shows (overlapping bands or frequencies within 5 %)."""
+    out = []
+    for pa in a:
+        for pb in b:
+            if (
+                pa.band_hz[0] <= pb.peak_hz <= pa.band_hz[1]
+                or pb.band_hz[0] <= pa.peak_hz <= pb.band_hz[1]
+                or abs(pa.freq_hz / max(pb.freq_hz, 1e-9) - 1) < 0.05
+            ):
+                out.append(pa)
+                break
+    return out
+
+
+# ------------------------------------------------------------------ resonance guard
+#: Name of the flag the verdict reads: a candidate that only closes a narrow resonance is no evidence.
+GUARD_FLAG = "absorbs_resonance"
+
+
+@dataclass
+class ResonanceGuard:
+    """Whether a candidate's improvement is a narrow resonance it cannot explain.
+
+    A lag (or a delay) scales the residual's content by a factor that varies
+    smoothly with frequency; it cannot produce a narrow peak. If most of what
+    it removes from the residual (weighted by the residual filter, i.e. what
+    its held-out score sees) lies inside the bands of the residual's peaks,
+    its score comes from the resonance, not from a lag.
+
+    Attributes
+    ----------
+    candidate : str
+        Candidate name.
+    absorbs_resonance : bool
+        Most of its improvement lies in the peaks' bands (the flag :data:`GUARD_FLAG`).
+    fraction_in_peaks : float
+        Share of its (filter-weighted) PSD reduction inside the peaks' bands.
+    peak_left : float
+        Power left in the peaks' bands after the candidate, over before (1: untouched).
+    peaks_hz : list of float
+        Frequencies of the peaks checked [Hz].
+    """
+
+    candidate: str
+    absorbs_resonance: bool
+    fraction_in_peaks: float
+    peak_left: float
+    peaks_hz: list[float]
+
+    def to_dict(self) -> dict:
+        """JSON-ready view."""
+        return dict(self.__dict__)
+
+
+def resonance_guard(
+    candidate: str,
+    before: Sequence[Residual],
+    after: Sequence[Residual],
+    peaks: Sequence[SpectralPeak],
+    h: np.ndarray,
+    Ts: float = k.Ts,
+    share: float = 0.5,
+) -> ResonanceGuard:
+    """Check a candidate's improvement against the residual's resonance peaks (see :class:`ResonanceGuard`).
+
+    Parameters
+    ----------
+    candidate : str
+        Candidate name.
+    before, after : sequences of Residual
+        The same runs under the baseline and under the candidate (wide-band residuals present).
+    peaks : sequence of SpectralPeak
+        The baseline residual's peaks (any channel).
+    h : ndarray
+        The residual filter's kernel (its power response weights the reduction).
+    Ts : float
+        Sample period [s].
+    share : float
+        The candidate absorbs a resonance when more than this share of its reduction lies in the peaks.
+    """
+    if not peaks:
+        return ResonanceGuard(candidate, False, 0.0, 1.0, [])
+    tot, inside, pb, pa = 0.0, 0.0, 0.0, 0.0
+    for c, ch in enumerate(CHANNELS):
+        pks = [p for p in peaks if p.channel == ch]
+        if not pks:
+            continue
+        sb, sa = wide_spectrum(before, c, Ts), wide_spectrum(after, c, Ts)
+        if sb is None or sa is None or len(sb.f) != len(sa.f):
+            continue
+        H2 = np.abs(np.fft.rfft(h, 2 * (len(sb.f) - 1))) ** 2
+        H2 = np.interp(sb.f, np.fft.rfftfreq(2 * (len(sb.f) - 1), Ts), H2)
+        red = (sb.psd - sa.psd) * H2
+        mask = np.zeros(len(sb.f), bool)
+        for p in pks:
+            w = max(3 * p.damping * p.freq_hz, sb.df)
+            mask |= (sb.f >= min(p.band_hz[0], p.freq_hz - w)) & (sb.f <= max(p.band_hz[1], p.freq_hz + w))
+        tot += float(np.sum(np.maximum(red, 0.0)))
+        inside += float(np.sum(np.maximum(red[mask], 0.0)))
+        pb += float(np.sum(sb.psd[mask]))
+        pa += float(np.sum(sa.psd[mask]))
+    frac = inside / tot if tot > 0 else 0.0
+    left = pa / pb if pb > 0 else 1.0
+    return ResonanceGuard(candidate, bool(tot > 0 and frac > share), frac, left, [p.freq_hz for p in peaks])
+
+
+__all__ = [
+    "GUARD_FLAG",
+    "NoiseCheck",
+    "NoiseModel",
+    "ResonanceGuard",
+    "SpectralPeak",
+    "Whiteness",
+    "WideSpectrum",
+    "confirm_peaks",
+    "consistent_peaks",
+    "find_peaks",
+    "fit_noise_model",
+    "fit_resonance",
+    "noise_check",
+    "noise_psd",
+    "resonance_guard",
+    "whiteness",
+    "wide_spectrum",
+]
