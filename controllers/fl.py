@@ -16,12 +16,29 @@ unstable), and the integrators stop when their axis saturates (anti-windup).
 
 The whole control law is one CasADi Function (:func:`fl_law_function`) built
 from the shared model's Functions, so it can be code-generated as it is.
+
+Computation delay (``delay_samples: N``, the loop's delay the rig engineer
+knows): the current computed from reading k reaches the amplifiers at k + N.
+The observer is then updated with the current that was really applied over
+the last period (the one sent N + 1 samples ago), and a predictor
+(:func:`fl_predictor_function`) propagates its estimate N samples ahead
+through the shared model's discrete step with the N currents already sent but
+not yet applied (and the disturbance estimate, as the observer's own
+prediction does); the law runs on that predicted state (a Smith predictor in
+state space: the delay leaves the loop's characteristic equation). The
+reference the predicted state must meet is the one N samples ahead: read from
+the reference plan when one is given (:meth:`FeedbackLinearization.set_reference_plan`,
+as the runner does), so the mover follows the plan on time; without a plan,
+the reference handed in is used as it is, so the mover follows it N samples
+late, with the delay-free loop's response (extrapolating it instead would
+put the feedforward acceleration N samples late, which costs more than the lag).
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from collections import deque
 
 import casadi as ca
 import numpy as np
@@ -104,6 +121,35 @@ def fl_law_function() -> ca.Function:
     )
 
 
+@functools.lru_cache(maxsize=16)
+def fl_predictor_function(n: int, Ts: float = k.Ts) -> ca.Function:
+    """The delay predictor: the state estimate ``n`` samples ahead, as one CasADi Function.
+
+    ``fl_predict_<n>(x_hat, dist, u_seq, p) -> x_pred``
+
+    ``x_hat`` is the observer's estimate now (4), ``dist`` its acceleration
+    disturbance estimate (2) [m/s^2], ``u_seq`` the ``n`` currents already sent
+    but not yet applied, oldest first, flattened ``(i_q, i_d)`` pairs (2 n) [A],
+    ``p`` the parameter vector. Each sample is the shared model's RK4 step
+    (``model.step(Ts, 1)``, the observer's own prediction) plus the constant
+    disturbance acceleration integrated over the period (``dist Ts^2 / 2`` on
+    the position, ``dist Ts`` on the velocity).
+    """
+    if n < 1:
+        raise ValueError(f"the predictor needs n >= 1 samples, got {n}")
+    m = get_model()
+    step = m.step(Ts, 1)
+    x, dist = ca.SX.sym("x_hat", 4), ca.SX.sym("dist", 2)
+    useq, p = ca.SX.sym("u_seq", 2 * n), ca.SX.sym("p", m.np_)
+    xk = x
+    for j in range(n):
+        xk = step(xk, useq[2 * j : 2 * j + 2], p)
+        xk = xk + ca.vertcat(dist[0] * Ts**2 / 2, dist[0] * Ts, dist[1] * Ts**2 / 2, dist[1] * Ts)
+    return ca.Function(
+        f"fl_predict_{n}", [x, dist, useq, p], [xk], ["x_hat", "dist", "u_seq", "p"], ["x_pred"], {"cse": True}
+    )
+
+
 class FLSettings(Strict):
     """Tuning of :class:`FeedbackLinearization` (the scenario's ``controller:`` block for ``type: fl``).
 
@@ -125,6 +171,11 @@ class FLSettings(Strict):
         (offset-free tracking).
     i_axis_max, i_amp_max : float
         Current limits the law respects [A] (at most the amplifier's 8 A).
+    delay_samples : int
+        The loop's computation delay the controller compensates [control
+        periods]: the current computed at sample k is applied at k + N. Set it
+        to the rig's delay (``plant.delay_samples`` plus the amplifier's
+        transport delay in a scenario); 0 = no predictor.
     """
 
     omega_g: float = Field(120.0, gt=0, le=400)
@@ -135,6 +186,9 @@ class FLSettings(Strict):
     disturbance: bool = True
     i_axis_max: float = Field(k.i_axis_max, gt=0, le=k.i_axis_max)
     i_amp_max: float = Field(k.i_amp_max, gt=0, le=k.i_amp_max)
+    delay_samples: int = Field(
+        0, ge=0, le=10, description="computation delay compensated by the predictor [control periods]"
+    )
 
     def gains(self, Ts: float = k.Ts) -> np.ndarray:
         """Gain / limit vector in the order of :data:`GAIN_FIELDS`."""
@@ -190,6 +244,22 @@ class FeedbackLinearization:
         self._u_good: np.ndarray | None = None  # last finite command of the law
         self._x0 = (0.020, 0.0)  # reading at reset (where the hover fallback is taken before any estimate)
         self._started = False
+        self.delay = int(self.settings.delay_samples)
+        self._pred = BufferedFunction(fl_predictor_function(self.delay, Ts)) if self.delay else None
+        # commands sent, oldest first: [0] is the one applied over the last period, [1:] are still on their way
+        self._sent: deque[np.ndarray] = deque([np.zeros(2)] * (self.delay + 1), maxlen=self.delay + 1)
+        self._plan = None  # reference plan to read N samples ahead (set_reference_plan)
+        self._plan_rows: np.ndarray | None = None  # its rows at t_k + N Ts on the control grid (sampled once)
+
+    def set_reference_plan(self, plan) -> None:
+        """Let the predictor read the reference ``delay_samples`` ahead (a :class:`maglev_ocp.reference.ReferencePlan`).
+
+        Only used with ``delay_samples > 0``; ``None`` forgets the plan.
+        """
+        self._plan = plan
+        self._plan_rows = None
+        if plan is not None and self.delay:  # sample it now, not inside a timed step
+            self._plan_ahead(0.0)
 
     def reset(self, y0: Measurement, ref: Reference) -> None:
         """Start a run at reading ``y0`` (mover assumed at rest); clear integrators."""
@@ -199,9 +269,18 @@ class FeedbackLinearization:
         self._u_good = None
         self._x0 = (float(y0.y[0]), float(y0.y[1]))
         self._started = False
+        # before the run the amplifiers carried the hover current (the mover is assumed hovering at rest)
+        u_hover = np.asarray(get_model().u_eq(self._x0[0], self._x0[1], self._p), dtype=float).ravel()
+        u_hover = u_hover if np.all(np.isfinite(u_hover)) else np.zeros(2)
+        self._sent = deque([u_hover.copy() for _ in range(self.delay + 1)], maxlen=self.delay + 1)
 
     def step(self, y: Measurement, ref: Reference) -> ControlOutput:
-        """Observer update with the last command, then the control law.
+        """Observer update with the current applied over the last period, predictor, then the control law.
+
+        With ``delay_samples = N > 0`` the law runs on the estimate predicted
+        N samples ahead (see the module docstring) against the plan's reference
+        N samples ahead if a plan was given, else ``ref``; the returned
+        ``x_hat`` is the estimate now.
 
         Never commands a non-finite current: a non-finite reading is skipped
         (the observer predicts only), and if the law still returns a non-finite
@@ -213,15 +292,24 @@ class FeedbackLinearization:
         if not self._started:
             x_hat = self.observer.x_hat.copy()
             self._started = True
-        elif math.isfinite(y.y[0]) and math.isfinite(y.y[1]):
-            x_hat = self.observer.step(y.y, self._u_prev)
-        else:  # a reading that cannot be used: prediction only (as the NMPC's observer does)
-            x_hat = self.observer.predict(self._u_prev)
-            self.observer.x_hat = x_hat.copy()
-            fallback = 1
+        else:
+            # the current applied over the last period: the last command, or the one sent N samples before it
+            u_applied = self._u_prev if not self.delay else self._sent[0]
+            if math.isfinite(y.y[0]) and math.isfinite(y.y[1]):
+                x_hat = self.observer.step(y.y, u_applied)
+            else:  # a reading that cannot be used: prediction only (as the NMPC's observer does)
+                x_hat = self.observer.predict(u_applied)
+                self.observer.x_hat = x_hat.copy()
+                fallback = 1
         r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
         dist = self.observer.disturbance
-        u, z_next, v, fl = self._law(x_hat, dist, r, self._z, self._p, self._gains)
+        x_law = x_hat
+        if self._pred is not None:
+            u_seq = np.concatenate(list(self._sent)[1:])
+            (x_law,) = self._pred(x_hat, dist, u_seq, self._p)
+            if self._plan is not None:  # the reference when the command computed now takes effect
+                r = self._plan_ahead(y.t)
+        u, z_next, v, fl = self._law(x_law, dist, r, self._z, self._p, self._gains)
         law_failed = not (math.isfinite(u[0]) and math.isfinite(u[1]))
         if law_failed:
             u, fallback = self._safe_current(x_hat), 1
@@ -229,6 +317,8 @@ class FeedbackLinearization:
             self._z = z_next
             self._u_good = u
         self._u_prev = u
+        if self.delay:
+            self._sent.append(np.asarray(u, dtype=float).copy())
         stats = {
             "unreachable": int(fl[0]),
             "sat_g": int(fl[1]),
@@ -241,6 +331,17 @@ class FeedbackLinearization:
             "fallback": fallback,
         }
         return ControlOutput(u=u, x_hat=x_hat, stats=stats)
+
+    def _plan_ahead(self, t: float) -> tuple[float, ...]:
+        """The plan's reference row at ``t + delay_samples Ts`` (sampled once on the control grid, then looked up)."""
+        Ts, plan = self.Ts, self._plan
+        if self._plan_rows is None:
+            n = round(plan.duration / Ts) + 1
+            self._plan_rows = plan.sample(np.arange(n) * Ts + self.delay * Ts, zoh=Ts)
+        i = round(t / Ts)
+        if 0 <= i < len(self._plan_rows) and abs(i * Ts - t) < 1e-9:
+            return tuple(self._plan_rows[i])
+        return tuple(plan.sample(np.array([t + self.delay * Ts]), zoh=Ts)[0])
 
     def _safe_current(self, x_hat: np.ndarray) -> np.ndarray:
         """Current to hold when the law has none: the last good command, else the hover current at ``x_hat``.
@@ -274,4 +375,5 @@ __all__ = [
     "FLSettings",
     "FeedbackLinearization",
     "fl_law_function",
+    "fl_predictor_function",
 ]

@@ -8,8 +8,12 @@ file, the key path and what is allowed.
 
 from __future__ import annotations
 
+import contextlib
+import math
 import os
+import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -19,6 +23,11 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 from .errors import ConfigError
 
 M = TypeVar("M", bound=BaseModel)
+
+#: Deepest nesting of mappings / lists a settings file may have (a scenario needs about 6).
+MAX_YAML_DEPTH: int = 64
+#: Largest settings file read [bytes] (the shipped ones are a few kB).
+MAX_YAML_BYTES: int = 8 * 1024 * 1024
 
 
 class Strict(BaseModel):
@@ -41,7 +50,7 @@ def format_validation_error(err: ValidationError, source: str) -> str:
             msg = "unknown key"
         elif e["type"] == "missing":
             msg = "required key missing"
-        elif e["type"] == "finite_number":
+        elif e["type"] == "finite_number" or (isinstance(e.get("input"), float) and math.isnan(e["input"])):
             msg = f"NaN/inf is not allowed (got {e.get('input')!r}); give a finite number"
         parts.append(f"{loc}: {msg}")
     more = f" (+{len(err.errors()) - 3} more)" if len(err.errors()) > 3 else ""
@@ -56,20 +65,84 @@ def parse_model(cls: type[M], data: Any, source: str) -> M:
         raise ConfigError(format_validation_error(err, source)) from None
 
 
-def load_yaml(path: str | os.PathLike) -> Any:
-    """Read a YAML file; any read or parse failure becomes a one-line ConfigError."""
-    path = Path(path)
+class _YamlTooDeep(yaml.YAMLError):
+    """Raised by :class:`_StrictLoader` when the nesting exceeds :data:`MAX_YAML_DEPTH`."""
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses duplicate keys and nesting deeper than :data:`MAX_YAML_DEPTH`.
+
+    PyYAML composes nested nodes recursively, so a deeply nested file would end
+    in a ``RecursionError``; counting the depth here stops it with a message
+    that says the limit. A key given twice in one mapping is an error naming the
+    key and its line (PyYAML would silently keep the last value).
+    """
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        self._depth += 1
+        try:
+            if self._depth > MAX_YAML_DEPTH:
+                mark = self.peek_event().start_mark
+                raise _YamlTooDeep(
+                    f"nested deeper than {MAX_YAML_DEPTH} levels (line {mark.line + 1}); the limit is {MAX_YAML_DEPTH}"
+                )
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+    def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+        if isinstance(node, yaml.MappingNode):
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    dup = key in seen
+                    seen.add(key)
+                except TypeError:  # unhashable key: the base constructor reports it
+                    continue
+                if dup:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"duplicate key {key!r} (line {key_node.start_mark.line + 1})", key_node.start_mark
+                    )
+        return super().construct_mapping(node, deep=deep)
+
+
+def parse_yaml_text(text: str, source: str) -> Any:
+    """Parse YAML ``text`` (from ``source``, for messages) with the strict loader; one-line ConfigError on failure.
+
+    A UTF-8 byte-order mark is dropped; duplicate keys, nesting deeper than
+    :data:`MAX_YAML_DEPTH` and anything PyYAML refuses are errors.
+    """
+    text = text.removeprefix("\ufeff")
     try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as err:
-        raise ConfigError(f"{path}: cannot read: {err.__class__.__name__}: {err}") from None
-    try:
-        return yaml.safe_load(text)
+        return yaml.load(text, Loader=_StrictLoader)
+    except _YamlTooDeep as err:
+        raise ConfigError(f"{source}: YAML {err}") from None
+    except RecursionError:
+        raise ConfigError(f"{source}: YAML nested too deeply (limit {MAX_YAML_DEPTH} levels)") from None
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
         problem = getattr(err, "problem", None) or str(err).splitlines()[0]
-        raise ConfigError(f"{path}: YAML does not parse{where}: {problem}") from None
+        raise ConfigError(f"{source}: YAML does not parse{where}: {problem}") from None
+
+
+def load_yaml(path: str | os.PathLike) -> Any:
+    """Read a YAML file; any read or parse failure becomes a one-line ConfigError."""
+    path = Path(path)
+    try:
+        if path.stat().st_size > MAX_YAML_BYTES:
+            raise ConfigError(f"{path}: larger than {MAX_YAML_BYTES // 2**20} MB, the limit for a settings file")
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError(f"{path}: cannot read: {err.__class__.__name__}: {err}") from None
+    return parse_yaml_text(text, str(path))
 
 
 def load_model(cls: type[M], path: str | os.PathLike) -> M:
@@ -131,3 +204,211 @@ def atomic_write_bytes(path: str | os.PathLike, fig_or_bytes: Any, **savefig_kw:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+# --------------------------------------------------------------------------- output paths
+def _nearest_existing(path: Path) -> Path:
+    """``path`` or its closest ancestor that exists (``path`` is absolute)."""
+    cur = path
+    while not cur.exists() and cur != cur.parent:
+        cur = cur.parent
+    return cur
+
+
+def _probe_write(folder: Path, what: str) -> None:
+    """Create and remove a temporary file in ``folder``; a one-line ConfigError if that fails."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".maglev-probe-", dir=folder)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as err:
+        raise ConfigError(f"{what}: cannot write in {folder}: {err.strerror or err}") from None
+
+
+def _check_ancestors(path: Path, what: str, label: str) -> None:
+    """Every existing ancestor of ``path`` must be a folder we can create ``path`` in."""
+    base = _nearest_existing(path.parent)
+    if not base.is_dir():
+        raise ConfigError(f"{what}: {label}: {base} is a file, not a folder")
+    _probe_write(base, f"{what}: {label}")
+
+
+def check_output_dir(
+    path: str | os.PathLike, what: str = "--out", replaced: bool = True, expect: tuple[str, ...] = ()
+) -> Path:
+    """Check, before any work, that a results folder can be written at ``path``; nothing is created.
+
+    Refuses an empty path, the current directory (or one of its ancestors, or the
+    home folder) when the folder is ``replaced`` whole, a path under a regular
+    file, an existing file where the folder should be, and a location we cannot
+    write to (read-only file system, permissions), with one line naming the path.
+    With ``expect`` (file names a result of the command has), an existing folder
+    with files must hold one of them: a folder that is not an earlier result
+    (the user's data, say) is never replaced.
+
+    Returns
+    -------
+    Path
+        ``path`` as given.
+    """
+    raw = os.fspath(path)
+    if not str(raw).strip():
+        raise ConfigError(f"{what}: empty path; give a folder")
+    p = Path(raw)
+    full = p.absolute()
+    cwd = Path.cwd().absolute()
+    if replaced and full == cwd:
+        raise ConfigError(
+            f"{what}: {raw}: refusing to write into the current directory (it would be replaced); give a sub-folder"
+        )
+    if replaced and (full in cwd.parents or full == Path.home().absolute() or full == full.parent):
+        raise ConfigError(
+            f"{what}: {raw}: refusing to use this folder for results (it would be replaced); give a sub-folder"
+        )
+    if len(os.fsencode(f".{full.name}.tmp-12345678")) > 255:
+        raise ConfigError(f"{what}: folder name of {len(full.name)} characters is too long (keep it under 230)")
+    if p.exists():
+        if not p.is_dir():
+            raise ConfigError(f"{what}: {raw} exists and is not a folder")
+        _probe_write(p, f"{what}: {raw}")
+        if expect and any(p.iterdir()) and not any((p / name).exists() for name in expect):
+            raise ConfigError(
+                f"{what}: {raw} holds files but is not an earlier result of this command "
+                f"(no {' or '.join(expect)}); give a new or empty folder"
+            )
+    _check_ancestors(full, what, raw)
+    return p
+
+
+def check_output_file(path: str | os.PathLike, what: str = "--out", suffixes: tuple[str, ...] | None = None) -> Path:
+    """Check, before any work, that a file can be written at ``path`` (and its suffix is one of ``suffixes``)."""
+    raw = os.fspath(path)
+    if not str(raw).strip():
+        raise ConfigError(f"{what}: empty path; give a file name")
+    p = Path(raw)
+    if raw.endswith(("/", os.sep)) or p.is_dir():
+        raise ConfigError(f"{what}: {raw} is a folder; give a file name")
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        raise ConfigError(
+            f"{what}: {raw}: unsupported file type {p.suffix or '(none)'!r}; use one of {', '.join(suffixes)}"
+        )
+    if len(os.fsencode(f".{p.name}.12345678{p.suffix or '.tmp'}")) > 255:
+        raise ConfigError(f"{what}: file name of {len(p.name)} characters is too long (keep it under 230)")
+    if p.exists() and not p.is_file():
+        raise ConfigError(f"{what}: {raw} exists and is not a regular file")
+    _check_ancestors(p.absolute(), what, raw)
+    return p
+
+
+@contextlib.contextmanager
+def replace_dir(path: str | os.PathLike) -> Iterator[Path]:
+    """Write a folder whole or not at all: yield a temporary sibling, swap it in on success.
+
+    Inside the ``with`` block everything is written into ``.<name>.tmp-XXXX``
+    next to ``path``. On normal exit the old ``path`` (if any) is renamed away,
+    the new folder renamed in, and the old one deleted; on an exception or an
+    interrupt (``KeyboardInterrupt``) the temporary folder is deleted and
+    ``path`` is left exactly as it was. A re-run therefore never leaves files of
+    an earlier run beside the new ones, and a stop at any instant leaves either
+    the old result or the new one, complete.
+
+    Yields
+    ------
+    Path
+        The temporary folder to write into (it exists and is empty).
+    """
+    final = Path(path)
+    parent = final.absolute().parent
+    parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.tmp-", dir=parent))
+    os.chmod(tmp, _dir_mode())
+    try:
+        yield tmp
+        swap_in(tmp, final)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def _dir_mode() -> int:
+    """Mode an ordinary ``mkdir`` would give (``mkdtemp`` makes folders 0700)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o777 & ~mask
+
+
+def swap_in(new: Path, final: Path) -> None:
+    """Replace folder ``final`` by folder ``new`` (a sibling) with two renames; the old one is deleted last."""
+    final = Path(final)
+    with _sigint_deferred():
+        _swap(new, final)
+
+
+@contextlib.contextmanager
+def _sigint_deferred() -> Iterator[None]:
+    """Hold back SIGINT (in the main thread) until the block is done, then deliver it."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def sigint_ignored() -> Iterator[None]:
+    """Ignore SIGINT (in the main thread) while the block runs.
+
+    Worker processes started inside the block inherit the ignored SIGINT (and
+    Python then installs no KeyboardInterrupt handler in them), so a Ctrl-C on
+    the terminal's process group reaches only the parent, which shuts its
+    workers down: no tracebacks from the workers.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _swap(new: Path, final: Path) -> None:
+    old = None
+    if final.exists() or final.is_symlink():
+        old = Path(tempfile.mkdtemp(prefix=f".{final.name}.old-", dir=final.absolute().parent))
+        os.rmdir(old)
+        os.replace(final, old)
+    try:
+        os.replace(new, final)
+    except BaseException:
+        if old is not None and not final.exists():
+            os.replace(old, final)  # put the old result back
+        raise
+    if old is not None:
+        if old.is_dir() and not old.is_symlink():
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            old.unlink()
+
+
+def clean_stale_tmp(path: str | os.PathLike) -> None:
+    """Delete ``.<name>.tmp-*`` / ``.<name>.old-*`` siblings a killed process may have left next to ``path``."""
+    final = Path(path).absolute()
+    if not final.parent.is_dir():
+        return
+    for p in final.parent.glob(f".{final.name}.*"):
+        if p.name.startswith((f".{final.name}.tmp-", f".{final.name}.old-")) and p.is_dir():
+            shutil.rmtree(p, ignore_errors=True)

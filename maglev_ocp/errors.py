@@ -2,16 +2,24 @@
 
 from __future__ import annotations
 
+import re
+
 #: Longest message a :class:`UserError` carries (the rest is elided).
 MAX_MESSAGE: int = 600
+
+
+#: ``np.float64(0.048)`` -> ``0.048`` (the repr numpy 2 gives its scalars).
+_NUMPY_SCALAR = re.compile(r"\bnp\.(?:float|int|uint|bool|complex|str)_?\d*\(([^()]*)\)")
 
 
 def one_line(text: str, limit: int = MAX_MESSAGE) -> str:
     """Make ``text`` a single line of at most ``limit`` characters.
 
     Line breaks (which can come from the user's own data, e.g. a quoted CSV
-    cell) are shown as ``\\n``, so an error always stays one line.
+    cell) are shown as ``\\n``, so an error always stays one line; numpy scalars
+    show as plain numbers (``0.048``, not ``np.float64(0.048)``).
     """
+    text = _NUMPY_SCALAR.sub(r"\1", text)
     text = text.replace("\r", "\\r").replace("\n", "\\n")
     return text if len(text) <= limit else text[: limit - 5] + " ..."
 

@@ -25,6 +25,7 @@ largest currents, and ``passed`` with the list of ``failed_checks``.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -414,4 +415,241 @@ def failed_checks(m: Metrics, checks: Any) -> list[str]:
     return out
 
 
-__all__ = ["FAILURE_STATUSES", "Metrics", "TargetMetrics", "compute_metrics", "failed_checks", "target_metrics"]
+# ------------------------------------------------------------------ disturbances
+@dataclass
+class DisturbanceMetrics:
+    """How a controller rode out one scheduled disturbance (``plant.disturbances``).
+
+    The hold window runs from the disturbance's start to the next disturbance,
+    the next target switch or the end of the run, whichever comes first. A
+    payload or a cable stays on through the later moves, so its window is the
+    rest of the run (recovery is still judged in the hold window). Errors are
+    of the TRUE state against the reference (the held target). Disturbances
+    that start together count as one (``kind`` joined by ``+``).
+
+    Attributes
+    ----------
+    index : int
+        Position in ``plant.disturbances``.
+    kind : str
+        Its ``type`` (``force_pulse``, ``force_step``, ``payload``, ``cable``).
+    t_start, t_end : float
+        The window [s].
+    peak_error_g_m, peak_error_d_m : float
+        Largest absolute error per axis in the window [m].
+    recovery_time_s : float or None
+        From the start until both axes are back within the tolerance for good
+        (to the end of the hold window); 0 if they never left it, None if they
+        are not back by the end of it, and None for a cable (its effect on
+        each move shows in the targets' settle times).
+    stop_hits : int
+        Stop impacts in the window.
+    max_current_A : float
+        Largest commanded current amplitude in the window [A].
+    time_at_limit_s : float
+        Time the commanded currents sat on a current limit (either axis within
+        1 mA of ``i_axis_max`` or the amplitude within 1 mA of ``i_amp_max``) [s].
+    rms_error_after_m : float or None
+        RMS error (both axes together) from recovery to the end of the window [m] (a payload's or a
+        cable's window holds the later moves: then it is a tracking error against the plan).
+    """
+
+    index: int
+    kind: str
+    t_start: float
+    t_end: float
+    peak_error_g_m: float
+    peak_error_d_m: float
+    recovery_time_s: float | None
+    stop_hits: int
+    max_current_A: float
+    time_at_limit_s: float
+    rms_error_after_m: float | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict (JSON)."""
+        return dict(self.__dict__)
+
+
+def disturbance_events(disturbances: list) -> list[tuple[int, str, float]]:
+    """``(index, type, start time)`` of the scheduled disturbances, in time order.
+
+    Disturbances that start together are one event: the index of the first,
+    their types joined by ``+``.
+    """
+    ev: dict[float, tuple[int, list[str]]] = {}
+    for i, d in enumerate(disturbances):
+        t0 = float(d.time if d.type == "payload" else d.start)
+        _, kinds = ev.setdefault(t0, (i, []))
+        kinds.append(d.type)
+    return [(i, "+".join(kinds), t0) for t0, (i, kinds) in sorted(ev.items())]
+
+
+def disturbance_metrics(
+    columns: dict[str, np.ndarray],
+    disturbances: list,
+    stop_times: list[float],
+    tolerance: float = k.position_tolerance,
+    i_axis_max: float = k.i_axis_max,
+    i_amp_max: float = k.i_amp_max,
+    Ts: float = k.Ts,
+) -> list[DisturbanceMetrics]:
+    """Metrics of each scheduled disturbance of a run (see :class:`DisturbanceMetrics`).
+
+    Parameters
+    ----------
+    columns : dict of str to ndarray
+        The run's log columns (``t``, ``g_true``, ``d_true``, ``g_ref``, ``d_ref``,
+        ``g_target``, ``d_target``, ``i_q``, ``i_d``), as the runner writes them.
+    disturbances : list
+        The plant's ``disturbances`` settings.
+    stop_times : list of float
+        Times of the run's stop impacts [s].
+    tolerance : float
+        Positioning tolerance [m].
+    i_axis_max, i_amp_max : float
+        Current limits [A] (the time at the limit is counted against them).
+    Ts : float
+        Control period [s].
+    """
+    t = np.asarray(columns["t"], dtype=float)
+    if not len(t):
+        return []
+    eg = np.abs(columns["g_true"] - columns["g_ref"])
+    ed = np.abs(columns["d_true"] - columns["d_ref"])
+    iq, id_ = np.asarray(columns["i_q"], float), np.asarray(columns["i_d"], float)
+    amp = np.hypot(iq, id_)
+    at_lim = (np.maximum(np.abs(iq), np.abs(id_)) >= 0.995 * i_axis_max) | (amp >= 0.995 * i_amp_max)
+    tg = np.stack([columns["g_target"], columns["d_target"]], axis=1)
+    switches = t[1:][np.any(tg[1:] != tg[:-1], axis=1)]
+    events = disturbance_events(disturbances)
+    t_run_end = float(t[-1]) + Ts
+    out = []
+    for j, (idx, kind, t0) in enumerate(events):
+        ends = [t_run_end, *[e[2] for e in events[j + 1 :] if e[2] > t0], *switches[switches > t0 + 1e-9]]
+        t_hold = min(ends)
+        persistent = "payload" in kind or "cable" in kind
+        t1 = t_run_end if persistent else t_hold
+        w = (t >= t0 - 1e-9) & (t < t1 - 1e-9)
+        if not w.any():
+            continue
+        tw, egw, edw = t[w], eg[w], ed[w]
+        n_hold = int(np.sum(tw < t_hold - 1e-9))
+        outside = np.nonzero((egw[:n_hold] > tolerance) | (edw[:n_hold] > tolerance))[0]
+        if not len(outside):
+            rec: float | None = 0.0
+            after = slice(0, len(tw))
+        elif outside[-1] == n_hold - 1:
+            rec, after = None, slice(len(tw), len(tw))
+        else:
+            rec = float(tw[outside[-1] + 1] - t0)
+            after = slice(outside[-1] + 1, len(tw))
+        if "cable" in kind:
+            rec, after = None, slice(0, len(tw))
+        e2 = egw[after] ** 2 + edw[after] ** 2
+        out.append(
+            DisturbanceMetrics(
+                index=idx,
+                kind=kind,
+                t_start=t0,
+                t_end=t1,
+                peak_error_g_m=float(egw.max()),
+                peak_error_d_m=float(edw.max()),
+                recovery_time_s=rec,
+                stop_hits=sum(1 for ts in stop_times if t0 - 1e-9 <= ts < t1 + Ts),
+                max_current_A=float(amp[w].max()),
+                time_at_limit_s=float(at_lim[w].sum() * Ts),
+                rms_error_after_m=float(np.sqrt(e2.mean())) if len(e2) else None,
+            )
+        )
+    return out
+
+
+def run_disturbance_metrics(result: Any) -> list[DisturbanceMetrics]:
+    """:func:`disturbance_metrics` of a :class:`maglev_ocp.runner.RunResult` (its plant's disturbances).
+
+    The current limits are the controller's own (``i_axis_max``, ``i_amp_max``
+    or ``current_limit`` in its settings) where it has them, else the amplifier's.
+    """
+    sc = result.scenario
+    st = sc.controller.settings
+    i_amp = float(getattr(st, "i_amp_max", getattr(st, "current_limit", k.i_amp_max)))
+    i_axis = float(getattr(st, "i_axis_max", k.i_axis_max))
+    # StopEvent text: "t = 0.123 s: g hit its lower stop at ..."
+    stops = [float(m.group(1)) for e in result.metrics.stop_events if (m := re.match(r"t = ([-\d.eE+]+) s", e))]
+    return disturbance_metrics(result.columns, list(sc.plant_config().disturbances), stops, sc.tolerance, i_axis, i_amp)
+
+
+def disturbance_rows(name: str, result: Any) -> list[dict[str, Any]]:
+    """One plain row per scheduled disturbance of a run (scenario, controller, targets settled, the metrics)."""
+    n_ok = sum(tm.settled for tm in result.metrics.targets)
+    base = {
+        "scenario": name,
+        "controller": result.metrics.controller,
+        "settled": f"{n_ok}/{len(result.metrics.targets)}",
+    }
+    return [{**base, **dm.to_dict()} for dm in run_disturbance_metrics(result)]
+
+
+_DIST_COLS = (
+    ("scenario", "scenario", "<24"),
+    ("ctrl", "controller", ">5"),
+    ("disturbance", "kind", ">12"),
+    ("t0 [s]", "t_start", ">7"),
+    ("peak g [um]", "peak_error_g_m", ">11"),
+    ("peak d [um]", "peak_error_d_m", ">11"),
+    ("back in tol [ms]", "recovery_time_s", ">16"),
+    ("stops", "stop_hits", ">5"),
+    ("max|i| [A]", "max_current_A", ">10"),
+    ("at limit [ms]", "time_at_limit_s", ">13"),
+    ("rms after [um]", "rms_error_after_m", ">14"),
+    ("settled", "settled", ">8"),
+)
+
+
+def _dist_cell(key: str, row: dict[str, Any]) -> str:
+    v = row[key]
+    if key == "recovery_time_s":
+        return "-" if "cable" in row["kind"] else "never" if v is None else f"{v * 1e3:.0f}"
+    if key in ("peak_error_g_m", "peak_error_d_m", "rms_error_after_m"):
+        return "-" if v is None else f"{v * 1e6:.1f}"
+    if key == "time_at_limit_s":
+        return f"{v * 1e3:.0f}"
+    if key == "t_start":
+        return f"{v:.3f}"
+    if key == "max_current_A":
+        return f"{v:.2f}"
+    return str(v)
+
+
+def disturbance_table(rows: list[dict[str, Any]], markdown: bool = False) -> str:
+    """Table of :func:`disturbance_rows`: who rides each disturbance out better (NMPC vs FL side by side).
+
+    Rows are sorted by scenario name, so name the runs of one disturbance
+    alike (``push_g_fl``, ``push_g_nmpc``). ``markdown=True`` gives a Markdown table.
+    """
+    rows = sorted(rows, key=lambda r: (r["scenario"], r["index"]))
+    if markdown:
+        lines = ["| " + " | ".join(h for h, _, _ in _DIST_COLS) + " |", "|" + "---|" * len(_DIST_COLS)]
+        lines += ["| " + " | ".join(_dist_cell(key, r) for _, key, _ in _DIST_COLS) + " |" for r in rows]
+        return "\n".join(lines)
+    head = " ".join(f"{h:{fmt}}" for h, _, fmt in _DIST_COLS)
+    lines = [head, "-" * len(head)]
+    lines += [" ".join(f"{_dist_cell(key, r):{fmt}}" for _, key, fmt in _DIST_COLS) for r in rows]
+    return "\n".join(lines)
+
+
+__all__ = [
+    "FAILURE_STATUSES",
+    "DisturbanceMetrics",
+    "Metrics",
+    "TargetMetrics",
+    "compute_metrics",
+    "disturbance_events",
+    "disturbance_metrics",
+    "disturbance_rows",
+    "disturbance_table",
+    "failed_checks",
+    "run_disturbance_metrics",
+    "target_metrics",
+]

@@ -21,6 +21,7 @@ write and read bit for bit.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import math
@@ -42,6 +43,10 @@ REQUIRED_COLUMNS: tuple[str, ...] = ("t", "g", "d", "i_q", "i_d")
 LOCK_CHOICES: tuple[tuple[str, ...], ...] = ((), ("g",), ("d",))
 #: Allowed deviation of a time step from ``sample_time``, relative to it.
 SAMPLE_TIME_TOLERANCE = 1e-2
+#: Most columns a run's CSV may have (a runner's log has about 60).
+MAX_COLUMNS: int = 4096
+#: Longest cell (and column name) of a run's CSV, in characters (a float's ``repr`` needs at most 24).
+MAX_CELL_CHARS: int = 1024
 
 
 def _fmt(v: Any) -> str:
@@ -349,7 +354,95 @@ def _plain(v: Any) -> Any:
     return v
 
 
+def read_header(folder: str | os.PathLike) -> dict[str, Any]:
+    """Read and validate a dataset's ``dataset.yaml`` only (not its CSV files).
+
+    Returns
+    -------
+    dict
+        The file's content as validated (``format``, ``sample_time``,
+        ``encoder_resolution``, ``runs``, and ``description`` / ``meta`` if given).
+
+    Raises
+    ------
+    DataError
+        One line naming the file and the key.
+    """
+    return _read_doc(Path(folder) / "dataset.yaml").model_dump(exclude_none=True)
+
+
+def merge_datasets(new_folder: str | os.PathLike, old_folder: str | os.PathLike) -> Path:
+    """Append the runs of the dataset ``old_folder`` to the dataset in ``new_folder`` (a dataset never forgets runs).
+
+    The old runs come first in ``dataset.yaml``, then the new ones; an old run
+    whose file name a new run reuses is replaced by the new one (and its figure
+    ``<stem>.png`` dropped). Other files of the old folder are copied. Where the
+    old dataset-level ``meta`` differs from the new one, each kept old run
+    carries it as ``meta.dataset_meta``, so it keeps its context.
+
+    Raises
+    ------
+    DataError
+        The two datasets differ in sample time or encoder resolution.
+    """
+    import shutil
+
+    new_folder, old_folder = Path(new_folder), Path(old_folder)
+    new, old = read_header(new_folder), read_header(old_folder)
+    for key in ("sample_time", "encoder_resolution"):
+        if new[key] != old[key]:
+            raise DataError(
+                f"{old_folder / 'dataset.yaml'}: {key} {old[key]:g} differs from the new runs' {new[key]:g}; "
+                "use another dataset folder"
+            )
+    new_files = {e["file"] for e in new["runs"]}
+    replaced_stems = {Path(f).stem for f in new_files}
+    for p in sorted(old_folder.iterdir()):
+        if p.name == "dataset.yaml" or p.name in new_files or (new_folder / p.name).exists():
+            continue
+        if p.suffix == ".png" and p.stem in replaced_stems:
+            continue
+        if p.is_file():
+            shutil.copy2(p, new_folder / p.name)
+    kept = []
+    for e in old["runs"]:
+        if e["file"] in new_files:
+            continue
+        if old.get("meta") and old.get("meta") != new.get("meta"):
+            e = {**e, "meta": {**(e.get("meta") or {}), "dataset_meta": old["meta"]}}
+        kept.append(e)
+    doc = {k_: new[k_] for k_ in ("format", "sample_time", "encoder_resolution", "description", "meta") if k_ in new}
+    doc["runs"] = kept + new["runs"]
+    dump_yaml(new_folder / "dataset.yaml", _plain(doc))
+    return new_folder
+
+
 # ----------------------------------------------------------------------------- read
+def _read_doc(yml: Path) -> _DatasetFile:
+    """Read and validate ``dataset.yaml`` (one-line DataError naming the file and key)."""
+    try:
+        raw = load_yaml(yml)
+    except ConfigError as err:
+        raise DataError(str(err)) from None
+    if raw is None:
+        raise DataError(f"{yml}: empty file")
+    if not isinstance(raw, dict):
+        raise DataError(f"{yml}: expected a mapping at the top level, got {type(raw).__name__}")
+    if "format" in raw and raw["format"] != FORMAT:
+        raise DataError(f"{yml}: format: expected {FORMAT!r}, got {raw['format']!r}")
+    try:
+        doc = parse_model(_DatasetFile, raw, str(yml))
+    except ConfigError as err:
+        raise DataError(str(err)) from None
+    if not (math.isfinite(doc.sample_time) and math.isfinite(doc.encoder_resolution)):
+        raise DataError(f"{yml}: sample_time and encoder_resolution must be finite")
+    files = [e.file for e in doc.runs]
+    for i, f in enumerate(files):
+        if f in files[:i]:
+            raise DataError(f"{yml}: runs.{i}.file: {f!r} is listed twice")
+    return doc
+
+
 def read_dataset(folder: str | os.PathLike) -> Dataset:
     """Read and validate a ``maglev-rig-log/1`` dataset.
 
@@ -375,26 +468,7 @@ def read_dataset(folder: str | os.PathLike) -> Dataset:
         raise DataError(f"{folder}: no such dataset folder")
     if not yml.is_file():
         raise DataError(f"{yml}: missing (a dataset folder needs dataset.yaml)")
-    try:
-        raw = load_yaml(yml)
-    except ConfigError as err:
-        raise DataError(str(err)) from None
-    if raw is None:
-        raise DataError(f"{yml}: empty file")
-    if not isinstance(raw, dict):
-        raise DataError(f"{yml}: expected a mapping at the top level, got {type(raw).__name__}")
-    if "format" in raw and raw["format"] != FORMAT:
-        raise DataError(f"{yml}: format: expected {FORMAT!r}, got {raw['format']!r}")
-    try:
-        doc = parse_model(_DatasetFile, raw, str(yml))
-    except ConfigError as err:
-        raise DataError(str(err)) from None
-    if not (math.isfinite(doc.sample_time) and math.isfinite(doc.encoder_resolution)):
-        raise DataError(f"{yml}: sample_time and encoder_resolution must be finite")
-    files = [e.file for e in doc.runs]
-    for i, f in enumerate(files):
-        if f in files[:i]:
-            raise DataError(f"{yml}: runs.{i}.file: {f!r} is listed twice")
+    doc = _read_doc(yml)
     runs = []
     for i, e in enumerate(doc.runs):
         path = folder / e.file
@@ -407,32 +481,49 @@ def read_dataset(folder: str | os.PathLike) -> Dataset:
 def read_run(
     path: str | os.PathLike, sample_time: float, locked: tuple[str, ...] = (), meta: dict[str, Any] | None = None
 ) -> RunLog:
-    """Read and validate one run's CSV (see :func:`read_dataset` for what is refused)."""
+    """Read and validate one run's CSV (see :func:`read_dataset` for what is refused).
+
+    Limits: at most :data:`MAX_COLUMNS` columns and :data:`MAX_CELL_CHARS`
+    characters per cell; a UTF-8 byte-order mark is ignored.
+    """
     path = Path(path)
+    header, body = _read_csv_rows(path)
+    columns: dict[str, np.ndarray] = {}
+    if body:
+        cells = np.array(body, dtype=str)
+        for j, name in enumerate(header):
+            columns[name] = _column(path, name, np.char.strip(cells[:, j]))
+    _check_time(path, columns["t"], sample_time)
+    _check_locked(path, columns, locked)
+    return RunLog(path.name, columns, locked, dict(meta or {}))
+
+
+def _read_csv_rows(path: Path) -> tuple[list[str], list[list[str]]]:
+    """Header and data rows of a run's CSV; checks the header, the row widths and the cell sizes."""
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError:
         raise DataError(f"{path}: not a text file (cannot decode as UTF-8)") from None
     except OSError as err:
         raise DataError(f"{path}: cannot read: {err.strerror or err}") from None
     if not text.strip():
         raise DataError(f"{path}: empty file")
+    reader = csv.reader(io.StringIO(text))
+    lines: list[list[str]] = []
     try:
-        lines = list(csv.reader(io.StringIO(text)))
+        with wide_csv_fields():
+            for row in reader:
+                lines.append(row)
+                if len(lines) == 1:
+                    _check_header(path, row)
     except csv.Error as err:
-        raise DataError(f"{path}: not valid CSV: {err}") from None
+        r = reader.line_num - 1
+        where = "header (line 1)" if r <= 0 else f"row {r} (line {r + 1})"
+        raise DataError(f"{path}: {where}: not valid CSV: {err}") from None
     # drop trailing blank lines only; a blank line inside the data is an error
     while lines and not any(c.strip() for c in lines[-1]):
         lines.pop()
     header = [c.strip() for c in lines[0]]
-    for j, name in enumerate(header):
-        if not name:
-            raise DataError(f"{path}: header (line 1): column {j + 1} has no name")
-        if name in header[:j]:
-            raise DataError(f"{path}: header (line 1): column {name!r} appears twice")
-    missing = [c for c in REQUIRED_COLUMNS if c not in header]
-    if missing:
-        raise DataError(f"{path}: header (line 1): missing column {missing[0]!r} (header has {', '.join(header)})")
     body = lines[1:]
     if len(body) < 2:
         raise DataError(f"{path}: needs at least 2 data rows, found {len(body)}")
@@ -440,28 +531,74 @@ def read_run(
     for r, row in enumerate(body, start=1):
         if len(row) != n:
             raise DataError(f"{path}: row {r} (line {r + 1}): {len(row)} fields, but the header has {n} columns")
-    cells = np.array(body, dtype=str)
-    columns: dict[str, np.ndarray] = {}
-    for j, name in enumerate(header):
-        raw = np.char.strip(cells[:, j])
-        required = name in REQUIRED_COLUMNS
-        try:
-            vals = raw.astype(float)
-        except ValueError:
-            if required:
-                r = _first_bad(raw)
+        for j, cell in enumerate(row):
+            if len(cell) > MAX_CELL_CHARS:
                 raise DataError(
-                    f"{path}: row {r + 1} (line {r + 2}), column {name!r}: not a number: {str(raw[r])!r}"
-                ) from None
-            columns[name] = raw  # free-text extra column (flags, notes), kept as text
-            continue
+                    f"{path}: row {r} (line {r + 1}), column {header[j]!r}: cell of {len(cell)} characters "
+                    f"(the limit is {MAX_CELL_CHARS})"
+                )
+    return header, body
+
+
+@contextlib.contextmanager
+def wide_csv_fields(limit: int = 1 << 26) -> Iterator[None]:
+    """Let the ``csv`` module read fields up to ``limit`` characters inside the block.
+
+    The module's default (131072) would stop a huge cell with an error that
+    names only the line; with the limit raised, the reader's own cell check
+    (:data:`MAX_CELL_CHARS`) names the row and the column.
+    """
+    previous = csv.field_size_limit(limit)
+    try:
+        yield
+    finally:
+        csv.field_size_limit(previous)
+
+
+def _check_header(path: Path, row: list[str]) -> None:
+    """Column count, names (non-empty, distinct, not too long) and the required columns (linear time)."""
+    if len(row) > MAX_COLUMNS:
+        raise DataError(f"{path}: header (line 1): {len(row)} columns (the limit is {MAX_COLUMNS})")
+    seen: set[str] = set()
+    for j, raw in enumerate(row):
+        name = raw.strip()
+        if not name:
+            raise DataError(f"{path}: header (line 1): column {j + 1} has no name")
+        if len(name) > MAX_CELL_CHARS:
+            raise DataError(
+                f"{path}: header (line 1): column {j + 1}: name of {len(name)} characters (limit {MAX_CELL_CHARS})"
+            )
+        if name in seen:
+            raise DataError(f"{path}: header (line 1): column {name!r} appears twice")
+        seen.add(name)
+    missing = [c for c in REQUIRED_COLUMNS if c not in seen]
+    if missing:
+        names = ", ".join(c.strip() for c in row[:20]) + (", ..." if len(row) > 20 else "")
+        raise DataError(f"{path}: header (line 1): missing column {missing[0]!r} (header has {names})")
+
+
+def _column(path: Path, name: str, raw: np.ndarray) -> np.ndarray:
+    """One column as floats (required columns must be finite numbers), or as text for a free extra column."""
+    required = name in REQUIRED_COLUMNS
+    try:
+        vals = raw.astype(float)
+    except ValueError:
         if required:
-            bad = np.flatnonzero(~np.isfinite(vals))
-            if bad.size:
-                r = int(bad[0])
-                raise DataError(f"{path}: row {r + 1} (line {r + 2}), column {name!r}: non-finite value {raw[r]!r}")
-        columns[name] = vals
-    t = columns["t"]
+            r = _first_bad(raw)
+            raise DataError(
+                f"{path}: row {r + 1} (line {r + 2}), column {name!r}: not a number: {str(raw[r])!r}"
+            ) from None
+        return raw  # free-text extra column (flags, notes), kept as text
+    if required:
+        bad = np.flatnonzero(~np.isfinite(vals))
+        if bad.size:
+            r = int(bad[0])
+            raise DataError(f"{path}: row {r + 1} (line {r + 2}), column {name!r}: non-finite value {raw[r]!r}")
+    return vals
+
+
+def _check_time(path: Path, t: np.ndarray, sample_time: float) -> None:
+    """Time strictly increases, evenly spaced at ``sample_time`` (within :data:`SAMPLE_TIME_TOLERANCE`)."""
     dt = np.diff(t)
     bad = np.flatnonzero(dt <= 0)
     if bad.size:
@@ -476,6 +613,10 @@ def read_run(
             f"{path}: row {r + 1} (line {r + 2}), column 't': time step {dt[r - 1]:.6g} s differs "
             f"from sample_time {sample_time:g} s"
         )
+
+
+def _check_locked(path: Path, columns: dict[str, np.ndarray], locked: tuple[str, ...]) -> None:
+    """A locked axis reads a constant."""
     for ax in locked:
         v = columns[ax]
         bad = np.flatnonzero(v != v[0])
@@ -485,7 +626,6 @@ def read_run(
                 f"{path}: row {r + 1} (line {r + 2}), column {ax!r}: axis {ax} is locked but its "
                 f"reading changes ({v[0]!r} then {v[r]!r})"
             )
-    return RunLog(path.name, columns, locked, dict(meta or {}))
 
 
 def _first_bad(raw: np.ndarray) -> int:
@@ -497,4 +637,16 @@ def _first_bad(raw: np.ndarray) -> int:
     return 0  # pragma: no cover
 
 
-__all__ = ["FORMAT", "REQUIRED_COLUMNS", "Dataset", "RunLog", "read_dataset", "read_run", "write_dataset"]
+__all__ = [
+    "FORMAT",
+    "MAX_CELL_CHARS",
+    "MAX_COLUMNS",
+    "REQUIRED_COLUMNS",
+    "Dataset",
+    "RunLog",
+    "merge_datasets",
+    "read_dataset",
+    "read_header",
+    "read_run",
+    "write_dataset",
+]

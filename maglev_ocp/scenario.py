@@ -29,7 +29,10 @@ Every key (SI units):
 ``plant``
     ``profile`` (``default``, ``ideal``), ``file`` (a plant YAML), ``params``
     (the rig's nominal parameters, before the profile's random mismatch), and any
-    key of a plant file (``process_noise``, ``effects``, ``mismatch``, ...).
+    key of a plant file (``process_noise``, ``effects``, ``mismatch``, ...), among
+    them ``delay_samples`` (computation delay, control periods) and
+    ``disturbances`` (force pulses / steps, payloads, a cable:
+    :mod:`maglev_ocp.plant.disturbances`).
 ``reference``
     How targets become references (:class:`~maglev_ocp.reference.ReferenceSettings`).
 ``start``
@@ -63,6 +66,7 @@ from .errors import ConfigError, UserError
 from .model import get_model
 from .params import NOMINAL, ParamOverrides, Params, load_params
 from .plant.config import check_hover_envelope
+from .plant.disturbances import persistent_loads, with_payload
 from .reference import ReferenceSettings, Target
 
 #: Controller types: module, settings class, controller class (imported lazily).
@@ -424,6 +428,9 @@ class Scenario(Strict):
         - hovering at the start and at every target must fit the controller's
           and (if switched on) the plant's current limits;
         - the start and the targets must lie inside the plant's stops (if switched on);
+        - a payload, a force step on the gap or a cable's pull (``plant.disturbances``)
+          must leave the rig able to hover at the start and every target within
+          its current limits once it is on;
         - the NMPC's soft gap band must be a band (``g_min < g_max``) holding every target;
         - with ``checks.all_settled``, every hold must be longer than ``checks.min_settled_s``.
         """
@@ -431,6 +438,7 @@ class Scenario(Strict):
         check_hover_envelope(self.plant_params(), "plant.params")
         self._check_limits(ctrl_params, plant_cfg)
         self._check_stops(plant_cfg)
+        self._check_loads(plant_cfg)
         self._check_soft_gap()
         if self.checks.all_settled:
             holds = [(f"targets[{i}].hold", t.hold) for i, t in enumerate(self.targets)]
@@ -476,6 +484,45 @@ class Scenario(Strict):
                             f"{key}: {lim:g} A is below the {need_axis:.2f} A per axis {who} needs to hover at "
                             f"{where} (g = {g * 1e3:.2f} mm, d = {d * 1e3:.2f} mm); raise it or move the target"
                         )
+
+    def _check_loads(self, plant_cfg: Any) -> None:
+        """Hover under every persistent gap load (payload, force step, cable) within the plant's limits.
+
+        A force ``F`` on the gap axis asks the magnets for what a mass ``F / G``
+        more would (the vertical balance of seed eq. (8) times the moving mass),
+        so each load state is checked as the payload ``m + F / G``.
+        """
+        items = list(getattr(plant_cfg, "disturbances", []))
+        if not items:
+            return
+        cl = plant_cfg.current_limits
+        u_eq = get_model().u_eq
+        base = self.plant_params()
+        for i, t, mass, extra_g in persistent_loads(items):
+            d_i = items[i]
+            field = {"payload": "mass", "force_step": "amplitude"}.get(d_i.type, "weight_g/stiffness_g")
+            key = f"plant.disturbances[{i}].{field}"
+            for where, g, d in self.positions():
+                m_eq = mass + extra_g(g) / k.G
+                if m_eq <= -0.5 * base.Mv:
+                    raise ConfigError(
+                        f"{key}: from t = {t:g} s the gap load is an upward pull of {-m_eq * k.G:.1f} N, more than "
+                        f"half the mover's weight; the stage is not built for that"
+                    )
+                u = np.asarray(u_eq(g, d, with_payload(base, m_eq).vector()), dtype=float).ravel()
+                at = f"at {where} (g = {g * 1e3:.2f} mm, d = {d * 1e3:.2f} mm)"
+                if not np.all(np.isfinite(u)):
+                    raise ConfigError(
+                        f"{key}: from t = {t:g} s no current holds the mover {at} (load {mass:g} kg payload and "
+                        f"{extra_g(g):g} N on g; seed eq. (8) has no real root)"
+                    )
+                need = math.hypot(u[0], u[1])
+                if cl.enabled and (need > cl.amplitude or float(np.max(np.abs(u))) > cl.axis):
+                    raise ConfigError(
+                        f"{key}: from t = {t:g} s hovering {at} needs {need:.2f} A (load {mass:g} kg payload and "
+                        f"{extra_g(g):g} N on g), more than plant.current_limits ({cl.axis:g} A per axis, "
+                        f"{cl.amplitude:g} A amplitude)"
+                    )
 
     def _check_stops(self, plant_cfg: Any) -> None:
         """Start and targets strictly inside the plant's stops (if they are switched on)."""

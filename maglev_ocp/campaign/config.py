@@ -50,6 +50,10 @@ from ..errors import ConfigError
 
 #: Parameters a campaign may perturb (the masses are weighed, not identified).
 PERTURBABLE: tuple[str, ...] = ("C1", "C2", "C3", "C4", "xi0", "ell")
+#: Most runs a campaign may expand to (draws x cases); checked before expanding.
+MAX_RUNS: int = 100_000
+#: Most cases (controllers x grid points x explicit runs); each is validated up front.
+MAX_CASES: int = 2_000
 
 
 class UniformRel(Strict):
@@ -172,6 +176,30 @@ class Campaign(Strict):
     #: Folder of the campaign file (set by :func:`load_campaign`; base_scenario is relative to it).
     _root_dir: str = PrivateAttr(".")
 
+    def n_cases(self) -> int:
+        """Number of cases (controllers x grid points x explicit runs), computed without expanding."""
+        n = max(1, len(self.vary.controllers)) * max(1, len(self.runs))
+        return n * math.prod(len(v) for v in self.vary.grid.values())
+
+    def n_total(self) -> int:
+        """Number of runs the campaign expands to (``n_runs`` draws on every case)."""
+        return self.n_runs * self.n_cases()
+
+    def check_size(self, source: str = "campaign") -> None:
+        """Refuse a campaign larger than :data:`MAX_RUNS` runs or :data:`MAX_CASES` cases (before expanding)."""
+        cases = self.n_cases()
+        if cases > MAX_CASES:
+            raise ConfigError(
+                f"{source}: vary.grid x vary.controllers x runs: {cases} cases (the limit is {MAX_CASES}); "
+                "split the campaign"
+            )
+        total = self.n_runs * cases
+        if total > MAX_RUNS:
+            raise ConfigError(
+                f"{source}: n_runs x cases = {self.n_runs} x {cases} = {total} runs (the limit is {MAX_RUNS}); "
+                "lower n_runs or the grid"
+            )
+
     @property
     def root_dir(self) -> str:
         """Folder the campaign file is in."""
@@ -205,6 +233,7 @@ def load_campaign(path: str | os.PathLike) -> Campaign:
     path = Path(path)
     camp = load_model(Campaign, path)
     camp._root_dir = str(path.resolve().parent)
+    camp.check_size(str(path))
     if not camp.base_scenario_path().is_file():
         raise ConfigError(f"{path}: base_scenario: no such file {camp.base_scenario_path()}")
     for i, case in enumerate(camp.runs):

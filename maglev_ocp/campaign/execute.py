@@ -48,7 +48,7 @@ from typing import Any
 
 import yaml
 
-from ..config import atomic_write_text
+from ..config import atomic_write_text, load_yaml, sigint_ignored
 from ..errors import UserError
 from .config import Campaign, SaveSettings
 from .expand import RunSpec, apply_overrides, expand
@@ -333,15 +333,22 @@ def _write_plan(out_dir: Path, camp: Campaign, base: dict[str, Any], specs: list
     resolved = camp.model_dump(mode="json")
     resolved["base_scenario_resolved"] = base
     text = yaml.safe_dump(resolved, sort_keys=False)
-    p = out_dir / "campaign.yaml"
-    if p.exists():
-        old = yaml.safe_load(p.read_text()) or {}
-        if old.get("name") not in (None, camp.name):
-            raise UserError(f"{out_dir}: holds campaign {old.get('name')!r}, not {camp.name!r}; use another --out")
-    atomic_write_text(p, text)
+    _check_plan(out_dir, camp)
+    atomic_write_text(out_dir / "campaign.yaml", text)
     lines = ["index,run_id,controller,case,draw,seed,digest"]
     lines += [f"{s.index},{s.run_id},{s.controller},{s.case},{s.draw},{s.seed},{s.digest()}" for s in specs]
     atomic_write_text(out_dir / "plan.csv", "\n".join(lines) + "\n")
+
+
+def _check_plan(out_dir: Path, camp: Campaign) -> None:
+    """Refuse an OUT made by a different campaign (before anything is written)."""
+    p = out_dir / "campaign.yaml"
+    if p.exists():
+        old = load_yaml(p) or {}
+        if not isinstance(old, dict):
+            raise UserError(f"{p}: not a campaign record; use another --out")
+        if old.get("name") not in (None, camp.name):
+            raise UserError(f"{out_dir}: holds campaign {old.get('name')!r}, not {camp.name!r}; use another --out")
 
 
 def pending_runs(out_dir: Path, specs: list[RunSpec], retry_failed: bool = False) -> tuple[list[RunSpec], int, int]:
@@ -416,9 +423,10 @@ def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
         finally:
             client.close()
         return
-    cluster = LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR
-    )
+    with sigint_ignored():  # the worker processes inherit SIG_IGN: Ctrl-C is the client's (no worker tracebacks)
+        cluster = LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR
+        )
     client = Client(cluster)
     try:
         client.register_plugin(plugin_cls())
@@ -478,9 +486,10 @@ def execute(
     out.mkdir(parents=True, exist_ok=True)
     base = camp.base_scenario_dict() if base is None else base
     specs = expand(camp, base)
-    _write_plan(out, camp, base, specs)
+    _check_plan(out, camp)
     _clean_tmp(out)
-    todo, n_ok, n_failed = pending_runs(out, specs, retry_failed)
+    todo, n_ok, n_failed = pending_runs(out, specs, retry_failed)  # refuses a changed campaign: nothing written yet
+    _write_plan(out, camp, base, specs)
     skipped = n_ok + n_failed
     if limit is not None:
         todo = todo[:limit]

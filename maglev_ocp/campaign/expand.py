@@ -26,13 +26,14 @@ import copy
 import hashlib
 import itertools
 import json
-import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
+from ..errors import ConfigError, UserError
 from ..params import NOMINAL
+from ..scenario import scenario_from_dict
 from .config import PERTURBABLE, Campaign, NormalRel, UniformRel
 
 #: Where the plant's true parameters live in a scenario: the plant's mismatch overrides, applied after
@@ -235,6 +236,7 @@ def expand(camp: Campaign, base: dict[str, Any] | None = None) -> list[RunSpec]:
     list of RunSpec
         Same campaign -> same list, whatever runs it later and how.
     """
+    camp.check_size(f"campaign {camp.name}")
     base = camp.base_scenario_dict() if base is None else base
     cases = _cases(camp, base)
     wc = max(2, len(str(len(cases) - 1)))
@@ -262,5 +264,44 @@ def _safe(s: str) -> str:
 
 def n_cases(camp: Campaign) -> int:
     """Number of cases (controllers x grid points x explicit runs)."""
-    n = max(1, len(camp.vary.controllers)) * max(1, len(camp.runs))
-    return n * math.prod(len(v) for v in camp.vary.grid.values())
+    return camp.n_cases()
+
+
+def validate_cases(camp: Campaign, base: dict[str, Any] | None = None, source: str | None = None) -> int:
+    """Validate every case's scenario (and the first draw's) before any run: bad settings fail here, not per run.
+
+    Each case (controller x grid point x explicit run) is the base scenario with
+    its overrides, validated like a scenario file; the first random draw's
+    overrides (parameters, targets) are validated on the first case.
+
+    Returns
+    -------
+    int
+        The number of cases checked.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the campaign, the case's overrides and the key.
+    """
+    source = source or f"campaign {camp.name}"
+    camp.check_size(source)
+    base = camp.base_scenario_dict() if base is None else base
+    cases = _cases(camp, base)
+    root = str(camp.base_scenario_path().parent)
+    for ci, (_ctype, ov, _point) in enumerate(cases):
+        extra = _draw(camp, base, 0)[0] if ci == 0 else {}
+        data = apply_overrides(base, {**ov, **extra})
+        data["name"] = f"{camp.name}-case{ci}"
+        what = ", ".join(f"{k}={_short(v)}" for k, v in ov.items()) or "base scenario"
+        try:
+            scenario_from_dict(data, f"{source}: case {ci} ({what})", root)
+        except UserError as err:
+            raise ConfigError(str(err)) from None
+    return len(cases)
+
+
+def _short(v: Any) -> str:
+    """A value shortened for a one-line message."""
+    text = json.dumps(v, default=str) if isinstance(v, (dict, list)) else str(v)
+    return text if len(text) <= 40 else text[:37] + "..."

@@ -11,12 +11,15 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import os
 import pkgutil
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
-from ..errors import UserError
+from ..errors import UserError, one_line
 
 EPILOG = """examples:
   maglev model --gaps 10 15 20 25 --json
@@ -29,9 +32,18 @@ class _Formatter(argparse.RawDescriptionHelpFormatter):
     pass
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """Argument parser whose usage errors are one line (``maglev run: error: ... (see maglev run --help)``)."""
+
+    def error(self, message: str):  # type: ignore[override]
+        """Print one line and exit 2 (argparse would print the whole usage first)."""
+        _say(one_line(f"{self.prog}: error: {message} (see {self.prog} --help)"))
+        raise SystemExit(2)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the top-level parser with every discovered subcommand."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="maglev",
         description=(
             "maglev-ocp: model, simulate, identify, control and diagnose the 2-DOF PMLSM magnetic levitation stage."
@@ -49,20 +61,99 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``maglev`` console script."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "handler", None):
-        parser.print_help()
-        return 2
+    """Entry point of the ``maglev`` console script.
+
+    Every failure ends here as one line on stderr: bad input (a
+    :class:`~maglev_ocp.errors.UserError`, an unreadable or unwritable path, a
+    file nested too deeply, a resource limit) exits 2, an interrupt (SIGINT)
+    exits 130, and anything unforeseen exits 1 with ``internal error`` (set
+    ``MAGLEV_DEBUG=1`` to see its traceback). Never a traceback otherwise.
+    """
+    command = "maglev"
+    interrupts: list[int] = []
+    previous = _catch_sigint(interrupts)
     try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "handler", None):
+            parser.print_help()
+            return 2
+        command = f"maglev {args.command}"
         return int(args.handler(args) or 0)
-    except UserError as err:
-        print(f"maglev {args.command}: error: {err}", file=sys.stderr)
-        return err.exit_code
     except KeyboardInterrupt:
-        print(f"maglev {args.command}: interrupted", file=sys.stderr)
+        _say(f"{command}: interrupted")
         return 130
+    except BaseException as err:
+        if isinstance(err, SystemExit) or os.environ.get("MAGLEV_DEBUG"):
+            raise
+        if interrupts:  # a library turned the KeyboardInterrupt into another error (seen in matplotlib)
+            _say(f"{command}: interrupted")
+            return 130
+        text, code = describe_failure(err)
+        _say(f"{command}: {text}")
+        return code
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
+def _catch_sigint(interrupts: list[int]):
+    """Note every SIGINT in ``interrupts`` (then raise KeyboardInterrupt as usual); returns the previous handler.
+
+    Only in the main thread and only where SIGINT has Python's default handler;
+    ``None`` where nothing was installed.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is not signal.default_int_handler:
+        return None
+
+    def _handler(signum, frame):
+        interrupts.append(signum)
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, _handler)
+    return previous
+
+
+def describe_failure(err: BaseException) -> tuple[str, int]:
+    """One-line text and exit code of a failure (see :func:`main`)."""
+    if isinstance(err, UserError):
+        return f"error: {err}", err.exit_code
+    if isinstance(err, RecursionError):
+        return "error: input nested too deeply (recursion limit)", 2
+    if isinstance(err, MemoryError):
+        return "error: out of memory (input too large)", 2
+    if isinstance(err, BrokenPipeError):
+        return "error: output pipe closed", 2
+    if isinstance(err, OSError):
+        where = f"{err.filename}: " if err.filename else ""
+        return one_line(f"error: {where}{err.strerror or err}"), 2
+    if isinstance(err, (ValueError, OverflowError)):
+        return one_line(f"error: {err or type(err).__name__}"), 2
+    return one_line(f"internal error: {type(err).__name__}: {err} (MAGLEV_DEBUG=1 shows the traceback)"), 1
+
+
+def _say(line: str) -> None:
+    """Print one line on stderr, whatever state stdout/stderr are in."""
+    try:
+        sys.stdout.flush()
+    except Exception:
+        pass
+    try:
+        print(line, file=sys.stderr, flush=True)
+    except Exception:
+        pass
+
+
+def check_range(flag: str, v: float, lo: float, hi: float, unit: str = "", lo_open: bool = False) -> None:
+    """A command-line number must be finite and in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``); one-line UserError."""
+    u = f" {unit}" if unit else ""
+    if math.isnan(v):
+        raise UserError(f"{flag}: NaN is not allowed; give a number in {lo:g}..{hi:g}{u}")
+    if not (math.isfinite(v) and (lo < v if lo_open else lo <= v) and v <= hi):
+        raise UserError(f"{flag}: {v:g}{u} is outside {'(' if lo_open else ''}{lo:g}..{hi:g}{u}")
 
 
 def add_command(sub, name: str, help: str, description: str, example: str) -> argparse.ArgumentParser:

@@ -58,8 +58,17 @@ def run(args: argparse.Namespace) -> int:
     backends = _subset(args.backends, BACKENDS, "--backends")
     if args.warmup < 0:
         raise UserError(f"--warmup: must be >= 0, got {args.warmup}")
+    if args.out is not None:
+        from ..config import check_output_file
+
+        check_output_file(args.out)
+    scenario = None
+    if args.scenario is not None:
+        from ..scenario import load_scenario
+
+        scenario = load_scenario(args.scenario)  # bad input: one line, before the timing runs
     res = run_bench(
-        args.scenario,
+        scenario,
         controllers,
         backends,
         warmup=args.warmup,

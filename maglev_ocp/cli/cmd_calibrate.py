@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 from ..errors import UserError
+from . import check_range
 
 
 def register(sub) -> None:
@@ -44,17 +44,19 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev calibrate``."""
+    from ..config import check_output_dir, replace_dir
     from ..estimation.calibrate import calibrate
     from ..params import NOMINAL, load_params
 
     for e in args.eps:
-        if not (math.isfinite(e) and 1e-5 <= e <= 1.0):
-            raise UserError(f"--eps: {e:g} is outside 1e-5..1")
+        check_range("--eps", e, 1e-5, 1.0)
     if not Path(args.dataset).exists():
         raise UserError(f"DATASET: {args.dataset}: no such folder")
+    check_output_dir(args.out, expect=("params.yaml", "calibration.json"))
     prior = load_params(args.prior) if args.prior else NOMINAL
     res = calibrate(args.dataset, prior=prior, eps_list=tuple(args.eps), progress=not args.no_progress)
-    res.save(args.out, figures=not args.no_figures)
+    with replace_dir(args.out) as tmp:
+        res.save(tmp, figures=not args.no_figures)
     print(res.table())
     print(
         f"\ncalibration took {res.timing['total']:.1f} s; wrote {Path(args.out) / 'params.yaml'} and "

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 
 from ..errors import UserError
 
@@ -59,13 +60,17 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev campaign``."""
     from ..campaign import load_campaign, run_campaign
-    from ..campaign.expand import expand
+    from ..campaign.expand import expand, validate_cases
+    from ..config import check_output_dir
 
-    camp = load_campaign(args.campaign)
+    camp = load_campaign(args.campaign)  # refuses a campaign above the size limit before expanding
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers: must be >= 1, got {args.workers}")
     if args.limit is not None and args.limit < 0:
         raise UserError(f"--limit: must be >= 0, got {args.limit}")
+    if not args.plan:
+        check_output_dir(args.out, replaced=False, expect=("campaign.yaml", "plan.csv", "runs"))
+    validate_cases(camp, source=str(args.campaign))  # bad settings on the grid: one line now, not per run
     if args.plan:
         specs = expand(camp)
         cases = sorted({(s.case, s.controller, str(s.grid)) for s in specs})
@@ -85,4 +90,12 @@ def run(args: argparse.Namespace) -> int:
         figures=not args.no_figures,
     )
     print(res)
+    rep = res.report
+    if rep.ran and rep.failed == rep.ran:
+        print(
+            f"maglev campaign: error: every run of this invocation failed ({rep.failed}); "
+            f"see {rep.out_dir}/runs/<run>/run.json",
+            file=sys.stderr,
+        )
+        return 1
     return 0

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import os
 import time
-from pathlib import Path
 
 from ..errors import UserError
 
@@ -30,7 +29,7 @@ def register(sub) -> None:
         ),
         example="maglev codegen --out build/controller_c --scenario scenarios/tour_nmpc.yaml --make",
     )
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder (created; files replaced)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder (replaced whole)")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--scenario", default=None, metavar="FILE", help="scenario YAML: controller settings and params")
     src.add_argument("--params", default=None, metavar="FILE", help="parameter YAML (default: seed Table III)")
@@ -45,24 +44,18 @@ def register(sub) -> None:
     p.set_defaults(handler=run)
 
 
-def _check_out(out: str) -> Path:
-    path = Path(out)
-    if path.exists() and not path.is_dir():
-        raise UserError(f"--out: {out} exists and is not a folder")
-    if path.resolve() == Path.cwd().resolve():
-        raise UserError("--out: refusing to write into the current directory; give a sub-folder")
-    return path
-
-
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev codegen``."""
     from ..codegen import KINDS, controller_codes
     from ..codegen.build import build_folder
     from ..codegen.sources import generate_sources
     from ..codegen.templates import DEFAULT_CFLAGS
+    from ..config import check_output_dir, replace_dir
     from ..params import NOMINAL, load_params
 
-    out = _check_out(args.out)
+    out = check_output_dir(
+        args.out, expect=("maglev_controller.h", "Makefile")
+    )  # before the (slow) code generation; refuses the current directory
     kinds = [s.strip() for s in args.controllers.split(",") if s.strip()]
     bad = [s for s in kinds if s not in KINDS]
     if bad or not kinds:
@@ -88,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     codes = controller_codes(kinds, params, nmpc_s, fl_s, shaping)
     src = generate_sources(codes, cflags)
-    src.save(out)
+    with replace_dir(out) as tmp:  # the folder holds exactly these files: none of an earlier invocation
+        src.save(tmp)
     t_gen = time.perf_counter() - t0
     print(src.table())
     nmpc = next((c for c in codes if c.kind == "nmpc"), None)

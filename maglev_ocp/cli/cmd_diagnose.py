@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 from ..errors import UserError
+from . import check_range
 
 DESCRIPTION = """\
 Diagnose the sim-to-real gap of a rig-log dataset (maglev-rig-log/1, closed- or
@@ -35,6 +36,10 @@ Other modes:
                           the effect, and with the controller's model carrying the
                           fitted effect (settling time, steady error)
 """
+
+
+#: Files of a diagnosis report folder (an existing --out must hold one to be replaced).
+REPORT_FILES: tuple[str, ...] = ("report.json", "report.md")
 
 
 def register(sub) -> None:
@@ -128,8 +133,7 @@ def _check_effect(name: str | None, allow_none: bool = False) -> None:
 def _settings(args, **kw):
     from ..diagnosis.diagnose import LIBRARY, DiagnoseSettings
 
-    if not (math.isfinite(args.fc) and 0.5 < args.fc <= 200):
-        raise UserError(f"--fc: {args.fc} Hz is outside (0.5, 200]")
+    check_range("--fc", args.fc, 0.5, 200.0, "Hz", lo_open=True)
     if args.candidates:
         bad = [c for c in args.candidates if c not in LIBRARY]
         if bad:
@@ -142,8 +146,7 @@ def _generator(args):
 
     if not 2 <= args.runs <= 100:
         raise UserError(f"--runs: {args.runs} is outside 2..100")
-    if not (math.isfinite(args.duration) and 2.0 <= args.duration <= 600.0):
-        raise UserError(f"--duration: {args.duration} s is outside 2..600 s")
+    check_range("--duration", args.duration, 2.0, 600.0, "s")
     return GeneratorSettings(n_runs=args.runs, run_duration=args.duration)
 
 
@@ -165,12 +168,15 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _dataset(args) -> int:
+    from ..config import check_output_dir, replace_dir
     from ..diagnosis import diagnose
+    from ..diagnosis.report import write_report
     from ..params import load_params
     from ..riglog import read_dataset
 
     if not args.out:
         raise UserError("--out DIR is required")
+    check_output_dir(args.out, expect=REPORT_FILES)
     folder = Path(args.dataset)
     if not (folder / "dataset.yaml").is_file():
         raise UserError(f"{folder}: not a dataset folder (no dataset.yaml)")
@@ -179,14 +185,14 @@ def _dataset(args) -> int:
     ds = read_dataset(folder)
     d = diagnose(ds, params=params, settings=st, progress=True)
     print(d.table())
-    from ..diagnosis.report import write_report
-
-    write_report(d, args.out, figures=not args.no_figures)
+    with replace_dir(args.out) as tmp:
+        write_report(d, tmp, figures=not args.no_figures)
     print(f"report: {Path(args.out) / 'report.md'}")
     return 0
 
 
 def _selftest(args) -> int:
+    from ..config import check_output_dir, replace_dir
     from ..diagnosis.selftest import DRAWS, SelftestSettings, run_selftest
 
     if args.selftest < 1:
@@ -205,7 +211,12 @@ def _selftest(args) -> int:
         diagnose=_settings(args, simulate=False),
         truths=args.truths,
     )
-    res = run_selftest(st, progress=True, out_dir=args.out, keep_reports=args.keep_reports)
+    if args.out:
+        check_output_dir(args.out, expect=("selftest.json", "selftest.md"))
+        with replace_dir(args.out) as tmp:
+            res = run_selftest(st, progress=True, out_dir=tmp, keep_reports=args.keep_reports)
+    else:
+        res = run_selftest(st, progress=True, out_dir=None, keep_reports=args.keep_reports)
     print(res.table())
     if args.out:
         print(f"written: {Path(args.out) / 'selftest.md'}")
@@ -215,11 +226,14 @@ def _selftest(args) -> int:
 def _generate(args) -> int:
     import numpy as np
 
+    from ..config import check_output_dir, replace_dir
     from ..diagnosis.generate import generate_dataset
     from ..diagnosis.selftest import selftest_plant
     from ..params import NOMINAL
+    from ..riglog import read_dataset
 
     _check_effect(args.effect, allow_none=True)
+    check_output_dir(args.generate, "--generate", expect=("dataset.yaml",))
     eff = _kv(args.effect_param)
     params = NOMINAL.without_cogging()
     effects: dict = {}
@@ -248,13 +262,15 @@ def _generate(args) -> int:
         extra_info=info,
         progress=True,
     )
-    gen.save(args.generate)
-    print(gen.dataset.table())
+    with replace_dir(args.generate) as tmp:  # a generated dataset carries its truth: replaced whole, not appended
+        gen.save(tmp)
+    print(read_dataset(args.generate).table())
     print(f"written: {args.generate}")
     return 0
 
 
 def _scenario(args) -> int:
+    from ..config import check_output_dir, replace_dir
     from ..diagnosis.closed_loop import closed_loop_view, fitted_from_report
     from ..diagnosis.generate import GeneratorSettings
 
@@ -263,6 +279,8 @@ def _scenario(args) -> int:
     _check_effect(args.effect)
     if not Path(args.scenario).is_file():
         raise UserError(f"{args.scenario}: no such scenario file")
+    if args.out:
+        check_output_dir(args.out, expect=("closed_loop.json", "closed_loop.md"))
     fitted = fitted_from_report(args.fitted_from, args.effect) if args.fitted_from else None
     view = closed_loop_view(
         args.scenario,
@@ -274,6 +292,7 @@ def _scenario(args) -> int:
     )
     print(view.table())
     if args.out:
-        view.save(args.out)
+        with replace_dir(args.out) as tmp:
+            view.save(tmp)
         print(f"written: {Path(args.out) / 'closed_loop.md'}")
     return 0

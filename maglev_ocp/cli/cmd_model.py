@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 
-from ..errors import UserError
+from . import check_range
+
+#: Figure formats ``--plot`` writes (by the file's suffix).
+PLOT_SUFFIXES: tuple[str, ...] = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff")
 
 
 def register(sub) -> None:
@@ -34,7 +36,12 @@ def register(sub) -> None:
     )
     p.add_argument("--params", default=None, metavar="FILE", help="parameter YAML (default: seed Table III)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a text table")
-    p.add_argument("--plot", default=None, metavar="PNG", help="also plot the table over 8..32 mm to this PNG")
+    p.add_argument(
+        "--plot",
+        default=None,
+        metavar="PNG",
+        help="also plot the table over 8..32 mm to this file (.png, .pdf, .svg, ...)",
+    )
     p.set_defaults(handler=run)
 
 
@@ -94,12 +101,14 @@ def plot_table(path: str, params) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev model``."""
+    from ..config import check_output_file
     from ..params import NOMINAL, load_params
 
+    if args.plot is not None:
+        check_output_file(args.plot, "--plot", PLOT_SUFFIXES)
     params = load_params(args.params) if args.params else NOMINAL
     for g in args.gaps:
-        if not (math.isfinite(g) and 1.0 <= g <= 100.0):
-            raise UserError(f"--gaps: {g} mm is outside 1..100 mm")
+        check_range("--gaps", g, 1.0, 100.0, "mm")
     rows = table(args.gaps, params)
     if args.json:
         print(json.dumps(rows, indent=2))

@@ -7,12 +7,16 @@ import sys
 import traceback
 from pathlib import Path
 
-from ..errors import UserError
+from ..errors import UserError, one_line
 
 EXAMPLES = """examples:
   maglev run scenarios/tour_fl.yaml --out results/run
   maglev run scenarios/*.yaml --out results/all --seed 3
   maglev run scenarios/traverse_20mm_fl.yaml --out /tmp/tr --no-figures"""
+
+
+#: Files a scenario's result folder has (an existing OUT/<name>/ must hold one to be replaced).
+RESULT_FILES: tuple[str, ...] = ("metrics.json", "error.txt", "scenario.yaml")
 
 
 def register(sub) -> None:
@@ -46,50 +50,60 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev run``."""
-    from ..runner import run_scenario, summary_table
+    from ..config import check_output_dir
+    from ..runner import summary_table
     from ..scenario import load_scenario
 
     if args.seed is not None and not (0 <= args.seed < 2**63):
         raise UserError(f"--seed: {args.seed} must be in [0, 2^63)")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out: {out} exists and is not a folder")
+    out = check_output_dir(args.out, replaced=False)  # OUT itself is kept; each OUT/<name>/ is replaced
     # Validate everything first: bad input never leaves half a results folder behind.
     scenarios = [load_scenario(path) for path in args.scenarios]
     names = [s.name for s in scenarios]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise UserError(f"two scenarios share the name {dup[0]!r} (their results would overwrite each other)")
+    for sc in scenarios:
+        check_output_dir(out / sc.name, f"--out (scenario {sc.name})", expect=RESULT_FILES)
     cache: dict = {}
     rows = []
     ok = True
     for sc in scenarios:
-        try:
-            res = run_scenario(
-                sc,
-                out_dir=out / sc.name,
-                seed=args.seed,
-                progress=not args.no_progress,
-                cache=cache,
-                figures=not args.no_figures,
-            )
-        except UserError:
-            raise
-        except Exception as err:  # one scenario's crash never loses the others' results
-            msg = f"{type(err).__name__}: {err}"
-            (out / sc.name).mkdir(parents=True, exist_ok=True)
-            from ..config import atomic_write_text
-
-            atomic_write_text(out / sc.name / "error.txt", traceback.format_exc())
-            print(f"maglev run: scenario {sc.name} failed: {msg}", file=sys.stderr)
-            rows.append((sc.name, None, msg))
+        res, msg = _run_one(sc, out / sc.name, args, cache)
+        rows.append((sc.name, res, msg))
+        if res is None:
             ok = False
             continue
-        rows.append((sc.name, res, None))
         ok = ok and res.passed
+        if not res.passed:
+            why = res.metrics.error or "; ".join(res.metrics.failed_checks) or "run did not finish"
+            print(f"maglev run: scenario {sc.name} failed: {one_line(why, 300)}", file=sys.stderr)
         if args.details:
             print(res.table())
             print()
     print(summary_table(rows))
     print(f"results in {out}/")
     return 0 if ok else 1
+
+
+def _run_one(sc, folder: Path, args: argparse.Namespace, cache: dict):
+    """Run one scenario and replace ``folder`` whole with its files; ``(result, None)`` or ``(None, error)``.
+
+    A scenario that crashes is reported and its folder holds ``error.txt`` (the
+    traceback), so one scenario's crash never loses the others' results.
+    """
+    from ..config import atomic_write_text, replace_dir
+    from ..runner import run_scenario
+
+    with replace_dir(folder) as tmp:
+        try:
+            res = run_scenario(sc, seed=args.seed, progress=not args.no_progress, cache=cache)
+        except UserError:
+            raise
+        except Exception as err:
+            msg = one_line(f"{type(err).__name__}: {err}", 300)
+            atomic_write_text(tmp / "error.txt", traceback.format_exc())
+            print(f"maglev run: scenario {sc.name} failed: {msg}", file=sys.stderr)
+            return None, msg
+        res.save(tmp, figures=not args.no_figures)
+    return res, None

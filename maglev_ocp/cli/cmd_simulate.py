@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError, UserError
+from ..riglog import MAX_CELL_CHARS, MAX_COLUMNS, wide_csv_fields
 
 EXAMPLES = """examples:
   maglev simulate --experiment hover --g 15 --duration 2 --out data/hover15
@@ -73,15 +74,22 @@ def read_current_sequence(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Read a current sequence CSV (``t, i_q, i_d``; one-line DataError naming file, row, column)."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as err:
         raise DataError(f"{path}: cannot read: {err.__class__.__name__}") from None
-    rows = [r for r in csv.reader(text.splitlines())]
+    reader = csv.reader(text.splitlines())
+    try:
+        with wide_csv_fields():
+            rows = list(reader)
+    except csv.Error as err:
+        raise DataError(f"{path}: line {reader.line_num}: not valid CSV: {err}") from None
     while rows and not any(c.strip() for c in rows[-1]):
         rows.pop()
     if not rows:
         raise DataError(f"{path}: empty file")
     header = [c.strip() for c in rows[0]]
+    if len(header) > MAX_COLUMNS:
+        raise DataError(f"{path}: header (line 1): {len(header)} columns (the limit is {MAX_COLUMNS})")
     for col in ("t", "i_q", "i_d"):
         if col not in header:
             raise DataError(f"{path}: header (line 1): missing column {col!r} (header has {', '.join(header)})")
@@ -93,13 +101,7 @@ def read_current_sequence(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         if len(row) != len(header):
             raise DataError(f"{path}: row {r} (line {r + 1}): {len(row)} fields, but the header has {len(header)}")
         for j, (c, name) in enumerate(zip(idx, ("t", "i_q", "i_d"), strict=True)):
-            try:
-                v = float(row[c])
-            except ValueError:
-                raise DataError(f"{path}: row {r} (line {r + 1}), column {name!r}: not a number: {row[c]!r}") from None
-            if not math.isfinite(v):
-                raise DataError(f"{path}: row {r} (line {r + 1}), column {name!r}: non-finite value {row[c]!r}")
-            out[r - 1, j] = v
+            out[r - 1, j] = _cell_value(path, r, name, row[c])
     t = out[:, 0]
     if t[0] < 0:
         raise DataError(f"{path}: row 1 (line 2), column 't': time must start at >= 0, got {t[0]!r}")
@@ -108,6 +110,20 @@ def read_current_sequence(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         r = int(bad[0]) + 2
         raise DataError(f"{path}: row {r} (line {r + 1}), column 't': time does not increase")
     return t, out[:, 1:]
+
+
+def _cell_value(path: Path, r: int, name: str, cell: str) -> float:
+    """A finite number from one cell of a current file (one-line DataError naming file, row and column)."""
+    where = f"{path}: row {r} (line {r + 1}), column {name!r}"
+    if len(cell) > MAX_CELL_CHARS:
+        raise DataError(f"{where}: cell of {len(cell)} characters (the limit is {MAX_CELL_CHARS})")
+    try:
+        v = float(cell)
+    except ValueError:
+        raise DataError(f"{where}: not a number: {cell!r}") from None
+    if not math.isfinite(v):
+        raise DataError(f"{where}: non-finite value {cell!r}")
+    return v
 
 
 def zoh_sample(t_file: np.ndarray, u_file: np.ndarray, n: int, Ts: float) -> np.ndarray:
@@ -122,8 +138,9 @@ def _mm_tag(v_mm: float) -> str:
 
 
 def _check_range(name: str, v: float, lo: float, hi: float, unit: str) -> None:
-    if not (math.isfinite(v) and lo <= v <= hi):
-        raise UserError(f"{name}: {v:g} {unit} is outside {lo:g}..{hi:g} {unit}")
+    from . import check_range
+
+    check_range(name, v, lo, hi, unit)
 
 
 def plot_run(run, path: Path) -> None:
@@ -160,16 +177,48 @@ def plot_run(run, path: Path) -> None:
 
 # ---------------------------------------------------------------------- handler
 def run(args: argparse.Namespace) -> int:
-    """Handler of ``maglev simulate``."""
-    from ..riglog import read_dataset
+    """Handler of ``maglev simulate``.
+
+    Everything is checked before the simulation (values, files, the output
+    folder). The dataset is written into a temporary sibling folder and swapped
+    in whole; runs of an existing dataset at ``--out`` are kept (appended to).
+    """
+    from ..config import check_output_dir, replace_dir
+    from ..riglog import merge_datasets, read_dataset
 
     if args.check:
         ds = read_dataset(args.check)
         print(ds.table())
         return 0
+    job = _prepare(args)
+    out = check_output_dir(args.out)
+    previous = _existing_dataset(out, job["cfg"])
+    t0 = time.perf_counter()
+    with replace_dir(out) as tmp:
+        if job["experiment"] == "seed-calibration":
+            _seed_calibration(tmp, args, job)
+            events: list = []
+            sim_time = None
+        else:
+            sim_time, events = _simulate_runs(tmp, args, job)
+        if previous:
+            merge_datasets(tmp, out)
+    wall = time.perf_counter() - t0
+    ds = read_dataset(out)
+    print(ds.table())
+    for e in events:
+        print(f"stop event: {e}")
+    if sim_time is None:
+        print(f"wrote {out} in {wall:.1f} s")
+    else:
+        print(f"wrote {out} ({sim_time:.3f} s simulated in {wall:.2f} s wall)")
+    return 0
 
+
+def _prepare(args: argparse.Namespace) -> dict:
+    """Check the command-line values and load the settings files (nothing is simulated or written)."""
     from ..params import NOMINAL, load_params
-    from ..plant import Plant, PlantConfig, load_plant_config
+    from ..plant import PlantConfig, load_plant_config
 
     if args.seed < 0:
         raise UserError(f"--seed: must be >= 0, got {args.seed}")
@@ -187,48 +236,72 @@ def run(args: argparse.Namespace) -> int:
     if open_loop and args.experiment:
         raise UserError("--experiment is a closed-loop experiment; leave it out with --currents / --constant")
     experiment = "open-loop" if open_loop else (args.experiment or "hover")
-    out = Path(args.out)
-    progress = not args.no_progress
-
+    job = {"params": params, "cfg": cfg, "experiment": experiment, "currents": None}
     if experiment == "seed-calibration":
-        try:
-            from ..loop.experiments import generate_seed_calibration
-        except ModuleNotFoundError as err:
-            if err.name and err.name.startswith("maglev_ocp.loop"):
-                raise UserError(
-                    "--experiment seed-calibration needs maglev_ocp/loop/experiments.py "
-                    "(the calibration issue), which is not installed yet"
-                ) from None
-            raise
-        t0 = time.perf_counter()
-        path = generate_seed_calibration(out, seed=args.seed, plant_config=cfg, params=params, progress=progress)
-        print(read_dataset(path).table())
-        print(f"wrote {path} in {time.perf_counter() - t0:.1f} s")
-        return 0
-
+        return job
     g, d = args.g * 1e-3, args.d * 1e-3
     if args.lock is not None:
         from ..config import parse_model
 
         value = None if args.lock == "none" else (g if args.lock == "g" else d)
         cfg = parse_model(PlantConfig, {**cfg.to_dict(), "lock": {"axis": args.lock, "value": value}}, "--lock")
+        job["cfg"] = cfg
     if cfg.stops.enabled:
         for opt, v, (lo, hi) in (("--g", g, cfg.stops.g), ("--d", d, cfg.stops.d)):
             if not lo <= v <= hi:
                 raise UserError(f"{opt}: {v * 1e3:g} mm is outside the stops {lo * 1e3:g}..{hi * 1e3:g} mm")
-    lock = cfg.lock.axis
+    if args.currents:
+        job["currents"] = read_current_sequence(args.currents)
+    return job
 
-    from ..loop import run_closed_loop, run_open_loop
+
+def _existing_dataset(out: Path, cfg) -> bool:
+    """Whether ``out`` holds a dataset the new runs are appended to (refuses a folder that is not one)."""
+    from .. import constants as k
+    from ..riglog import read_header
+
+    if not out.exists() or not any(out.iterdir()):
+        return False
+    if not (out / "dataset.yaml").is_file():
+        raise UserError(f"--out: {out} is a folder with files but no dataset.yaml; give a new or a dataset folder")
+    head = read_header(out)
+    for key, want in (("sample_time", k.Ts), ("encoder_resolution", cfg.quantization.resolution)):
+        if head[key] != want:
+            raise UserError(
+                f"--out: {out}/dataset.yaml: {key} {head[key]:g} differs from this simulation's {want:g}; "
+                "give another folder"
+            )
+    return True
+
+
+def _seed_calibration(folder: Path, args: argparse.Namespace, job: dict) -> None:
+    """The seed's whole calibration dataset into ``folder``."""
+    from ..loop.experiments import generate_seed_calibration
+
+    generate_seed_calibration(
+        folder, seed=args.seed, plant_config=job["cfg"], params=job["params"], progress=not args.no_progress
+    )
+
+
+def _simulate_runs(folder: Path, args: argparse.Namespace, job: dict) -> tuple[float, list]:
+    """Simulate the open-loop or closed-loop run and write it as a dataset into ``folder``.
+
+    Returns the simulated time [s] and the plant's stop events.
+    """
+    from ..loop import run_open_loop
+    from ..plant import Plant
     from ..riglog import write_dataset
 
+    cfg, experiment = job["cfg"], job["experiment"]
+    g, d = args.g * 1e-3, args.d * 1e-3
     ss = np.random.SeedSequence(args.seed)
     ss_plant, ss_ref = ss.spawn(2)
-    plant = Plant(cfg, params, seed=ss_plant)
+    plant = Plant(cfg, job["params"], seed=ss_plant)
     x0 = np.array([g, 0.0, d, 0.0])
-    t0 = time.perf_counter()
-    if open_loop:
-        if args.currents:
-            t_file, u_file = read_current_sequence(args.currents)
+    progress = not args.no_progress
+    if experiment == "open-loop":
+        if job["currents"] is not None:
+            t_file, u_file = job["currents"]
             duration = args.duration if args.duration is not None else float(t_file[-1]) + plant.Ts
             n = max(round(duration / plant.Ts), 2)
             seq = zoh_sample(t_file, u_file, n, plant.Ts)
@@ -240,40 +313,13 @@ def run(args: argparse.Namespace) -> int:
             name = f"constant_iq{_mm_tag(args.constant[0])}_id{_mm_tag(args.constant[1])}"
         file = f"{name}_g{_mm_tag(args.g)}_d{_mm_tag(args.d)}.csv"
         run_log = run_open_loop(plant, seq, x0=x0, file=file, progress=progress)
-        runs = [run_log.renamed(file, experiment="open-loop")]
     else:
-        from controllers.pid import PIDController, PIDSettings
-
-        from ..plant.excitation import AxisExcitation, ExcitationSettings, SumOfSines, constant_reference
-
-        duration = args.duration if args.duration is not None else 2.0
-        settings = PIDSettings(control_g=lock != "g", control_d=lock != "d")
-        ctrl = PIDController(params, settings, plant.Ts)
-        if experiment == "hover":
-            ref = constant_reference(g, d)
-        else:
-            base = ExcitationSettings()
-            g_amp = min(base.g.amplitude, g - cfg.stops.g[0] - 1e-3, cfg.stops.g[1] - g - 1e-3)
-            d_amp = min(base.d.amplitude, d - cfg.stops.d[0] - 5e-3, cfg.stops.d[1] - d - 5e-3)
-            exc = ExcitationSettings(
-                g=AxisExcitation(center=g, amplitude=0.0 if lock == "g" else max(g_amp, 0.0), freqs_hz=base.g.freqs_hz),
-                d=AxisExcitation(center=d, amplitude=0.0 if lock == "d" else max(d_amp, 0.0), freqs_hz=base.d.freqs_hz),
-                fade_in=base.fade_in,
-            )
-            ref = SumOfSines(exc, seed=ss_ref)
         file = f"{experiment}_g{_mm_tag(args.g)}_d{_mm_tag(args.d)}.csv"
-        run_log = run_closed_loop(plant, ctrl, ref, duration, x0=x0, file=file, progress=progress)
-        runs = [run_log.renamed(file, experiment=experiment)]
-    wall = time.perf_counter() - t0
-
-    meta = {
-        "generator": "maglev simulate",
-        "experiment": experiment,
-        "seed": args.seed,
-        **plant.dataset_meta(),
-    }
+        run_log = _closed_loop(plant, job, (g, d), x0, ss_ref, args, file)
+    runs = [run_log.renamed(file, experiment=experiment)]
+    meta = {"generator": "maglev simulate", "experiment": experiment, "seed": args.seed, **plant.dataset_meta()}
     write_dataset(
-        out,
+        folder,
         runs,
         plant.Ts,
         cfg.quantization.resolution,
@@ -282,11 +328,35 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.plot:
         for r in runs:
-            plot_run(r, out / (Path(r.file).stem + ".png"))
-    ds = read_dataset(out)
-    print(ds.table())
-    sim_time = sum(r.duration for r in runs) + plant.Ts * len(runs)
-    for e in plant.events:
-        print(f"stop event: {e}")
-    print(f"wrote {out} ({sim_time:.3f} s simulated in {wall:.2f} s wall)")
-    return 0
+            plot_run(r, folder / (Path(r.file).stem + ".png"))
+    return sum(r.duration for r in runs) + plant.Ts * len(runs), list(plant.events)
+
+
+def _closed_loop(
+    plant, job: dict, gd: tuple[float, float], x0: np.ndarray, ss_ref, args: argparse.Namespace, file: str
+):
+    """The seed's PID regulators holding (g, d) ('hover') or tracking a sum of sines ('excitation')."""
+    from controllers.pid import PIDController, PIDSettings
+
+    from ..loop import run_closed_loop
+    from ..plant.excitation import AxisExcitation, ExcitationSettings, SumOfSines, constant_reference
+
+    cfg, experiment = job["cfg"], job["experiment"]
+    g, d = gd
+    lock = cfg.lock.axis
+    duration = args.duration if args.duration is not None else 2.0
+    settings = PIDSettings(control_g=lock != "g", control_d=lock != "d")
+    ctrl = PIDController(job["params"], settings, plant.Ts)
+    if experiment == "hover":
+        ref = constant_reference(g, d)
+    else:
+        base = ExcitationSettings()
+        g_amp = min(base.g.amplitude, g - cfg.stops.g[0] - 1e-3, cfg.stops.g[1] - g - 1e-3)
+        d_amp = min(base.d.amplitude, d - cfg.stops.d[0] - 5e-3, cfg.stops.d[1] - d - 5e-3)
+        exc = ExcitationSettings(
+            g=AxisExcitation(center=g, amplitude=0.0 if lock == "g" else max(g_amp, 0.0), freqs_hz=base.g.freqs_hz),
+            d=AxisExcitation(center=d, amplitude=0.0 if lock == "d" else max(d_amp, 0.0), freqs_hz=base.d.freqs_hz),
+            fade_in=base.fade_in,
+        )
+        ref = SumOfSines(exc, seed=ss_ref)
+    return run_closed_loop(plant, ctrl, ref, duration, x0=x0, file=file, progress=not args.no_progress)

@@ -30,6 +30,7 @@ from ..effects import EFFECTS, EffectSet
 from ..errors import ConfigError
 from ..model import get_model
 from ..params import ParamOverrides, Params
+from .disturbances import Cable, Disturbance
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
 
@@ -192,6 +193,15 @@ class PlantConfig(Strict):
         The unmodelled effects (see :mod:`maglev_ocp.effects`).
     integrator : Integrator
         RK4 sub-steps per 1 ms period.
+    delay_samples : int
+        Computation delay [control periods]: the current computed from the
+        reading of sample k reaches the amplifiers at sample k + N (N = 1 on
+        most rigs). It adds to the amplifier's own transport delay
+        (``effects.amplifier_lag.delay_samples``); the plant holds one buffer
+        of the sum, so neither is counted twice.
+    disturbances : list
+        Scheduled force pulses and steps, payloads and a cable
+        (:mod:`maglev_ocp.plant.disturbances`).
     """
 
     profile: str = Field("custom", pattern=r"^[A-Za-z0-9_\-]+$")
@@ -205,6 +215,15 @@ class PlantConfig(Strict):
     lock: Lock = Lock()
     effects: EffectsConfig = Field(default_factory=EffectsConfig)  # type: ignore[valid-type]
     integrator: Integrator = Integrator()
+    delay_samples: int = Field(
+        0,
+        ge=0,
+        le=10,
+        description="computation delay [control periods]: the current computed at sample k is applied at k + N",
+    )
+    disturbances: list[Disturbance] = Field(
+        default_factory=list, description="scheduled force pulses / steps, payloads and a cable (SI units)"
+    )
 
     @model_validator(mode="after")
     def _consistent(self) -> PlantConfig:
@@ -222,7 +241,19 @@ class PlantConfig(Strict):
             lo, hi = getattr(self.stops, self.lock.axis)
             if not lo <= self.lock.value <= hi:
                 raise ValueError(f"lock.value {self.lock.value} is outside stops.{self.lock.axis} [{lo}, {hi}]")
+        if sum(isinstance(d, Cable) for d in self.disturbances) > 1:
+            raise ValueError("disturbances: at most one cable (give its spring, drag and weight in one entry)")
         return self
+
+    def total_delay(self) -> int:
+        """Commands between computation and the amplifier output [control periods].
+
+        The computation delay (``delay_samples``) plus the amplifier's transport
+        delay (``effects.amplifier_lag.delay_samples``, only when the lag is on):
+        both hold whole commands, so they add up in one buffer.
+        """
+        amp = self.effects.amplifier_lag
+        return int(self.delay_samples) + (int(amp.delay_samples) if amp.enabled else 0)
 
     # ------------------------------------------------------------------ builders
     @classmethod
@@ -286,6 +317,10 @@ class PlantConfig(Strict):
             ("effects", ", ".join(self.enabled_effects()) or "none"),
             ("integrator", f"{self.integrator.method}, {self.integrator.n_sub} sub-steps per period"),
         ]
+        if self.delay_samples:
+            rows.append(("computation delay", f"{self.delay_samples} samples"))
+        if self.disturbances:
+            rows.append(("disturbances", ", ".join(d.type for d in self.disturbances)))
         w = max(len(a) for a, _ in rows)
         return "\n".join(f"{a:<{w}}  {b}" for a, b in rows)
 

@@ -10,8 +10,10 @@ and cached. Stops are handled inside the Function after every sub-step
 (position clamped, velocity into the stop killed, impact speed reported);
 the Python side turns impacts into :class:`StopEvent` s and never raises.
 
-Around the Function, in Python: the current limiter, the amplifier's transport
-delay (a buffer of whole samples), the seeded noise streams, the encoder
+Around the Function, in Python: the current limiter, the computation delay
+and the amplifier's transport delay (one buffer of whole samples holding their
+sum), the scheduled disturbances (force pulses and steps, a cable and payloads,
+:mod:`.disturbances`), the seeded noise streams, the encoder
 (measurement noise, then quantization), the locked-axis fixture's constant
 reading, and the log (a :class:`~maglev_ocp.riglog.RunLog`).
 """
@@ -35,6 +37,7 @@ from ..params import NOMINAL, Params
 from ..riglog import RunLog
 from ..signals import PARAM_NAMES
 from .config import PlantConfig
+from .disturbances import DisturbanceSchedule, with_payload
 
 _BIG = 1e3  # stop position used when stops are off [m]
 _NOISE_BLOCK = 1024  # noise samples drawn at once per stream (same stream whatever the run length)
@@ -225,9 +228,10 @@ class Plant:
         self.effects, self.theta = self.config.effect_set()
         self._F = build_step(self.effects.names, self.config.integrator.n_sub, self.Ts)
         self._has_lag = self.effects.has_lag
-        self._delay = 0
-        if self._has_lag:
-            self._delay = int(self.config.effects.amplifier_lag.delay_samples)
+        # computation delay + amplifier transport delay: one buffer of their sum (PlantConfig.total_delay)
+        self._delay = self.config.total_delay()
+        self.disturbances = DisturbanceSchedule(list(self.config.disturbances))
+        self._mass_now = 0.0  # payload on the mover so far [kg]
 
         cfg = self.config
         self._lock = cfg.lock.axis
@@ -364,6 +368,8 @@ class Plant:
         if self._has_lag:
             self._xa[4:6] = u_init
         self._queue: deque[tuple[float, float]] = deque([(u_init[0], u_init[1])] * self._delay)
+        if self.disturbances.has_payload:
+            self._set_payload(self.disturbances.mass_at(0.0))
         noise = self._ss_noise.spawn(1)[0]
         s_proc, s_cur, s_meas = noise.spawn(3)
         self._n_proc, self._n_cur, self._n_meas = _Normal(s_proc, 2), _Normal(s_cur, 2), _Normal(s_meas, 2)
@@ -433,6 +439,8 @@ class Plant:
             self._w[:2] = self._proc_std * self._n_proc.next()
         if self._cur_on:
             self._w[2:] = self._cur_std * self._n_cur.next()
+        if self.disturbances:
+            self._apply_disturbances()
         self._eval()
         self._xa[:] = self._xa_out
         self._k += 1
@@ -460,6 +468,35 @@ class Plant:
             "stop": stop,
         }
         return Measurement(t, self._y.copy(), self._xa[:4].copy(), info)
+
+    def _set_payload(self, mass: float) -> None:
+        """Make the true parameters those of the mover carrying ``mass`` [kg] of payload (in place)."""
+        self._p[:] = with_payload(self.true_params, mass).vector()
+        self._mass_now = mass
+
+    def _apply_disturbances(self) -> None:
+        """Payload and disturbance forces over the period starting now (held over it, like the process force)."""
+        dist, t = self.disturbances, self._k * self.Ts
+        if dist.has_payload:
+            m = dist.mass_at(t)
+            if m != self._mass_now:
+                self._set_payload(m)
+        if dist.has_force:
+            fg, fd = dist.force(t, self._xa)
+            if not self._proc_on:
+                self._w[:2] = 0.0
+            self._w[0] += fg
+            self._w[1] += fd
+
+    @property
+    def payload_mass(self) -> float:
+        """Payload mass carried by the mover now [kg] (0 without payload disturbances)."""
+        return self._mass_now
+
+    @property
+    def params_now(self) -> Params:
+        """True parameters right now (the payload put on so far included)."""
+        return Params.from_vector(self._p)
 
     # -------------------------------------------------------------------- log
     @property
