@@ -21,6 +21,7 @@ warm starts are then where the loop keeps them.
 from __future__ import annotations
 
 import functools
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -33,7 +34,7 @@ from .plant_model import AnalysisPlant, DelayedPlantSim
 
 #: Memory of the suite's controllers, by controller name: attribute paths read and written as one vector.
 MEMORY_PATHS: dict[str, tuple[str, ...]] = {
-    "fl": ("observer.x_hat", "observer.dist", "_z", "_u_prev"),
+    "fl": ("observer.x_hat", "observer.dist", "_z", "_u_prev", "_sent"),
     "pid": (),  # filled by the user if needed; the PID keeps its own integrators
 }
 
@@ -46,7 +47,8 @@ class MemoryAccess:
     controller : object
         The controller.
     paths : sequence of str
-        Dotted attribute paths of float arrays (e.g. ``"observer.x_hat"``); their concatenation is the memory.
+        Dotted attribute paths of float arrays (e.g. ``"observer.x_hat"``) or of deques of equal-size
+        arrays (a buffer of commands sent); their concatenation is the memory.
     """
 
     def __init__(self, controller: Any, paths: Sequence[str]):
@@ -82,8 +84,11 @@ class MemoryAccess:
         i = 0
         for path, n in zip(self.paths, self._sizes, strict=True):
             obj, name = self._owner(path)
-            shape = np.shape(getattr(obj, name))
-            setattr(obj, name, m[i : i + n].reshape(shape).copy())
+            old = getattr(obj, name)
+            new = m[i : i + n].reshape(np.shape(np.asarray(old, dtype=float))).copy()
+            if isinstance(old, deque):  # keep a buffer a buffer (its length limit included)
+                new = deque(list(new), maxlen=old.maxlen)
+            setattr(obj, name, new)
             i += n
 
 
