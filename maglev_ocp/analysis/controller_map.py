@@ -99,7 +99,7 @@ def memory_access(controller: Any, paths: Sequence[str] | None = None) -> Memory
     """
     if paths is None:
         name = getattr(controller, "name", type(controller).__name__)
-        if name in MEMORY_PATHS and MEMORY_PATHS[name]:
+        if MEMORY_PATHS.get(name):
             paths = MEMORY_PATHS[name]
         elif isinstance(getattr(controller, "state", None), np.ndarray):
             paths = ("state",)
@@ -241,8 +241,9 @@ def linearize_by_differences(
     """Central finite differences of the controller's ``step`` around its current memory.
 
     Works for any controller whose memory ``mem`` can read and write. The controller is restored to
-    its memory afterwards (other attributes a step changes, e.g. counters, are not restored). The step of entry ``j`` is ``rel_step * max(|m_j|, scale_j)``; the default
-    scale is 1e-3 (positions in m, currents in A and estimates alike stay well resolved).
+    its memory afterwards (other attributes a step changes, e.g. counters, are not restored). The
+    step of entry ``j`` is ``rel_step * max(|m_j|, scale_j)``; the default scale is 1e-3 (positions
+    in m, currents in A and estimates alike stay well resolved).
 
     Parameters
     ----------
@@ -414,6 +415,6 @@ __all__ = [
     "linearize_function",
     "memory_access",
     "observable_part",
-    "unobservable_basis",
     "settle",
+    "unobservable_basis",
 ]

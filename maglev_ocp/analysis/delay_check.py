@@ -44,7 +44,7 @@ def growth_rate(err: np.ndarray, Ts: float, window_s: float = 0.04, skip: int = 
     left out, and so is everything after the oscillation has decayed to rounding (``floor`` [m]).
     """
     de = np.abs(np.diff(np.asarray(err, dtype=float)))
-    n = max(int(round(window_s / Ts)), 2)
+    n = max(round(window_s / Ts), 2)
     m = len(de) // n
     peaks = de[: m * n].reshape(m, n).max(axis=1)[skip:]
     if peaks.size < 2:
@@ -84,7 +84,7 @@ def run_with_delay(
     y = sim.reset(xa, u)
     ref = Reference(g + (kick if axis == "g" else 0.0), d + (kick if axis == "d" else 0.0))
     target = ref.position()[AXIS_OUTPUT[axis]]
-    n = int(round(duration_s / plant.Ts))
+    n = round(duration_s / plant.Ts)
     err = np.empty(n)
     t0 = settle_steps * plant.Ts
     for i in range(n):

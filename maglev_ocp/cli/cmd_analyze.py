@@ -97,7 +97,7 @@ def _factories(args, delay: int):
         if "delay_samples" in settings_cls.model_fields and "delay_samples" not in data:
             data["delay_samples"] = delay
         settings = parse_model(settings_cls, data, f"--set ({ctype})")
-        out[ctype] = (lambda c=cls, s=settings: c(settings=s, params=NOMINAL))
+        out[ctype] = lambda c=cls, s=settings: c(settings=s, params=NOMINAL)
     return out, NOMINAL, None
 
 
@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
         "controllers": ", ".join(factories),
         "plant": (
             f"shared model at the controller's parameters, amplifier lag "
-            f"{'%g Hz' % plant.lag_hz if plant.lag_hz else 'off'}, computation delay {delay} samples"
+            f"{f'{plant.lag_hz:g} Hz' if plant.lag_hz else 'off'}, computation delay {delay} samples"
         ),
         "grid": f"g = {args.gaps} mm x d = {args.positions} mm",
         "scenario": args.scenario or "-",
