@@ -17,7 +17,7 @@ from maglev_ocp.analysis.controller_map import (
     linearize_by_differences,
     linearize_function,
     memory_access,
-    observable_part,
+    minimal_part,
     settle,
 )
 from maglev_ocp.analysis.margins import broken_loop, loop_margins
@@ -127,7 +127,7 @@ def test_finite_differences_of_step_match_casadi_jacobians_for_any_controller():
     np.testing.assert_allclose(ctrl.state, ad.m0)  # the controller's memory is restored
 
 
-def test_observable_part_drops_dead_memory_and_keeps_the_transfer_function():
+def test_minimal_part_drops_dead_memory_and_keeps_the_transfer_function():
     plant, ctrl = _pd_loop()
     # add an integrator the command never sees (FL's integral state with ki = 0)
     big = LinearController(
@@ -141,7 +141,7 @@ def test_observable_part_drops_dead_memory_and_keeps_the_transfer_function():
         residual=0.0,
         method="hand",
     )
-    red = observable_part(big)
+    red = minimal_part(big)
     assert red.A.shape == (2, 2)
     w = np.array([3.0, 100.0, 1000.0])
     for c in (big, red):

@@ -140,43 +140,34 @@ class LinearController:
     method: str
 
 
-def unobservable_basis(A: np.ndarray, C: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-    """Orthonormal basis of the unobservable subspace of ``(A, C)``: the largest A-invariant subspace in ker C.
+def _closure(adj: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """Boolean mask of the nodes reachable from ``seeds`` along ``adj[i, j]`` (an edge j -> i)."""
+    mask = seeds.copy()
+    frontier = seeds.copy()
+    while frontier.any():
+        new = adj[:, frontier].any(axis=1) & ~mask
+        mask |= new
+        frontier = new
+    return mask
 
-    Iterates ``N <- N ∩ A^{-1} N`` from ``N = ker C`` with SVDs (no matrix powers, so it stays accurate
-    for the hundreds of memory entries of an NMPC warm start).
+
+def coupled_memory(ctrl: LinearController, rel_tol: float = 1e-12) -> np.ndarray:
+    """Mask of the memory entries that take part in the loop: driven by the reading and seen by the command.
+
+    Structural (the sparsity of the Jacobians, entries below ``rel_tol`` times the largest one count
+    as zero): an entry is kept if a chain of nonzero Jacobian entries leads from the reading to it
+    and from it to the command.
     """
-    n = A.shape[0]
-    scale = max(float(np.max(np.abs(C))), 1e-300)
-    _, sv, vt = np.linalg.svd(C, full_matrices=True)
-    rank = int(np.sum(sv > tol * scale))
-    N = vt[rank:].T
-    while N.shape[1]:
-        P = np.eye(n) - N @ N.T
-        M = P @ A @ N
-        _, sv, vt = np.linalg.svd(M, full_matrices=True)
-        r = int(np.sum(sv > tol * max(float(np.max(np.abs(A))), 1.0)))
-        if r == 0:
-            break
-        N = N @ vt[r:].T
-        N, _ = np.linalg.qr(N) if N.shape[1] else (N, None)
-    return N
+    big = max(float(np.max(np.abs(ctrl.A), initial=0)), float(np.max(np.abs(ctrl.B), initial=0)), 1e-300)
+    A = np.abs(ctrl.A) > rel_tol * big
+    reach = _closure(A, (np.abs(ctrl.B) > rel_tol * big).any(axis=1))
+    bigc = max(float(np.max(np.abs(ctrl.C), initial=0)), 1e-300)
+    seen = _closure(A.T, (np.abs(ctrl.C) > rel_tol * bigc).any(axis=0))
+    return reach & seen
 
 
-def observable_part(ctrl: LinearController, tol: float = 1e-9) -> LinearController:
-    """The controller without the memory its command never sees (e.g. an integrator with zero gain).
-
-    Such memory cannot affect the loop, but a marginal mode in it (a pole at ``z = 1``) would make the
-    closed loop look unstable; the quotient by the unobservable subspace ``N`` (``C N = 0``,
-    ``A N ⊂ N``) keeps the same transfer function ``y -> u``.
-    """
-    N = unobservable_basis(ctrl.A, ctrl.C, tol)
-    if N.shape[1] == 0:
-        return ctrl
-    n = ctrl.A.shape[0]
-    # orthonormal complement Q of N
-    u, _, _ = np.linalg.svd(np.eye(n) - N @ N.T)
-    Q = u[:, : n - N.shape[1]]
+def _restrict(ctrl: LinearController, Q: np.ndarray) -> LinearController:
+    """The controller on the memory subspace spanned by the orthonormal columns of ``Q``."""
     return LinearController(
         A=Q.T @ ctrl.A @ Q,
         B=Q.T @ ctrl.B,
@@ -188,6 +179,23 @@ def observable_part(ctrl: LinearController, tol: float = 1e-9) -> LinearControll
         residual=ctrl.residual,
         method=ctrl.method,
     )
+
+
+def minimal_part(ctrl: LinearController, rel_tol: float = 1e-12) -> LinearController:
+    """The controller without the memory the loop never moves or its command never sees.
+
+    Such memory cannot take part in the loop: a timer or a stored target (``m+ = m``, not driven by
+    the reading) and an integrator with zero gain (not seen by the command) only add poles at
+    ``z = 1`` that would make the closed loop look unstable. The entries kept are those of
+    :func:`coupled_memory` (the structural Kalman decomposition: reachable from the reading and
+    observable in the command); the transfer function ``y -> u`` is unchanged. Structural, not
+    numerical: an NMPC's warm start spans scales from 1e-6 to 1e4, where a numerical rank decision
+    would be arbitrary, while the Jacobian entries of uncoupled memory are exactly zero.
+    """
+    keep = coupled_memory(ctrl, rel_tol)
+    if keep.all():
+        return ctrl
+    return _restrict(ctrl, np.eye(ctrl.A.shape[0])[:, keep])
 
 
 def settle(
@@ -409,12 +417,12 @@ __all__ = [
     "MEMORY_PATHS",
     "LinearController",
     "MemoryAccess",
+    "coupled_memory",
     "function_step",
     "linearize_by_differences",
     "linearize_controller",
     "linearize_function",
     "memory_access",
-    "observable_part",
+    "minimal_part",
     "settle",
-    "unobservable_basis",
 ]

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..blocks import Controller, Reference
-from .controller_map import linearize_controller, observable_part, settle
+from .controller_map import linearize_controller, minimal_part, settle
 from .delay_check import SimulatedDelayMargin, simulated_delay_margin
 from .margins import AXIS_INPUT, AXIS_OUTPUT, LoopMargins, broken_loop, closed_loop_matrix, frequency_grid, loop_margins
 from .plant_model import AnalysisPlant
@@ -117,7 +117,7 @@ def analyze_point(
     ctrl = make_controller()
     label = name or getattr(ctrl, "name", type(ctrl).__name__)
     xa, y, u = settle(ctrl, plant, g, d)
-    lc = observable_part(linearize_controller(ctrl, y, Reference(g, d), paths=paths))
+    lc = minimal_part(linearize_controller(ctrl, y, Reference(g, d), paths=paths))
     lp = plant.linearize(xa, u)
     radius = float(np.max(np.abs(np.linalg.eigvals(closed_loop_matrix(lp, lc)))))
     w = frequency_grid(plant.Ts) if omega is None else omega
