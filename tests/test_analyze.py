@@ -7,6 +7,7 @@ import json
 import math
 
 import casadi as ca
+import control
 import numpy as np
 import pytest
 from scipy.optimize import brentq
@@ -20,7 +21,7 @@ from maglev_ocp.analysis.controller_map import (
     minimal_part,
     settle,
 )
-from maglev_ocp.analysis.margins import broken_loop, loop_margins
+from maglev_ocp.analysis.margins import broken_loop, loop_margins, loop_response
 from maglev_ocp.analysis.plant_model import AnalysisPlant, DelayedPlantSim, LinearPlant
 from maglev_ocp.analysis.report import analyze_point, delay_cross_check
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
@@ -80,6 +81,13 @@ def test_margins_of_a_pd_on_a_double_integrator_match_the_hand_computed_ones():
     assert m.disk_alpha == pytest.approx(alpha, rel=5e-3)
     assert 10 ** (m.s_peak_db / 20) == pytest.approx(np.max(np.abs(S)), rel=2e-3)
     assert 10 ** (m.t_peak_db / 20) == pytest.approx(np.max(np.abs(Lw * S)), rel=2e-3)
+    # python-control's own disk margin of the same loop (its formulas, its frequency response)
+    L = broken_loop(plant, ctrl, "input", 0)
+    alpha_pc, dgm_pc, dpm_pc = control.disk_margins(L, w[::20])
+    assert m.disk_alpha == pytest.approx(alpha_pc, rel=5e-3)
+    assert m.disk_gm_db == pytest.approx(dgm_pc, rel=1e-2)
+    assert m.disk_pm_deg == pytest.approx(dpm_pc, rel=1e-2)
+    np.testing.assert_allclose(loop_response(L, w[::50]), _L_hand(w[::50]), rtol=1e-8)
     # loop broken at the output of the same SISO channel: the same loop
     mo = loop_margins(broken_loop(plant, ctrl, "output", 1))
     assert mo.pm_deg == pytest.approx(m.pm_deg, abs=1e-6)

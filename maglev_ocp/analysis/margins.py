@@ -14,7 +14,8 @@ Per loop:
   by ``-w tau``; for whole samples this is exact in discrete time, ``z^-n``);
 * disk margin ``alpha`` with skew 0 (balanced), ``alpha = 1 / ||S - I/2||_inf = 2 / ||S - T||_inf``
   and the disk-based gain and phase margins (Seiler, Packard, Gahinet, "An introduction to disk
-  margins", IEEE Control Systems Magazine 40(5), 2020, eq. (12); ``control.disk_margins``);
+  margins", IEEE Control Systems Magazine 40(5), 2020; the formulas of ``control.disk_margins``,
+  evaluated on the same frequency response, which the tests check against python-control);
 * peaks of ``|S|`` and ``|T|`` and the bandwidth where ``|T|`` first falls 3 dB below its value at
   low frequency.
 """
@@ -136,18 +137,65 @@ def _db(x: float) -> float:
     return 20 * math.log10(x) if x > 0 else -math.inf
 
 
-def loop_margins(L: control.StateSpace, omega: np.ndarray | None = None) -> LoopMargins:
+def loop_response(L: control.StateSpace, omega: np.ndarray) -> np.ndarray:
+    """Frequency response ``L(e^{j w Ts})`` of a SISO discrete loop, by the return-difference identity.
+
+    ``1 + L(z) = det(zI - A + B C) / det(zI - A) = prod (z - mu_i) / prod (z - lambda_i)`` (``D = 0``):
+    closed-loop over open-loop poles, two eigenvalue problems instead of one linear solve per
+    frequency (a loop with an NMPC's warm start has a few hundred states). Checked against
+    python-control's direct evaluation at a few frequencies; that evaluation is used if they differ.
+    """
+    Ts = float(L.dt)
+    A, B, C = np.asarray(L.A), np.asarray(L.B), np.asarray(L.C)
+    if float(np.abs(L.D).max(initial=0)) != 0:
+        raise ValueError("loop_response expects a strictly proper loop (D = 0)")
+    z = np.exp(1j * np.asarray(omega, dtype=float) * Ts)
+    lam = np.linalg.eigvals(A)
+    mu = np.linalg.eigvals(A - B @ C)
+    ratio = np.ones(z.size, dtype=complex)
+    for a, b in zip(np.sort_complex(mu), np.sort_complex(lam), strict=True):
+        ratio *= (z - a) / (z - b)
+    resp = ratio - 1.0
+    idx = np.unique(np.linspace(0, z.size - 1, 7).astype(int))
+    direct = np.ravel(L(z[idx]))
+    if not np.allclose(resp[idx], direct, rtol=1e-6, atol=1e-9):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            resp = np.ravel(L(z))
+    return resp
+
+
+def disk_margin_from_response(S: np.ndarray) -> tuple[float, float, float]:
+    """Balanced disk margin ``alpha = 1 / max |S - 1/2|`` and its gain [dB] and phase [deg] margins.
+
+    Seiler, Packard, Gahinet (2020), skew ``sigma = 0``: the loop tolerates gains in
+    ``[(1 - alpha/2) / (1 + alpha/2), (1 + alpha/2) / (1 - alpha/2)]`` and phases up to
+    ``2 atan(alpha / 2)`` at once; the same formulas as ``control.disk_margins`` for a SISO loop.
+    """
+    alpha = float(1.0 / np.max(np.abs(S - 0.5)))
+    if alpha >= 2:
+        return alpha, math.inf, 90.0
+    gmax = (1 + alpha / 2) / (1 - alpha / 2)
+    return alpha, 20 * math.log10(gmax), math.degrees(2 * math.atan(alpha / 2))
+
+
+def loop_margins(
+    L: control.StateSpace, omega: np.ndarray | None = None, response: np.ndarray | None = None
+) -> LoopMargins:
     """Margins of a SISO discrete loop ``L`` (negative feedback), evaluated on ``omega``.
 
-    Crossovers are found with python-control on the frequency response data of ``L`` (a smoothed
-    :class:`control.FrequencyResponseData`, which stays accurate for high-order discrete loops where
-    the polynomial method would lose digits).
+    ``response`` is ``L`` on ``omega`` if the caller has it already (:func:`loop_response`).
+
+    Crossovers are found by ``control.stability_margins`` on the frequency response data of ``L``
+    (a smoothed :class:`control.FrequencyResponseData`, which stays accurate for high-order
+    discrete loops where the polynomial method would lose digits).
     """
     Ts = float(L.dt)
     w = frequency_grid(Ts) if omega is None else np.asarray(omega, dtype=float)
+    Lw = loop_response(L, w) if response is None else np.asarray(response)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
-        frd = control.frd(L, w)
+        frd = control.frd(Lw, w, dt=Ts)
         gm, pm, _sm, _wpc, wgc, _wms = control.stability_margins(frd, returnall=True)
     gm, pm, wgc = (np.atleast_1d(np.asarray(v, dtype=float)) for v in (gm, pm, wgc))
     gm = gm[np.isfinite(gm) & (gm > 0)]
@@ -161,15 +209,13 @@ def loop_margins(L: control.StateSpace, omega: np.ndarray | None = None) -> Loop
         dm = float(np.min(np.deg2rad(np.mod(pm, 360.0)) / wgc))
     else:
         pm_min, w_pm, dm = math.inf, math.nan, math.inf
-    alpha, dgm, dpm = control.disk_margins(L, w)
-    S = control.feedback(control.ss([], [], [], [[1.0]], dt=Ts), L)
-    T = control.feedback(L, 1)
-    s_mag = np.abs(np.ravel(S(np.exp(1j * w * Ts))))
-    t_mag = np.abs(np.ravel(T(np.exp(1j * w * Ts))))
-    t0 = t_mag[0]
-    below = np.nonzero(t_mag < t0 / math.sqrt(2))[0]
+    S = 1.0 / (1.0 + Lw)
+    T = Lw * S
+    alpha, dgm, dpm = disk_margin_from_response(S)
+    t_mag = np.abs(T)
+    below = np.nonzero(t_mag < t_mag[0] / math.sqrt(2))[0]
     bw = float(w[below[0]]) if below.size else math.inf
-    A_cl = L.A - L.B @ L.C / (1 + float(L.D[0, 0]))
+    A_cl = L.A - L.B @ L.C
     stable = bool(np.max(np.abs(np.linalg.eigvals(A_cl))) < 1.0)
     return LoopMargins(
         gm_upper=float(up.min()) if up.size else math.inf,
@@ -177,11 +223,11 @@ def loop_margins(L: control.StateSpace, omega: np.ndarray | None = None) -> Loop
         pm_deg=pm_min,
         w_gc=w_pm,
         delay_margin_s=dm,
-        disk_alpha=float(alpha),
-        disk_gm_db=float(dgm),
-        disk_pm_deg=float(dpm),
-        s_peak_db=_db(float(s_mag.max())),
-        t_peak_db=_db(float(t_mag.max())),
+        disk_alpha=alpha,
+        disk_gm_db=dgm,
+        disk_pm_deg=dpm,
+        s_peak_db=_db(float(np.max(np.abs(S)))),
+        t_peak_db=_db(float(np.max(t_mag))),
         bandwidth_rad_s=bw,
         closed_loop_stable=stable,
     )
@@ -195,6 +241,8 @@ __all__ = [
     "LoopMargins",
     "broken_loop",
     "closed_loop_matrix",
+    "disk_margin_from_response",
     "frequency_grid",
     "loop_margins",
+    "loop_response",
 ]

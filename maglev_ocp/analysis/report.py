@@ -25,7 +25,16 @@ import numpy as np
 from ..blocks import Controller, Reference
 from .controller_map import linearize_controller, minimal_part, settle
 from .delay_check import SimulatedDelayMargin, simulated_delay_margin
-from .margins import AXIS_INPUT, AXIS_OUTPUT, LoopMargins, broken_loop, closed_loop_matrix, frequency_grid, loop_margins
+from .margins import (
+    AXIS_INPUT,
+    AXIS_OUTPUT,
+    LoopMargins,
+    broken_loop,
+    closed_loop_matrix,
+    frequency_grid,
+    loop_margins,
+    loop_response,
+)
 from .plant_model import AnalysisPlant
 
 #: Axes and where their loops are broken.
@@ -126,8 +135,8 @@ def analyze_point(
         for at in BREAKS:
             ch = AXIS_INPUT[axis] if at == "input" else AXIS_OUTPUT[axis]
             L = broken_loop(lp, lc, at, ch)
-            resp = np.ravel(L(np.exp(1j * w * plant.Ts)))
-            loops.append(LoopResult(label, g, d, axis, at, loop_margins(L, w), w, resp))
+            resp = loop_response(L, w)
+            loops.append(LoopResult(label, g, d, axis, at, loop_margins(L, w, resp), w, resp))
     return PointResult(label, g, d, loops, u, lc.residual, lc.A.shape[0], lc.method, radius)
 
 
