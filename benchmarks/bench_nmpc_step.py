@@ -69,6 +69,7 @@ def bench(
     dict
         ``{"backend", "horizon", "n_steps", "median_us", "p99_us", "max_us", "per_scenario": {...}}``.
     """
+    import maglev_ocp.codegen  # noqa: F401  (registers backend: c with the runner)
     from maglev_ocp.config import load_yaml
     from maglev_ocp.runner import build_controller, run_scenario
     from maglev_ocp.scenario import scenario_from_dict

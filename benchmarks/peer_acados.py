@@ -168,12 +168,14 @@ class PeerResult:
 def build_acados(
     builder, p_vec: np.ndarray, build_dir: Path, qp_solver: str, hpipm_mode: str, qp_iter_max: int, warm_start: int
 ):
-    """An acados SQP_RTI solver for the OCP of ``builder`` (a :class:`controllers.nmpc_step.StepBuilder`)."""
+    """An acados SQP_RTI solver for the OCP of ``builder`` (a :class:`controllers.nmpc.StepBuilder`)."""
     import casadi as ca
     from acados.acados_template import AcadosModel, AcadosOcp, AcadosOcpSolver
 
-    cfg = builder.cfg
-    N, Ts, np_ = cfg.N, cfg.Ts, len(p_vec)
+    from maglev_ocp import constants as k
+
+    cfg = builder.settings
+    N, Ts, np_ = cfg.horizon, k.Ts, len(p_vec)
     model = AcadosModel()
     model.name = f"maglev_peer_N{N}"
     x, u, pp = ca.SX.sym("x", 4), ca.SX.sym("u", 2), ca.SX.sym("pw", np_ + 2)
@@ -199,16 +201,21 @@ def build_acados(
     c = ocp.constraints
     c.x0 = np.array([0.02, 0.0, 0.0, 0.0])
     c.lbu, c.ubu, c.idxbu = -np.full(2, cfg.i_box), np.full(2, cfg.i_box), np.array([0, 1])
-    c.lh, c.uh = np.array([0.0]), np.array([cfg.i_max**2])
+    c.lh, c.uh = np.array([0.0]), np.array([cfg.current_limit**2])
     # soft gap bound (in metres: our penalties are per mm and per mm^2)
-    w1, w2 = cfg.soft_w1 * 1e3, cfg.soft_w2 * 1e6
-    c.idxbx, c.lbx, c.ubx, c.idxsbx = np.array([0]), np.array([cfg.gap_lo]), np.array([cfg.gap_hi]), np.array([0])
+    w1, w2 = cfg.soft_gap.w_linear * 1e3, cfg.soft_gap.w_quadratic * 1e6
+    c.idxbx, c.lbx, c.ubx, c.idxsbx = (
+        np.array([0]),
+        np.array([cfg.soft_gap.g_min]),
+        np.array([cfg.soft_gap.g_max]),
+        np.array([0]),
+    )
     ocp.cost.zl = ocp.cost.zu = np.array([w1]) / Ts
     ocp.cost.Zl = ocp.cost.Zu = np.array([w2]) / Ts
     c.idxbx_e, c.lbx_e, c.ubx_e, c.idxsbx_e = (
         np.array([0]),
-        np.array([cfg.gap_lo]),
-        np.array([cfg.gap_hi]),
+        np.array([cfg.soft_gap.g_min]),
+        np.array([cfg.soft_gap.g_max]),
         np.array([0]),
     )
     ocp.cost.zl_e = ocp.cost.zu_e = np.array([w1])
@@ -275,7 +282,7 @@ def record_loop(ours, prep, io: dict, N: int, seed: int, progress: bool) -> dict
     for g_t, d_t, hold in DEFAULT_TOUR:
         ref = Reference(g_t, d_t)
         for _ in range(round(hold / k.Ts)):
-            ref_mat = ours._ref_matrix(y.t, ref)
+            ref_mat = ours.reference.matrix("plan", y.t, ref)
             meas = np.array([y.y[0], y.y[1], 0.0])
             outs = prep(ours.state, meas, ref_mat, ours.p)
             rec["state"].append(ours.state.copy())
@@ -405,9 +412,8 @@ def run(
         upd["iterations"] = iterations
     settings = NMPCSettings(**upd)
     ours = build_c_controller("nmpc", settings, NOMINAL, cflags=cflags, progress=progress)
-    ours.compile("plan")
-    cfg = settings.step_config("plan")
-    _, _, b = step_functions(cfg)
+    ours.prepare("plan")  # compiles the step before anything is timed
+    _, _, b = step_functions(settings, "plan")
     prep = BufferedFunction(b.build_prep())
     names = prep.f.name_out()
     io = {n: names.index(n) for n in ("xhat", "w", "Xref", "Uref")}
@@ -416,7 +422,7 @@ def run(
     solver = build_acados(b, p_vec, bdir.resolve(), qp_solver, hpipm_mode, qp_iter_max, warm_start)
 
     data = record_loop(ours, prep, io, N, seed, progress)
-    fn = ours._libs["plan"][1].fn
+    fn = ours.step_evaluator  # the very object the NMPC (and the runner, maglev bench) calls
     r = replay_interleaved(fn, solver, data, p_vec, N, realtime, progress, block)
     sl = slice(warmup, None)
     o, a, ai = summary(r["t_ours"][sl]), summary(r["t_ac"][sl]), summary(r["t_ac_int"][sl])
@@ -446,7 +452,7 @@ def run(
             "admm_iterations": settings.iterations,
             "steps": len(r["t_ours"]) - warmup,
             "warmup": warmup,
-            "cflags": ours.builds["plan"].cflags,
+            "cflags": ours.evaluators.builds["plan"].cflags,
             "loadavg": [round(v, 2) for v in os.getloadavg()],
             "tour": DEFAULT_TOUR,
             "realtime": bool(r["realtime"]),

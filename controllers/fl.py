@@ -201,6 +201,22 @@ class FLSettings(Strict):
         return np.array([*out, self.i_axis_max, self.i_amp_max, Ts], dtype=float)
 
 
+def law_stats(flags, v, dist, law_failed: bool, fallback: int) -> dict[str, float | int]:
+    """The statistics an FL step reports (flags of :data:`FLAG_FIELDS`, demanded accelerations,
+    disturbance estimate, whether the law failed and whether a safe current was held instead)."""
+    return {
+        "unreachable": int(flags[0]),
+        "sat_g": int(flags[1]),
+        "sat_d": int(flags[2]),
+        "v_g": float(v[0]),
+        "v_d": float(v[1]),
+        "dist_g": float(dist[0]),
+        "dist_d": float(dist[1]),
+        "solver_failure": int(law_failed),
+        "fallback": int(fallback),
+    }
+
+
 class FeedbackLinearization:
     """Feedback-linearizing controller with a high-gain (extended-state) observer.
 
@@ -319,17 +335,7 @@ class FeedbackLinearization:
         self._u_prev = u
         if self.delay:
             self._sent.append(np.asarray(u, dtype=float).copy())
-        stats = {
-            "unreachable": int(fl[0]),
-            "sat_g": int(fl[1]),
-            "sat_d": int(fl[2]),
-            "v_g": float(v[0]),
-            "v_d": float(v[1]),
-            "dist_g": float(dist[0]),
-            "dist_d": float(dist[1]),
-            "solver_failure": int(law_failed),
-            "fallback": fallback,
-        }
+        stats = law_stats(fl, v, dist, law_failed, fallback)
         return ControlOutput(u=u, x_hat=x_hat, stats=stats)
 
     def _plan_ahead(self, t: float) -> tuple[float, ...]:
@@ -376,4 +382,5 @@ __all__ = [
     "FeedbackLinearization",
     "fl_law_function",
     "fl_predictor_function",
+    "law_stats",
 ]

@@ -40,11 +40,11 @@ class Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False, allow_inf_nan=False)
 
 
-def format_validation_error(err: ValidationError, source: str) -> str:
-    """Make a one-line message from a pydantic error: ``file: key.path: what``."""
+def format_validation_error(err: ValidationError, source: str, prefix: str = "") -> str:
+    """Make a one-line message from a pydantic error: ``file: key.path: what`` (``prefix`` before each key)."""
     parts = []
     for e in err.errors()[:3]:
-        loc = ".".join(str(x) for x in e["loc"]) or "<top>"
+        loc = prefix + (".".join(str(x) for x in e["loc"]) or "<top>")
         msg = e["msg"]
         if e["type"] == "extra_forbidden":
             msg = "unknown key"
@@ -160,24 +160,29 @@ def _umask_mode() -> int:
     return 0o666 & ~mask
 
 
-def atomic_write_text(path: str | os.PathLike, text: str) -> None:
-    """Write ``text`` to ``path`` via a temporary file and rename.
+def _atomic_write(path: str | os.PathLike, mode: str, suffix: str, write: Any) -> None:
+    """Write through ``write(file_handle)`` into a temporary sibling of ``path``, then rename it over ``path``.
 
     A crash or an error part-way never leaves a truncated file, and what was
     there before stays until the new content is complete.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
     try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
+        with os.fdopen(fd, mode) as fh:
+            write(fh)
         os.chmod(tmp, _umask_mode())
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> None:
+    """Write ``text`` to ``path`` via a temporary file and rename (never a truncated file)."""
+    _atomic_write(path, "w", ".tmp", lambda fh: fh.write(text))
 
 
 def dump_yaml(path: str | os.PathLike, data: Any) -> None:
@@ -188,31 +193,15 @@ def dump_yaml(path: str | os.PathLike, data: Any) -> None:
 def atomic_write_bytes(path: str | os.PathLike, fig_or_bytes: Any, **savefig_kw: Any) -> None:
     """Atomically write bytes, or a matplotlib figure (PNG by the path's suffix)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix or ".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            if isinstance(fig_or_bytes, (bytes, bytearray)):
-                fh.write(fig_or_bytes)
-            else:
-                fig_or_bytes.savefig(
-                    fh, format=(path.suffix.lstrip(".") or "png"), dpi=savefig_kw.pop("dpi", 110), **savefig_kw
-                )
-        os.chmod(tmp, _umask_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
+    def write(fh) -> None:
+        if isinstance(fig_or_bytes, (bytes, bytearray)):
+            fh.write(fig_or_bytes)
+        else:
+            fmt = path.suffix.lstrip(".") or "png"
+            fig_or_bytes.savefig(fh, format=fmt, dpi=savefig_kw.pop("dpi", 110), **savefig_kw)
 
-# --------------------------------------------------------------------------- output paths
-def _nearest_existing(path: Path) -> Path:
-    """``path`` or its closest ancestor that exists (``path`` is absolute)."""
-    cur = path
-    while not cur.exists() and cur != cur.parent:
-        cur = cur.parent
-    return cur
+    _atomic_write(path, "wb", path.suffix or ".tmp", write)
 
 
 def _probe_write(folder: Path, what: str) -> None:
@@ -223,6 +212,15 @@ def _probe_write(folder: Path, what: str) -> None:
         os.unlink(tmp)
     except OSError as err:
         raise ConfigError(f"{what}: cannot write in {folder}: {err.strerror or err}") from None
+
+
+# --------------------------------------------------------------------------- output paths
+def _nearest_existing(path: Path) -> Path:
+    """``path`` or its closest ancestor that exists (``path`` is absolute)."""
+    cur = path
+    while not cur.exists() and cur != cur.parent:
+        cur = cur.parent
+    return cur
 
 
 def _check_ancestors(path: Path, what: str, label: str) -> None:

@@ -93,6 +93,7 @@ def _run_scenario_task(path: str, out_dir: str) -> dict[str, Any]:
     """Worker: run one scenario into ``out_dir``; never raises (errors are returned)."""
     t0 = time.perf_counter()
     try:
+        from . import codegen  # noqa: F401 - registers ``backend: c`` with the runner in this worker
         from .metrics import disturbance_rows
         from .runner import run_scenario
 

@@ -26,6 +26,14 @@ def _target_track(t: np.ndarray, plan: Any) -> np.ndarray:
     return np.array([[plan.targets[i].g, plan.targets[i].d] for i in idx]).reshape(len(t), 2)
 
 
+def _finish(fig, path: str | os.PathLike, title: str) -> None:
+    """Title, layout, atomic PNG write, close."""
+    fig.suptitle(title)
+    fig.tight_layout()
+    atomic_write_bytes(path, fig)
+    plt.close(fig)
+
+
 def plot_positions(
     path: str | os.PathLike, cols: dict[str, np.ndarray], plan: Any, tolerance: float, title: str = ""
 ) -> None:
@@ -67,10 +75,7 @@ def plot_positions(
         for ts in plan.switch_times:
             ax[0, j].axvline(ts, color="0.85", lw=0.6, zorder=0)
             e.axvline(ts, color="0.85", lw=0.6, zorder=0)
-    fig.suptitle(title or "positions")
-    fig.tight_layout()
-    atomic_write_bytes(path, fig)
-    plt.close(fig)
+    _finish(fig, path, title or "positions")
 
 
 def plot_currents(
@@ -97,10 +102,7 @@ def plot_currents(
     ax[1].set_ylim(0, i_amp_max * 1.15)
     ax[1].legend(loc="best", fontsize=8)
     ax[1].grid(True, alpha=0.3)
-    fig.suptitle(title or "currents")
-    fig.tight_layout()
-    atomic_write_bytes(path, fig)
-    plt.close(fig)
+    _finish(fig, path, title or "currents")
 
 
 def plot_solver_time(
@@ -129,10 +131,7 @@ def plot_solver_time(
     ax[1].set_xlabel("steps [-]")
     ax[1].set_ylabel("step time [us]")
     ax[1].legend(loc="best", fontsize=8)
-    fig.suptitle(title or "controller computation time (Python, this machine)")
-    fig.tight_layout()
-    atomic_write_bytes(path, fig)
-    plt.close(fig)
+    _finish(fig, path, title or "controller computation time (Python, this machine)")
 
 
 def plot_run(

@@ -48,7 +48,7 @@ import json
 import os
 import time
 from collections import OrderedDict
-from collections.abc import MutableMapping
+from collections.abc import Callable, Mapping, MutableMapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -71,26 +71,41 @@ _PROCESS_CACHE: OrderedDict[str, Any] = OrderedDict()
 _PROCESS_CACHE_SIZE = 16
 
 
-def build_controller(scenario: Scenario) -> Controller:
+#: Builds a controller on a non-Python backend: ``builder(type, settings, params) -> Controller``.
+ControllerBuilder = Callable[[str, Any, Any], Controller]
+
+#: Controller builders per backend other than ``python``. The runner sits below code generation and
+#: never imports it: :mod:`maglev_ocp.codegen` registers ``c`` here when it is imported (the ``maglev``
+#: CLI imports it with its commands; a script running ``backend: c`` imports ``maglev_ocp.codegen``).
+CONTROLLER_BACKENDS: dict[str, ControllerBuilder] = {}
+
+
+def register_backend(name: str, builder: ControllerBuilder) -> None:
+    """Make ``controller.backend: <name>`` buildable by :func:`build_controller` (called by upper layers)."""
+    CONTROLLER_BACKENDS[name] = builder
+
+
+def build_controller(scenario: Scenario, backends: Mapping[str, ControllerBuilder] | None = None) -> Controller:
     """Build the scenario's controller on what its model believes (``controller_params``).
 
-    ``backend: c`` is delegated to the controller itself if its settings model
-    declares a ``backend`` (NMPC does), else to ``maglev_ocp.codegen.backend.build_c_controller``
-    when that module exists; otherwise a clear :class:`UserError`.
+    ``backend: python`` is the controller class itself; any other backend is
+    built by the builder registered for it (``backends``, default
+    :data:`CONTROLLER_BACKENDS`; ``c`` comes from :mod:`maglev_ocp.codegen`);
+    an unregistered backend is a clear :class:`UserError`.
     """
     spec = scenario.controller
-    settings_cls, cls = controller_classes(spec.type)
+    _, cls = controller_classes(spec.type)
     params = scenario.controller_model_params()
-    if spec.backend == "c" and "backend" not in settings_cls.model_fields:
-        try:
-            from .codegen.backend import build_c_controller  # type: ignore[import-not-found]
-        except ImportError:
-            raise UserError(
-                f"{scenario.source}: controller.backend: 'c' is not available yet for {spec.type} "
-                "(needs the generated code of maglev codegen); use backend: python"
-            ) from None
-        return build_c_controller(spec.type, spec.settings, params)
-    return cls(settings=spec.settings, params=params)
+    if spec.backend == "python":
+        return cls(settings=spec.settings, params=params)
+    builder = (CONTROLLER_BACKENDS if backends is None else backends).get(spec.backend)
+    if builder is None:
+        raise UserError(
+            f"{scenario.source}: controller.backend: {spec.backend!r} is not available yet for {spec.type} "
+            "(needs the generated code of maglev codegen: import maglev_ocp.codegen, as the maglev CLI does); "
+            "use backend: python"
+        )
+    return builder(spec.type, spec.settings, params)
 
 
 def cached_controller(scenario: Scenario, cache: MutableMapping[str, Any] | None = None) -> Controller:
@@ -431,6 +446,7 @@ def summary_table(results: list[tuple[str, RunResult | None, str | None]]) -> st
 
 
 __all__ = [
+    "CONTROLLER_BACKENDS",
     "TIMING_SUFFIX",
     "RunPlan",
     "RunResult",
@@ -439,6 +455,7 @@ __all__ = [
     "cached_controller",
     "loop_run",
     "plan_run",
+    "register_backend",
     "run_columns",
     "run_metrics",
     "run_scenario",

@@ -57,11 +57,20 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 from pydantic_core import InitErrorDetails
 
 from . import constants as k
-from .config import Strict, load_yaml, parse_model
+from .config import Strict, format_validation_error, load_yaml, parse_model
 from .errors import ConfigError, UserError
 from .model import get_model
 from .params import NOMINAL, ParamOverrides, Params, load_params
@@ -227,12 +236,7 @@ class PlantSpec(BaseModel):
         try:
             return PlantConfig.model_validate(data)
         except ValidationError as err:
-            e = err.errors()[0]
-            loc = ".".join(str(x) for x in e["loc"])
-            msg = "unknown key" if e["type"] == "extra_forbidden" else e["msg"]
-            if e["type"] == "finite_number":
-                msg = f"NaN/inf is not allowed (got {e.get('input')!r}); give a finite number"
-            raise ConfigError(f"{source}: plant.{loc}: {msg}") from None
+            raise ConfigError(format_validation_error(err, source, prefix="plant.")) from None
 
     def params_resolved(self) -> Params:
         """The rig's nominal parameters (the profile's mismatch perturbs them in the plant)."""
@@ -246,20 +250,13 @@ class TargetSpec(Strict):
     d: float
     hold: float = Field(gt=0, le=3600)
 
-    @field_validator("g")
+    @field_validator("g", "d")
     @classmethod
-    def _g_in_envelope(cls, v: float) -> float:
-        lo, hi = k.g_envelope
+    def _in_envelope(cls, v: float, info: ValidationInfo) -> float:
+        lo, hi = k.g_envelope if info.field_name == "g" else k.d_envelope
         if not (math.isfinite(v) and lo - _EPS <= v <= hi + _EPS):
-            raise ValueError(f"{v!r} m is outside the tracking envelope [{lo}, {hi}] m (gap 15..25 mm)")
-        return v
-
-    @field_validator("d")
-    @classmethod
-    def _d_in_envelope(cls, v: float) -> float:
-        lo, hi = k.d_envelope
-        if not (math.isfinite(v) and lo - _EPS <= v <= hi + _EPS):
-            raise ValueError(f"{v!r} m is outside the tracking envelope [{lo}, {hi}] m (d -50..50 mm)")
+            span = "gap 15..25 mm" if info.field_name == "g" else "d -50..50 mm"
+            raise ValueError(f"{v!r} m is outside the tracking envelope [{lo}, {hi}] m ({span})")
         return v
 
 

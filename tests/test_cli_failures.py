@@ -37,7 +37,7 @@ TINY_SCENARIO = {
     "seed": 1,
     "controller": {"type": "pid"},
     "plant": {"profile": "default"},
-    "targets": [{"g": 0.020, "d": 0.000, "hold": 0.05}],
+    "targets": [{"g": 0.020, "d": 0.000, "hold": 0.06}],
 }
 
 
@@ -298,7 +298,7 @@ def test_nan_in_settings_says_nan_and_numbers_are_plain(tmp_path):
     bad = {**TINY_SCENARIO, "targets": [{"g": 0.02, "d": 0.0, "hold": float("nan")}]}
     f = write_yaml(tmp_path / "s.yaml", bad)
     code, out, err = cli("run", str(f), "--out", str(tmp_path / "o"))
-    assert_one_line_failure(code, out, err, "NaN is not allowed", "targets.0.hold")
+    assert_one_line_failure(code, out, err, "NaN/inf is not allowed", "targets.0.hold")
     assert "np.float64" not in err
     bad = {**TINY_SCENARIO, "targets": [{"g": 0.048, "d": 0.0, "hold": 0.1}]}
     code, out, err = cli("run", str(write_yaml(tmp_path / "g.yaml", bad)), "--out", str(tmp_path / "o"))
@@ -687,3 +687,19 @@ def test_huge_cell_in_a_current_file_names_row_and_column(tmp_path):
     cur.write_text("t,i_q,i_d\n0,0,0\n0.01," + "1" * 1_000_000 + ",0\n")
     code, out, err = cli("simulate", "--currents", str(cur), "--lock", "g", "--out", str(tmp_path / "c"))
     assert_one_line_failure(code, out, err, str(cur), "row 2", "'i_q'", f"limit is {MAX_CELL_CHARS}")
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["model", "--params", "{p}"],
+        ["codegen", "--controllers", "observer", "--params", "{p}", "--out", "{tmp}/cg"],
+        ["simulate", "--duration", "0.01", "--params", "{p}", "--out", "{tmp}/sim", "--no-progress"],
+    ],
+)
+def test_parameters_that_cannot_hover_are_refused_naming_the_keys(tmp_path, argv):
+    """C3 = C4 ~ 0 (positive, so each key passes alone): no real hover current anywhere -> exit 2, keys named."""
+    p = write_yaml(tmp_path / "p.yaml", {"C1": 14.2, "C2": 796.99, "C3": 1e-9, "C4": 1e-9})
+    code, out, err = cli(*(a.format(p=p, tmp=tmp_path) for a in argv))
+    assert_one_line_failure(code, out, err, "C3", "C4", "hover current")
+    assert not (tmp_path / "cg").exists() and not (tmp_path / "sim").exists()

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import pytest
 
@@ -127,10 +125,3 @@ def test_check_prints_a_summary(tmp_path, capsys):
     capsys.readouterr()
     assert main(["simulate", "--check", str(out)]) == 0
     assert "hover_g20p0_d0p0.csv" in capsys.readouterr().out
-
-
-def test_seed_calibration_without_its_module_is_a_clear_error(tmp_path, monkeypatch, capsys):
-    monkeypatch.setitem(sys.modules, "maglev_ocp.loop.experiments", None)
-    assert sim("--experiment", "seed-calibration", "--out", str(tmp_path / "s")) == 2
-    err = capsys.readouterr().err.strip()
-    assert "\n" not in err and "seed-calibration" in err

@@ -22,6 +22,9 @@ pytestmark = pytest.mark.slow
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 T1 = k.t1  # slot pitch: cogging peaks at odd multiples of t1/2
 RMS_MAX = 10e-6  # issue 4: steady-state RMS at most one encoder count
+# issue 13: steps whose ADMM residuals stay above tolerance; shipped scenarios measured at most 1.04 %
+# (cogging_aware_nmpc: 29 of 2800), a starved or mistuned solver leaves over 40 % (tests/test_nmpc.py)
+INACCURATE_MAX = 0.02
 
 
 def _check(res, rms_max=RMS_MAX):
@@ -34,6 +37,7 @@ def _check(res, rms_max=RMS_MAX):
         assert tg.rms_error_g_m <= rms_max and tg.rms_error_d_m <= rms_max, (where, tg)
     assert m.currents_within_limits and m.max_current_A <= k.i_amp_max + 1e-9
     assert m.stop_hits == 0 and m.solver_failures == 0 and m.fallbacks == 0
+    assert m.solver_inaccurate <= INACCURATE_MAX * len(res.columns["t"]), m.solver_inaccurate
 
 
 @pytest.mark.parametrize("name", ["tour_nmpc", "random_nmpc", "gap_steps_nmpc"])

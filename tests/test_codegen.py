@@ -184,7 +184,7 @@ def nmpc_runs():
 @needs_cc
 def test_nmpc_c_backend_reproduces_python_closed_loop(nmpc_runs):
     py, c, ctrl = nmpc_runs
-    assert ctrl.backend == "c" and list(ctrl.builds) == ["plan"]  # really the compiled library
+    assert ctrl.backend == "c" and list(ctrl.evaluators.builds) == ["plan"]  # really the compiled library
     n = len(py.columns["t"])
     assert n == round(0.22 / k.Ts) and len(c.columns["t"]) == n
     for col in ("i_q", "i_d"):
@@ -197,7 +197,7 @@ def test_nmpc_c_backend_reproduces_python_closed_loop(nmpc_runs):
 @needs_cc
 def test_nmpc_harness_built_with_make_reproduces_logged_run(nmpc_runs, tmp_path):
     py, _, ctrl = nmpc_runs
-    build = next(iter(ctrl.builds.values()))
+    build = next(iter(ctrl.evaluators.builds.values()))
     folder = build.folder
     r = subprocess.run(["make", "-C", str(folder), HARNESS], capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stdout + r.stderr
@@ -299,6 +299,22 @@ def test_bench_reports_every_controller_and_backend(tmp_path):
     assert "controller" in res.table() and res.save(tmp_path / "b.json").exists()
 
 
+def test_runner_builds_backend_c_through_the_registered_evaluators():
+    """``backend: c`` in a scenario: the runner (below codegen) gets the builder maglev_ocp.codegen registered,
+    and the NMPC it returns is the Python class with the compiled evaluators injected (one C path)."""
+    from controllers.nmpc import NMPC
+    from maglev_ocp.codegen.backend import CEvaluators, build_c_controller
+    from maglev_ocp.runner import CONTROLLER_BACKENDS, build_controller
+    from maglev_ocp.scenario import scenario_from_dict
+
+    assert CONTROLLER_BACKENDS["c"] is build_c_controller
+    sc = scenario_from_dict({**_scenario("nmpc"), "controller": {"type": "nmpc", "backend": "c"}})
+    ctrl = build_controller(sc)
+    assert type(ctrl) is NMPC and isinstance(ctrl.evaluators, CEvaluators) and ctrl.backend == "c"
+    py = build_controller(scenario_from_dict(_scenario("nmpc")))
+    assert type(py) is NMPC and py.backend == "python"
+
+
 def test_pid_has_no_c_backend():
     from maglev_ocp.codegen.backend import build_c_controller
     from maglev_ocp.errors import UserError
@@ -321,7 +337,7 @@ def test_shipped_nmpc_tour_on_the_c_backend_meets_tolerances_and_equals_python()
     sc = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "tour_nmpc.yaml")
     ctrl = build_c_controller("nmpc", sc.controller.settings, sc.controller_model_params(), progress=False)
     res = run_scenario(sc, controller=ctrl, progress=False, figures=False)
-    assert list(ctrl.builds) == ["preview"]
+    assert list(ctrl.evaluators.builds) == ["preview"]
     assert res.passed, res.table()
     assert res.metrics.stop_hits == 0 and res.metrics.all_settled
     py = run_scenario(sc, progress=False, figures=False)

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import codegen  # noqa: F401 - registers ``backend: c`` with the runner in every worker process
 from ..runner import run_scenario
 from ..scenario import scenario_from_dict
 from .config import SaveSettings

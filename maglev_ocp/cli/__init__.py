@@ -156,6 +156,17 @@ def check_range(flag: str, v: float, lo: float, hi: float, unit: str = "", lo_op
         raise UserError(f"{flag}: {v:g}{u} is outside {'(' if lo_open else ''}{lo:g}..{hi:g}{u}")
 
 
+def load_model_params(path: str | os.PathLike):
+    """A parameter file the model can run on: its keys validated, and a real, finite hover current
+    (seed eq. (8)) at every gap of the envelope (one-line error naming the keys otherwise)."""
+    from ..params import load_params
+    from ..plant.config import check_hover_envelope
+
+    params = load_params(path)
+    check_hover_envelope(params, str(path))
+    return params
+
+
 def add_command(sub, name: str, help: str, description: str, example: str) -> argparse.ArgumentParser:
     """Add a subcommand whose ``--help`` shows what it does and an example."""
     return sub.add_parser(

@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 
+from ..codegen.bench import BACKENDS, CONTROLLER_TYPES, run_bench
 from ..errors import UserError
 
 
@@ -52,8 +53,6 @@ def _subset(value: str, allowed: tuple[str, ...], flag: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev bench``."""
-    from ..codegen.bench import BACKENDS, CONTROLLER_TYPES, run_bench
-
     controllers = _subset(args.controllers, CONTROLLER_TYPES, "--controllers")
     backends = _subset(args.backends, BACKENDS, "--backends")
     if args.warmup < 0:

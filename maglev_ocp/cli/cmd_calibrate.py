@@ -46,14 +46,15 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev calibrate``."""
     from ..config import check_output_dir, replace_dir
     from ..estimation.calibrate import calibrate
-    from ..params import NOMINAL, load_params
+    from ..params import NOMINAL
+    from . import load_model_params
 
     for e in args.eps:
         check_range("--eps", e, 1e-5, 1.0)
     if not Path(args.dataset).exists():
         raise UserError(f"DATASET: {args.dataset}: no such folder")
     check_output_dir(args.out, expect=("params.yaml", "calibration.json"))
-    prior = load_params(args.prior) if args.prior else NOMINAL
+    prior = load_model_params(args.prior) if args.prior else NOMINAL
     res = calibrate(args.dataset, prior=prior, eps_list=tuple(args.eps), progress=not args.no_progress)
     with replace_dir(args.out) as tmp:
         res.save(tmp, figures=not args.no_figures)

@@ -6,6 +6,12 @@ import argparse
 import os
 import time
 
+# Importing maglev_ocp.codegen registers the C backend with the runner (maglev_ocp.runner.register_backend);
+# the CLI imports every cmd_* module, so ``backend: c`` works for every command (run, campaign, bench, ...).
+from ..codegen import KINDS, controller_codes
+from ..codegen.build import build_folder
+from ..codegen.sources import generate_sources
+from ..codegen.templates import DEFAULT_CFLAGS
 from ..errors import UserError
 
 
@@ -46,12 +52,9 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev codegen``."""
-    from ..codegen import KINDS, controller_codes
-    from ..codegen.build import build_folder
-    from ..codegen.sources import generate_sources
-    from ..codegen.templates import DEFAULT_CFLAGS
     from ..config import check_output_dir, replace_dir
-    from ..params import NOMINAL, load_params
+    from ..params import NOMINAL
+    from . import load_model_params
 
     out = check_output_dir(
         args.out, expect=("maglev_controller.h", "Makefile")
@@ -74,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         elif sc.controller.type == "fl":
             fl_s = sc.controller.settings
     elif args.params:
-        params = load_params(args.params)
+        params = load_model_params(args.params)
     cflags = args.cflags if args.cflags is not None else os.environ.get("MAGLEV_CODEGEN_CFLAGS", DEFAULT_CFLAGS)
     if any(ch in cflags for ch in "\n;`$"):
         raise UserError(f"--cflags: {cflags!r} contains characters not allowed in a Makefile variable")

@@ -171,8 +171,8 @@ def _dataset(args) -> int:
     from ..config import check_output_dir, replace_dir
     from ..diagnosis import diagnose
     from ..diagnosis.report import write_report
-    from ..params import load_params
     from ..riglog import read_dataset
+    from . import load_model_params
 
     if not args.out:
         raise UserError("--out DIR is required")
@@ -180,7 +180,7 @@ def _dataset(args) -> int:
     folder = Path(args.dataset)
     if not (folder / "dataset.yaml").is_file():
         raise UserError(f"{folder}: not a dataset folder (no dataset.yaml)")
-    params = load_params(args.params) if args.params else None
+    params = load_model_params(args.params) if args.params else None
     st = _settings(args)
     ds = read_dataset(folder)
     d = diagnose(ds, params=params, settings=st, progress=True)

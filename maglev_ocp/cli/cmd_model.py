@@ -102,11 +102,12 @@ def plot_table(path: str, params) -> None:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev model``."""
     from ..config import check_output_file
-    from ..params import NOMINAL, load_params
+    from ..params import NOMINAL
+    from . import load_model_params
 
     if args.plot is not None:
         check_output_file(args.plot, "--plot", PLOT_SUFFIXES)
-    params = load_params(args.params) if args.params else NOMINAL
+    params = load_model_params(args.params) if args.params else NOMINAL
     for g in args.gaps:
         check_range("--gaps", g, 1.0, 100.0, "mm")
     rows = table(args.gaps, params)

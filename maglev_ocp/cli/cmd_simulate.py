@@ -217,8 +217,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _prepare(args: argparse.Namespace) -> dict:
     """Check the command-line values and load the settings files (nothing is simulated or written)."""
-    from ..params import NOMINAL, load_params
+    from ..params import NOMINAL
     from ..plant import PlantConfig, load_plant_config
+    from . import load_model_params
 
     if args.seed < 0:
         raise UserError(f"--seed: must be >= 0, got {args.seed}")
@@ -230,7 +231,7 @@ def _prepare(args: argparse.Namespace) -> dict:
         for name, v in zip(("IQ", "ID"), args.constant, strict=True):
             _check_range(f"--constant {name}", v, -100.0, 100.0, "A")
 
-    params = load_params(args.params) if args.params else NOMINAL
+    params = load_model_params(args.params) if args.params else NOMINAL
     cfg = load_plant_config(args.plant) if args.plant else PlantConfig.from_profile(args.profile or "default")
     open_loop = args.currents is not None or args.constant is not None
     if open_loop and args.experiment:

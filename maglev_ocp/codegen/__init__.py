@@ -20,7 +20,9 @@ build
 loader
     ctypes calls into the compiled library.
 backend
-    Compiled controllers (the runner's ``backend: c`` hook :func:`build_c_controller`).
+    The compiled step evaluators (:func:`~.backend.c_evaluators`, injected into the
+    NMPC) and the runner's ``backend: c`` builder (:func:`~.backend.build_c_controller`),
+    registered with :func:`maglev_ocp.runner.register_backend` when this package is imported.
 
 Example
 -------
@@ -33,7 +35,11 @@ from __future__ import annotations
 
 from typing import Any
 
+from controllers.fl import FLSettings
+from controllers.nmpc import NMPCSettings
+
 from ..params import NOMINAL, Params
+from .backend import register_c_backend
 from .functions import KINDS, ControllerCode, fl_code, nmpc_code, observer_code, resolve_nmpc_mode
 from .sources import GeneratedSources, generate_sources
 from .templates import DEFAULT_CFLAGS
@@ -63,17 +69,11 @@ def controller_codes(
     out = []
     for kind in kinds:
         if kind == "nmpc":
-            from controllers.nmpc import NMPCSettings
-
             s = nmpc_settings or NMPCSettings()
             out.append(nmpc_code(s, params, resolve_nmpc_mode(s, shaping)))
         elif kind == "fl":
-            from controllers.fl import FLSettings
-
             out.append(fl_code(fl_settings or FLSettings(), params))
         elif kind == "observer":
-            from controllers.fl import FLSettings
-
             fs = fl_settings or FLSettings()
             out.append(observer_code(fs.observer_eps, fs.disturbance, params))
         else:
@@ -91,6 +91,9 @@ def generate_controllers(
 ) -> GeneratedSources:
     """Generate the folder's files for ``kinds`` (see :func:`controller_codes`); nothing written yet."""
     return generate_sources(controller_codes(kinds, params, nmpc_settings, fl_settings, shaping), cflags)
+
+
+register_c_backend()
 
 
 __all__ = ["DEFAULT_CFLAGS", "KINDS", "ControllerCode", "GeneratedSources", "controller_codes", "generate_controllers"]

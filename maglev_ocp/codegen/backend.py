@@ -1,21 +1,24 @@
-"""The C backend: controllers whose step is the generated code, compiled and loaded.
+"""The C backend: controller steps evaluated by the generated code, compiled and loaded.
 
 ``backend: c`` in a scenario means the closed loop runs on the very code the
-rig would run. The hook for the scenario runner is :func:`build_c_controller`
-(same arguments as the Python constructors)::
+rig would run. There is one C path:
 
-    from maglev_ocp.codegen.backend import build_c_controller
-    ctrl = build_c_controller("nmpc", settings, params)      # or "fl"
+* the NMPC is the Python :class:`controllers.nmpc.NMPC` given the compiled
+  evaluators :func:`c_evaluators` (its step Function code-generated
+  (:func:`maglev_ocp.codegen.functions.nmpc_code`), built in the content-hash
+  cache (:func:`maglev_ocp.codegen.build.build_cached`; once per design and
+  machine) and called through ctypes (:mod:`maglev_ocp.codegen.loader`)); the
+  Python glue around the call (reference input, statistics, timing) is the
+  NMPC's own, so both backends feed identical inputs to the same Function and
+  are timed the same way;
+* feedback linearization: :class:`CompiledFL` (observer and law in one compiled call).
 
-:func:`compile_controller` does the same for an existing Python controller
-object. Each compiled controller generates the C of its step Function(s)
-(:mod:`maglev_ocp.codegen.functions`), builds it in the content-hash cache
-(:func:`maglev_ocp.codegen.build.build_cached`; compiled once per design and
-machine) and calls it through ctypes (:mod:`maglev_ocp.codegen.loader`). The
-Python glue around the call (reference matrix, statistics) is the Python
-controller's own, so the two backends feed identical inputs to the same
-Function; ``stats["kernel_us"]`` is the wall-clock time of the C call alone,
-``stats["kernel_cpu_us"]`` its thread CPU time.
+:func:`build_c_controller` is the runner's builder for ``backend: c``;
+:func:`register_c_backend` (called when :mod:`maglev_ocp.codegen` is imported)
+registers it with :func:`maglev_ocp.runner.register_backend`, so the runner,
+which sits below code generation, never imports it. ``maglev bench``, the
+harness check and ``benchmarks/peer_acados.py`` build their controllers with
+:func:`build_c_controller` too.
 
 Compiler flags: ``cflags`` argument, else ``$MAGLEV_CODEGEN_CFLAGS``, else
 :data:`maglev_ocp.codegen.templates.DEFAULT_CFLAGS`.
@@ -29,10 +32,14 @@ from typing import Any
 
 import numpy as np
 
+from controllers.fl import FeedbackLinearization, law_stats
+from controllers.nmpc import NMPC, StepFunctions
+
 from .. import constants as k
 from ..blocks import ControlOutput, Measurement, Reference
 from ..errors import UserError
 from ..params import NOMINAL, Params
+from ..runner import register_backend
 from .build import BuildResult, build_cached
 from .functions import ControllerCode, fl_code, nmpc_code, observer_code
 from .loader import CompiledFunction, CompiledLibrary
@@ -76,116 +83,92 @@ class _Timed:
         return fn.res
 
 
-def _nmpc_class():
-    from controllers.nmpc import NMPC
+class CEvaluators:
+    """The NMPC's step evaluators on compiled C (a :class:`controllers.nmpc.StepEvaluators`).
 
-    class CompiledNMPC(NMPC):
-        """:class:`controllers.nmpc.NMPC` whose ``nmpc_init``/``nmpc_step`` run as compiled C.
+    Parameters
+    ----------
+    cflags : str, optional
+        Compiler flags (default :func:`default_cflags`).
+    progress : bool
+        Progress bar while compiling.
 
-        Parameters
-        ----------
-        settings : NMPCSettings
-            As for the Python NMPC (``backend`` is ignored).
-        params : Params
-            What the controller's model believes.
-        cflags : str, optional
-            Compiler flags.
-        progress : bool
-            Progress bar while compiling.
-        """
+    Attributes
+    ----------
+    builds : dict of str to BuildResult
+        The library built for each reference mode.
+    """
 
-        backend = "c"
+    backend = "c"
 
-        def __init__(self, settings=None, params: Params = NOMINAL, cflags: str | None = None, progress: bool = True):
-            from controllers.nmpc import NMPCSettings
+    def __init__(self, cflags: str | None = None, progress: bool = True):
+        self.cflags = cflags
+        self.progress = progress
+        self.builds: dict[str, BuildResult] = {}
 
-            settings = settings or NMPCSettings()
-            super().__init__(settings.model_copy(update={"backend": "python"}), params)
-            self.cflags = cflags
-            self.progress = progress
-            self.builds: dict[str, BuildResult] = {}
-            self._libs: dict[str, tuple[CompiledFunction, _Timed]] = {}
-
-        def compile(self, mode: str) -> BuildResult:
-            """Generate and build the step of reference mode ``mode`` (cached); returns the build."""
-            if mode not in self.builds:
-                b = compile_codes([nmpc_code(self.settings, self.params, mode)], self.cflags, self.progress)
-                lib = CompiledLibrary(b.library)
-                self._libs[mode] = (lib.function("nmpc_init"), _Timed(lib.function("nmpc_step")))
-                self.builds[mode] = b
-            return self.builds[mode]
-
-        def _functions(self, mode: str):
-            super()._functions(mode)  # layout and the CasADi Functions (kept for inspection)
-            self.compile(mode)
-            self._init, self._step = self._libs[mode]
-
-        def step(self, y: Measurement, ref: Reference) -> ControlOutput:
-            """One control period on the compiled step (see :meth:`NMPC.step`)."""
-            out = super().step(y, ref)
-            out.stats["kernel_us"] = self._step.last_us
-            out.stats["kernel_cpu_us"] = self._step.last_cpu_us
-            return out
-
-    return CompiledNMPC
+    def __call__(self, fns: StepFunctions) -> tuple[CompiledFunction, CompiledFunction]:
+        """Generate, build (cached) and load ``nmpc_init``/``nmpc_step`` of ``fns``' design."""
+        b = compile_codes([nmpc_code(fns.settings, fns.params, fns.mode)], self.cflags, self.progress)
+        self.builds[fns.mode] = b
+        lib = CompiledLibrary(b.library)
+        return lib.function("nmpc_init"), lib.function("nmpc_step")
 
 
-def _fl_class():
-    from controllers.fl import FeedbackLinearization
+def c_evaluators(cflags: str | None = None, progress: bool = True) -> CEvaluators:
+    """Evaluators that run an NMPC's step as compiled C: ``NMPC(settings, params, evaluators=c_evaluators())``."""
+    return CEvaluators(cflags, progress)
 
-    class CompiledFL(FeedbackLinearization):
-        """:class:`controllers.fl.FeedbackLinearization` whose whole step (observer + law) is compiled C."""
 
-        backend = "c"
+class CompiledFL(FeedbackLinearization):
+    """:class:`controllers.fl.FeedbackLinearization` whose whole step (observer + law) is compiled C."""
 
-        def __init__(
-            self,
-            settings=None,
-            params: Params = NOMINAL,
-            Ts: float = k.Ts,
-            cflags: str | None = None,
-            progress: bool = True,
-        ):
-            super().__init__(settings, params, Ts)
-            if abs(Ts - k.Ts) > 1e-15:
-                raise UserError(f"the C backend is generated for Ts = {k.Ts} s, got {Ts}")
-            self.build = compile_codes([fl_code(self.settings, params)], cflags, progress)
-            lib = CompiledLibrary(self.build.library)
-            self._c_init = lib.function("fl_init")
-            self._c_step = _Timed(lib.function("fl_step"))
-            self._state: np.ndarray | None = None
+    backend = "c"
 
-        def reset(self, y0: Measurement, ref: Reference) -> None:
-            """Start at reading ``y0`` at rest (``fl_init``)."""
-            super().reset(y0, ref)
-            (st,) = self._c_init(np.asarray(y0.y, dtype=float))
-            self._state = st.copy()
+    def __init__(
+        self,
+        settings=None,
+        params: Params = NOMINAL,
+        Ts: float = k.Ts,
+        cflags: str | None = None,
+        progress: bool = True,
+    ):
+        super().__init__(settings, params, Ts)
+        if abs(Ts - k.Ts) > 1e-15:
+            raise UserError(f"the C backend is generated for Ts = {k.Ts} s, got {Ts}")
+        if self.delay:
+            raise UserError("fl: the C backend has no delay predictor yet; use delay_samples: 0 or backend: python")
+        self.build = compile_codes([fl_code(self.settings, params)], cflags, progress)
+        lib = CompiledLibrary(self.build.library)
+        self._c_init = lib.function("fl_init")
+        self._c_step = _Timed(lib.function("fl_step"))
+        self._state: np.ndarray | None = None
 
-        def step(self, y: Measurement, ref: Reference) -> ControlOutput:
-            """Observer update and control law in one compiled call (``fl_step``)."""
-            if self._state is None:
-                raise RuntimeError("call reset() before step()")
-            r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
-            u, st, xh, dist, v, fl = self._c_step(self._state, y.y, r, self._p, self._gains)
-            self._state = st.copy()
-            u = u.copy()
-            self._u_prev = u
-            stats = {
-                "unreachable": int(fl[0]),
-                "sat_g": int(fl[1]),
-                "sat_d": int(fl[2]),
-                "v_g": float(v[0]),
-                "v_d": float(v[1]),
-                "dist_g": float(dist[0]),
-                "dist_d": float(dist[1]),
-                "solver_failure": 0,
-                "fallback": 0,
-                "kernel_us": self._c_step.last_us,
-                "kernel_cpu_us": self._c_step.last_cpu_us,
-            }
-            return ControlOutput(u=u, x_hat=xh.copy(), stats=stats)
+    def reset(self, y0: Measurement, ref: Reference) -> None:
+        """Start at reading ``y0`` at rest (``fl_init``)."""
+        super().reset(y0, ref)
+        (st,) = self._c_init(np.asarray(y0.y, dtype=float))
+        self._state = st.copy()
 
-    return CompiledFL
+    def step(self, y: Measurement, ref: Reference) -> ControlOutput:
+        """Observer update and control law in one compiled call (``fl_step``)."""
+        if self._state is None:
+            raise RuntimeError("call reset() before step()")
+        r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
+        u, st, xh, dist, v, fl = self._c_step(self._state, y.y, r, self._p, self._gains)
+        self._state = st.copy()
+        u = u.copy()
+        law_failed = not bool(np.all(np.isfinite(u)))
+        if law_failed:  # hold a safe current, flagged (as the Python FL does), never 0 A
+            u = self._safe_current(xh)
+        else:
+            self._u_good = u
+        self._u_prev = u
+        stats = {
+            **law_stats(fl, v, dist, law_failed, int(law_failed)),
+            "kernel_us": self._c_step.last_us,
+            "kernel_cpu_us": self._c_step.last_cpu_us,
+        }
+        return ControlOutput(u=u, x_hat=xh.copy(), stats=stats)
 
 
 class CompiledObserver:
@@ -258,9 +241,9 @@ def build_c_controller(ctype: str, settings: Any, params: Params, cflags: str | 
         For a controller without a C backend, or when no C compiler / make is available.
     """
     if ctype == "nmpc":
-        return _nmpc_class()(settings, params, cflags=cflags, progress=progress)
+        return NMPC(settings, params, evaluators=c_evaluators(cflags, progress))
     if ctype == "fl":
-        return _fl_class()(settings, params, cflags=cflags, progress=progress)
+        return CompiledFL(settings, params, cflags=cflags, progress=progress)
     raise UserError(
         f"controller.backend: 'c' is available for nmpc and fl, not for {ctype!r} "
         "(its law is numeric Python, not a CasADi Function)"
@@ -277,4 +260,19 @@ def compile_controller(ctrl, cflags: str | None = None, progress: bool = True):
     return build_c_controller(name, ctrl.settings, ctrl.params, cflags=cflags, progress=progress)
 
 
-__all__ = ["CompiledObserver", "build_c_controller", "compile_codes", "compile_controller", "default_cflags"]
+def register_c_backend() -> None:
+    """Make ``backend: c`` available to the runner (:func:`maglev_ocp.runner.register_backend`)."""
+    register_backend("c", build_c_controller)
+
+
+__all__ = [
+    "CEvaluators",
+    "CompiledFL",
+    "CompiledObserver",
+    "build_c_controller",
+    "c_evaluators",
+    "compile_codes",
+    "compile_controller",
+    "default_cflags",
+    "register_c_backend",
+]

@@ -17,6 +17,7 @@ each step is timed after a warm-up:
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import os
 import time
@@ -27,6 +28,10 @@ from typing import Any
 import numpy as np
 
 from ..config import atomic_write_text
+from ..runner import build_controller, run_scenario
+from ..scenario import Scenario, load_scenario, scenario_from_dict
+from .backend import build_c_controller, default_cflags
+from .functions import resolve_nmpc_mode
 
 #: Default closed-loop scenario of the benchmark: hover, then steps across the envelope (1.0 s).
 DEFAULT_SCENARIO: dict[str, Any] = {
@@ -181,10 +186,6 @@ def run_bench(
     the other types run with their default settings on the same targets and plant.
     ``realtime``: run the closed loops under ``SCHED_FIFO`` (:func:`realtime_priority`).
     """
-    from ..runner import run_scenario
-    from ..scenario import Scenario, controller_classes, load_scenario, scenario_from_dict
-    from .backend import build_c_controller, default_cflags
-
     if scenario is None:
         base = scenario_from_dict(DEFAULT_SCENARIO, "maglev bench (built-in scenario)")
     elif isinstance(scenario, Scenario):
@@ -194,6 +195,7 @@ def run_bench(
     else:
         base = load_scenario(scenario)
     flags = cflags if cflags is not None else default_cflags()
+    builders = {"c": functools.partial(build_c_controller, cflags=flags, progress=progress)}
     results: dict[str, dict[str, dict[str, Any] | None]] = {}
     steps, rt_used = 0, False
     for ctype in controllers:
@@ -209,18 +211,12 @@ def run_bench(
             if backend == "c" and ctype == "pid":
                 results[ctype][backend] = None
                 continue
-            settings, params = sc.controller.settings, sc.controller_model_params()
-            if backend == "c":
-                ctrl = build_c_controller(ctype, settings, params, cflags=flags, progress=progress)
-                if ctype == "nmpc":  # compile the reference mode the run will use before timing
-                    from .functions import resolve_nmpc_mode
-
-                    ctrl.compile(resolve_nmpc_mode(ctrl.settings, sc.reference.shaping))
-            else:
-                _, cls = controller_classes(ctype)
-                if "backend" in type(settings).model_fields:
-                    settings = settings.model_copy(update={"backend": "python"})
-                ctrl = cls(settings=settings, params=params)
+            # the controller exactly as the runner builds it for this backend (C: the compiled evaluators)
+            data = sc.resolved()
+            data["controller"] = {**data["controller"], "backend": backend}
+            ctrl = build_controller(scenario_from_dict(data, sc.source, sc.root_dir), builders)
+            if hasattr(ctrl, "prepare"):  # build (and for C compile) the reference mode the run uses before timing
+                ctrl.prepare(resolve_nmpc_mode(ctrl.settings, sc.reference.shaping))
             rec = _Recorder(ctrl)
             with realtime_priority(realtime) as rt:
                 res = run_scenario(sc, controller=rec, progress=progress and not rt, figures=False)

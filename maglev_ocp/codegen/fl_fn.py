@@ -20,9 +20,12 @@ from __future__ import annotations
 
 import casadi as ca
 
+from controllers.fl import GAIN_FIELDS, fl_law_function
+
 from .. import constants as k
 from ..model import get_model
 from ..observers import ObserverSettings
+from ..signals import REF_FIELDS
 from .observer_fn import observer_gain, observer_update
 
 #: Pieces of the FL controller's state vector: name, size, unit, meaning.
@@ -56,9 +59,6 @@ def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
     -------
     fl_init, fl_step : casadi.Function
     """
-    from controllers.fl import GAIN_FIELDS, fl_law_function
-
-    from ..signals import REF_FIELDS
 
     law = fl_law_function()
     osettings = ObserverSettings(eps=settings.observer_eps, disturbance=settings.disturbance)

@@ -9,7 +9,9 @@ sources, the header ``maglev_controller.h``, the harness and the build files.
 
 * ``nmpc``: ``nmpc_init(meas, ref, p) -> state`` and
   ``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)``, the
-  NMPC developer's step Function (:mod:`controllers.nmpc_step`) as it is;
+  NMPC developer's step Function (:mod:`controllers.nmpc.step`) as it is, its
+  state ports documented by the NMPC's own layout table
+  (:meth:`controllers.nmpc.layout.StateLayout.table`);
 * ``fl``: ``fl_init``/``fl_step`` (:mod:`maglev_ocp.codegen.fl_fn`);
 * ``observer``: ``observer_step`` (:mod:`maglev_ocp.codegen.observer_fn`).
 """
@@ -22,9 +24,17 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from controllers.fl import FLAG_FIELDS, GAIN_FIELDS
+from controllers.nmpc import step_functions
+from controllers.nmpc.layout import MEAS_TABLE, N_MEAS, STATS_TABLE
+from controllers.nmpc.reference import resolve_mode
+
 from .. import constants as k
+from ..observers import ObserverSettings
 from ..params import Params
 from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, REF_FIELDS, REFERENCE, STATES
+from .fl_fn import FL_STATE, FL_STATE_SIZE, fl_functions
+from .observer_fn import observer_step_function
 
 #: Controllers that can be generated.
 KINDS: tuple[str, ...] = ("nmpc", "fl", "observer")
@@ -228,27 +238,13 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
     mode : {"plan", "preview"}
         Reference mode baked into the step (``auto`` is resolved by the caller).
     """
-    from controllers.nmpc import step_functions
-    from controllers.nmpc_step import N_MEAS, STATS_NAMES
-
     if mode not in ("plan", "preview"):
         raise ValueError(f"NMPC reference mode must be 'plan' or 'preview', got {mode!r}")
-    init, step, b = step_functions(settings.step_config(mode))
+    init, step, b = step_functions(settings, mode)
     lay = b.layout
     N = settings.horizon
     model_params = params if settings.use_cogging else params.without_cogging()
-    state_units = {
-        "xhat": ("m, m/s", "observer estimate (g, g_dot, d, d_dot)"),
-        "dist": ("m/s^2", "acceleration disturbance estimate (gap, horizontal)"),
-        "u_prev": ("A", "currents applied over the last period (i_q, i_d)"),
-        "fresh": ("-", "1 right after nmpc_init (the observer skips one prediction), else 0"),
-        "plan": ("m, m, m, m, s, s, s", "move planner (g_start, d_start, g_target, d_target, t, h, tj)"),
-        "X": ("m, m/s", f"shooting nodes, {N + 1} columns of (g, g_dot, d, d_dot), column-major"),
-        "U": ("A", f"planned currents, {N} columns of (i_q, i_d), column-major"),
-        "y": ("A / mm scaled", f"ADMM duals: {2 * N} current rows, then {lay.n_gap} soft gap rows"),
-        "nfail": ("-", "consecutive fallbacks"),
-    }
-    state_pieces = tuple(Piece(n, s, *state_units[n]) for n, s in lay.pieces)
+    state_pieces = tuple(Piece(*row) for row in lay.table())
     state_port = Port("state_in", lay.size, 1, "mixed", "controller memory (warm start etc.)", state_pieces)
     ref_desc = (
         f"reference over the horizon: 6 rows ({', '.join(f'{r} [{u}]' for r, u in REF_ROW_UNITS)}) "
@@ -262,26 +258,9 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
         1,
         "m, m, -",
         "encoder readings g [m], d [m], then a fault flag (1 poisons the QP to exercise the fallback; 0 in operation)",
-        (
-            Piece("g", 1, "m", "air gap reading"),
-            Piece("d", 1, "m", "horizontal reading"),
-            Piece("fault", 1, "-", "test flag, 0 in operation"),
-        ),
+        tuple(Piece(n, 1, u, d) for n, u, d in MEAS_TABLE),
     )
-    stats_units = {
-        "status": ("-", "0 ok, 1 inaccurate (ADMM residuals above tolerance), 2 fallback"),
-        "fallback": ("-", "1 when the LQR fallback was applied"),
-        "iterations": ("-", "ADMM iterations run (fixed budget)"),
-        "iters_to_tol": ("-", "first residual checkpoint below tolerance"),
-        "qp_r_prim": ("A or mm", "ADMM primal residual (infinity norm)"),
-        "qp_r_dual": ("scaled", "ADMM dual residual (infinity norm)"),
-        "plan_t": ("s", "time since the planned move started"),
-        "plan_T": ("s", "duration of the planned move"),
-        "dist_g": ("m/s^2", "gap disturbance estimate"),
-        "dist_d": ("m/s^2", "horizontal disturbance estimate"),
-        "n_fail": ("-", "consecutive fallbacks"),
-    }
-    stats_pieces = tuple(Piece(n, 1, *stats_units.get(n, ("-", n))) for n in STATS_NAMES)
+    stats_pieces = tuple(Piece(n, 1, u, d) for n, u, d in STATS_TABLE)
     p_port = params_port(len(model_params.vector()))
     init_unit = CodeUnit(
         init,
@@ -297,7 +276,7 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
         (
             _u_port(),
             Port("state_out", lay.size, 1, "mixed", "controller memory for the next call", state_pieces),
-            Port("stats", len(STATS_NAMES), 1, "mixed", "solver statistics", stats_pieces),
+            Port("stats", len(STATS_TABLE), 1, "mixed", "solver statistics", stats_pieces),
             _xhat_port(),
         ),
     )
@@ -317,7 +296,7 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
             "HORIZON": N,
             "STATE_SIZE": lay.size,
             "REF_COLS": N + 1,
-            "N_STATS": len(STATS_NAMES),
+            "N_STATS": len(STATS_TABLE),
             "REF_MODE_PREVIEW": int(mode == "preview"),
         },
         settings={"mode": mode, **_design(settings)},
@@ -328,10 +307,6 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
 # ----------------------------------------------------------------------------- FL
 def fl_code(settings, params: Params) -> ControllerCode:
     """Code units of :class:`controllers.fl.FeedbackLinearization` (observer + law in one step)."""
-    from controllers.fl import FLAG_FIELDS, GAIN_FIELDS
-
-    from .fl_fn import FL_STATE, FL_STATE_SIZE, fl_functions
-
     init, step = fl_functions(settings, k.Ts)
     pieces = tuple(Piece(*q) for q in FL_STATE)
     state_in = Port("state_in", FL_STATE_SIZE, 1, "mixed", "controller memory", pieces)
@@ -410,9 +385,6 @@ def fl_code(settings, params: Params) -> ControllerCode:
 # ----------------------------------------------------------------------------- observer
 def observer_code(eps: float, disturbance: bool, params: Params) -> ControllerCode:
     """Code unit of the high-gain observer update alone."""
-    from ..observers import ObserverSettings
-    from .observer_fn import observer_step_function
-
     fn = observer_step_function(ObserverSettings(eps=eps, disturbance=disturbance), k.Ts)
     unit = CodeUnit(
         fn,
@@ -433,15 +405,12 @@ def observer_code(eps: float, disturbance: bool, params: Params) -> ControllerCo
 
 
 def resolve_nmpc_mode(settings, shaping: str | None) -> str:
-    """The NMPC's reference mode as :meth:`controllers.nmpc.NMPC._resolve_mode` picks it.
+    """The NMPC's reference mode as the controller picks it (:func:`controllers.nmpc.reference.resolve_mode`).
 
     ``shaping`` is the scenario's ``reference.shaping`` (``None``: no reference
     plan from a runner, e.g. a bare rig log).
     """
-    mode = settings.reference
-    if mode == "auto":
-        mode = "preview" if (shaping is not None and shaping != "step") else "plan"
-    return mode
+    return resolve_mode(settings.reference, shaping)
 
 
 __all__ = [

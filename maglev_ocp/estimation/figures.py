@@ -46,6 +46,15 @@ def _L1_curve(C1: float, g_mm: np.ndarray) -> np.ndarray:
     return np.array([C1 * float(get_model().shape(g * 1e-3)[3]) for g in g_mm])
 
 
+def _decorate(ax, xlabel: str, ylabel: str, title: str) -> None:
+    """Axis labels (with units), title, light grid and a small legend."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+
+
 def fig3_parabolas(va: HorizontalResult, path: Path, max_panels: int = 4) -> Path:
     """Seed Fig. 3: position under constant i_q at locked gaps with the fitted parabolas."""
     pick = np.unique(np.linspace(0, len(va.fits) - 1, min(max_panels, len(va.fits))).round().astype(int))
@@ -73,11 +82,7 @@ def fig4_L1(va: HorizontalResult, path: Path, prior: Params) -> Path:
         ax.plot(g, [r["L1_npfisi"][e] for r in va.rows], m + "--", color=c, label=f"NPFISI on eq. (4), eps = {e:g}")
     gg = np.linspace(g.min(), g.max(), 60)
     ax.plot(gg, _L1_curve(prior.C1, gg), ":", color="0.5", label=f"prior model, C1 = {prior.C1:.4g}")
-    ax.set_xlabel("locked gap g [mm]")
-    ax.set_ylabel("L1 = C1 f1(g) [m/s^2/A]")
-    ax.set_title("Fig. 4: estimates of L1 at fixed gaps")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    _decorate(ax, "locked gap g [mm]", "L1 = C1 f1(g) [m/s^2/A]", "Fig. 4: estimates of L1 at fixed gaps")
     return _save(fig, path)
 
 
@@ -124,11 +129,7 @@ def fig6_cogging(vc: CoggingResult, path: Path, batch: BatchResult | None = None
             label=f"batch fit: xi0 = {batch.values['xi0']:.3g} N, ell = {ell * 1e3:.3g} mm",
         )
     ax.axhline(1.0, color="0.6", lw=0.8)
-    ax.set_xlabel("gap g [mm]")
-    ax.set_ylabel("peak cogging force xi(g) [N]")
-    ax.set_title("Fig. 6: estimate of the peak cogging force")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    _decorate(ax, "gap g [mm]", "peak cogging force xi(g) [N]", "Fig. 6: estimate of the peak cogging force")
     return _save(fig, path)
 
 
@@ -148,11 +149,9 @@ def fig7_equilibrium_cogging(vb: VerticalResult, vc: CoggingResult, path: Path) 
             lw=1,
             label="model with the fitted cogging, at the peak",
         )
-    ax.set_xlabel("gap g [mm]")
-    ax.set_ylabel("equilibrium i_d [A]")
-    ax.set_title("Fig. 7: equilibrium currents with and without the horizontal offset")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    _decorate(
+        ax, "gap g [mm]", "equilibrium i_d [A]", "Fig. 7: equilibrium currents with and without the horizontal offset"
+    )
     return _save(fig, path)
 
 
@@ -201,11 +200,7 @@ def fig9_equilibrium_full(
     if batch is not None:
         p = batch.params.vector()
         ax.plot(g * 1e3, [equilibrium_i_d(gi, 0.0, p) for gi in g], "k--", lw=1.2, label="batch fit")
-    ax.set_xlabel("gap g [mm]")
-    ax.set_ylabel("equilibrium i_d [A]")
-    ax.set_title("Fig. 9: predicted and measured equilibrium currents")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    _decorate(ax, "gap g [mm]", "equilibrium i_d [A]", "Fig. 9: predicted and measured equilibrium currents")
     return _save(fig, path)
 
 

@@ -291,15 +291,22 @@ def hac_stderr(J: np.ndarray, r: np.ndarray, bounds: np.ndarray, half: int) -> n
     Hn = Jn.T @ Jn
     ev = np.linalg.eigvalsh(Hn)
     Hinv = np.linalg.pinv(Hn, rcond=1e-10) if ev.min() <= 1e-10 * ev.max() else np.linalg.inv(Hn)
-    S = np.zeros_like(Hn)
+    lags: list[int | None] = []
     for a, b in itertools.pairwise(bounds):
-        if b - a < 2:
-            continue
         cap = max((b - a) // 4, 1)
-        lag = max(min(2 * half, cap), correlation_length(r[a:b], min(20 * half, cap)))
-        S += newey_west(Jn[a:b], r[a:b], lag)
+        lags.append(None if b - a < 2 else max(min(2 * half, cap), correlation_length(r[a:b], min(20 * half, cap))))
+    S = block_newey_west(Jn, r, bounds, lags)
     out[ok] = stderr_from_variance(np.diag(Hinv @ S @ Hinv)) / d[ok]
     return out
+
+
+def block_newey_west(J: np.ndarray, r: np.ndarray, bounds: np.ndarray, lags: list[int | None]) -> np.ndarray:
+    """The HAC "meat" ``sum_b S_b``: a Newey-West estimate per independent block (``None`` lag: block skipped)."""
+    S = np.zeros((J.shape[1], J.shape[1]))
+    for (a, b), lag in zip(itertools.pairwise(bounds), lags, strict=False):
+        if lag is not None:
+            S += newey_west(J[a:b], r[a:b], lag)
+    return S
 
 
 def sandwich_covariance(
@@ -309,12 +316,8 @@ def sandwich_covariance(
 
     Parameters
     ----------
-    J : ndarray, shape (n, k)
-        Jacobian of the (weighted) residual at the estimate.
-    r : ndarray, shape (n,)
-        Weighted residual.
-    bounds : ndarray
-        Block boundaries (``bounds[i]:bounds[i+1]`` is block ``i``); blocks are independent.
+    J, r, bounds
+        As in :func:`hac_stderr`.
     lags : list of int
         Newey-West lags of each block.
 
@@ -325,10 +328,7 @@ def sandwich_covariance(
     """
     Hinv = np.linalg.pinv(J.T @ J)
     nf = J.shape[1]
-    S = np.zeros((nf, nf))
-    for i, lag in enumerate(lags):
-        sl = slice(bounds[i], bounds[i + 1])
-        S += newey_west(J[sl], r[sl], lag)
+    S = block_newey_west(J, r, bounds, list(lags))
     cov = Hinv @ S @ Hinv
     cov_naive = Hinv * float(r @ r) / max(len(r) - nf, 1)
     return cov, cov_naive
@@ -337,6 +337,7 @@ def sandwich_covariance(
 __all__ = [
     "ZeroPhaseFilter",
     "autocorr_factor",
+    "block_newey_west",
     "correlation_length",
     "effective_sample_size",
     "filtered_acceleration",

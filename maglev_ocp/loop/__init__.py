@@ -10,7 +10,7 @@ The scenario runner (:mod:`maglev_ocp.runner`), campaigns, the diagnosis dataset
 closed-loop view all step their runs through :class:`ClosedLoop`.
 """
 
-from .core import ClosedLoop, Recorder
+from .core import ClosedLoop, Recorder, StepRecord
 from .drive import CurrentSequence, run_closed_loop, run_open_loop
 from .recorders import TIMING_SUFFIX, RigLogRecorder, TraceRecorder
 
@@ -20,6 +20,7 @@ __all__ = [
     "CurrentSequence",
     "Recorder",
     "RigLogRecorder",
+    "StepRecord",
     "TraceRecorder",
     "run_closed_loop",
     "run_open_loop",

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
@@ -37,42 +38,46 @@ from ..plant import Plant
 PROGRESS_EVERY = 64
 
 
+@dataclass(frozen=True, slots=True)
+class StepRecord:
+    """What happened in one control period of a :class:`ClosedLoop` (what a :class:`Recorder` sees).
+
+    Attributes
+    ----------
+    i : int
+        Step index (time ``i Ts``).
+    y : Measurement
+        The measurement the controller saw.
+    ref : Reference or None
+        The reference it was given.
+    out : ControlOutput
+        What it returned.
+    u : ndarray (2,)
+        The commanded currents handed to the plant (``out.u`` as floats).
+    dt_us : float
+        The controller's computation time [us] (wall clock).
+    y_next : Measurement
+        The plant's measurement one period later (its ``info`` tells what the
+        limiter did and which current the amplifiers carried).
+    """
+
+    i: int
+    y: Measurement
+    ref: Reference | None
+    out: ControlOutput
+    u: np.ndarray
+    dt_us: float
+    y_next: Measurement
+
+
 class Recorder(Protocol):
     """What a caller logs of each step of a :class:`ClosedLoop`."""
 
     def start(self, y0: Measurement) -> None:
         """A run starts at measurement ``y0``."""
 
-    def record(
-        self,
-        i: int,
-        y: Measurement,
-        ref: Reference,
-        out: ControlOutput,
-        u: np.ndarray,
-        dt_us: float,
-        y_next: Measurement,
-    ) -> None:
-        """Step ``i`` is done.
-
-        Parameters
-        ----------
-        i : int
-            Step index (time ``i Ts``).
-        y : Measurement
-            The measurement the controller saw.
-        ref : Reference
-            The reference it was given.
-        out : ControlOutput
-            What it returned.
-        u : ndarray (2,)
-            The commanded currents handed to the plant (``out.u`` as floats).
-        dt_us : float
-            The controller's computation time [us] (wall clock).
-        y_next : Measurement
-            The plant's measurement one period later (its ``info`` tells what the
-            limiter did and which current the amplifiers carried).
-        """
+    def record(self, s: StepRecord) -> None:
+        """Step ``s.i`` is done."""
 
 
 class ClosedLoop:
@@ -165,8 +170,9 @@ class ClosedLoop:
             self.error = f"controller returned non-finite currents {u.tolist()} at t = {i * self.Ts:.3f} s"
             return False
         y_next = self.plant.step(u)  # raises on non-finite currents (on_error="raise")
+        rec_step = StepRecord(i, y, ref, out, u, dt_us, y_next)
         for rec in self.recorders:
-            rec.record(i, y, ref, out, u, dt_us, y_next)
+            rec.record(rec_step)
         self.y, self.steps = y_next, i + 1
         return True
 
@@ -191,4 +197,4 @@ class ClosedLoop:
         return self.steps
 
 
-__all__ = ["PROGRESS_EVERY", "ClosedLoop", "Recorder"]
+__all__ = ["PROGRESS_EVERY", "ClosedLoop", "Recorder", "StepRecord"]

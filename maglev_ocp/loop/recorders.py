@@ -18,9 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from ..blocks import ControlOutput, Measurement, Reference
+from ..blocks import Measurement
 from ..plant import Plant
 from ..riglog import RunLog
+from .core import StepRecord
 
 #: Statistics keys holding wall-clock times: kept apart from the deterministic statistics.
 TIMING_SUFFIX = "_us"
@@ -67,24 +68,16 @@ class TraceRecorder:
     def start(self, y0: Measurement) -> None:
         """Nothing to log at reset (the first row is written by the first step)."""
 
-    def record(
-        self,
-        i: int,
-        y: Measurement,
-        ref: Reference,
-        out: ControlOutput,
-        u: np.ndarray,
-        dt_us: float,
-        y_next: Measurement,
-    ) -> None:
-        """Fill row ``i`` (see :meth:`maglev_ocp.loop.core.Recorder.record`)."""
+    def record(self, s: StepRecord) -> None:
+        """Fill row ``s.i`` (see :class:`maglev_ocp.loop.core.StepRecord`)."""
+        i, y, out = s.i, s.y, s.out
         self.Y[i] = y.y
         self.X[i] = y.x_true if y.x_true is not None else np.nan
-        self.U[i] = u
+        self.U[i] = s.u
         self.UA[i] = (y.info.get("i_q_applied", math.nan), y.info.get("i_d_applied", math.nan))
         if out.x_hat is not None:
             self.XH[i] = np.asarray(out.x_hat, dtype=float).reshape(4)
-        self.step_time_us[i] = dt_us
+        self.step_time_us[i] = s.dt_us
         stats, timings = self.stats, self.timings
         for key, v in out.stats.items():
             if key.endswith(TIMING_SUFFIX):
@@ -94,7 +87,7 @@ class TraceRecorder:
         for lst in (*stats.values(), *timings.values()):  # keys missing this step
             if len(lst) < i + 1:
                 lst.append(math.nan)
-        self.limited[i] = float(bool(y_next.info.get("limited", False)))
+        self.limited[i] = float(bool(s.y_next.info.get("limited", False)))
 
     def stat_columns(self, done: int, taken: set[str] | frozenset[str] = frozenset()) -> dict[str, np.ndarray]:
         """The statistics of the first ``done`` steps as columns (text columns where any value is text).
@@ -125,20 +118,11 @@ class RigLogRecorder:
     def start(self, y0: Measurement) -> None:
         """Nothing to log at reset."""
 
-    def record(
-        self,
-        i: int,
-        y: Measurement,
-        ref: Reference,
-        out: ControlOutput,
-        u: np.ndarray,
-        dt_us: float,
-        y_next: Measurement,
-    ) -> None:
-        """Row ``i``: the reference and the controller's velocity estimates (NaN where it gives none)."""
-        self.extra[i, 0], self.extra[i, 1] = ref.g, ref.d
-        if out.x_hat is not None:
-            self.extra[i, 2], self.extra[i, 3] = out.x_hat[1], out.x_hat[3]
+    def record(self, s: StepRecord) -> None:
+        """Row ``s.i``: the reference and the controller's velocity estimates (NaN where it gives none)."""
+        self.extra[s.i, 0], self.extra[s.i, 1] = s.ref.g, s.ref.d
+        if s.out.x_hat is not None:
+            self.extra[s.i, 2], self.extra[s.i, 3] = s.out.x_hat[1], s.out.x_hat[3]
 
     def log(self, plant: Plant, file: str, **meta: Any) -> RunLog:
         """The plant's log of the run with these columns appended, named ``file``, with ``meta``."""

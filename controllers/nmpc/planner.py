@@ -1,4 +1,4 @@
-"""Reference planning inside the NMPC step: rest-to-rest moves at the current-limited acceleration.
+"""Stage 2a of the step, reference planning: rest-to-rest moves at the current-limited acceleration.
 
 A 100 mm move takes about 90 ms at the current limits, four times a 20 ms
 horizon, so the NMPC tracks a planned reference: when the target changes, the
@@ -17,6 +17,11 @@ from __future__ import annotations
 import casadi as ca
 
 from maglev_ocp.model import get_model
+
+from .design import StepDesign
+
+#: Shortest planned move [s] (a target change within a few periods is still a move, not a jump).
+MIN_MOVE_TIME = 4e-3
 
 
 def unit_half_profile(t: ca.SX, h: ca.SX, tj: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
@@ -143,3 +148,38 @@ def _hover_id(x: ca.SX, iq: ca.SX, p: ca.SX, w_g: ca.SX, n_newton: int = 3) -> c
         _, B = m.linearization(x, u, p)
         i_d = i_d - a / B[1, 1]
     return i_d
+
+
+def plan_duration(d: StepDesign, g_s, d_s, g_t, d_t, p, w_g):
+    """Half duration and jerk time of a synchronized rest-to-rest move from ``(g_s, d_s)`` to ``(g_t, d_t)``."""
+    pl = d.settings.plan
+    # Thrust acceleration left on the current disk at hover, at the weakest of start, middle, end gap.
+    acc = [thrust_accel_available(g, p, d.settings.current_limit, w_g) for g in (g_s, g_t, (g_s + g_t) / 2)]
+    a_d = pl.accel_margin * ca.fmin(ca.fmin(acc[0], acc[1]), acc[2])
+    a_d = ca.fmax(a_d, 1.0)
+    h_d, _ = half_duration(d_t - d_s, a_d, pl.jerk_time)
+    h_g, _ = half_duration(g_t - g_s, pl.gap_accel, pl.jerk_time)
+    h = ca.fmax(ca.fmax(h_d, h_g), MIN_MOVE_TIME / 2)
+    tj = ca.fmin(pl.jerk_time, h / 2)
+    return h, tj
+
+
+def advance_plan(d: StepDesign, pl: ca.SX, fresh: ca.SX, xhat: ca.SX, tgt: ca.SX, p: ca.SX, w: ca.SX) -> ca.SX:
+    """The planner state after this period: replan from the estimate when the target changes, else advance.
+
+    ``pl = (g_start, d_start, g_target, d_target, t, h, tj)``; in ``preview``
+    mode nothing is planned (the runner's reference is tracked) and only the
+    clock runs.
+    """
+    g_t, d_t = tgt[0], tgt[1]
+    if d.mode == "plan":
+        new = ca.fabs(g_t - pl[2]) + ca.fabs(d_t - pl[3]) > 0
+        h_new, tj_new = plan_duration(d, xhat[0], xhat[2], g_t, d_t, p, w[0])
+    else:
+        new, h_new, tj_new = ca.SX(0), pl[5], pl[6]
+    t_adv = ca.if_else(fresh, pl[4], pl[4] + d.Ts)
+    return ca.if_else(
+        new,
+        ca.vertcat(xhat[0], xhat[2], g_t, d_t, 0, h_new, tj_new),
+        ca.vertcat(pl[0], pl[1], pl[2], pl[3], ca.fmin(t_adv, 2 * pl[5] + 1.0), pl[5], pl[6]),
+    )

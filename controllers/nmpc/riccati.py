@@ -1,6 +1,6 @@
 """Structure-exploiting ADMM for the NMPC's QP: the x-update by a Riccati recursion, O(N) per iteration.
 
-The same QP and the same ADMM iteration as :mod:`controllers.nmpc_qp` (OSQP's
+The same QP and the same ADMM iteration as :mod:`controllers.nmpc.qp` (OSQP's
 iteration with the current disks and the soft gap bounds as the ``z`` block,
 the same penalty ``rho`` from the trace of the condensed Hessian), but the
 equality-constrained x-update
@@ -31,7 +31,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-NX, NU = 4, 2
+from .layout import NU, NX
+from .qp import project_disk, prox_soft_bound, rho_from_trace
 
 
 def _sx(n, m=1, name="a"):
@@ -229,7 +230,7 @@ def factor_function(
 
     ``(As, Bs, cs, dx0, Xbar, Xref, Ubar, Uref, fault) -> (K, Sinv, PB, Pc, rho, qW, rbase, glb, gub, zg0)``:
     penalty ``rho`` from the trace of the condensed Hessian (open-loop cost-to-go
-    recursion, the rule of :func:`controllers.nmpc_qp.admm_rho`), the Riccati
+    recursion, the rule of :func:`controllers.nmpc.qp.admm_rho`), the Riccati
     factorization for ``R + sigma + rho``, the constant linear terms, the soft gap
     bounds and the free response of the gap rows (warm start of ``z_g``).
 
@@ -239,8 +240,6 @@ def factor_function(
     (instruction cache); the constant weights are passed as dense constants.
     ``Bs`` must be dense.
     """
-    from .nmpc_qp import rho_from_trace
-
     As, Bs, cs = ca.MX.sym("As", NX, NX * N), ca.MX.sym("Bs", NX, NU * N), ca.MX.sym("cs", NX, N)
     dx0, Xb, Xr = ca.MX.sym("dx0", NX), ca.MX.sym("Xbar", NX, N + 1), ca.MX.sym("Xref", NX, N + 1)
     Ub, Ur, fault = ca.MX.sym("Ubar", NU, N), ca.MX.sym("Uref", NU, N), ca.MX.sym("fault")
@@ -419,8 +418,6 @@ def disk_update_stage(radius: float, box: float, alpha: float) -> ca.Function:
     ``(xt, x, zu, yu, ubar, rho) -> (x, zu, yu, rp, rd)`` with the stage's
     contributions ``rp = max |xt - zu_new|`` and ``rd = max |zu_new - zu|`` to the residuals.
     """
-    from .nmpc_qp import project_disk
-
     xt, x, zu, yu, ubar, rho = (
         _sx(NU, 1, "xt"),
         _sx(NU, 1, "x"),
@@ -452,8 +449,6 @@ def gap_update(
     ``(dx, zg, yg, glb, gub, rho, rp, rd) -> (zg, yg, r_prim, r_dual)``; ``rp``, ``rd``
     (1 x N) are the current rows' per-stage residual contributions.
     """
-    from .nmpc_qp import prox_soft_bound
-
     ng = len(gap_stages)
     dx, zg, yg, glb, gub, rho = (
         _sx(NX, N, "dx"),

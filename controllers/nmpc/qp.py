@@ -20,9 +20,9 @@ by OSQP's ADMM iteration with a fixed number of steps: the KKT matrix
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import casadi as ca
+
+from .settings import ADMMOptions
 
 
 def chol_sx(M: ca.SX) -> tuple[ca.SX, ca.SX]:
@@ -161,34 +161,7 @@ def condensed_qp(
     return {"H": H, "q": q, "G": G, "gfree": ca.vertcat(*gfree) if gfree else ca.SX(0, 1), "xi": xi}
 
 
-@dataclass(frozen=True)
-class ADMMSettings:
-    """Tuning of the fixed-budget ADMM (OSQP's iteration; names as in OSQP).
-
-    The penalty is chosen per step from the Hessian (see :func:`admm_rho`):
-    ``rho = rho_scale * sqrt(lambda_min * lambda_max_est)``, the classic
-    geometric-mean rule, because a fixed ``rho`` that suits one weighting
-    converges ten times slower for another.
-
-    Attributes
-    ----------
-    rho_scale : float
-        Factor of the geometric-mean rule.
-    rho_g_rel : float
-        Penalty of the soft gap rows (millimetres) relative to the current rows (amperes).
-    sigma : float
-        Proximal regularization of the primal step.
-    alpha : float
-        Over-relaxation in (0, 2).
-    """
-
-    rho_scale: float = 0.35
-    rho_g_rel: float = 1.0
-    sigma: float = 1e-6
-    alpha: float = 1.6
-
-
-def admm_rho(H: ca.SX, lam_min: float, s: ADMMSettings) -> ca.SX:
+def admm_rho(H: ca.SX, lam_min: float, s: ADMMOptions) -> ca.SX:
     """ADMM penalty for the current-disk rows from the Hessian ``H`` of the condensed QP.
 
     ``lam_min`` is a lower bound of the smallest eigenvalue (the input weight);
@@ -200,7 +173,7 @@ def admm_rho(H: ca.SX, lam_min: float, s: ADMMSettings) -> ca.SX:
     return rho_from_trace(ca.trace(H), H.shape[0], lam_min, s)
 
 
-def rho_from_trace(trace, n: int, lam_min: float, s: ADMMSettings):
+def rho_from_trace(trace, n: int, lam_min: float, s: ADMMOptions):
     """``rho`` of :func:`admm_rho` from ``trace(H)`` of an ``n x n`` Hessian (SX or MX)."""
     lam_max = ca.fmax(trace - (n - 1) * lam_min, lam_min)
     return ca.fmin(ca.fmax(s.rho_scale * ca.sqrt(lam_min * lam_max), 1e-3), 1e3)
@@ -236,7 +209,7 @@ def admm_iteration(
     box: float,
     soft_w1: float,
     soft_w2: float,
-    s: ADMMSettings,
+    s: ADMMOptions,
     residuals: bool = True,
 ) -> ca.Function:
     """One ADMM iteration as an SX Function (called ``n_iter`` times in the step).

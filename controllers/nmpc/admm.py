@@ -1,0 +1,132 @@
+"""Stage 4 of the step: the QP in the ``2 N`` current corrections and its fixed-budget ADMM.
+
+Two x-updates that give the same iterates: the stage-wise Riccati recursion
+(``qp = "riccati"``, default, :mod:`.riccati`) and dense condensing with a KKT
+Cholesky (``qp = "dense"``, :mod:`.qp`). Both run ``iterations`` ADMM steps
+(OSQP's iteration) on the current disks and the soft gap bounds, with the
+residuals checked every ``admm.check_every`` iterations.
+"""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from .design import StepDesign
+from .layout import NU, NX
+from .qp import admm_iteration, admm_rho, chol_sx, condensed_qp
+from .riccati import factor_function, iteration_function
+
+
+def fn_condense(d: StepDesign) -> ca.Function:
+    """Dense condensing (SX): ``(As, Bs, cs, dx0, Xbar, Xref, Ubar, Uref, u_prev, fault) -> (H, q, G, glb, gub)``."""
+    s = d.settings
+    N, nv = s.horizon, s.horizon * NU
+    As, Bs, cs = ca.SX.sym("As", NX, NX * N), ca.SX.sym("Bs", NX, NU * N), ca.SX.sym("cs", NX, N)
+    dx0, Xb, Xr = ca.SX.sym("dx0", NX), ca.SX.sym("Xbar", NX, N + 1), ca.SX.sym("Xref", NX, N + 1)
+    Ub, Ur, u_prev, fault = (
+        ca.SX.sym("Ubar", NU, N),
+        ca.SX.sym("Uref", NU, N),
+        ca.SX.sym("u_prev", NU),
+        ca.SX.sym("fault"),
+    )
+    Al = [As[:, j * NX : (j + 1) * NX] for j in range(N)]
+    Bl = [Bs[:, j * NU : (j + 1) * NU] for j in range(N)]
+    cl = [cs[:, j] for j in range(N)]
+    # Cost: sum_k |x_k - r_k|_Q (P at N) + |u_k - uref_k|_R.
+    Ws = [ca.DM(np.diag(s.Q))] * N + [ca.DM(d.P)]
+    E = [Xb[:, j] - Xr[:, j] for j in range(N + 1)]
+    qp = condensed_qp(Al, Bl, cl, dx0, E, Ws, s.gap_stages, [Xb[0, j] for j in range(N + 1)])
+    H, q = qp["H"], qp["q"]
+    Rm = np.tile(s.R, N)
+    ub = ca.vec(Ub)
+    H = H + ca.diag(ca.DM(Rm))
+    q = q + ca.DM(Rm) * (ub - ca.vec(Ur))
+    H = H + ca.if_else(fault > 0.5, math.nan, 0) * ca.DM(np.eye(nv))  # forced failure (tests)
+    # Soft gap rows in millimetres.
+    G = 1e3 * qp["G"]
+    glb = 1e3 * (s.soft_gap.g_min - qp["gfree"])
+    gub = 1e3 * (s.soft_gap.g_max - qp["gfree"])
+    return ca.Function(
+        "nmpc_condense",
+        [As, Bs, cs, dx0, Xb, Xr, Ub, Ur, u_prev, fault],
+        [ca.densify(H), q, G, glb, gub],
+        ["As", "Bs", "cs", "dx0", "Xbar", "Xref", "Ubar", "Uref", "u_prev", "fault"],
+        ["H", "q", "G", "glb", "gub"],
+        {"cse": True},
+    )
+
+
+def fn_kkt(d: StepDesign) -> ca.Function:
+    """ADMM penalty and Cholesky factor of the KKT matrix (SX): ``(H, G) -> (L, dinv, rho)``."""
+    s = d.settings
+    nv, ng = s.horizon * NU, s.n_gap
+    H, G = ca.SX.sym("H", nv, nv), ca.SX.sym("G", ng, nv)
+    a = s.admm
+    rho = admm_rho(H, min(s.R), a)
+    Mk = H + (a.sigma + rho) * ca.DM.eye(nv)
+    if ng:
+        Mk = Mk + a.rho_g_rel * rho * ca.mtimes(G.T, G)
+    Lc, dinv = chol_sx(ca.densify(Mk))
+    return ca.Function("nmpc_kkt", [H, G], [Lc, dinv, ca.vertcat(rho, 1 / rho)], ["H", "G"], ["L", "dinv", "rho"])
+
+
+def checkpoints(d: StepDesign) -> list[int]:
+    """Iterations after which the residuals are computed (every ``check_every``, and the last)."""
+    s = d.settings
+    every = s.admm.check_every
+    return sorted({*range(every, s.iterations, every), s.iterations})
+
+
+def _track(d: StepDesign, i, rp_i, rd_i, state) -> None:
+    """Residual bookkeeping at checkpoints: iterations to reach the tolerance = first checkpoint below it
+    (assuming monotone progress), else the budget."""
+    a, checks = d.settings.admm, checkpoints(d)
+    if i in checks:
+        nxt = checks[checks.index(i) + 1] if i != checks[-1] else i
+        state["rp"], state["rd"] = rp_i, rd_i
+        state["iters"] = state["iters"] + (nxt - i) * ca.logic_or(rp_i > a.tol_prim, rd_i > a.tol_dual)
+
+
+def admm_dense(d: StepDesign, o: dict):
+    """Fixed-budget ADMM on the dense condensed QP (reference implementation)."""
+    s = d.settings
+    nv, ng = s.horizon * NU, s.n_gap
+    args = (nv, ng, NU, s.current_limit, s.i_box, s.soft_gap.w_linear, s.soft_gap.w_quadratic, s.admm)
+    it_res = admm_iteration(*args, residuals=True)
+    it_fast = admm_iteration(*args, residuals=False)
+    checks = checkpoints(d)
+    # warm start: zero correction (the linearization point is the shifted plan), shifted duals
+    x, z, yv = ca.MX.zeros(nv), ca.MX.zeros(nv + ng), o["y0"]
+    track = {"rp": ca.MX(0), "rd": ca.MX(0), "iters": ca.MX(checks[0])}
+    for i in range(1, s.iterations + 1):
+        it = it_res if i in checks else it_fast
+        x, z, yv, rp_i, rd_i = it(x, z, yv, o["L"], o["dinv"], o["q"], o["G"], o["ubar"], o["glb"], o["gub"], o["rho"])
+        _track(d, i, rp_i, rd_i, track)
+    return z, yv, track
+
+
+def admm_riccati(d: StepDesign, o: dict, fault):
+    """Fixed-budget ADMM with the Riccati x-update (:mod:`controllers.nmpc.riccati`)."""
+    s = d.settings
+    N, nv, sg = s.horizon, s.horizon * NU, s.soft_gap
+    fac = factor_function(N, s.gap_stages, np.diag(s.Q), d.P, s.R, s.admm, sg.g_min, sg.g_max)
+    it = iteration_function(N, s.gap_stages, s.current_limit, s.i_box, sg.w_linear, sg.w_quadratic, s.admm)
+    K, Sinv, PB, Pc, rho, qW, rbase, glb, gub, zg0 = fac(
+        o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], fault
+    )
+    # warm start: zero correction (the linearization point is the shifted plan), gap rows at the free
+    # response, shifted duals
+    x, z, yv = ca.MX.zeros(nv), ca.vertcat(ca.MX.zeros(nv), zg0), o["y0"]
+    track = {"rp": ca.MX(0), "rd": ca.MX(0), "iters": ca.MX(checkpoints(d)[0])}
+    for i in range(1, s.iterations + 1):
+        x, z, yv, rp_i, rd_i = it(
+            x, z, yv, K, Sinv, PB, Pc, o["As"], o["Bs"], o["cs"], o["dx0"], qW, rbase, o["ubar"], glb, gub, rho
+        )
+        _track(d, i, rp_i, rd_i, track)
+    return z, yv, track
+
+
+__all__ = ["admm_dense", "admm_riccati", "checkpoints", "fn_condense", "fn_kkt"]

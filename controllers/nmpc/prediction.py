@@ -1,0 +1,60 @@
+"""Stage 3 of the step: RTI linearization of the multiple-shooting prediction, and the linear prediction.
+
+One linearization per shooting interval along the shifted previous solution
+(:func:`fn_stage`, mapped over the horizon), on the shared model with cogging
+(unless the parameter vector switches it off) plus the observer's disturbance;
+after the QP, :func:`fn_pred_stage` propagates the corrections to the new
+shooting nodes.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from .design import StepDesign
+from .layout import NU, NX
+
+
+def fn_stage(d: StepDesign) -> ca.Function:
+    """RTI linearization of one shooting interval (SX, mapped): ``(x, u, x_next, p, w) -> (A, B, c)``."""
+    m = d.model
+    x, u, xn, p, w = (
+        ca.SX.sym("x", NX),
+        ca.SX.sym("u", NU),
+        ca.SX.sym("x_next", NX),
+        ca.SX.sym("p", m.np_),
+        ca.SX.sym("w", 2),
+    )
+    xe, A, B = d.FJ(x, u, p, w)
+    # B dense (its structural zero would make every consumer re-densify the stacked Bs)
+    return ca.Function(
+        "nmpc_stage",
+        [x, u, xn, p, w],
+        [A, ca.densify(B), xe - xn],
+        ["x", "u", "x_next", "p", "w"],
+        ["A", "B", "c"],
+        {"cse": True},
+    )
+
+
+def fn_pred_stage() -> ca.Function:
+    """Linear prediction of one stage (SX): ``(dx, A, B, v, c, xbar_next) -> (dx_next, x_next)``."""
+    dx, A, B, v, c, xbn = (
+        ca.SX.sym("dx", NX),
+        ca.SX.sym("A", NX, NX),
+        ca.SX.sym("B", NX, NU),
+        ca.SX.sym("v", NU),
+        ca.SX.sym("c", NX),
+        ca.SX.sym("xbar_next", NX),
+    )
+    dxn = ca.mtimes(A, dx) + ca.mtimes(B, v) + c
+    return ca.Function(
+        "nmpc_pred_stage",
+        [dx, A, B, v, c, xbn],
+        [dxn, xbn + dxn],
+        ["dx", "A", "B", "v", "c", "xbar_next"],
+        ["dx_next", "x_next"],
+    )
+
+
+__all__ = ["fn_pred_stage", "fn_stage"]

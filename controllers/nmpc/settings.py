@@ -1,0 +1,143 @@
+"""Settings of the NMPC: the one place where every option has its name, its default and its meaning.
+
+:class:`NMPCSettings` is the ``controller:`` block of a scenario (``type:
+nmpc``). The step builder (:mod:`controllers.nmpc.step` and its stage modules)
+reads it directly; the few derived quantities it needs (weight tuples, the
+soft-bounded stages, the current box) are properties here, so nothing is
+renamed or defaulted twice. How the step is *evaluated* (CasADi in Python or the
+compiled C) is not a setting of the controller: it is the evaluator the NMPC is
+given (:class:`controllers.nmpc.controller.NMPC`, ``evaluators``).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from maglev_ocp import constants as k
+from maglev_ocp.config import Strict
+
+
+class NMPCWeights(Strict):
+    """Stage weights of the tracking cost (per 1 ms stage; currents in A, positions in m).
+
+    The ratio ``q_pos / r`` sets the closed-loop bandwidth: for a double
+    integrator with input gain ``b`` [m/s^2/A], ``omega ~ (q b^2 / r)^(1/4)``;
+    ``4e7`` with ``b ~ 6.7`` gives about 200 rad/s: stiff enough that the lag of
+    the disturbance estimate after a fast move (friction, parameter error) costs
+    only a few micrometres.
+    """
+
+    g: float = Field(4e7, ge=0, description="gap error [1/m^2]")
+    g_dot: float = Field(1e2, ge=0, description="gap-rate error [s^2/m^2]")
+    d: float = Field(4e7, ge=0, description="position error [1/m^2]")
+    d_dot: float = Field(1e2, ge=0, description="velocity error [s^2/m^2]")
+    i_q: float = Field(1.0, gt=0, description="i_q deviation from the feed-forward [1/A^2]")
+    i_d: float = Field(1.0, gt=0, description="i_d deviation from the feed-forward [1/A^2]")
+    terminal_scale: float = Field(1.0, gt=0, description="factor on the LQR terminal weight")
+
+
+class ADMMOptions(Strict):
+    """Fixed-budget ADMM (OSQP's iteration) on the condensed QP."""
+
+    rho_scale: float = Field(0.35, gt=0, description="rho = rho_scale sqrt(lambda_min lambda_max) of the QP Hessian")
+    rho_g_rel: float = Field(1.0, gt=0, description="penalty of the soft gap rows (mm) relative to the currents'")
+    sigma: float = Field(1e-6, gt=0)
+    alpha: float = Field(1.6, gt=0, lt=2)
+    check_every: int = Field(5, ge=1, description="residuals computed every this many iterations")
+    tol_prim: float = Field(1e-2, gt=0, description="primal residual for status ok [A or mm]")
+    tol_dual: float = Field(1e-2, gt=0, description="dual residual for status ok")
+
+
+class SoftGap(Strict):
+    """Soft bounds that keep the predicted gap off the stops (exact + quadratic penalty)."""
+
+    g_min: float = Field(10e-3, gt=k.g_stop[0], lt=k.g_stop[1], description="[m]")
+    g_max: float = Field(30e-3, gt=k.g_stop[0], lt=k.g_stop[1], description="[m]")
+    w_linear: float = Field(10.0, ge=0, description="exact-penalty weight per mm")
+    w_quadratic: float = Field(100.0, ge=0, description="quadratic weight per mm^2")
+    stride: int = Field(4, ge=0, description="bound every this many stages (0: off)")
+
+
+class PlanOptions(Strict):
+    """Internal planner (``reference: plan``): jerk-limited bang-bang moves."""
+
+    accel_margin: float = Field(0.9, gt=0.1, le=1.0, description="fraction of the current-limited thrust")
+    gap_accel: float = Field(20.0, gt=0, description="peak gap acceleration [m/s^2]")
+    jerk_time: float = Field(2e-3, ge=1e-4, le=0.05, description="acceleration ramp time [s]")
+
+
+class NMPCSettings(Strict):
+    """Settings of :class:`NMPC` (a scenario's ``controller:`` block with ``type: nmpc``).
+
+    Attributes
+    ----------
+    horizon : int
+        Number of 1 ms shooting intervals.
+    reference : {"auto", "preview", "plan"}
+        ``preview``: track the runner's reference over the horizon (read ahead
+        from its plan when it gives one, else extrapolated from the reference's
+        rates); ``plan``: plan a current-limited move internally whenever the
+        target changes (for set-point steps); ``auto``: ``preview`` when the
+        runner gives a trajectory plan, else ``plan``.
+    use_cogging : bool
+        Cogging in the controller's model (else the seed's eq. (2)).
+    offset_free : bool
+        Use the observer's disturbance estimate in the prediction.
+    force_failure_steps : list of int
+        Step indices at which the QP is poisoned with NaN (tests of the fallback).
+    """
+
+    type: Literal["nmpc"] = "nmpc"
+    horizon: int = Field(20, ge=4, le=80)
+    n_sub: int = Field(1, ge=1, le=10, description="RK4 sub-steps of the prediction model")
+    jacobian: Literal["taylor", "exact"] = "taylor"
+    weights: NMPCWeights = Field(default_factory=NMPCWeights)
+    solver: Literal["admm"] = "admm"
+    qp: Literal["riccati", "dense"] = Field(
+        "riccati", description="ADMM x-update: stage-wise Riccati recursion (O(N)) or dense condensed Cholesky"
+    )
+    iterations: int = Field(20, ge=1, le=500, description="ADMM iterations per step (fixed)")
+    admm: ADMMOptions = Field(default_factory=ADMMOptions)
+    soft_gap: SoftGap = Field(default_factory=SoftGap)
+    observer_eps: float = Field(3e-3, gt=1e-4, le=0.1, description="high-gain observer time constant [s]")
+    offset_free: bool = True
+    use_cogging: bool = True
+    reference: Literal["auto", "preview", "plan"] = "auto"
+    plan: PlanOptions = Field(default_factory=PlanOptions)
+    current_limit: float = Field(k.i_amp_max, gt=0, le=k.i_amp_max, description="disk radius used [A]")
+    force_failure_steps: list[int] = Field(default_factory=list)
+
+    # ------------------------------------------------------------- derived (read by the step builder)
+    @property
+    def Q(self) -> tuple[float, float, float, float]:
+        """Stage state weights ``(g, g_dot, d, d_dot)``."""
+        w = self.weights
+        return (w.g, w.g_dot, w.d, w.d_dot)
+
+    @property
+    def R(self) -> tuple[float, float]:
+        """Stage input weights ``(i_q, i_d)``."""
+        return (self.weights.i_q, self.weights.i_d)
+
+    @property
+    def i_box(self) -> float:
+        """Per-axis current bound [A]: the amplifier's axis limit within the disk used."""
+        return min(k.i_axis_max, self.current_limit)
+
+    @property
+    def gap_stages(self) -> tuple[int, ...]:
+        """Stages whose predicted gap is softly bounded (``stride, 2 stride, ... <= horizon``)."""
+        stride = self.soft_gap.stride
+        if stride <= 0:
+            return ()
+        return tuple(range(stride, self.horizon + 1, stride))
+
+    @property
+    def n_gap(self) -> int:
+        """Number of soft gap rows."""
+        return len(self.gap_stages)
+
+
+__all__ = ["ADMMOptions", "NMPCSettings", "NMPCWeights", "PlanOptions", "SoftGap"]

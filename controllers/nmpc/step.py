@@ -1,0 +1,238 @@
+"""The whole NMPC control step as ONE CasADi Function, assembled top-down from its stages.
+
+``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)``:
+
+1. observer (:mod:`.observer`): extended-state high-gain observer on the
+   quantized encoders, state and a constant acceleration disturbance per axis;
+2. reference (:mod:`.planner`, :mod:`.reference`): a jerk-limited bang-bang
+   move planned when the target changes (``plan`` mode) or the runner's
+   reference over the horizon (``preview`` mode), plus feed-forward currents
+   from the inverted model;
+3. RTI linearization (:mod:`.prediction`): one linearization per shooting
+   interval along the shifted previous solution;
+4. QP and fixed-budget ADMM (:mod:`.admm` with :mod:`.riccati` or :mod:`.qp`):
+   current disk per stage, soft gap bounds;
+5. checks and fallback, 6. warm-start shift (:mod:`.fallback`).
+
+Every number comes from :class:`~controllers.nmpc.settings.NMPCSettings` through
+the :class:`~controllers.nmpc.design.StepDesign`. The Function is an MX graph of
+small SX Functions (observer/planner, per-node and per-stage maps, and every
+recursion over the horizon as a chain of calls of one blocked stage Function,
+:func:`controllers.nmpc.riccati.stage_chain`), so the generated C holds each
+stage's code once, is branch-free in its loop counts and needs only fixed work
+arrays. How it is evaluated (CasADi or compiled C) is up to the caller.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import casadi as ca
+import numpy as np
+
+from .admm import admm_dense, admm_riccati, fn_condense, fn_kkt
+from .design import StepDesign, make_design
+from .fallback import build_post
+from .layout import N_MEAS, NU, NX
+from .observer import observe
+from .planner import advance_plan, plan_duration, u_for_accel
+from .prediction import fn_stage
+from .qp import project_disk
+from .reference import N_REF, fn_node
+from .settings import NMPCSettings
+
+
+def fn_head(d: StepDesign) -> ca.Function:
+    """Observer update and planner (SX): ``(state, meas, target, p) -> (xhat, dist, plan, w)``."""
+    lay, m = d.layout, d.model
+    st, meas, tgt, p = (
+        ca.SX.sym("state", lay.size),
+        ca.SX.sym("meas", N_MEAS),
+        ca.SX.sym("target", 2),
+        ca.SX.sym("p", m.np_),
+    )
+    S = lay.split(st)
+    fresh, xhat, dist, w = observe(d, S, meas[:2], p)
+    plan = advance_plan(d, S["plan"], fresh, xhat, tgt, p, w)
+    return ca.Function(
+        "nmpc_head",
+        [st, meas, tgt, p],
+        [xhat, dist, plan, w],
+        ["state", "meas", "target", "p"],
+        ["xhat", "dist", "plan", "w"],
+        {"cse": True},
+    )
+
+
+def build_init(d: StepDesign) -> ca.Function:
+    """``nmpc_init(meas, ref, p) -> state``: at rest at the reading, plan towards ``ref``."""
+    s, lay, m = d.settings, d.layout, d.model
+    N = s.horizon
+    ms, tg, ps = ca.SX.sym("meas", N_MEAS), ca.SX.sym("target", 2), ca.SX.sym("p", m.np_)
+    xh = ca.vertcat(ms[0], 0, ms[1], 0)
+    h, tj = plan_duration(d, ms[0], ms[1], tg[0], tg[1], ps, 0)
+    pl = ca.vertcat(ms[0], ms[1], tg[0], tg[1], 0, h, tj)
+    u0 = project_disk(u_for_accel(xh, ca.vertcat(0, 0), ps, ca.SX.zeros(2)), s.current_limit, s.i_box)
+    head = ca.Function("nmpc_init_head", [ms, tg, ps], [xh, pl, u0], {"cse": True})
+
+    meas, ref, p = ca.MX.sym("meas", N_MEAS), ca.MX.sym("ref", N_REF, N + 1), ca.MX.sym("p", m.np_)
+    xhat, plan, u_prev = head(meas, ca.vertcat(ref[0, 0], ref[3, 0]), p)
+    dts = ca.DM(np.arange(N + 1) * d.Ts).T
+    R, U = fn_node(d).map(N + 1, "serial")(dts, plan, ref, p, ca.MX.zeros(2))
+    state = ca.vertcat(
+        xhat,
+        ca.MX.zeros(2),
+        u_prev,
+        1,
+        plan,
+        ca.vec(R),
+        ca.vec(U[:, :N]),
+        ca.MX.zeros(lay.N * NU + lay.n_gap),
+        0,
+    )
+    assert state.shape[0] == lay.size
+    return ca.Function("nmpc_init", [meas, ref, p], [state], ["meas", "ref", "p"], ["state"])
+
+
+def _front(d: StepDesign, st, meas, ref, p) -> dict:
+    """Stages 1-3: observer, planner, references and RTI linearization (MX calls of the SX pieces)."""
+    lay, N = d.layout, d.settings.horizon
+    S = lay.split(st)
+    xhat, dist, plan, w = fn_head(d)(st, meas, ca.vertcat(ref[0, 0], ref[3, 0]), p)
+    dts = ca.DM(np.arange(N + 1) * d.Ts).T
+    R, Uref = fn_node(d).map(N + 1, "serial")(dts, plan, ref, p, w)
+    Uref = Uref[:, :N]
+    Xb = ca.reshape(S["X"], NX, N + 1)
+    Ub = ca.reshape(S["U"], NU, N)
+    As, Bs, cs = fn_stage(d).map(N, "serial")(Xb[:, :N], Ub, Xb[:, 1:], p, w)
+    return {
+        "ubar": ca.vec(Ub),
+        "Ubar": Ub,
+        "y0": S["y"],
+        "u_prev": S["u_prev"],
+        "xhat": xhat,
+        "dist": dist,
+        "plan": plan,
+        "As": As,
+        "Bs": Bs,
+        "cs": cs,
+        "dx0": xhat - Xb[:, 0],
+        "Xbar": Xb,
+        "Xref": R,
+        "Uref": Uref,
+        "w": w,
+    }
+
+
+def build_prep(d: StepDesign) -> ca.Function:
+    """Stages 1-3 and (dense path) condensing and KKT factorization, as one MX Function ``nmpc_prep``."""
+    s, lay, m = d.settings, d.layout, d.model
+    N = s.horizon
+    st, meas, ref, p = (
+        ca.MX.sym("state", lay.size),
+        ca.MX.sym("meas", N_MEAS),
+        ca.MX.sym("ref", N_REF, N + 1),
+        ca.MX.sym("p", m.np_),
+    )
+    o = _front(d, st, meas, ref, p)
+    names = ["ubar", "y0", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w"]
+    outs = [o[n] for n in names]
+    if s.qp == "dense":
+        H, q, G, glb, gub = fn_condense(d)(
+            o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], o["u_prev"], meas[2]
+        )
+        Lc, dinv, rho = fn_kkt(d)(H, G)
+        names = ["L", "dinv", "q", "G", "glb", "gub", "rho", *names]
+        outs = [Lc, dinv, q, G, glb, gub, rho, *outs]
+    return ca.Function("nmpc_prep", [st, meas, ref, p], outs, ["state", "meas", "ref", "p"], names)
+
+
+def build_step(d: StepDesign) -> ca.Function:
+    """``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)`` (MX graph of SX Functions)."""
+    s, lay, m = d.settings, d.layout, d.model
+    nv = s.horizon * NU
+    post = build_post(d)
+    st, meas, ref, p = (
+        ca.MX.sym("state_in", lay.size),
+        ca.MX.sym("meas", N_MEAS),
+        ca.MX.sym("ref", N_REF, s.horizon + 1),
+        ca.MX.sym("p", m.np_),
+    )
+    if s.qp == "dense":
+        o = build_prep(d)(state=st, meas=meas, ref=ref, p=p)
+        z, yv, tr = admm_dense(d, o)
+    else:
+        o = _front(d, st, meas, ref, p)
+        z, yv, tr = admm_riccati(d, o, meas[2])
+    r = post(
+        v=z[:nv],
+        y=yv,
+        ubar=o["ubar"],
+        xhat=o["xhat"],
+        dist=o["dist"],
+        plan=o["plan"],
+        As=o["As"],
+        Bs=o["Bs"],
+        cs=o["cs"],
+        dx0=o["dx0"],
+        Xbar=o["Xbar"],
+        Xref=o["Xref"],
+        Uref=o["Uref"],
+        w=o["w"],
+        p=p,
+        r_prim=tr["rp"],
+        r_dual=tr["rd"],
+        iters_to_tol=tr["iters"],
+        nfail=st[lay.slices()["nfail"]],
+    )
+    return ca.Function(
+        "nmpc_step",
+        [st, meas, ref, p],
+        [r["u"], r["state"], r["stats"], r["x_hat"]],
+        ["state_in", "meas", "ref", "p"],
+        ["u", "state_out", "stats", "x_hat"],
+    )
+
+
+class StepBuilder:
+    """The step's design and its Functions, for inspection (tests, the peer benchmark).
+
+    Parameters
+    ----------
+    settings : NMPCSettings
+        The controller's settings.
+    mode : {"plan", "preview"}
+        Reference mode.
+    """
+
+    def __init__(self, settings: NMPCSettings, mode: str = "plan"):
+        self.design = make_design(settings, mode)
+        self.settings = settings
+        self.layout = self.design.layout
+        self.F, self.P, self.K = self.design.F, self.design.P, self.design.K
+
+    def build_init(self) -> ca.Function:
+        """``nmpc_init`` (:func:`build_init`)."""
+        return build_init(self.design)
+
+    def build_step(self) -> ca.Function:
+        """``nmpc_step`` (:func:`build_step`)."""
+        return build_step(self.design)
+
+    def build_prep(self) -> ca.Function:
+        """``nmpc_prep`` (:func:`build_prep`)."""
+        return build_prep(self.design)
+
+
+def step_functions(settings: NMPCSettings, mode: str) -> tuple[ca.Function, ca.Function, StepBuilder]:
+    """``nmpc_init``, ``nmpc_step`` and the builder (holding the layout) of a design, built once per design."""
+    return _step_functions(settings.model_dump_json(), mode)
+
+
+@functools.lru_cache(maxsize=32)
+def _step_functions(settings_json: str, mode: str) -> tuple[ca.Function, ca.Function, StepBuilder]:
+    b = StepBuilder(NMPCSettings.model_validate_json(settings_json), mode)
+    return b.build_init(), b.build_step(), b
+
+
+__all__ = ["StepBuilder", "build_init", "build_prep", "build_step", "fn_head", "step_functions"]
