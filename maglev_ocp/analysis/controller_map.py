@@ -35,7 +35,7 @@ from .plant_model import AnalysisPlant, DelayedPlantSim
 #: Memory of the suite's controllers, by controller name: attribute paths read and written as one vector.
 MEMORY_PATHS: dict[str, tuple[str, ...]] = {
     "fl": ("observer.x_hat", "observer.dist", "_z", "_u_prev", "_sent"),
-    "pid": (),  # filled by the user if needed; the PID keeps its own integrators
+    "pid": ("observer.x_hat", "observer.dist", "_int", "_u_prev"),
 }
 
 
