@@ -117,8 +117,8 @@ def simulated_delay_margin(
     axis: str,
     guess_samples: float,
     *,
-    rel_tol: float = 0.02,
-    max_runs: int = 14,
+    rel_tol: float = 0.005,
+    max_runs: int = 16,
     **kw,
 ) -> SimulatedDelayMargin:
     """Smallest added delay [samples] on ``axis`` that destabilizes the loop (bisection on growth rate).
