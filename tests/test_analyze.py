@@ -295,3 +295,29 @@ def test_cli_analyze_takes_controller_and_delay_from_a_scenario(capsys):
     assert {r["controller"] for r in rows} == {"fl"}
     # the rig's one-period delay is in the loop and the FL predictor compensates it: margins near the delay-free ones
     assert all(r["stable"] and r["pm_deg"] > 25 for r in rows)
+
+
+@pytest.mark.slow
+def test_nmpc_finite_differences_agree_with_automatic_differentiation_of_its_step():
+    from controllers.nmpc import NMPC
+    from controllers.nmpc.controller import casadi_evaluators
+    from maglev_ocp.analysis.controller_map import StepRecorder, linearize_controller, linearize_recorded
+    from maglev_ocp.analysis.margins import closed_loop_matrix
+
+    plant = AnalysisPlant()
+    rec = StepRecorder(casadi_evaluators)
+    ctrl = NMPC(evaluators=rec)
+    xa, y, u = settle(ctrl, plant, 0.020, 0.01)
+    fd = minimal_part(linearize_controller(ctrl, y, Reference(0.020, 0.01)))
+    ad = minimal_part(linearize_recorded(ctrl, rec, y))
+    # rounding in the differences can keep a few more (decoupled) entries than the exact zeros of AD
+    assert ad.A.shape[0] <= fd.A.shape[0]
+    lp = plant.linearize(xa, u)
+    r_fd = np.max(np.abs(np.linalg.eigvals(closed_loop_matrix(lp, fd))))
+    r_ad = np.max(np.abs(np.linalg.eigvals(closed_loop_matrix(lp, ad))))
+    assert r_fd == pytest.approx(r_ad, abs=1e-4)
+    for at, ch in (("input", 0), ("input", 1), ("output", 0)):
+        m_fd = loop_margins(broken_loop(lp, fd, at, ch))
+        m_ad = loop_margins(broken_loop(lp, ad, at, ch))
+        assert m_fd.pm_deg == pytest.approx(m_ad.pm_deg, abs=0.05)
+        assert m_fd.gm_upper == pytest.approx(m_ad.gm_upper, rel=1e-3)

@@ -378,6 +378,53 @@ def function_step(controller: Any) -> tuple[ca.Function, dict[str, int]] | None:
     return fn, idx
 
 
+class StepRecorder:
+    """An evaluator factory that remembers the inputs of the last step call (for exact AD linearization).
+
+    Controllers whose step Function is evaluated by an injected evaluator (the NMPC's
+    ``evaluators=`` argument: a factory returning ``(init, step)`` callables) are built with this
+    wrapper around their usual factory; after a step, :attr:`last_step_args` are the Function's
+    numeric inputs, which :func:`linearize_function` needs.
+
+    Parameters
+    ----------
+    base : callable
+        The evaluator factory to wrap (e.g. ``controllers.nmpc.casadi_evaluators``).
+    """
+
+    def __init__(self, base: Any):
+        self.base = base
+        self.backend = getattr(base, "backend", "custom")
+        self.last_step_args: list[np.ndarray] | None = None
+
+    def __call__(self, fns: Any) -> tuple[Any, Any]:
+        """Evaluators of ``fns``: the base ones, the step one recording its inputs."""
+        init, step = self.base(fns)
+
+        def recorded(*args: np.ndarray) -> Any:
+            self.last_step_args = [np.array(a, dtype=float, copy=True) for a in args]
+            return step(*args)
+
+        return init, recorded
+
+
+def linearize_recorded(controller: Any, recorder: StepRecorder, y0: np.ndarray) -> LinearController:
+    """Exact (AD) linearization of a settled controller from the inputs its last step was called with.
+
+    The memory input is replaced by the controller's memory now (the fixed point) and the reading by ``y0``.
+    """
+    fs = function_step(controller)
+    if fs is None or recorder.last_step_args is None:
+        raise ValueError("the controller exposes no step Function with memory in and out, or it has not stepped")
+    fn, idx = fs
+    args = list(recorder.last_step_args)
+    args[idx["memory_in"]] = np.asarray(controller.state, dtype=float).copy()
+    meas = args[idx["reading_in"]].copy()
+    meas[0:2] = y0
+    args[idx["reading_in"]] = meas
+    return linearize_function(fn, args, **idx)
+
+
 def linearize_controller(
     controller: Controller,
     y0: np.ndarray,
@@ -417,11 +464,13 @@ __all__ = [
     "MEMORY_PATHS",
     "LinearController",
     "MemoryAccess",
+    "StepRecorder",
     "coupled_memory",
     "function_step",
     "linearize_by_differences",
     "linearize_controller",
     "linearize_function",
+    "linearize_recorded",
     "memory_access",
     "minimal_part",
     "settle",
