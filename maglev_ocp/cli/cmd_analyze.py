@@ -48,7 +48,7 @@ def register(sub) -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="controller setting (YAML value), e.g. --set omega_g=150; repeatable",
+        help="controller setting (YAML value) for every --controller, e.g. --set omega_g=150; repeatable",
     )
     p.add_argument(
         "--check-delay",
