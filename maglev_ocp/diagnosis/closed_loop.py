@@ -83,6 +83,12 @@ def _compensator(spec: CandidateSpec) -> ca.Function:
     )
 
 
+def _write_text_files(out: Path, doc: dict, title: str, table: str) -> None:
+    """``closed_loop.json`` (``doc``) and ``closed_loop.md`` (``title``, the text ``table``, the figure)."""
+    atomic_write_text(out / "closed_loop.json", json.dumps(doc, indent=2, default=_jsonable))
+    atomic_write_text(out / "closed_loop.md", f"# {title}\n\n```\n{table}\n```\n\n![closed loop](closed_loop.png)\n")
+
+
 class EffectCompensation:
     """A controller whose model carries a fitted effect (wraps any :class:`~maglev_ocp.blocks.Controller`).
 
@@ -232,15 +238,8 @@ class ClosedLoopView:
             "runs": self.rows(),
             "metrics": self.metrics,
         }
-        atomic_write_text(out / "closed_loop.json", json.dumps(doc, indent=2, default=_jsonable))
-        atomic_write_text(
-            out / "closed_loop.md",
-            "# Closed-loop view\n\n```\n" + self.table() + "\n```\n\n![closed loop](closed_loop.png)\n",
-        )
+        _write_text_files(out, doc, "Closed-loop view", self.table())
         if self.logs:
-            import matplotlib
-
-            matplotlib.use("Agg")
             import matplotlib.pyplot as plt
 
             fig, ax = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
@@ -458,17 +457,8 @@ class ReportClosedLoop:
             "shrink": self.shrink,
             "metrics": self.metrics,
         }
-        atomic_write_text(out / "closed_loop.json", json.dumps(doc, indent=2, default=_jsonable))
-        atomic_write_text(
-            out / "closed_loop.md",
-            "# Closed loop: rig log vs the diagnosis's models\n\n```\n"
-            + self.table()
-            + "\n```\n\n![closed loop](closed_loop.png)\n",
-        )
+        _write_text_files(out, doc, "Closed loop: rig log vs the diagnosis's models", self.table())
         if self.logs:
-            import matplotlib
-
-            matplotlib.use("Agg")
             import matplotlib.pyplot as plt
 
             fig, ax = plt.subplots(len(COMPARED), 1, figsize=(10, 8), sharex=True)
