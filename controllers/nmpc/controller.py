@@ -174,7 +174,7 @@ class NMPC:
             fault = 1.0
             self._pending_faults = max(self._pending_faults - 1, 0)
         meas = np.array([y.y[0], y.y[1], fault])
-        refm = self.reference.matrix(self._mode, y.t, ref)
+        refm = self.reference.matrix(self._mode, y.t, ref, self.settings.delay_samples)
         c1 = time.thread_time()
         t1 = time.perf_counter()
         u, st, stats, xh = self._step(self.state, meas, refm, self.p)

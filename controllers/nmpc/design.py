@@ -130,7 +130,7 @@ def make_design(settings: NMPCSettings, mode: str) -> StepDesign:
     return StepDesign(
         settings=settings,
         mode=mode,
-        layout=StateLayout(settings.horizon, settings.n_gap),
+        layout=StateLayout(settings.horizon, settings.n_gap, settings.delay_samples),
         model=get_model(),
         F=F,
         FJ=FJ,

@@ -85,6 +85,14 @@ class NMPCSettings(Strict):
         Cogging in the controller's model (else the seed's eq. (2)).
     offset_free : bool
         Use the observer's disturbance estimate in the prediction.
+    delay_samples : int
+        The loop's computation delay [control periods] (``plant.delay_samples``
+        plus the amplifier's transport delay in a scenario). The step keeps the
+        ``N`` commands sent but not yet applied, updates the observer with the
+        one really applied over the last period, predicts the estimate ``N``
+        samples ahead through them and optimises from that predicted state
+        against the reference ``N`` samples ahead (a state-space Smith
+        predictor inside the step: nothing to retune).
     force_failure_steps : list of int
         Step indices at which the QP is poisoned with NaN (tests of the fallback).
     """
@@ -107,6 +115,14 @@ class NMPCSettings(Strict):
     reference: Literal["auto", "preview", "plan"] = "auto"
     plan: PlanOptions = Field(default_factory=PlanOptions)
     current_limit: float = Field(k.i_amp_max, gt=0, le=k.i_amp_max, description="disk radius used [A]")
+    delay_samples: int = Field(
+        0,
+        ge=0,
+        le=10,
+        description="computation delay predicted through [control periods]: the current computed at sample k "
+        "is applied at k + N; the step propagates its estimate N samples with the commands in flight and "
+        "optimises from there (0: no delay model)",
+    )
     force_failure_steps: list[int] = Field(default_factory=list)
 
     # ------------------------------------------------------------- derived (read by the step builder)
