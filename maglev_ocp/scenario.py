@@ -348,6 +348,23 @@ class Scenario(Strict):
             raise ValueError("needs 'targets' or 'random_targets'")
         return self
 
+    @model_validator(mode="after")
+    def _controller_reference_defaults(self) -> Scenario:
+        """Fill the ``reference:`` keys the scenario leaves unset with the controller's own defaults.
+
+        A controller's settings may say how it wants its moves planned
+        (``reference_defaults()``, e.g. the NMPC: minimum-time moves near the
+        current limits, which its constraints handle); keys the scenario sets win.
+        """
+        fn = getattr(self.controller.settings, "reference_defaults", None)
+        if fn is None:
+            return self
+        unset = {k_: v for k_, v in fn().items() if k_ not in self.reference.model_fields_set}
+        if unset:
+            ref = ReferenceSettings.model_validate({**self.reference.model_dump(exclude_unset=True), **unset})
+            self.__dict__["reference"] = ref  # no re-validation of the whole scenario (validate_assignment)
+        return self
+
     # ------------------------------------------------------------------ resolution
     @property
     def root_dir(self) -> str:
