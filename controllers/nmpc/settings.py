@@ -115,6 +115,11 @@ class NMPCSettings(Strict):
     reference: Literal["auto", "preview", "plan"] = "auto"
     plan: PlanOptions = Field(default_factory=PlanOptions)
     current_limit: float = Field(k.i_amp_max, gt=0, le=k.i_amp_max, description="disk radius used [A]")
+    lqr_schedule: bool = Field(
+        True,
+        description="design the LQR terminal weight and fallback on the controller's own parameters, the "
+        "fallback gain on a grid of gaps interpolated at the reference gap (false: nominal constants at 20 mm)",
+    )
     delay_samples: int = Field(
         0,
         ge=0,
@@ -134,8 +139,9 @@ class NMPCSettings(Strict):
         and 90 % of each axis' limit (``shaping: min_time``,
         :func:`maglev_ocp.reference.plan_min_time_move`): the NMPC's constraints
         are the limits, so it handles the rest of the headroom itself, and the
-        open-loop unstable gap axis keeps some feedback during a gap move; moves then settle within about 1.02 x the minimum time
-        without per-scenario tuning (``tests/test_min_time_moves.py``).
+        open-loop unstable gap axis keeps some feedback during a gap move;
+        moves then settle within about 1.02 x the minimum time without
+        per-scenario tuning (``tests/test_min_time_moves.py``).
         """
         return {"shaping": "min_time", "current_fraction": 0.97, "axis_fraction": 0.9}
 

@@ -30,6 +30,8 @@ import functools
 import casadi as ca
 import numpy as np
 
+from maglev_ocp.params import Params
+
 from .admm import admm_dense, admm_riccati, fn_condense, fn_kkt
 from .design import StepDesign, make_design
 from .fallback import build_post
@@ -237,8 +239,8 @@ class StepBuilder:
         Reference mode.
     """
 
-    def __init__(self, settings: NMPCSettings, mode: str = "plan"):
-        self.design = make_design(settings, mode)
+    def __init__(self, settings: NMPCSettings, mode: str = "plan", params=None):
+        self.design = make_design(settings, mode, params)
         self.settings = settings
         self.layout = self.design.layout
         self.F, self.P, self.K = self.design.F, self.design.P, self.design.K
@@ -256,14 +258,24 @@ class StepBuilder:
         return build_prep(self.design)
 
 
-def step_functions(settings: NMPCSettings, mode: str) -> tuple[ca.Function, ca.Function, StepBuilder]:
-    """``nmpc_init``, ``nmpc_step`` and the builder (holding the layout) of a design, built once per design."""
-    return _step_functions(settings.model_dump_json(), mode)
+def step_functions(
+    settings: NMPCSettings, mode: str, params: Params | None = None
+) -> tuple[ca.Function, ca.Function, StepBuilder]:
+    """``nmpc_init``, ``nmpc_step`` and the builder (holding the layout) of a design, built once per design.
+
+    ``params``: the controller's model as the step receives it (the LQR pieces
+    are designed on it, see :func:`~controllers.nmpc.design.make_design`).
+    """
+    key = None if params is None else tuple(params.vector().tolist())
+    return _step_functions(settings.model_dump_json(), mode, key)
 
 
 @functools.lru_cache(maxsize=32)
-def _step_functions(settings_json: str, mode: str) -> tuple[ca.Function, ca.Function, StepBuilder]:
-    b = StepBuilder(NMPCSettings.model_validate_json(settings_json), mode)
+def _step_functions(
+    settings_json: str, mode: str, pvec: tuple[float, ...] | None
+) -> tuple[ca.Function, ca.Function, StepBuilder]:
+    params = None if pvec is None else Params.from_vector(np.asarray(pvec))
+    b = StepBuilder(NMPCSettings.model_validate_json(settings_json), mode, params)
     return b.build_init(), b.build_step(), b
 
 
