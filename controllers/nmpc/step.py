@@ -145,7 +145,7 @@ def build_prep(d: StepDesign) -> ca.Function:
         ca.MX.sym("p", m.np_),
     )
     o = _front(d, st, meas, ref, p)
-    names = ["ubar", "y0", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w"]
+    names = ["ubar", "y0", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w", "x0"]
     outs = [o[n] for n in names]
     if s.qp == "dense":
         H, q, G, glb, gub = fn_condense(d)(
