@@ -22,7 +22,10 @@ Every key (SI units):
     ``type`` (``nmpc``, ``fl``, ``pid``), ``backend`` (``python``, ``c``) and the
     settings of that controller, validated by its own settings model
     (``controllers.nmpc.NMPCSettings``, ``controllers.fl.FLSettings``,
-    ``controllers.pid.PIDSettings``).
+    ``controllers.pid.PIDSettings``); e.g. ``delay_samples`` (the loop's
+    computation delay the controller predicts through, FL and NMPC) and, for
+    FL, ``model`` (a model file with constants and effects,
+    :mod:`controllers.model_file`; a path from the working directory).
 ``controller_params``
     What the controller's model believes: ``file`` (a parameter YAML), single
     entries (``C1: 14.5``), and ``cogging: false`` for a cogging-blind model.
@@ -34,7 +37,9 @@ Every key (SI units):
     ``disturbances`` (force pulses / steps, payloads, a cable:
     :mod:`maglev_ocp.plant.disturbances`).
 ``reference``
-    How targets become references (:class:`~maglev_ocp.reference.ReferenceSettings`).
+    How targets become references (:class:`~maglev_ocp.reference.ReferenceSettings`);
+    keys left open take the controller's own defaults if it has any (the NMPC:
+    minimum-time moves near the limits, ``NMPCSettings.reference_defaults``).
 ``start``
     Where the mover hovers at t = 0 (``{g, d}``, default 20 mm, 0).
 ``targets`` / ``random_targets``

@@ -55,7 +55,7 @@ def test_nmpc_planning_defaults_fill_only_unset_keys():
         _scenario({"type": "nmpc"}, (0.02, -0.03), (0.02, 0.03), {"shaping": "trajectory", "current_fraction": 0.9})
     )
     assert own.reference.shaping == "trajectory" and own.reference.current_fraction == 0.9
-    assert own.reference.axis_fraction == 0.85  # the NMPC's default for the key left open
+    assert own.reference.axis_fraction == 0.87  # the NMPC's default for the key left open
     fl = scenario_from_dict(_scenario({"type": "fl"}, (0.02, -0.03), (0.02, 0.03)))
     assert fl.reference == ReferenceSettings()
 

@@ -136,14 +136,14 @@ class NMPCSettings(Strict):
         """How the NMPC wants a scenario's moves planned when the scenario's ``reference:`` leaves it open.
 
         Minimum-time moves of its model within 97 % of the current amplitude
-        and 85 % of each axis' limit (``shaping: min_time``,
+        and 87 % of each axis' limit (``shaping: min_time``,
         :func:`maglev_ocp.reference.plan_min_time_move`): the NMPC's constraints
         are the limits, so it handles the rest of the headroom itself, and the
         open-loop unstable gap axis keeps some feedback during a gap move;
         moves then settle within about 1.02 x the minimum time without
         per-scenario tuning (``tests/test_min_time_moves.py``).
         """
-        return {"shaping": "min_time", "current_fraction": 0.97, "axis_fraction": 0.85}
+        return {"shaping": "min_time", "current_fraction": 0.97, "axis_fraction": 0.87}
 
     # ------------------------------------------------------------- derived (read by the step builder)
     @property
