@@ -53,6 +53,8 @@ from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL, Params
 from maglev_ocp.signals import REF_FIELDS
 
+from .model_file import effect_delta_function, load_controller_model
+
 #: Order of the gain / limit vector fed to :func:`fl_law_function`.
 GAIN_FIELDS: tuple[str, ...] = ("kp_g", "kd_g", "ki_g", "kp_d", "kd_d", "ki_d", "i_axis_max", "i_amp_max", "Ts")
 #: Order of the flag vector returned by :func:`fl_law_function`.
@@ -176,6 +178,12 @@ class FLSettings(Strict):
         periods]: the current computed at sample k is applied at k + N. Set it
         to the rig's delay (``plant.delay_samples`` plus the amplifier's
         transport delay in a scenario); 0 = no predictor.
+    model : str or None
+        A model file (:mod:`controllers.model_file`: constants plus fitted
+        effects, the plant profiles' ``effects:`` format). Its constants replace
+        the controller's parameters; its static effects enter the observer's
+        prediction and the inversion (see :meth:`FeedbackLinearization.step`);
+        an amplifier lag's transport delay adds to ``delay_samples``.
     """
 
     omega_g: float = Field(120.0, gt=0, le=400)
@@ -189,6 +197,7 @@ class FLSettings(Strict):
     delay_samples: int = Field(
         0, ge=0, le=10, description="computation delay compensated by the predictor [control periods]"
     )
+    model: str | None = Field(None, description="model file with constants and effects (controllers.model_file)")
 
     def gains(self, Ts: float = k.Ts) -> np.ndarray:
         """Gain / limit vector in the order of :data:`GAIN_FIELDS`."""
@@ -247,9 +256,17 @@ class FeedbackLinearization:
 
     def __init__(self, settings: FLSettings | None = None, params: Params = NOMINAL, Ts: float = k.Ts):
         self.settings = settings or FLSettings()
+        self.model = load_controller_model(self.settings.model) if self.settings.model else None
+        if self.model is not None:
+            params = self.model.params
         self.params = params
         self.Ts = Ts
         self._p = params.vector()
+        # the model file's static effects: what they add to the model's accelerations (None: no effects)
+        self._delta = None
+        if self.model is not None and self.model.effects:
+            self._delta = BufferedFunction(effect_delta_function(self.model.effects))
+            self._theta = self.model.theta
         self._gains = self.settings.gains(Ts)
         self._law = BufferedFunction(fl_law_function())
         self.observer = HighGainObserver(
@@ -260,7 +277,7 @@ class FeedbackLinearization:
         self._u_good: np.ndarray | None = None  # last finite command of the law
         self._x0 = (0.020, 0.0)  # reading at reset (where the hover fallback is taken before any estimate)
         self._started = False
-        self.delay = int(self.settings.delay_samples)
+        self.delay = int(self.settings.delay_samples) + (self.model.delay_samples if self.model is not None else 0)
         self._pred = BufferedFunction(fl_predictor_function(self.delay, Ts)) if self.delay else None
         # commands sent, oldest first: [0] is the one applied over the last period, [1:] are still on their way
         self._sent: deque[np.ndarray] = deque([np.zeros(2)] * (self.delay + 1), maxlen=self.delay + 1)
@@ -311,12 +328,16 @@ class FeedbackLinearization:
         else:
             # the current applied over the last period: the last command, or the one sent N samples before it
             u_applied = self._u_prev if not self.delay else self._sent[0]
+            # the effects the model file knows are part of the observer's prediction over the period
+            d_eff = self._effect(self.observer.x_hat, u_applied)
+            self.observer.dist += d_eff
             if math.isfinite(y.y[0]) and math.isfinite(y.y[1]):
                 x_hat = self.observer.step(y.y, u_applied)
             else:  # a reading that cannot be used: prediction only (as the NMPC's observer does)
                 x_hat = self.observer.predict(u_applied)
                 self.observer.x_hat = x_hat.copy()
                 fallback = 1
+            self.observer.dist -= d_eff  # what is left is the residual disturbance
         r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
         dist = self.observer.disturbance
         x_law = x_hat
@@ -326,6 +347,13 @@ class FeedbackLinearization:
             if self._plan is not None:  # the reference when the command computed now takes effect
                 r = self._plan_ahead(y.t)
         u, z_next, v, fl = self._law(x_law, dist, r, self._z, self._p, self._gains)
+        if self._delta is not None:
+            # invert the model with the effects: the law's model must give v minus the residual disturbance
+            # minus what the effects add at the current it commands (fixed point, exact for state-only effects)
+            for _ in range(2):
+                if not np.all(np.isfinite(u)):
+                    break
+                u, z_next, v, fl = self._law(x_law, dist + self._effect(x_law, u), r, self._z, self._p, self._gains)
         law_failed = not (math.isfinite(u[0]) and math.isfinite(u[1]))
         if law_failed:
             u, fallback = self._safe_current(x_hat), 1
@@ -337,6 +365,13 @@ class FeedbackLinearization:
             self._sent.append(np.asarray(u, dtype=float).copy())
         stats = law_stats(fl, v, dist, law_failed, fallback)
         return ControlOutput(u=u, x_hat=x_hat, stats=stats)
+
+    def _effect(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Accelerations the model file's effects add at state ``x`` and currents ``u`` (zeros without effects)."""
+        if self._delta is None or not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
+            return np.zeros(2)
+        (d,) = self._delta(x, u, self._p, self._theta)
+        return np.asarray(d, dtype=float).ravel()
 
     def _plan_ahead(self, t: float) -> tuple[float, ...]:
         """The plan's reference row at ``t + delay_samples Ts`` (sampled once on the control grid, then looked up)."""

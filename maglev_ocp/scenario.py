@@ -22,7 +22,10 @@ Every key (SI units):
     ``type`` (``nmpc``, ``fl``, ``pid``), ``backend`` (``python``, ``c``) and the
     settings of that controller, validated by its own settings model
     (``controllers.nmpc.NMPCSettings``, ``controllers.fl.FLSettings``,
-    ``controllers.pid.PIDSettings``).
+    ``controllers.pid.PIDSettings``); e.g. ``delay_samples`` (the loop's
+    computation delay the controller predicts through, FL and NMPC) and, for
+    FL, ``model`` (a model file with constants and effects,
+    :mod:`controllers.model_file`; a path from the working directory).
 ``controller_params``
     What the controller's model believes: ``file`` (a parameter YAML), single
     entries (``C1: 14.5``), and ``cogging: false`` for a cogging-blind model.
@@ -34,7 +37,9 @@ Every key (SI units):
     ``disturbances`` (force pulses / steps, payloads, a cable:
     :mod:`maglev_ocp.plant.disturbances`).
 ``reference``
-    How targets become references (:class:`~maglev_ocp.reference.ReferenceSettings`).
+    How targets become references (:class:`~maglev_ocp.reference.ReferenceSettings`);
+    keys left open take the controller's own defaults if it has any (the NMPC:
+    minimum-time moves near the limits, ``NMPCSettings.reference_defaults``).
 ``start``
     Where the mover hovers at t = 0 (``{g, d}``, default 20 mm, 0).
 ``targets`` / ``random_targets``
@@ -343,6 +348,23 @@ class Scenario(Strict):
     def _some_target(self) -> Scenario:
         if not self.targets and self.random_targets is None:
             raise ValueError("needs 'targets' or 'random_targets'")
+        return self
+
+    @model_validator(mode="after")
+    def _controller_reference_defaults(self) -> Scenario:
+        """Fill the ``reference:`` keys the scenario leaves unset with the controller's own defaults.
+
+        A controller's settings may say how it wants its moves planned
+        (``reference_defaults()``, e.g. the NMPC: minimum-time moves near the
+        current limits, which its constraints handle); keys the scenario sets win.
+        """
+        fn = getattr(self.controller.settings, "reference_defaults", None)
+        if fn is None:
+            return self
+        unset = {k_: v for k_, v in fn().items() if k_ not in self.reference.model_fields_set}
+        if unset:
+            ref = ReferenceSettings.model_validate({**self.reference.model_dump(exclude_unset=True), **unset})
+            self.__dict__["reference"] = ref  # no re-validation of the whole scenario (validate_assignment)
         return self
 
     # ------------------------------------------------------------------ resolution

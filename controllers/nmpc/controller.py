@@ -121,6 +121,7 @@ class NMPC:
         self.evaluators = evaluators
         self.backend: str = getattr(evaluators, "backend", "custom")
         model_params = params if self.settings.use_cogging else params.without_cogging()
+        self.model_params = model_params
         self.p = model_params.vector()
         self.reference = HorizonReference(self.settings.horizon, k.Ts)
         self._prepared: dict[str, tuple[StepFunctions, Evaluator, Evaluator]] = {}
@@ -138,7 +139,7 @@ class NMPC:
     def prepare(self, mode: str) -> StepFunctions:
         """Build the step of reference mode ``mode`` and its evaluators (once per mode; compiles for C)."""
         if mode not in self._prepared:
-            init, step, b = step_functions(self.settings, mode)
+            init, step, b = step_functions(self.settings, mode, self.model_params)
             fns = StepFunctions(init, step, b.layout, self.settings, self.params, mode)
             self._prepared[mode] = (fns, *self.evaluators(fns))
         fns, self._init, self._step = self._prepared[mode]
@@ -174,7 +175,7 @@ class NMPC:
             fault = 1.0
             self._pending_faults = max(self._pending_faults - 1, 0)
         meas = np.array([y.y[0], y.y[1], fault])
-        refm = self.reference.matrix(self._mode, y.t, ref)
+        refm = self.reference.matrix(self._mode, y.t, ref, self.settings.delay_samples)
         c1 = time.thread_time()
         t1 = time.perf_counter()
         u, st, stats, xh = self._step(self.state, meas, refm, self.p)

@@ -21,13 +21,15 @@ import scipy.linalg
 from maglev_ocp import constants as k
 from maglev_ocp.model import get_model, rk4
 from maglev_ocp.observers import HighGainObserver, ObserverSettings
-from maglev_ocp.params import NOMINAL
+from maglev_ocp.params import NOMINAL, Params
 
 from .layout import NU, NX, StateLayout
 from .settings import NMPCSettings
 
 #: Reference modes a step is built for (``auto`` is resolved by the controller).
 MODES: tuple[str, ...] = ("plan", "preview")
+#: Gaps at which the LQR fallback gain is designed; the step interpolates it at the reference gap [m].
+LQR_GAP_GRID: tuple[float, ...] = tuple(float(g) for g in np.linspace(10e-3, 30e-3, 9))
 
 
 @dataclass(frozen=True)
@@ -47,9 +49,15 @@ class StepDesign:
     F, FJ : casadi.Function
         Prediction ``F(x, u, p, w) -> x_next`` and ``FJ(x, u, p, w) -> (x_next, A, B)``.
     P, K : ndarray
-        LQR terminal weight (times ``weights.terminal_scale``) and fallback gain.
+        LQR terminal weight (times ``weights.terminal_scale``) and fallback
+        gain at the design gap (20 mm), on the controller's own parameters.
     L_obs : ndarray
         Observer gain (disturbance rows zeroed without ``offset_free``).
+    K_grid : ndarray, shape (len(LQR_GAP_GRID), 2, 4)
+        Fallback gains at the gaps of :data:`LQR_GAP_GRID` (the step interpolates
+        them at the reference gap, :func:`scheduled_gain`).
+    P_grid : ndarray, shape (len(LQR_GAP_GRID), 4, 4)
+        Terminal weights at the same gaps (times ``weights.terminal_scale``).
     """
 
     settings: NMPCSettings
@@ -61,6 +69,8 @@ class StepDesign:
     P: np.ndarray
     K: np.ndarray
     L_obs: np.ndarray
+    K_grid: np.ndarray | None = None
+    P_grid: np.ndarray | None = None
 
     @property
     def Ts(self) -> float:
@@ -112,6 +122,21 @@ def lqr_design(s: NMPCSettings, params=NOMINAL, g0: float = 20e-3, Ts: float = k
     return P, K
 
 
+def scheduled_gain(grid: np.ndarray, g: ca.SX) -> ca.SX:
+    """A gain designed on :data:`LQR_GAP_GRID`, linearly interpolated at gap ``g`` (SX, branch-free).
+
+    Hat-function weights ``max(0, 1 - |g - g_i| / h)`` on the clamped gap: the
+    weights sum to one, so between two grid gaps the gain is their linear blend.
+    """
+    gs = np.asarray(LQR_GAP_GRID)
+    h = float(gs[1] - gs[0])
+    gc = ca.fmin(ca.fmax(g, gs[0]), gs[-1])
+    out = ca.SX.zeros(grid.shape[1], grid.shape[2])
+    for gi, Mi in zip(gs, grid, strict=True):
+        out += ca.fmax(0, 1 - ca.fabs(gc - gi) / h) * ca.DM(Mi)
+    return out
+
+
 def observer_gain(s: NMPCSettings, Ts: float = k.Ts) -> np.ndarray:
     """Gain of the extended-state high-gain observer (:class:`~maglev_ocp.observers.HighGainObserver`)."""
     obs = HighGainObserver(NOMINAL, ObserverSettings(eps=s.observer_eps, disturbance=True), Ts)
@@ -121,23 +146,47 @@ def observer_gain(s: NMPCSettings, Ts: float = k.Ts) -> np.ndarray:
     return L
 
 
-def make_design(settings: NMPCSettings, mode: str) -> StepDesign:
-    """The :class:`StepDesign` of ``settings`` for reference mode ``mode`` (``plan`` or ``preview``)."""
+def make_design(settings: NMPCSettings, mode: str, params: Params | None = None) -> StepDesign:
+    """The :class:`StepDesign` of ``settings`` for reference mode ``mode`` (``plan`` or ``preview``).
+
+    ``params``: the controller's model (as the step receives it, cogging already
+    dropped if ``use_cogging`` is off); the LQR terminal weight and fallback
+    gains are designed on it (``None``: the nominal constants, as before
+    ``lqr_schedule``). With ``settings.lqr_schedule`` the fallback gain is
+    designed on a grid of gaps and interpolated at the reference gap.
+    """
     if mode not in MODES:
         raise ValueError(f"NMPC reference mode must be 'plan' or 'preview', got {mode!r}")
     F, FJ = prediction_model(settings)
-    P, K = lqr_design(settings)
+    own = params if (params is not None and settings.lqr_schedule) else NOMINAL
+    P, K = lqr_design(settings, own)
+    K_grid = P_grid = None
+    if settings.lqr_schedule:
+        PK = [lqr_design(settings, own, g0=g) for g in LQR_GAP_GRID]
+        P_grid = np.stack([P_ for P_, _ in PK]) * settings.weights.terminal_scale
+        K_grid = np.stack([K_ for _, K_ in PK])
     return StepDesign(
         settings=settings,
         mode=mode,
-        layout=StateLayout(settings.horizon, settings.n_gap),
+        layout=StateLayout(settings.horizon, settings.n_gap, settings.delay_samples),
         model=get_model(),
         F=F,
         FJ=FJ,
         P=P * settings.weights.terminal_scale,
         K=K,
         L_obs=observer_gain(settings),
+        K_grid=K_grid,
+        P_grid=P_grid,
     )
 
 
-__all__ = ["MODES", "StepDesign", "lqr_design", "make_design", "observer_gain", "prediction_model"]
+__all__ = [
+    "LQR_GAP_GRID",
+    "MODES",
+    "StepDesign",
+    "lqr_design",
+    "make_design",
+    "observer_gain",
+    "prediction_model",
+    "scheduled_gain",
+]

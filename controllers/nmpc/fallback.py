@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from .design import StepDesign
+from .design import StepDesign, scheduled_gain
 from .layout import NU, NX, STATUS_FALLBACK, STATUS_INACCURATE, STATUS_OK
 from .prediction import fn_pred_stage
 from .qp import project_disk
@@ -47,8 +47,10 @@ def checked_input(d: StepDesign, U, X, y, xhat, Xref, Uref, r_prim, r_dual):
     # a sum propagates NaN (fmax/fmin and the disk projection would swallow it)
     finite = ca.sum1(ca.fabs(ca.vertcat(U, X, y))) < 1e12
     u_opt = project_disk(U[:NU], s.current_limit, s.i_box)
-    # Fallback: LQR about the planned reference, on the current disk.
-    u_fb = project_disk(Uref[:, 0] + ca.mtimes(ca.DM(d.K), xhat - Xref[:, 0]), s.current_limit, s.i_box)
+    # Fallback: LQR about the planned reference, on the current disk; with lqr_schedule its gain is the
+    # one designed at the reference gap (interpolated on the design grid), else the 20 mm design.
+    K = ca.DM(d.K) if d.K_grid is None else scheduled_gain(d.K_grid, Xref[0, 0])
+    u_fb = project_disk(Uref[:, 0] + ca.mtimes(K, xhat - Xref[:, 0]), s.current_limit, s.i_box)
     u = ca.if_else(finite, u_opt, u_fb)
     accurate = ca.logic_and(r_prim <= s.admm.tol_prim, r_dual <= s.admm.tol_dual)
     status = ca.if_else(finite, ca.if_else(accurate, STATUS_OK, STATUS_INACCURATE), STATUS_FALLBACK)

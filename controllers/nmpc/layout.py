@@ -49,11 +49,15 @@ class StateLayout:
     after reset (skip the observer prediction once), ``plan`` (7) planner
     ``(g_start, d_start, g_target, d_target, t, h, tj)``, ``X`` ((N+1) x 4)
     shooting nodes, ``U`` (N x 2) currents, ``y`` ADMM duals (2N + n_gap),
-    ``nfail`` (1) consecutive fallbacks.
+    ``nfail`` (1) consecutive fallbacks and, with a computation delay of
+    ``n_delay`` periods, ``u_flight`` (n_delay x 2) the commands sent but not
+    yet applied, oldest first (then ``u_prev`` is the command applied over the
+    last period, the one sent ``n_delay + 1`` periods ago).
     """
 
     N: int
     n_gap: int
+    n_delay: int = 0
 
     @property
     def pieces(self) -> tuple[tuple[str, int], ...]:
@@ -78,6 +82,17 @@ class StateLayout:
                 f"ADMM duals: {NU * N} current rows, then {self.n_gap} soft gap rows",
             ),
             ("nfail", 1, "-", "consecutive fallbacks"),
+        ) + (
+            (
+                (
+                    "u_flight",
+                    self.n_delay * NU,
+                    "A",
+                    f"{self.n_delay} commands sent but not yet applied (computation delay), oldest first",
+                ),
+            )
+            if self.n_delay
+            else ()
         )
 
     @property

@@ -57,4 +57,20 @@ def fn_pred_stage() -> ca.Function:
     )
 
 
-__all__ = ["fn_pred_stage", "fn_stage"]
+def predict_through_delay(d: StepDesign, xhat: ca.SX, u_flight: ca.SX, p: ca.SX, w: ca.SX) -> ca.SX:
+    """The estimate ``n_delay`` periods ahead: the prediction model driven by the commands in flight.
+
+    ``u_flight`` holds the ``n_delay`` commands sent but not yet applied,
+    oldest first, as ``(i_q, i_d)`` pairs; each period is one step of the
+    prediction model (RK4 of the shared model plus the observer's disturbance
+    ``w``), the same model the QP predicts with, so the state the QP starts
+    from and its shooting nodes live on the same clock (``n_delay`` periods
+    ahead of the reading).
+    """
+    x = xhat
+    for j in range(d.settings.delay_samples):
+        x = d.F(x, u_flight[NU * j : NU * (j + 1)], p, w)
+    return x
+
+
+__all__ = ["fn_pred_stage", "fn_stage", "predict_through_delay"]

@@ -94,8 +94,13 @@ class HorizonReference:
         """``plan``/``preview`` for the setting ``reference`` given the runner's plan (:func:`resolve_mode`)."""
         return resolve_mode(setting, None if self.plan is None else getattr(self.plan, "shaping", "trajectory"))
 
-    def matrix(self, mode: str, t: float, ref: Reference) -> np.ndarray:
-        """Reference input of the step at time ``t``: ``N_REF`` rows, one column per node."""
+    def matrix(self, mode: str, t: float, ref: Reference, ahead: int = 0) -> np.ndarray:
+        """Reference input of the step at time ``t``: ``N_REF`` rows, one column per node.
+
+        ``ahead``: the step optimises from the state ``ahead`` periods on (its
+        computation delay), so in ``preview`` mode with a runner plan the
+        columns are read from ``t + ahead Ts`` on.
+        """
         N, Ts = self.N, self.Ts
         if mode == "plan":
             if self.plan is not None:
@@ -107,7 +112,7 @@ class HorizonReference:
             out[0, :], out[3, :] = g, d
             return out
         if self.plan is not None:
-            return self._preview(t)
+            return self._preview(t + ahead * Ts)
         s = Ts * np.arange(N + 1)
         return np.vstack(
             [

@@ -85,6 +85,14 @@ class NMPCSettings(Strict):
         Cogging in the controller's model (else the seed's eq. (2)).
     offset_free : bool
         Use the observer's disturbance estimate in the prediction.
+    delay_samples : int
+        The loop's computation delay [control periods] (``plant.delay_samples``
+        plus the amplifier's transport delay in a scenario). The step keeps the
+        ``N`` commands sent but not yet applied, updates the observer with the
+        one really applied over the last period, predicts the estimate ``N``
+        samples ahead through them and optimises from that predicted state
+        against the reference ``N`` samples ahead (a state-space Smith
+        predictor inside the step: nothing to retune).
     force_failure_steps : list of int
         Step indices at which the QP is poisoned with NaN (tests of the fallback).
     """
@@ -107,7 +115,35 @@ class NMPCSettings(Strict):
     reference: Literal["auto", "preview", "plan"] = "auto"
     plan: PlanOptions = Field(default_factory=PlanOptions)
     current_limit: float = Field(k.i_amp_max, gt=0, le=k.i_amp_max, description="disk radius used [A]")
+    lqr_schedule: bool = Field(
+        True,
+        description="design the LQR terminal weight and fallback on the controller's own parameters, the "
+        "fallback gain on a grid of gaps interpolated at the reference gap (false: nominal constants at 20 mm)",
+    )
+    delay_samples: int = Field(
+        0,
+        ge=0,
+        le=10,
+        description="computation delay predicted through [control periods]: the current computed at sample k "
+        "is applied at k + N; the step propagates its estimate N samples with the commands in flight and "
+        "optimises from there (0: no delay model)",
+    )
     force_failure_steps: list[int] = Field(default_factory=list)
+
+    # ------------------------------------------------------------- planning defaults
+    @staticmethod
+    def reference_defaults() -> dict[str, object]:
+        """How the NMPC wants a scenario's moves planned when the scenario's ``reference:`` leaves it open.
+
+        Minimum-time moves of its model within 97 % of the current amplitude
+        and 87 % of each axis' limit (``shaping: min_time``,
+        :func:`maglev_ocp.reference.plan_min_time_move`): the NMPC's constraints
+        are the limits, so it handles the rest of the headroom itself, and the
+        open-loop unstable gap axis keeps some feedback during a gap move;
+        moves then settle within about 1.02 x the minimum time without
+        per-scenario tuning (``tests/test_min_time_moves.py``).
+        """
+        return {"shaping": "min_time", "current_fraction": 0.97, "axis_fraction": 0.87}
 
     # ------------------------------------------------------------- derived (read by the step builder)
     @property

@@ -30,20 +30,27 @@ import functools
 import casadi as ca
 import numpy as np
 
+from maglev_ocp.params import Params
+
 from .admm import admm_dense, admm_riccati, fn_condense, fn_kkt
 from .design import StepDesign, make_design
 from .fallback import build_post
 from .layout import N_MEAS, NU, NX
 from .observer import observe
 from .planner import advance_plan, plan_duration, u_for_accel
-from .prediction import fn_stage
+from .prediction import fn_stage, predict_through_delay
 from .qp import project_disk
 from .reference import N_REF, fn_node
 from .settings import NMPCSettings
 
 
 def fn_head(d: StepDesign) -> ca.Function:
-    """Observer update and planner (SX): ``(state, meas, target, p) -> (xhat, dist, plan, w)``."""
+    """Observer update, delay predictor and planner (SX): ``(state, meas, target, p) -> (xhat, dist, plan, w, x0)``.
+
+    ``x0`` is the state the QP starts from: the estimate predicted through the
+    commands in flight (``delay_samples > 0``), else the estimate itself; the
+    planner plans from it (the plan's clock runs ``delay_samples`` periods ahead).
+    """
     lay, m = d.layout, d.model
     st, meas, tgt, p = (
         ca.SX.sym("state", lay.size),
@@ -53,13 +60,14 @@ def fn_head(d: StepDesign) -> ca.Function:
     )
     S = lay.split(st)
     fresh, xhat, dist, w = observe(d, S, meas[:2], p)
-    plan = advance_plan(d, S["plan"], fresh, xhat, tgt, p, w)
+    x0 = predict_through_delay(d, xhat, S["u_flight"], p, w) if lay.n_delay else xhat
+    plan = advance_plan(d, S["plan"], fresh, x0, tgt, p, w)
     return ca.Function(
         "nmpc_head",
         [st, meas, tgt, p],
-        [xhat, dist, plan, w],
+        [xhat, dist, plan, w, x0],
         ["state", "meas", "target", "p"],
-        ["xhat", "dist", "plan", "w"],
+        ["xhat", "dist", "plan", "w", "x0"],
         {"cse": True},
     )
 
@@ -89,6 +97,7 @@ def build_init(d: StepDesign) -> ca.Function:
         ca.vec(U[:, :N]),
         ca.MX.zeros(lay.N * NU + lay.n_gap),
         0,
+        *([ca.repmat(u_prev, lay.n_delay, 1)] if lay.n_delay else []),
     )
     assert state.shape[0] == lay.size
     return ca.Function("nmpc_init", [meas, ref, p], [state], ["meas", "ref", "p"], ["state"])
@@ -98,7 +107,7 @@ def _front(d: StepDesign, st, meas, ref, p) -> dict:
     """Stages 1-3: observer, planner, references and RTI linearization (MX calls of the SX pieces)."""
     lay, N = d.layout, d.settings.horizon
     S = lay.split(st)
-    xhat, dist, plan, w = fn_head(d)(st, meas, ca.vertcat(ref[0, 0], ref[3, 0]), p)
+    xhat, dist, plan, w, x0 = fn_head(d)(st, meas, ca.vertcat(ref[0, 0], ref[3, 0]), p)
     dts = ca.DM(np.arange(N + 1) * d.Ts).T
     R, Uref = fn_node(d).map(N + 1, "serial")(dts, plan, ref, p, w)
     Uref = Uref[:, :N]
@@ -116,7 +125,8 @@ def _front(d: StepDesign, st, meas, ref, p) -> dict:
         "As": As,
         "Bs": Bs,
         "cs": cs,
-        "dx0": xhat - Xb[:, 0],
+        "dx0": x0 - Xb[:, 0],
+        "x0": x0,
         "Xbar": Xb,
         "Xref": R,
         "Uref": Uref,
@@ -135,7 +145,7 @@ def build_prep(d: StepDesign) -> ca.Function:
         ca.MX.sym("p", m.np_),
     )
     o = _front(d, st, meas, ref, p)
-    names = ["ubar", "y0", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w"]
+    names = ["ubar", "y0", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w", "x0"]
     outs = [o[n] for n in names]
     if s.qp == "dense":
         H, q, G, glb, gub = fn_condense(d)(
@@ -168,7 +178,7 @@ def build_step(d: StepDesign) -> ca.Function:
         v=z[:nv],
         y=yv,
         ubar=o["ubar"],
-        xhat=o["xhat"],
+        xhat=o["x0"],  # the fallback's LQR acts on the state the command will meet
         dist=o["dist"],
         plan=o["plan"],
         As=o["As"],
@@ -185,12 +195,36 @@ def build_step(d: StepDesign) -> ca.Function:
         iters_to_tol=tr["iters"],
         nfail=st[lay.slices()["nfail"]],
     )
+    state_out, x_hat = r["state"], r["x_hat"]
+    if lay.n_delay:
+        state_out, x_hat = _delay_state(d, st, r["state"], o["xhat"], r["u"]), o["xhat"]
     return ca.Function(
         "nmpc_step",
         [st, meas, ref, p],
-        [r["u"], r["state"], r["stats"], r["x_hat"]],
+        [r["u"], state_out, r["stats"], x_hat],
         ["state_in", "meas", "ref", "p"],
         ["u", "state_out", "stats", "x_hat"],
+    )
+
+
+def _delay_state(d: StepDesign, st: ca.MX, post_state: ca.MX, xhat: ca.MX, u: ca.MX) -> ca.MX:
+    """The state out with a computation delay: the estimate now, and the command queue advanced by one.
+
+    ``post_state`` is the fallback stage's state (all pieces up to ``nfail``,
+    holding the predicted ``x0`` as ``xhat`` and the new command as
+    ``u_prev``); here ``xhat`` is the estimate now, ``u_prev`` the oldest
+    command in flight (it is applied over the coming period) and the new
+    command joins the end of ``u_flight``.
+    """
+    sl = d.layout.slices()
+    fl = st[sl["u_flight"]]
+    return ca.vertcat(
+        xhat,
+        post_state[sl["xhat"].stop : sl["u_prev"].start],
+        fl[:NU],
+        post_state[sl["u_prev"].stop : sl["u_flight"].start],
+        fl[NU:],
+        u,
     )
 
 
@@ -205,8 +239,8 @@ class StepBuilder:
         Reference mode.
     """
 
-    def __init__(self, settings: NMPCSettings, mode: str = "plan"):
-        self.design = make_design(settings, mode)
+    def __init__(self, settings: NMPCSettings, mode: str = "plan", params=None):
+        self.design = make_design(settings, mode, params)
         self.settings = settings
         self.layout = self.design.layout
         self.F, self.P, self.K = self.design.F, self.design.P, self.design.K
@@ -224,14 +258,24 @@ class StepBuilder:
         return build_prep(self.design)
 
 
-def step_functions(settings: NMPCSettings, mode: str) -> tuple[ca.Function, ca.Function, StepBuilder]:
-    """``nmpc_init``, ``nmpc_step`` and the builder (holding the layout) of a design, built once per design."""
-    return _step_functions(settings.model_dump_json(), mode)
+def step_functions(
+    settings: NMPCSettings, mode: str, params: Params | None = None
+) -> tuple[ca.Function, ca.Function, StepBuilder]:
+    """``nmpc_init``, ``nmpc_step`` and the builder (holding the layout) of a design, built once per design.
+
+    ``params``: the controller's model as the step receives it (the LQR pieces
+    are designed on it, see :func:`~controllers.nmpc.design.make_design`).
+    """
+    key = None if params is None else tuple(params.vector().tolist())
+    return _step_functions(settings.model_dump_json(), mode, key)
 
 
 @functools.lru_cache(maxsize=32)
-def _step_functions(settings_json: str, mode: str) -> tuple[ca.Function, ca.Function, StepBuilder]:
-    b = StepBuilder(NMPCSettings.model_validate_json(settings_json), mode)
+def _step_functions(
+    settings_json: str, mode: str, pvec: tuple[float, ...] | None
+) -> tuple[ca.Function, ca.Function, StepBuilder]:
+    params = None if pvec is None else Params.from_vector(np.asarray(pvec))
+    b = StepBuilder(NMPCSettings.model_validate_json(settings_json), mode, params)
     return b.build_init(), b.build_step(), b
 
 

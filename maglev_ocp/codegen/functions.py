@@ -240,10 +240,10 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
     """
     if mode not in ("plan", "preview"):
         raise ValueError(f"NMPC reference mode must be 'plan' or 'preview', got {mode!r}")
-    init, step, b = step_functions(settings, mode)
+    model_params = params if settings.use_cogging else params.without_cogging()
+    init, step, b = step_functions(settings, mode, model_params)
     lay = b.layout
     N = settings.horizon
-    model_params = params if settings.use_cogging else params.without_cogging()
     state_pieces = tuple(Piece(*row) for row in lay.table())
     state_port = Port("state_in", lay.size, 1, "mixed", "controller memory (warm start etc.)", state_pieces)
     ref_desc = (
