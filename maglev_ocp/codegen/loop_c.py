@@ -226,16 +226,15 @@ def nmpc_refs(mode: str, rp: RunPlan, N: int) -> np.ndarray:
     sw = np.asarray(plan.switch_times, dtype=float)
     t = np.arange(n) * Ts
     nxt = np.searchsorted(sw, t + 1e-9, side="right")  # first switch strictly after t + 1e-9
+    held = {}  # the plan just before each switch, sampled once per switch
     for i in np.nonzero(nxt < len(sw))[0]:
-        later = sw[nxt[i]]
+        later = float(sw[nxt[i]])
         cut = (i + j) * Ts >= later - 1e-9
         if cut.any():
-            out[i, cut] = _held(plan, later)
+            if later not in held:
+                held[later] = plan.sample(np.array([later - 1e-9]))[0]
+            out[i, cut] = held[later]
     return out.reshape(n, -1)
-
-
-def _held(plan: Any, later: float) -> np.ndarray:
-    return plan.sample(np.array([later - 1e-9]))[0]
 
 
 def _nmpc_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> ControllerRun:

@@ -182,7 +182,7 @@ int run_loop(loop_t *s) {
             double fg = D(s->f_time)[2 * k], fd = D(s->f_time)[2 * k + 1];
             for (cint c = 0; c < s->n_cables; ++c) {
                 if (k < cstart[c]) continue;
-                const double *cb = cab + 7 * c;  /* weight_g, stiffness_g, rest_g, damping_g, stiffness_d, rest_d, damping_d */
+                const double *cb = cab + 7 * c;  /* CABLE_FIELDS of maglev_ocp.loop.compiled */
                 double cg = cb[0] - cb[1] * (xa[0] - cb[2]) - cb[3] * xa[1];
                 double cdd = -cb[4] * (xa[2] - cb[5]) - cb[6] * xa[3];
                 fg = fg + cg; fd = fd + cdd;
