@@ -43,6 +43,7 @@ from . import constants as k
 from .blocks import Reference
 from .config import Strict
 from .errors import ConfigError
+from .fastcall import BufferedFunction
 from .model import model_inverse_function
 from .ocp.min_time import MinTimeSettings, solve_min_time
 from .params import NOMINAL, Params
@@ -325,11 +326,11 @@ def _limits_ok(samples: np.ndarray, params: Params, fraction: float, i_axis: flo
     """Do the model-inverse currents along ``samples`` (rows of :meth:`Move.sample`) fit the limits?"""
 
     n = samples.shape[0]
-    inv = _mapped_inverse(model_inverse_function(), n)
+    inv = _mapped_inverse(n)
     x = np.vstack([samples[:, 0], samples[:, 1], samples[:, 3], samples[:, 4]])
     a = np.vstack([samples[:, 2], samples[:, 5]])
-    u, unr = inv(x, a, np.tile(params.vector()[:, None], (1, n)))
-    u = np.asarray(u)
+    u, unr = inv(x, a, np.tile(params.vector()[:, None], (1, n)))  # buffer API: no DM conversions
+    u = u.reshape(n, 2).T
     if np.any(np.asarray(unr) > 0) or not np.all(np.isfinite(u)):
         return False
     amp = np.hypot(u[0], u[1])
@@ -344,8 +345,8 @@ def _limits_ok_st(samples: np.ndarray, params: Params, st: ReferenceSettings, i_
 
 
 @functools.lru_cache(maxsize=8)
-def _mapped_inverse(fn, n: int):
-    return fn.map(n)
+def _mapped_inverse(n: int) -> BufferedFunction:
+    return BufferedFunction(model_inverse_function().map(n))
 
 
 def plan_move(

@@ -148,6 +148,19 @@ class SaveSettings(Strict):
     figures: bool = Field(False, description="keep the run's figures (slow: matplotlib per run)")
 
 
+class ExecutionSettings(Strict):
+    """How each run is executed."""
+
+    loop: Literal["auto", "compiled", "python"] = Field(
+        "auto",
+        description=(
+            "closed loop of each run: 'compiled' (the whole run in one C call, maglev_ocp.codegen.loop_c; "
+            "equal to the Python loop with the compiled controller), 'python' (maglev_ocp.loop.ClosedLoop), "
+            "'auto' (compiled where the controller has a compiled step and a C compiler is found, else python)"
+        ),
+    )
+
+
 class Campaign(Strict):
     """A campaign file (see the module docstring)."""
 
@@ -169,6 +182,7 @@ class Campaign(Strict):
     )
     vary: Vary = Field(default_factory=Vary)
     save: SaveSettings = Field(default_factory=SaveSettings)
+    execution: ExecutionSettings = Field(default_factory=ExecutionSettings)
     success_tol_m: float = Field(
         k.position_tolerance, gt=0, le=1e-2, description="tolerance the runner's 'settled' refers to (reported only)"
     )

@@ -32,6 +32,7 @@ Execution model
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import logging
 import os
@@ -75,7 +76,9 @@ def worker_cache(key: Any, factory: Callable[[], Any]) -> Any:
     return _CACHE[key]
 
 
-def run_real(scenario: dict[str, Any], seed: int, workdir: Path, save: SaveSettings) -> dict[str, Any]:
+def run_real(
+    scenario: dict[str, Any], seed: int, workdir: Path, save: SaveSettings, loop: str = "python"
+) -> dict[str, Any]:
     """The shipped run function: validate the scenario and run it with the scenario runner.
 
     Parameters
@@ -88,6 +91,8 @@ def run_real(scenario: dict[str, Any], seed: int, workdir: Path, save: SaveSetti
         Folder the runner's files go to.
     save : SaveSettings
         Which of the runner's files to keep.
+    loop : {"python", "compiled", "auto"}
+        Closed loop of the run (:class:`~maglev_ocp.campaign.config.ExecutionSettings`).
 
     Returns
     -------
@@ -96,7 +101,7 @@ def run_real(scenario: dict[str, Any], seed: int, workdir: Path, save: SaveSetti
     """
     from .runner_adapter import run_scenario_dict
 
-    return run_scenario_dict(scenario, seed, workdir, save)
+    return run_scenario_dict(scenario, seed, workdir, save, loop=loop)
 
 
 @dataclass
@@ -494,6 +499,8 @@ def execute(
     if limit is not None:
         todo = todo[:limit]
     save_d = camp.save.model_dump()
+    if run_fn is None:  # the scenario runner, on the campaign's closed loop (a module-level partial: picklable)
+        run_fn = functools.partial(run_real, loop=camp.execution.loop)
     counts = {"ok": n_ok, "failed": n_failed, "ran": 0, "failed_now": 0, "cpu_s": 0.0}
     t0 = time.perf_counter()
     bar = tqdm(

@@ -22,16 +22,36 @@ from typing import Any
 import numpy as np
 
 from .. import codegen  # noqa: F401 - registers ``backend: c`` with the runner in every worker process
+from ..codegen.build import find_compiler
+from ..codegen.loop_c import compiled_supported, run_scenario_compiled
 from ..runner import run_scenario
-from ..scenario import scenario_from_dict
+from ..scenario import Scenario, scenario_from_dict
 from .config import SaveSettings
 
 
-def run_scenario_dict(scenario: dict[str, Any], seed: int, workdir: Path, save: SaveSettings) -> dict[str, Any]:
-    """Validate ``scenario``, run it, keep the files ``save`` asks for in ``workdir``; return its metrics."""
+def use_compiled(scn: Scenario, loop: str) -> bool:
+    """Whether a run of ``scn`` goes through the compiled loop under the campaign's ``execution.loop``."""
+    if loop == "python":
+        return False
+    if loop == "compiled":
+        return True
+    return compiled_supported(scn) and find_compiler() is not None
+
+
+def run_scenario_dict(
+    scenario: dict[str, Any], seed: int, workdir: Path, save: SaveSettings, loop: str = "python"
+) -> dict[str, Any]:
+    """Validate ``scenario``, run it, keep the files ``save`` asks for in ``workdir``; return its metrics.
+
+    ``loop``: ``python`` (:func:`maglev_ocp.runner.run_scenario`), ``compiled``
+    (:func:`maglev_ocp.codegen.loop_c.run_scenario_compiled`) or ``auto`` (see :func:`use_compiled`).
+    """
     name = str(scenario.get("name", "run"))
     scn = scenario_from_dict(scenario, source=f"campaign run {name}")
-    result = run_scenario(scn, seed=seed, progress=False)  # controller from the process cache
+    if use_compiled(scn, loop):
+        result = run_scenario_compiled(scn, seed=seed)  # libraries loaded once per process
+    else:
+        result = run_scenario(scn, seed=seed, progress=False)  # controller from the process cache
     metrics = _metrics_of(result)
     workdir = Path(workdir)
     if save.log or save.figures:

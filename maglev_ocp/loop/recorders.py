@@ -97,7 +97,7 @@ class TraceRecorder:
         cols: dict[str, np.ndarray] = {}
         for key, vals in self.stats.items():
             vals = vals[:done]
-            if any(isinstance(v, str) for v in vals):
+            if not isinstance(vals, np.ndarray) and any(isinstance(v, str) for v in vals):
                 arr = np.array(["" if (isinstance(v, float) and math.isnan(v)) else str(v) for v in vals], dtype=object)
             else:
                 arr = np.asarray(vals, dtype=float)

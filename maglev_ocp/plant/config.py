@@ -16,6 +16,7 @@ one-line :class:`~maglev_ocp.errors.ConfigError` s naming file and key).
 from __future__ import annotations
 
 import copy
+import functools
 import math
 import os
 from pathlib import Path
@@ -407,10 +408,17 @@ def profile_data(name: str) -> dict[str, Any]:
     choices = available_profiles()
     if name not in choices:
         raise ConfigError(f"unknown plant profile {name!r}; choose from {', '.join(choices)}")
-    data = load_yaml(PROFILE_DIR / f"{name}.yaml")
+    path = PROFILE_DIR / f"{name}.yaml"
+    data = _load_profile(path, path.stat().st_mtime_ns)
     if not isinstance(data, dict):  # pragma: no cover - shipped files are mappings
         raise ConfigError(f"{PROFILE_DIR / name}.yaml: expected a mapping")
-    return data
+    return copy.deepcopy(data)
+
+
+@functools.lru_cache(maxsize=32)
+def _load_profile(path: Path, mtime_ns: int) -> Any:
+    """A profile file, parsed once per version of the file (a campaign worker reads it for every run)."""
+    return load_yaml(path)
 
 
 def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:

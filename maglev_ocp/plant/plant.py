@@ -177,6 +177,20 @@ class _Normal:
         self._i += 1
         return v
 
+    def take(self, n: int) -> np.ndarray:
+        """The next ``n`` draws as rows of one array (the same values ``n`` calls of :meth:`next` give)."""
+        out = np.empty((n, self._dim))
+        j = 0
+        while j < n:
+            if self._i >= len(self._buf):
+                self._buf = self._rng.standard_normal((_NOISE_BLOCK, self._dim))
+                self._i = 0
+            m = min(n - j, len(self._buf) - self._i)
+            out[j : j + m] = self._buf[self._i : self._i + m]
+            self._i += m
+            j += m
+        return out
+
 
 class Plant:
     """The simulated rig, stepped once per 1 ms control period.
@@ -326,6 +340,20 @@ class Plant:
     def x(self) -> np.ndarray:
         """True state ``(g, g_dot, d, d_dot)``."""
         return self._xa[:4].copy()
+
+    def draw_noise(self, n: int) -> dict[str, np.ndarray]:
+        """Pre-draw the standard-normal samples the next ``n`` steps of this run would use (consumed).
+
+        For a compiled closed loop that runs the steps elsewhere: ``proc`` and ``cur`` (``n x 2``,
+        one row per step, process force and current noise) and ``meas`` (``n x 2``, the readings at
+        the end of each step); an empty stream (noise off) gives zeros. Call right after :meth:`reset`.
+        """
+        if self._k < 0:
+            raise RuntimeError("call Plant.reset() before Plant.draw_noise()")
+        streams = (("proc", self._proc_on, self._n_proc), ("cur", self._cur_on, self._n_cur))
+        out = {name: (s.take(n) if on else np.zeros((n, 2))) for name, on, s in streams}
+        out["meas"] = self._n_meas.take(n) if self._meas_on else np.zeros((n, 2))
+        return out
 
     # -------------------------------------------------------------------- run
     def reset(self, x0: np.ndarray | None = None, u0: np.ndarray | None = None, lock: str | None = None) -> Measurement:

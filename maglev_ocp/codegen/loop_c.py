@@ -1,0 +1,514 @@
+"""Closed loops at compiled speed: a whole scenario in one C call.
+
+:func:`run_scenario_compiled` runs a scenario like
+:func:`maglev_ocp.runner.run_scenario`, except the loop: the plan, the plant's
+run (:func:`maglev_ocp.loop.compiled.plant_inputs`: initial state, pre-drawn
+noise, limits, stops, delay, disturbances) and the controller's reference
+input of every step are prepared in Python as arrays; then ``run_loop``
+(:mod:`.loop_c_source`) steps the plant's code-generated step Function
+(:func:`maglev_ocp.plant.plant.build_step`, CasADi's code generator) and the
+controller's compiled step (the ``nmpc``/``fl`` code of :mod:`.functions`)
+``n`` times, logging into preallocated arrays; the trace, columns and
+metrics are then computed by the runner's own stages. The result equals the
+Python loop's with the same compiled controller (``tests/test_compiled_loop.py``).
+
+Three shared libraries, each built once per machine in the code-generation
+cache and loaded by each process:
+
+* the controller's (``nmpc_init/nmpc_step`` or ``fl_init/fl_step``): the very
+  library ``backend: c`` uses (:func:`.backend.compile_codes`), found through a
+  *design index* keyed by controller type, settings, believed parameters,
+  reference mode, flags and a hash of the code that generates it, so a process
+  that finds it loads it without building the CasADi Functions (the NMPC's take
+  several seconds to build);
+* the plant's step for its effect set, together with ``run_loop``
+  (``-ffp-contract=off``: each operation rounds as in CasADi's virtual machine);
+* both called by function pointer from ``run_loop``.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from controllers.nmpc.layout import STATS_NAMES, STATUS_TEXT
+from controllers.nmpc.reference import resolve_mode
+
+from .. import constants as k
+from ..effects import EffectSet
+from ..errors import UserError
+from ..loop.compiled import PlantInputs, compiled_trace, plant_inputs, stop_events
+from ..plant import Plant
+from ..plant.plant import build_step
+from ..runner import RunPlan, RunResult, plan_run, run_columns, run_metrics
+from ..scenario import Scenario
+from .backend import compile_codes, default_cflags
+from .build import cache_root, compiler_id, find_compiler
+from .functions import fl_code, nmpc_code
+from .loader import CompiledFunction, CompiledLibrary
+from .loop_c_source import LOOP_FIELDS, loop_c_source
+from .sources import generate_function_source
+
+#: Controller types the compiled loop runs (their steps are CasADi Functions).
+COMPILED_TYPES = ("nmpc", "fl")
+
+#: Flags of the loop + plant library: no FMA contraction, no fast-math (same rounding as CasADi's VM).
+LOOP_CFLAGS = "-O2 -fno-math-errno -ffp-contract=off -fPIC"
+
+_FT = {"i": ctypes.c_longlong, "d": ctypes.c_double, "p": ctypes.c_void_p}
+
+
+class LoopStruct(ctypes.Structure):
+    """ctypes mirror of ``loop_t`` (:data:`maglev_ocp.codegen.loop_c_source.LOOP_FIELDS`)."""
+
+    _fields_ = [(name, _FT[t]) for name, t in LOOP_FIELDS]
+
+
+# ----------------------------------------------------------------------------- cache
+@functools.lru_cache(maxsize=1)
+def code_version() -> str:
+    """Hash of the Python code that generates the C (``controllers/`` and ``maglev_ocp/``) and CasADi's version."""
+    h = hashlib.sha256(ca.__version__.encode())
+    roots = [Path(__file__).resolve().parents[2] / "controllers", Path(__file__).resolve().parents[1]]
+    for root in roots:
+        for p in sorted(root.rglob("*.py")):
+            h.update(str(p.relative_to(root.parent)).encode() + b"\0" + p.read_bytes())
+    return h.hexdigest()[:20]
+
+
+def _index_path(kind: str, key: str) -> Path:
+    return cache_root() / "index" / f"{kind}-{key}.txt"
+
+
+def _design_key(*parts: Any) -> str:
+    return hashlib.sha256("\0".join(map(str, (code_version(), *parts))).encode()).hexdigest()[:24]
+
+
+def _lookup(kind: str, key: str, lib_name: str) -> Path | None:
+    p = _index_path(kind, key)
+    if p.is_file():
+        lib = Path(p.read_text().strip())
+        if (lib / lib_name).is_file():
+            return lib / lib_name
+    return None
+
+
+def _remember(kind: str, key: str, folder: Path) -> None:
+    p = _index_path(kind, key)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_suffix(f".{os.getpid()}.tmp")
+    tmp.write_text(str(folder) + "\n")
+    os.replace(tmp, p)
+
+
+def _compile_shared(files: dict[str, str], lib_name: str, cflags: str) -> Path:
+    """Compile ``files`` (all ``*.c``) into ``lib_name`` in the cache folder named by their content hash."""
+    cc = find_compiler()
+    if cc is None:
+        raise UserError("no C compiler found (set CC or install cc/gcc/clang)")
+    h = hashlib.sha256(f"{compiler_id(cc)}\0{cflags}".encode())
+    for name in sorted(files):
+        h.update(name.encode() + b"\0" + files[name].encode() + b"\0")
+    final = cache_root() / "loop" / h.hexdigest()[:20]
+    if (final / lib_name).is_file():
+        return final / lib_name
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".loop.", dir=final.parent))
+    try:
+        for name, text in files.items():
+            (tmp / name).write_text(text)
+        srcs = sorted(n for n in files if n.endswith(".c"))
+        cmd = [cc, *cflags.split(), "-shared", "-o", lib_name, *srcs, "-lm"]
+        proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True)
+        if proc.returncode:
+            tail = " | ".join(proc.stderr.strip().splitlines()[-4:])
+            raise UserError(f"building the compiled loop failed: {tail}")
+        try:
+            os.rename(tmp, final)
+        except OSError:  # another process finished first
+            if not (final / lib_name).is_file():
+                raise
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return final / lib_name
+
+
+@functools.lru_cache(maxsize=16)
+def plant_library(effects: tuple[str, ...], n_sub: int, dt: float) -> tuple[CompiledLibrary, str]:
+    """The loaded library of ``run_loop`` and the plant step for an effect set; ``(library, step symbol)``."""
+    key = _design_key("plant", effects, n_sub, repr(dt), LOOP_CFLAGS)
+    name = "plant_" + ("_".join(EffectSet(effects).names) or "nominal") + f"_{n_sub}"
+    lib = _lookup("plant", key, "libmaglev_loop.so")
+    if lib is None:
+        F = build_step(effects, n_sub, dt)
+        src, hdr = generate_function_source(F)
+        files = {"maglev_loop.c": loop_c_source(), f"{F.name()}.c": src, f"{F.name()}.h": hdr}
+        lib = _compile_shared(files, "libmaglev_loop.so", LOOP_CFLAGS)
+        _remember("plant", key, lib.parent)
+        name = F.name()
+    return CompiledLibrary(lib), name
+
+
+@functools.lru_cache(maxsize=16)
+def _controller_library(ctype: str, settings_json: str, pvec: tuple[float, ...], mode: str, cflags: str):
+    from ..params import Params
+
+    params = Params.from_vector(np.array(pvec))
+    key = _design_key(ctype, settings_json, pvec, mode, cflags)
+    lib = _lookup(ctype, key, "libmaglev_controller.so")
+    if lib is None:
+        if ctype == "nmpc":
+            from controllers.nmpc import NMPCSettings
+
+            code = nmpc_code(NMPCSettings.model_validate_json(settings_json), params, mode)
+        else:
+            from controllers.fl import FLSettings
+
+            code = fl_code(FLSettings.model_validate_json(settings_json), params)
+        b = compile_codes([code], cflags, progress=False)
+        _remember(ctype, key, b.folder)
+        lib = b.library
+    return CompiledLibrary(lib)
+
+
+def controller_library(ctype: str, settings: Any, params: Any, mode: str = "", cflags: str | None = None):
+    """The loaded ``backend: c`` library of a controller design (found through the design index, else built)."""
+    flags = cflags if cflags is not None else default_cflags()
+    pvec = tuple(float(v) for v in params.vector())
+    return _controller_library(ctype, settings.model_dump_json(), pvec, mode, flags)
+
+
+# ----------------------------------------------------------------------- controllers
+@dataclass
+class ControllerRun:
+    """A controller's part of one compiled run: its step, initial state, per-step inputs, outputs' layout."""
+
+    step: CompiledFunction
+    state0: np.ndarray
+    consts: dict[int, np.ndarray]
+    meas_n: int
+    refs: np.ndarray
+    fault: np.ndarray
+    out_sizes: list[int]
+
+
+def nmpc_refs(mode: str, rp: RunPlan, N: int) -> np.ndarray:
+    """The NMPC's ``ref`` input of every step (``n x 6(N+1)``, column-major per step), as its reference reads it.
+
+    ``plan``: the active target on every node; ``preview``: the runner's plan at
+    ``t + j Ts``, held at its value just before the next target switch
+    (:meth:`controllers.nmpc.reference.HorizonReference.matrix`).
+    """
+    n, Ts, plan = rp.n, k.Ts, rp.plan
+    out = np.zeros((n, N + 1, 6))
+    if mode == "plan":
+        tgt = np.array([[tg.g, tg.d] for tg in plan.targets])
+        idx = np.clip(np.searchsorted(plan.switch_times, rp.t, side="right") - 1, 0, len(plan.targets) - 1)
+        out[:, :, 0] = tgt[idx, 0][:, None]
+        out[:, :, 3] = tgt[idx, 1][:, None]
+        return out.reshape(n, -1)
+    S = plan.sample(np.arange(n + N + 1) * Ts)
+    j = np.arange(N + 1)
+    out[:] = S[np.arange(n)[:, None] + j[None, :]]
+    sw = np.asarray(plan.switch_times, dtype=float)
+    t = np.arange(n) * Ts
+    nxt = np.searchsorted(sw, t + 1e-9, side="right")  # first switch strictly after t + 1e-9
+    held = {}  # the plan just before each switch, sampled once per switch
+    for i in np.nonzero(nxt < len(sw))[0]:
+        later = float(sw[nxt[i]])
+        cut = (i + j) * Ts >= later - 1e-9
+        if cut.any():
+            if later not in held:
+                held[later] = plan.sample(np.array([later - 1e-9]))[0]
+            out[i, cut] = held[later]
+    return out.reshape(n, -1)
+
+
+def _nmpc_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> ControllerRun:
+    s = sc.controller.settings
+    params = sc.controller_model_params()
+    mode = resolve_mode(s.reference, rp.plan.shaping)
+    lib = controller_library("nmpc", s, params, mode, cflags)
+    init, step = lib.function("nmpc_init"), lib.function("nmpc_step")
+    p = (params if s.use_cogging else params.without_cogging()).vector()
+    refs = nmpc_refs(mode, rp, s.horizon)
+    (st0,) = init(np.array([y0[0], y0[1], 0.0]), refs[0], p)
+    fault = np.zeros(rp.n)
+    for i in s.force_failure_steps:
+        if 0 <= i < rp.n:
+            fault[i] = 1.0
+    return ControllerRun(step, st0.copy(), {3: p}, 3, np.ascontiguousarray(refs), fault, step.out_sizes)
+
+
+def _fl_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> ControllerRun:
+    s = sc.controller.settings
+    params = sc.controller_model_params()
+    lib = controller_library("fl", s, params, "", cflags)
+    init, step = lib.function("fl_init"), lib.function("fl_step")
+    (st0,) = init(np.asarray(y0, dtype=float))
+    consts = {3: params.vector(), 4: np.asarray(s.gains(k.Ts), dtype=float)}
+    return ControllerRun(step, st0.copy(), consts, 2, np.ascontiguousarray(rp.refs), np.zeros(rp.n), step.out_sizes)
+
+
+def _nmpc_stats(log: np.ndarray, t_us: np.ndarray) -> tuple[np.ndarray, dict, dict]:
+    """x_hat, statistics and timings of the NMPC's logged outputs ``[u(2), stats, x_hat(4)]``."""
+    ns = len(STATS_NAMES)
+    sv = {name: log[:, 2 + i] for i, name in enumerate(STATS_NAMES)}
+    status = sv["status"].astype(int)
+    stats = {
+        "status": [STATUS_TEXT.get(v, str(v)) for v in status.tolist()],
+        "fallback": (sv["fallback"] != 0).astype(float),
+        "iterations": np.trunc(sv["iterations"]),
+        "iters_to_tol": np.trunc(sv["iters_to_tol"]),
+        "qp_r_prim": sv["qp_r_prim"],
+        "qp_r_dual": sv["qp_r_dual"],
+        "dist_g": sv["dist_g"],
+        "dist_d": sv["dist_d"],
+    }
+    timings = {"step_time_us": t_us, "kernel_us": t_us, "kernel_cpu_us": np.full(len(t_us), np.nan)}
+    return log[:, 2 + ns : 6 + ns], stats, timings
+
+
+def _fl_stats(log: np.ndarray, t_us: np.ndarray) -> tuple[np.ndarray, dict, dict]:
+    """x_hat, statistics and timings of FL's logged outputs ``[u(2), x_hat(4), dist(2), v(2), flags]``."""
+    zeros = np.zeros(len(t_us))
+    stats = {
+        "unreachable": np.trunc(log[:, 10]),
+        "sat_g": np.trunc(log[:, 11]),
+        "sat_d": np.trunc(log[:, 12]),
+        "v_g": log[:, 8],
+        "v_d": log[:, 9],
+        "dist_g": log[:, 6],
+        "dist_d": log[:, 7],
+        "solver_failure": zeros,
+        "fallback": zeros,
+    }
+    timings = {"kernel_us": t_us, "kernel_cpu_us": np.full(len(t_us), np.nan)}
+    return log[:, 2:6], stats, timings
+
+
+# ------------------------------------------------------------------------------ loop
+def _ptr(a: np.ndarray) -> int:
+    return a.ctypes.data
+
+
+class _Work:
+    """Pointer tables and work arrays of one CasADi-convention C function."""
+
+    def __init__(self, lib: CompiledLibrary, name: str):
+        f = lib.function(name)
+        self.fn = f
+        self.addr = ctypes.cast(getattr(lib.lib, name), ctypes.c_void_p).value
+        self.arg, self.res, self.iw, self.w = f._arg, f._resp, f._iw, f._w
+
+
+def run_compiled_loop(pi: PlantInputs, plant: Plant, cr: ControllerRun, *, timing: bool = True) -> dict[str, Any]:
+    """Run ``pi.n`` steps of plant and controller in one C call; the logged arrays and how the run ended.
+
+    Returns
+    -------
+    dict
+        ``Y, X, U, UA, limited, LOG, t_us, IMP`` (``done`` rows), ``done``, ``error`` (0 ok, 1 the
+        controller's step failed, 2 non-finite currents, 3 the plant's step failed) and ``u_last``.
+    """
+    n = pi.n
+    lib, pname = plant_library(plant.effects.names, plant.config.integrator.n_sub, plant.Ts)
+    pw = _Work(lib, pname)
+    # plant buffers (arguments of the step: xa, u, p, theta, w, free, lim; results: xa_next, impact, i_applied)
+    xa, xa_out = pi.xa.copy(), np.zeros_like(pi.xa)
+    u_in, pbuf, wbuf = np.zeros(2), pi.p_seq[0].copy(), np.zeros(4)
+    imp, iapp = np.zeros(4), np.zeros(2)
+    theta, free, lim = pi.theta.copy(), pi.free.copy(), pi.lim.copy()
+    for i, a in enumerate((xa, u_in, pbuf, theta, wbuf, free, lim)):
+        pw.arg[i] = _ptr(a)
+    for i, a in enumerate((xa_out, imp, iapp)):
+        pw.res[i] = _ptr(a)
+    # controller buffers
+    cw = _Work(cr.step.library, cr.step.name)
+    ns = len(cr.state0)
+    sa, sb = cr.state0.copy(), np.zeros(ns)
+    meas = np.zeros(3)
+    log_sizes = cr.out_sizes[:1] + cr.out_sizes[2:]
+    lrow = np.zeros(sum(log_sizes))
+    for i, c in cr.consts.items():
+        c = np.ascontiguousarray(c, dtype=float)
+        cr.consts[i] = c
+        cw.arg[i] = _ptr(c)
+    cw.arg[1] = _ptr(meas)
+    cw.arg[2] = _ptr(cr.refs)
+    off = 0
+    for i, size in enumerate(cr.out_sizes):
+        if i == 1:
+            continue
+        cw.res[i] = _ptr(lrow) + 8 * off
+        off += size
+    out = {
+        "Y": np.zeros((n, 2)),
+        "X": np.zeros((n, 4)),
+        "U": np.zeros((n, 2)),
+        "UA": np.zeros((n, 2)),
+        "limited": np.zeros(n),
+        "LOG": np.zeros((n, len(lrow))),
+        "t_us": np.zeros(n),
+        "IMP": np.zeros((n, 4)),
+    }
+    queue = np.ascontiguousarray(pi.queue).copy().reshape(-1)
+    queue = queue if queue.size else np.zeros(2)
+    cables = pi.cables.reshape(-1) if pi.cables.size else np.zeros(7)
+    cstart = pi.cable_start if pi.cable_start.size else np.zeros(1, dtype=np.int64)
+    std = np.ascontiguousarray(pi.std.reshape(-1))
+    contact, y, ia = pi.contact.copy(), pi.y0.copy(), pi.ia0.copy()
+    f_time = np.ascontiguousarray(pi.f_time)
+    fl = pi.flags
+    keep = [xa, xa_out, u_in, pbuf, wbuf, imp, iapp, theta, free, lim, sa, sb, meas, lrow, queue]
+    keep += [cables, cstart, std, contact, y, ia, f_time, *out.values()]
+    s = LoopStruct(
+        n=n,
+        nxa=len(xa),
+        np=len(pbuf),
+        delay=len(pi.queue),
+        log_size=len(lrow),
+        ref_n=cr.refs.shape[1],
+        meas_n=cr.meas_n,
+        n_cables=len(pi.cables),
+        state_in=0,
+        state_out=1,
+        meas_in=1,
+        ref_in=2,
+        u_off=0,
+        timing=int(timing),
+        **{key: fl[key] for key in ("lim_on", "proc_on", "cur_on", "meas_on", "lock_g", "lock_d", "stops_on")},
+        has_force=fl["has_force"],
+        has_payload=fl["has_payload"],
+        i_axis=fl["i_axis"],
+        i_amp=fl["i_amp"],
+        q=fl["q"],
+        plant_f=pw.addr,
+        p_arg=ctypes.addressof(pw.arg),
+        p_res=ctypes.addressof(pw.res),
+        p_iw=_ptr(pw.iw),
+        p_w=_ptr(pw.w),
+        xa=_ptr(xa),
+        xa_out=_ptr(xa_out),
+        u_in=_ptr(u_in),
+        pbuf=_ptr(pbuf),
+        wbuf=_ptr(wbuf),
+        imp=_ptr(imp),
+        iapp=_ptr(iapp),
+        lim=_ptr(lim),
+        queue=_ptr(queue),
+        pseq=_ptr(pi.p_seq),
+        std=_ptr(std),
+        n_proc=_ptr(pi.noise["proc"]),
+        n_cur=_ptr(pi.noise["cur"]),
+        n_meas=_ptr(pi.noise["meas"]),
+        f_time=_ptr(f_time),
+        cables=_ptr(cables),
+        cable_start=_ptr(cstart),
+        contact=_ptr(contact),
+        y=_ptr(y),
+        ia=_ptr(ia),
+        c_f=cw.addr,
+        c_arg=ctypes.addressof(cw.arg),
+        c_res=ctypes.addressof(cw.res),
+        c_iw=_ptr(cw.iw),
+        c_w=_ptr(cw.w),
+        state_a=_ptr(sa),
+        state_b=_ptr(sb),
+        meas=_ptr(meas),
+        lrow=_ptr(lrow),
+        fault=_ptr(cr.fault),
+        refs=_ptr(cr.refs),
+        **{key: _ptr(out[key]) for key in ("Y", "X", "U", "UA", "limited", "LOG", "t_us", "IMP")},
+    )
+    run = lib.lib.run_loop
+    run.restype = ctypes.c_int
+    run.argtypes = [ctypes.POINTER(LoopStruct)]
+    run(ctypes.byref(s))
+    del keep
+    done = int(s.steps)
+    res = {key: v[:done] for key, v in out.items()}
+    res.update(done=done, error=int(s.error), u_last=lrow[:2].copy())
+    return res
+
+
+def _error_text(code: int, done: int, u_last: np.ndarray) -> str | None:
+    if code == 0:
+        return None
+    t = done * k.Ts
+    if code == 2:
+        return f"controller returned non-finite currents {u_last.tolist()} at t = {t:.3f} s"
+    what = "the compiled controller step" if code == 1 else "the compiled plant step"
+    return f"controller raised at t = {t:.3f} s: RuntimeError: {what} returned an error"
+
+
+def compiled_supported(sc: Scenario) -> bool:
+    """Whether the compiled loop can run ``sc`` (its controller's step is a CasADi Function)."""
+    return sc.controller.type in COMPILED_TYPES
+
+
+def run_scenario_compiled(
+    sc: Scenario,
+    seed: int | None = None,
+    out_dir: str | os.PathLike | None = None,
+    figures: bool = True,
+    cflags: str | None = None,
+) -> RunResult:
+    """Run ``sc`` like :func:`maglev_ocp.runner.run_scenario`, the loop in one C call (see the module docstring).
+
+    The controller is the scenario's on its compiled step (``backend: c``'s code, whatever the
+    scenario's backend says); the plant is the Python plant's step Function code-generated.
+    """
+    t_wall = time.perf_counter()
+    sc = sc.with_seed(seed)
+    if not compiled_supported(sc):
+        raise UserError(f"{sc.source}: the compiled loop runs {', '.join(COMPILED_TYPES)}, not {sc.controller.type}")
+    rp = plan_run(sc)
+    ss_plant, _ = sc.seed_sequences()
+    plant = Plant(sc.plant_config(), params=sc.plant_params(), seed=ss_plant, Ts=k.Ts)
+    pi = plant_inputs(plant, rp.n, np.array([sc.start.g, 0.0, sc.start.d, 0.0]))
+    make = _nmpc_run if sc.controller.type == "nmpc" else _fl_run
+    cr = make(sc, rp, pi.y0, cflags)
+    r = run_compiled_loop(pi, plant, cr)
+    done = r["done"]
+    split = _nmpc_stats if sc.controller.type == "nmpc" else _fl_stats
+    x_hat, stats, timings = split(r["LOG"], r["t_us"])
+    arrays = {key: r[key] for key in ("Y", "X", "U", "UA", "limited")}
+    arrays["step_time_us"] = r["t_us"]
+    trace = compiled_trace(rp.n, arrays, x_hat, stats, timings)
+    plant.events = stop_events(r["IMP"], done, k.Ts)
+    error = _error_text(r["error"], done, r["u_last"])
+    cols, stat_cols = run_columns(rp, trace, done)
+    metrics = run_metrics(sc, rp, trace, done, stat_cols, plant, error)
+    res = RunResult(sc, cols, trace.step_time_us[:done], rp.plan, metrics, wall_s=time.perf_counter() - t_wall)
+    if out_dir is not None:
+        res.save(out_dir, figures=figures)
+    return res
+
+
+__all__ = [
+    "COMPILED_TYPES",
+    "LOOP_CFLAGS",
+    "ControllerRun",
+    "LoopStruct",
+    "code_version",
+    "compiled_supported",
+    "controller_library",
+    "nmpc_refs",
+    "plant_library",
+    "run_compiled_loop",
+    "run_scenario_compiled",
+]

@@ -1,0 +1,159 @@
+"""The compiled closed loop (one C call per scenario) equals the Python loop for the same noise draws.
+
+Reference: :func:`maglev_ocp.runner.run_scenario` (the Python :class:`~maglev_ocp.loop.ClosedLoop`)
+with the controller on ``backend: c``, i.e. the very compiled step the C loop calls; the plant is the
+Python plant (CasADi's virtual machine) on one side and its step Function code-generated on the other.
+Noise (process, current, measurement), encoder quantization, limits, stops, the amplifier lag and
+friction of the default profile, delays and disturbances are all on: the logs must agree to 1e-9
+(they agree bit for bit: every operation rounds the same, so no quantization count can flip).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from maglev_ocp.campaign import run_campaign
+from maglev_ocp.campaign.config import load_campaign
+from maglev_ocp.codegen.build import find_compiler
+from maglev_ocp.codegen.loop_c import nmpc_refs, run_scenario_compiled
+from maglev_ocp.config import dump_yaml
+from maglev_ocp.runner import plan_run, run_scenario
+from maglev_ocp.scenario import scenario_from_dict
+
+needs_cc = pytest.mark.skipif(find_compiler() is None, reason="no C compiler: the compiled loop cannot be built here")
+TOL = 1e-9
+
+
+def _scenario(ctype: str, **extra) -> dict:
+    """Short scenario: hover, a diagonal move, a gap step (default rig profile: noise and quantization on)."""
+    sc = {
+        "name": f"cloop_{ctype}",
+        "seed": 11,
+        "controller": {"type": ctype, "backend": "c"},
+        "plant": {"profile": "default"},
+        "targets": [
+            {"g": 0.020, "d": 0.000, "hold": 0.06},
+            {"g": 0.017, "d": 0.015, "hold": 0.12},
+            {"g": 0.022, "d": 0.015, "hold": 0.10},
+        ],
+    }
+    for key, val in extra.items():
+        if isinstance(val, dict) and isinstance(sc.get(key), dict):
+            sc[key] = {**sc[key], **val}
+        else:
+            sc[key] = val
+    return sc
+
+
+def _compare(d: dict) -> float:
+    sc = scenario_from_dict(d)
+    py = run_scenario(sc, progress=False)
+    cc = run_scenario_compiled(sc)
+    assert list(py.columns) == list(cc.columns)
+    assert py.metrics.error == cc.metrics.error
+    worst = 0.0
+    for key, a in py.columns.items():
+        b = cc.columns[key]
+        assert len(a) == len(b), key
+        if a.dtype == object:
+            assert a.tolist() == b.tolist(), key
+            continue
+        assert np.array_equal(np.isnan(a), np.isnan(b)), key
+        diff = np.abs(a - b)[~np.isnan(a)]
+        worst = max(worst, float(diff.max()) if diff.size else 0.0)
+        assert worst <= TOL, (key, worst)
+    mp, mc = py.metrics.to_dict(), cc.metrics.to_dict()
+    for key in ("targets", "stop_hits", "max_current_A", "passed", "solver_failures", "fallbacks"):
+        assert mp.get(key) == mc.get(key), key
+    # the quantized readings are identical, not just close (no encoder count flipped)
+    assert np.array_equal(py.columns["g"], cc.columns["g"]) and np.array_equal(py.columns["d"], cc.columns["d"])
+    return worst
+
+
+@needs_cc
+def test_fl_compiled_loop_equals_python_loop():
+    assert _compare(_scenario("fl")) <= TOL
+
+
+@needs_cc
+@pytest.mark.parametrize(
+    "extra",
+    [
+        {"plant": {"disturbances": [{"type": "cable", "stiffness_d": 300.0, "damping_d": 5.0, "weight_g": 3.0}]}},
+        {"plant": {"disturbances": [{"type": "payload", "mass": 0.5, "time": 0.1}]}},
+        {
+            "plant": {
+                "disturbances": [
+                    {"type": "force_pulse", "axis": "g", "amplitude": -60.0, "start": 0.1, "duration": 0.02}
+                ]
+            }
+        },
+        {"plant": {"delay_samples": 1}, "controller": {"type": "fl", "backend": "c", "delay_samples": 1}},
+    ],
+    ids=["cable", "payload", "pulse", "delay"],
+)
+def test_fl_compiled_loop_equals_python_loop_with_disturbances_and_delay(extra):
+    assert _compare(_scenario("fl", **extra)) <= TOL
+
+
+@needs_cc
+@pytest.mark.parametrize("shaping", ["trajectory", "step"])
+def test_nmpc_compiled_loop_equals_python_loop(shaping):
+    assert _compare(_scenario("nmpc", reference={"shaping": shaping})) <= TOL
+
+
+@needs_cc
+def test_nmpc_reference_input_is_what_the_nmpc_reads():
+    """The pre-computed ``ref`` input of every step equals the NMPC's own read-ahead (preview mode)."""
+    from controllers.nmpc.reference import HorizonReference
+
+    sc = scenario_from_dict(_scenario("nmpc"))
+    rp = plan_run(sc)
+    N = 20
+    hr = HorizonReference(N, 1e-3)
+    hr.set_plan(rp.plan)
+    refs = nmpc_refs("preview", rp, N)
+    for i in range(rp.n):
+        m = hr.matrix("preview", i * 1e-3, rp.reference(i))
+        assert np.array_equal(refs[i], np.ravel(m, order="F")), i
+
+
+def _campaign(loop: str) -> dict:
+    return {
+        "name": f"cloop_{loop}",
+        "base_scenario": str(Path(__file__).resolve().parents[1] / "scenarios" / "gap_steps_fl.yaml"),
+        "n_runs": 2,
+        "seed": 3,
+        "vary": {
+            "plant": {"C2": {"dist": "uniform", "pct": 5}},
+            "seed": True,
+            "targets": {"n": 1, "hold": 0.15},
+            "controllers": [{"type": "fl"}, {"type": "nmpc"}],
+        },
+        "save": {"log": False, "figures": False},
+        "execution": {"loop": loop},
+    }
+
+
+@needs_cc
+def test_campaign_on_the_compiled_loop_equals_the_python_loop(tmp_path):
+    """A few campaign runs (FL and NMPC, python backend) give the same metrics on either loop."""
+    out = {}
+    for loop in ("python", "compiled"):
+        dump_yaml(tmp_path / f"{loop}.yaml", _campaign(loop))
+        camp = load_campaign(tmp_path / f"{loop}.yaml")
+        res = run_campaign(camp, tmp_path / loop, workers=1, progress=False, figures=False)
+        df = res.summary.table.sort_values("run_id").reset_index(drop=True)
+        out[loop] = df
+        assert (df["status"] == "ok").all()
+    a, b = out["python"], out["compiled"]
+    cols = [c for c in a.columns if not any(s in c for s in ("_us", "wall", "cpu", "worker", "time_s_"))]
+    cols = [c for c in cols if a[c].dtype.kind in "fi"]
+    assert cols
+    for c in cols:
+        np.testing.assert_allclose(a[c].to_numpy(float), b[c].to_numpy(float), rtol=0, atol=1e-9, err_msg=c)
+    shutil.rmtree(tmp_path, ignore_errors=True)
