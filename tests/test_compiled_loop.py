@@ -92,7 +92,7 @@ def test_fl_compiled_loop_equals_python_loop():
                 ]
             }
         },
-        {"plant": {"delay_samples": 1}, "controller": {"type": "fl", "backend": "c", "delay_samples": 1}},
+        {"plant": {"delay_samples": 1}, "controller": {"type": "fl", "backend": "c"}},  # C FL has no predictor
     ],
     ids=["cable", "payload", "pulse", "delay"],
 )
