@@ -22,10 +22,12 @@ Verdicts can be wrong in only one way at a time:
   ``closes_min`` of the gap. Candidates whose held-out residual is not
   significantly worse than the best's (paired ``|z| < confusable_z``) and that
   also close the gap form a confusable set, reported together (``a|b``). If a
-  significant gap remains, a second effect is added when it closes most of
-  what is left (``a+b``).
+  significant gap remains, forward selection adds effects one at a time, each
+  refitted jointly with those already selected and kept only if its held-out
+  gain is significant (``a+b``, ``a+b+c``; ``+`` binds loosest:
+  ``a+b|c`` is ``a`` and one of ``b``, ``c`` the data cannot tell apart).
 - ``unexplained``: a gap is detected (or a candidate helps) but no candidate,
-  alone or paired, closes ``closes_min`` of it; the report says where it is.
+  alone or with others, closes ``closes_min`` of it; the report says where it is.
 """
 
 from __future__ import annotations
@@ -145,6 +147,8 @@ class EffectScore:
     note: str = ""
     e_after: np.ndarray | None = None  # floor-normalized held-out residual (for paired comparisons)
     r2_after: float = math.nan  # mean floor-normalized squared held-out residual (1 = at the floor)
+    law: str = "default"  # member of the effect's law family
+    law_choice: str = ""  # how the member was chosen
 
     def to_dict(self) -> dict:
         """JSON-ready view (the issue's ``effects`` entries plus statistics)."""
@@ -164,6 +168,8 @@ class EffectScore:
             "solver_status": self.fit.status if self.fit is not None else "none",
             "per_channel_rms": self.per_channel,
             "confusable_with": self.confusable_with,
+            "law": self.law,
+            "law_choice": self.law_choice,
             "note": self.note,
         }
 

@@ -40,12 +40,13 @@ from ..riglog import Dataset as RigDataset
 from ..signals import PARAM_NAMES
 from .attribution import EffectScore, Verdict, VerdictRules, decide, paired_z, rank, score
 from .candidates import (
+    PRIOR_SD,
     CandidateSpec,
     Dataset,
     FitResult,
     calibration_free,
+    family_specs,
     fit_candidate,
-    library_specs,
     residuals_with,
 )
 from .localize import (
@@ -65,7 +66,7 @@ from .result import ChannelView, DiagnoseSettings, Diagnosis, HeldOut
 from .simulate_compare import TrajectoryComparison, compare_trajectories
 
 #: The candidate library, in report order.
-LIBRARY: tuple[str, ...] = tuple(library_specs())
+LIBRARY: tuple[str, ...] = tuple(family_specs())
 
 
 # ------------------------------------------------------------------------ helpers
@@ -148,6 +149,7 @@ def combine(a: CandidateSpec, b: CandidateSpec) -> CandidateSpec:
         a.ties + b.ties,
         a.lag or b.lag,
         f"{a.note}; {b.note}",
+        "; ".join(x for x in (a.law, b.law) if x),
     )
 
 
@@ -283,6 +285,11 @@ class _Attribution:
     final_spec: CandidateSpec | None = None
     final_fit: FitResult | None = None
     remaining: dict[str, ChannelFloor] = field(default_factory=dict)
+    final_score: EffectScore | None = None
+    members: list[EffectScore] = field(default_factory=list)  # law-family members not chosen
+    models: dict[frozenset, tuple] = field(default_factory=dict)  # effect set -> (spec, fit, score)
+    steps: list[dict] = field(default_factory=list)  # forward-selection trials
+    shares: dict[str, dict] = field(default_factory=dict)  # drop-one shares of the selected effects
 
 
 def _split(dataset: RigDataset, st: DiagnoseSettings) -> _Split:
@@ -304,28 +311,58 @@ def _split(dataset: RigDataset, st: DiagnoseSettings) -> _Split:
 
 
 def _baseline(split: _Split, params: Params | None, st: DiagnoseSettings, warnings: list[str]) -> _Baseline:
-    """Stage 2: the baseline (C1..C4 calibrated on the training runs unless ``params`` is given), noise floors."""
-    filt, train, test = split.filt, split.train, split.test
+    """Stage 2: the baseline (C1..C4 calibrated on the training runs unless ``params`` is given), noise floors.
+
+    The calibration has a Gaussian prior at nominal on C1..C4 (sd
+    ``st.prior_sd`` relative to nominal, C4 five times looser), counted like
+    independent samples of the data (one per filter main lobe), so that an
+    effect the constants cannot represent does not drag them far; the
+    constants are then refitted on the clean part of the data
+    (:func:`_clean_baseline`) and jointly with every candidate.
+    """
+    filt, train = split.filt, split.train
     given = params is not None
     base = params if given else NOMINAL.without_cogging()
     p0 = base.vector()
     base_spec = CandidateSpec("baseline")
-    cal_free = calibration_free(base, *split.has) if not given else ()
+    # The residual's noise is correlated over the filter's main lobe: 2 fs / fc decimated samples.
+    noise_lag = max(4, math.ceil(2.0 / (st.fc_hz * filt.Ts * st.decimate)))
+    prior = _prior_sd(st)
+    cal_free = calibration_free(base, *split.has, prior_sd=prior) if not given else ()
     if cal_free:
         r0 = residuals_with(base_spec, None, train, p0)
         w0 = np.array([1.0 / max(_rms_channel(r0, c), 1e-6) for c in range(2)])
         cal_spec = CandidateSpec("baseline", free=cal_free, note="C1..C4 calibrated on the training runs")
-        fit0 = fit_candidate(cal_spec, Dataset(train, w0, filt), p0)
+        fit0 = fit_candidate(cal_spec, Dataset(train, w0, filt, prior_weight=noise_lag), p0)
         _check_fit(fit0, "baseline calibration (first pass)", warnings)
         p_base = _params_with(p0, fit0)
     else:
         p_base = p0
+    return _baseline_at(split, p_base, given, st, warnings, noise_lag)
+
+
+def _prior_sd(st: DiagnoseSettings) -> dict[str, float] | None:
+    """Relative prior sd of each calibrated constant (None: no prior)."""
+    if st.prior_sd <= 0:
+        return None
+    return {n: st.prior_sd * PRIOR_SD[n] / PRIOR_SD["C1"] for n in PRIOR_SD}
+
+
+def _baseline_at(
+    split: _Split,
+    p_base: np.ndarray,
+    given: bool,
+    st: DiagnoseSettings,
+    warnings: list[str],
+    noise_lag: int,
+) -> _Baseline:
+    """The baseline stage at calibrated constants ``p_base``: residuals, floors, the joint-refit start."""
+    filt, train, test = split.filt, split.train, split.test
+    base_spec = CandidateSpec("baseline")
     base_params = Params.from_vector(p_base)
     b_train = residuals_with(base_spec, None, train, p_base)
     b_test = residuals_with(base_spec, None, test, p_base)
     q_floor = filt.quantization_floor()
-    # The residual's noise is correlated over the filter's main lobe: 2 fs / fc decimated samples.
-    noise_lag = max(4, math.ceil(2.0 / (st.fc_hz * filt.Ts * st.decimate)))
     floors: dict[str, ChannelFloor] = {}
     for c in range(2):
         fl = channel_floor(b_train, b_test, c, q_floor, max_lag=noise_lag)
@@ -333,10 +370,10 @@ def _baseline(split: _Split, params: Params | None, st: DiagnoseSettings, warnin
             floors[CHANNELS[c]] = fl
     fvec = np.array([floors[ch].floor if ch in floors else 1.0 for ch in CHANNELS])
     fvec = np.maximum(fvec, 1e-9)
-    data_train = Dataset(train, 1.0 / fvec, filt)
+    data_train = Dataset(train, 1.0 / fvec, filt, prior_weight=noise_lag)
     base_stderr: dict[str, float] = {}
-    if cal_free:
-        cal_free2 = calibration_free(base_params, *split.has)
+    if not given:
+        cal_free2 = calibration_free(base_params, *split.has, prior_sd=_prior_sd(st))
         base_fit = fit_candidate(CandidateSpec("baseline", free=cal_free2), data_train, p_base)
         _check_fit(base_fit, "baseline calibration", warnings)
         base_stderr = {k_.split(".", 1)[1]: float(s) for k_, s in zip(base_fit.spec.keys, base_fit.stderr, strict=True)}
@@ -379,85 +416,297 @@ def _localize(split: _Split, base: _Baseline, st: DiagnoseSettings, rng: np.rand
     return _Localization(views, evidence, infl, fs)
 
 
+@dataclass
+class _CleanCalibration:
+    """Stage 3b: where the baseline was recalibrated (the part of the data the localization finds clean)."""
+
+    used: bool
+    fraction: float
+    excluded: list[dict]
+    p_first: np.ndarray
+    reason: str
+
+    def to_dict(self, p_final: np.ndarray) -> dict:
+        """JSON-ready view: the excluded boxes, the clean fraction, the constants of both passes."""
+        names = ("C1", "C2", "C3", "C4")
+        return {
+            "recalibrated_on_clean_data": self.used,
+            "clean_fraction": self.fraction,
+            "excluded_regions": self.excluded,
+            "reason": self.reason,
+            "first_pass": {n: float(self.p_first[PARAM_NAMES.index(n)]) for n in names},
+            "clean_pass": {n: float(p_final[PARAM_NAMES.index(n)]) for n in names},
+        }
+
+
+def _clean_weights(runs: Sequence[PreparedRun], boxes: Sequence[tuple[list[float], list[float]]]) -> list[np.ndarray]:
+    """Per-run sample weights: 0 inside any gap x position box (both channels), 1 elsewhere."""
+    out = []
+    for r in runs:
+        w = np.ones((r.n, 2))
+        if r.n:
+            g, d = r.feat["g"], r.feat["d"]
+            bad = np.zeros(r.n, bool)
+            for (g0, g1), (d0, d1) in boxes:
+                bad |= (g >= g0) & (g <= g1) & (d >= d0) & (d <= d1)
+            w[bad] = 0.0
+        out.append(w)
+    return out
+
+
+def _clean_baseline(
+    split: _Split, base: _Baseline, loc: _Localization, st: DiagnoseSettings, warnings: list[str]
+) -> tuple[_Baseline, _CleanCalibration]:
+    """Stage 3b: recalibrate C1..C4 (with the prior) on the training samples outside the regions with a gap.
+
+    An effect that lives in part of the gap x position plane (cogging at small
+    gaps, end effects at the ends of the stroke, saturation near the upper
+    stop) drags a calibration over all the data; the regions the localization
+    flags are left out and the constants recalibrated on the rest, provided
+    at least ``st.clean_min`` of the samples remain. An effect that is
+    everywhere (friction, a lag) leaves no clean part: the prior and the joint
+    refit with each candidate then carry the correction.
+    """
+    keep = _CleanCalibration(False, 1.0, [], base.p.copy(), "")
+    if base.given:
+        keep.reason = "baseline given"
+        return base, keep
+    regs = [r for r in _regions(loc.views, base.floors) if r.n_bins > 0]
+    if not loc.gap_detected or not regs:
+        keep.reason = "no region of the gap x position plane exceeds the floor"
+        return base, keep
+    boxes = [(list(r.g_range_m), list(r.d_range_m)) for r in regs]
+    row_w = _clean_weights(split.train, boxes)
+    tot = sum(float(w.sum()) for w in row_w)
+    frac = tot / max(sum(w.size for w in row_w), 1)
+    keep.fraction, keep.excluded = frac, [{"channel": r.channel, "g_range_m": b[0], "d_range_m": b[1]}
+                                          for r, b in zip(regs, boxes, strict=True)]  # fmt: skip
+    if frac < st.clean_min:
+        keep.reason = f"only {frac:.0%} of the samples lie outside the regions (< {st.clean_min:.0%})"
+        return base, keep
+    if frac > 0.999:
+        keep.reason = "the regions hold no training sample"
+        return base, keep
+    data = Dataset(split.train, 1.0 / base.fvec, split.filt, row_w, base.noise_lag)
+    spec = CandidateSpec("baseline", free=calibration_free(base.params, *split.has, prior_sd=_prior_sd(st)))
+    fit = fit_candidate(spec, data, base.p)
+    _check_fit(fit, "baseline calibration on the clean samples", warnings)
+    if not fit.success:
+        keep.reason = "the calibration on the clean samples did not converge"
+        return base, keep
+    keep.used = True
+    keep.reason = f"recalibrated on the {frac:.0%} of the training samples outside {len(regs)} region(s)"
+    return _baseline_at(split, _params_with(base.p, fit), False, st, warnings, base.noise_lag), keep
+
+
 def _fit_and_score(
-    name: str, spec: CandidateSpec, split: _Split, base: _Baseline, rules: VerdictRules, note: str, pair: bool
+    name: str,
+    spec: CandidateSpec,
+    split: _Split,
+    base: _Baseline,
+    rules: VerdictRules,
+    note: str,
+    pair: bool,
+    warm: dict[str, float] | None = None,
 ) -> tuple[FitResult, EffectScore]:
-    """Fit one candidate (or pair) on the training runs and score it on the held-out runs."""
-    fit = fit_candidate(spec, base.data_train, base.p, u_runs=split.u_train)
+    """Fit one candidate (or a joint set) on the training runs and score it on the held-out runs."""
+    fit = fit_candidate(spec, base.data_train, base.p, u_runs=split.u_train, warm=warm)
     after = residuals_with(spec, fit, split.test, base.p, split.u_test)
     vals, errs = _readable(fit, pair=pair)
-    return fit, score(name, fit, base.fit, base.b_test, after, base.fvec, rules, vals, errs, note)
+    sc = score(name, fit, base.fit, base.b_test, after, base.fvec, rules, vals, errs, note)
+    sc.law = spec.law
+    return fit, sc
+
+
+def _joint(spec: CandidateSpec, base: _Baseline) -> CandidateSpec:
+    """The candidate with the baseline's constants refitted jointly (when the baseline was calibrated)."""
+    return spec.with_free(base.cal_free) if base.cal_free else spec
+
+
+def _warm(name: str, fit: FitResult) -> dict[str, float]:
+    """Start values from a fit, also under the effect's own keys (``p.xi0`` starts ``cogging.xi0``)."""
+    out = fit.params()
+    for key, v in list(out.items()):
+        if key.startswith("p.") and key[2:] in ("xi0", "ell"):
+            out.setdefault(f"{name}.{key[2:]}", v)
+    return out
 
 
 def _attribute(
     split: _Split, base: _Baseline, loc: _Localization, st: DiagnoseSettings, progress: bool, warnings: list[str]
 ) -> _Attribution:
-    """Stage 4: every library effect fitted on top of the baseline, scored on the held-out runs; verdict."""
+    """Stage 4: every library effect fitted on top of the baseline (its law family for the most promising
+    ones), scored on the held-out runs; the single-effect verdict."""
     rules = st.rules()
-    lib = library_specs()
-    names = [n for n in (st.candidates or LIBRARY) if n in lib]
+    fam = family_specs()
+    names = [n for n in (st.candidates or LIBRARY) if n in fam]
     if not base.given:
         names = [n for n in names if n != "parameter_error"]
     specs: dict[str, CandidateSpec] = {}
     fits: dict[str, FitResult] = {}
     scores: list[EffectScore] = []
     for name in tqdm(names, desc="candidates", disable=not progress, leave=False):
-        spec = lib[name].with_free(base.cal_free) if base.cal_free else lib[name]
-        fit, sc = _fit_and_score(name, spec, split, base, rules, lib[name].note, pair=False)
+        spec = _joint(fam[name][0], base)
+        fit, sc = _fit_and_score(name, spec, split, base, rules, spec.note, pair=False)
         _check_fit(fit, f"candidate {name}", warnings)
         specs[name], fits[name] = spec, fit
         scores.append(sc)
-    verdict, best = decide(scores, loc.gap_detected, rules, loc.evidence)
-    return _Attribution(specs, fits, scores, verdict, best)
+    att = _Attribution(specs, fits, scores, Verdict("none", [], False, []), None)
+    _choose_laws(split, base, att, st, warnings)
+    att.verdict, att.best = decide(att.scores, loc.gap_detected, rules, loc.evidence)
+    return att
 
 
-def _second_effect(
-    split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]
-) -> None:
-    """Stage 4b: if a significant gap remains after the best effect, try it with each other significant one."""
+def _choose_laws(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]) -> None:
+    """Stage 4a: the law families of the ``st.family_top`` most promising effects; the member is chosen by
+    the information criterion (effective sample size) among those whose held-out residual is not
+    significantly worse than the best member's (paired z below ``confusable_z``)."""
+    rules = st.rules()
+    fam = family_specs()
+    promising = [
+        s for s in rank(att.scores) if len(fam.get(s.name, ())) > 1 and s.z > 0 and s.fit is not None and s.fit.success
+    ][: st.family_top]
+    for sc in promising:
+        name = sc.name
+        tried = [(sc, att.specs[name], att.fits[name])]
+        warm = _warm(name, att.fits[name])
+        for mem in fam[name][1:]:
+            spec = _joint(mem, base)
+            fit, ms = _fit_and_score(name, spec, split, base, rules, spec.note, pair=False, warm=warm)
+            _check_fit(fit, f"candidate {name} ({mem.law})", warnings)
+            tried.append((ms, spec, fit))
+        ok = [t for t in tried if t[2].success]
+        if not ok:
+            continue
+        top = min(ok, key=lambda t: t[0].r2_after)
+        near = [t for t in ok if t is top or paired_z(t[0].e_after, top[0].e_after) < rules.confusable_z]
+        chosen = min(near, key=lambda t: t[2].bic())
+        laws = ", ".join(f"{t[1].law} (dBIC {t[0].delta_bic:.0f}, held-out {t[0].reduction:.1%})" for t in tried)
+        chosen[0].law_choice = f"law '{chosen[1].law}' chosen among: {laws}"
+        if chosen[0] is not sc:
+            att.scores[att.scores.index(sc)] = chosen[0]
+            att.specs[name], att.fits[name] = chosen[1], chosen[2]
+        for t in tried:
+            if t is not chosen:
+                t[0].name = f"{name}[{t[1].law}]"
+                att.members.append(t[0])
+
+
+def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]) -> None:
+    """Stage 4b: forward selection of several effects.
+
+    From the best single effect, each step refits every remaining promising
+    candidate **jointly** with the effects already selected (and the
+    baseline's constants), warm-started from the earlier fits, and scores it
+    on the held-out runs against the current model. The step adds the
+    candidate that closes the most of the remaining gap, if its held-out gain
+    is significant (paired z >= ``z_min``), the information criterion drops
+    by ``bic_margin`` and it closes at least ``second_min`` of what remained;
+    otherwise the selection stops. Candidates that pass at the same step and
+    fit the held-out runs as well as the chosen one form a confusable slot
+    (``a|b``) unless a later step adds them as effects of their own.
+    """
     rules = st.rules()
     best = att.best
     att.final_spec, att.final_fit = base.spec, None
     if best is None:
         return
-    att.final_spec, att.final_fit = att.specs[best.name], att.fits[best.name]
-    att.remaining = base.floors_of(att.final_spec, att.final_fit, split)
-    still = any(f.significant for f in att.remaining.values())
-    if still and best.closes < 0.9:
-        others = [
-            s for s in rank(att.scores) if s.significant and s.name != best.name and s.name not in best.confusable_with
-        ][:3]
-        pair_scores = []
-        for o in others:
-            spec = combine(att.specs[best.name], att.specs[o.name])
-            fit, ps = _fit_and_score(spec.name, spec, split, base, rules, spec.note, pair=True)
-            _check_fit(fit, f"candidate pair {spec.name}", warnings)
-            Ra_best2, Ra_pair2 = best.r2_after, ps.r2_after
-            extra = (Ra_best2 - Ra_pair2) / max(Ra_best2 - 1.0, Ra_best2 - Ra_pair2, 1e-12)
-            zp = paired_z(best.e_after, ps.e_after)
-            pair_scores.append((extra, zp, ps, spec, fit))
-            att.scores.append(ps)
-        good = [t for t in pair_scores if t[1] >= rules.z_min and t[0] >= rules.second_min and t[2].fit.success]
-        if good:
-            extra, zp, ps, spec, fit = max(good, key=lambda t: t[0])
-            if att.verdict.verdict != "unexplained" or ps.closes >= rules.closes_min:
-                att.verdict = Verdict(
-                    ps.name,
-                    ps.name.split("+"),
-                    True,
-                    [
-                        *att.verdict.reasons,
-                        f"a significant gap remained; adding {ps.name.split('+')[1]} closes {extra:.0%} of it "
-                        f"(paired z = {zp:.1f}): {ps.name}",
-                    ],
-                )
-                ps.selected = True
-                att.final_spec, att.final_fit = spec, fit
-                att.remaining = base.floors_of(spec, fit, split)
+    spec, fit, cur = att.specs[best.name], att.fits[best.name], best
+    att.final_spec, att.final_fit, att.final_score = spec, fit, best
+    att.models = {frozenset([s.name]): (att.specs[s.name], att.fits[s.name], s) for s in att.scores}
+    slots = [[best.name, *best.confusable_with]]
+    names = [best.name]
+    att.remaining = base.floors_of(spec, fit, split)
+    pool = [
+        s.name
+        for s in rank(att.scores)
+        if s.name != best.name and s.fit is not None and s.fit.success and s.z >= st.forward_z
+    ][: st.forward_pool]
+    while pool and len(names) < st.max_effects:
+        if not any(f.significant for f in att.remaining.values()) and cur.closes >= 0.9:
+            break
+        trials = []
+        for o in pool:
+            jspec = combine(spec, att.specs[o])
+            warm = {**_warm(o, att.fits[o]), **fit.params()}
+            jfit, js = _fit_and_score(jspec.name, jspec, split, base, rules, jspec.note, pair=True, warm=warm)
+            _check_fit(jfit, f"joint fit {jspec.name}", warnings)
+            extra = (cur.r2_after - js.r2_after) / max(cur.r2_after - 1.0, cur.r2_after - js.r2_after, 1e-12)
+            zp = paired_z(cur.e_after, js.e_after)
+            dbic = jfit.bic() - fit.bic()
+            att.models[frozenset([*names, o])] = (jspec, jfit, js)
+            att.scores.append(js)
+            trials.append((o, extra, zp, dbic, js, jspec, jfit))
+        good = [t for t in trials if t[2] >= rules.z_min and t[3] <= -rules.bic_margin and t[1] >= rules.second_min
+                and t[6].success]  # fmt: skip
+        for o, extra, zp, dbic, *_ in trials:
+            att.steps.append(
+                dict(step=len(names) + 1, candidate=o, on_top_of=list(names), closes_remaining=extra, paired_z=zp,
+                     delta_bic=dbic, accepted=False)
+            )  # fmt: skip
+        if not good:
+            break
+        o, extra, zp, dbic, js, jspec, jfit = max(good, key=lambda t: t[1])
+        conf = [t[0] for t in good if t[0] != o and paired_z(t[4].e_after, js.e_after) < rules.confusable_z]
+        for row in att.steps[-len(trials) :]:
+            row["accepted"] = row["candidate"] == o
+        for slot in slots:
+            if o in slot[1:]:
+                slot.remove(o)
+        slots.append([o, *conf])
+        names.append(o)
+        pool.remove(o)
+        att.verdict.reasons.append(
+            f"a significant gap remained; adding {o} (joint refit with {', '.join(names[:-1])}) closes {extra:.0%} "
+            f"of it on the held-out runs (paired z = {zp:.1f}, dBIC = {dbic:.0f})"
+            + (f"; {', '.join(conf)} would do as well: confusable" if conf else "")
+        )
+        spec, fit, cur = jspec, jfit, js
+        att.remaining = base.floors_of(spec, fit, split)
+    if len(names) > 1:
+        if att.verdict.verdict != "unexplained" or cur.closes >= rules.closes_min:
+            att.verdict = Verdict("+".join("|".join(sl) for sl in slots), list(names), True, att.verdict.reasons)
+            att.final_spec, att.final_fit, att.final_score = spec, fit, cur
+            _shares(split, base, att, names, st, warnings)
+    elif att.verdict.verdict == "unexplained":
+        att.final_spec, att.final_fit, att.final_score = base.spec, None, None
     if att.verdict.verdict == "unexplained":
         att.verdict.reasons.append(
-            f"no candidate, alone or with a second one, closes {rules.closes_min:.0%} of the gap: unexplained"
+            f"no candidate, alone or with others, closes {rules.closes_min:.0%} of the gap: unexplained"
         )
+
+
+def _shares(
+    split: _Split, base: _Baseline, att: _Attribution, names: list[str], st: DiagnoseSettings, warnings: list[str]
+) -> None:
+    """Each selected effect's share of the gap, by drop-one refits: how much the held-out residual grows
+    when the others are refitted without it (floor-normalized mean squares), normalized to sum to 1."""
+    rules = st.rules()
+    full = att.final_score
+    inc = {}
+    for e in names:
+        rest = frozenset(n for n in names if n != e)
+        if rest not in att.models:
+            parts = [att.specs[n] for n in names if n != e]
+            spec = parts[0]
+            for q in parts[1:]:
+                spec = combine(spec, q)
+            warm = att.final_fit.params()
+            jfit, js = _fit_and_score(spec.name, spec, split, base, rules, spec.note, pair=True, warm=warm)
+            _check_fit(jfit, f"drop-one refit {spec.name}", warnings)
+            att.models[rest] = (spec, jfit, js)
+        inc[e] = max(att.models[rest][2].r2_after - full.r2_after, 0.0)
+    tot = sum(inc.values())
+    gain = full.heldout_rms_before - full.heldout_rms_after
+    for e in names:
+        sh = inc[e] / tot if tot > 0 else 1.0 / len(names)
+        rest = frozenset(n for n in names if n != e)
+        att.shares[e] = {
+            "share_of_gap": sh,
+            "heldout_rms_reduction_m_s2": sh * gain,
+            "heldout_rms_without_it_m_s2": att.models[rest][2].heldout_rms_after,
+            "law": att.specs[e].law,
+        }
 
 
 def _settle_verdict(base: _Baseline, att: _Attribution) -> None:
@@ -469,8 +718,37 @@ def _settle_verdict(base: _Baseline, att: _Attribution) -> None:
     in_verdict = set(verdict.verdict.replace("|", "+").split("+"))
     for s in att.scores:
         s.selected = verdict.verdict not in ("none", "unexplained") and (
-            s.name in in_verdict or s.name == verdict.verdict
+            s.name in in_verdict or s.name == verdict.verdict or s is att.final_score
         )
+
+
+def _undragged(base: _Baseline, att: _Attribution) -> Params:
+    """The baseline's constants as the effects do not drag them: those of the joint refit with the verdict's
+    effects when there are any (a calibrated baseline), else the calibration's."""
+    if base.given or att.final_fit is None:
+        return base.params
+    return Params.from_vector(_params_with(base.p, att.final_fit))
+
+
+def _constants_moved(base: _Baseline, att: _Attribution) -> dict[str, dict]:
+    """How far the joint refit with the verdict's effects moved each calibrated constant from the baseline."""
+    fit = att.final_fit
+    if fit is None or base.given:
+        return {}
+    out = {}
+    for f, v, se in zip(fit.spec.free, fit.w, fit.stderr, strict=True):
+        if not f.key.startswith("p.C"):
+            continue
+        n = f.key[2:]
+        b = float(base.p[PARAM_NAMES.index(n)])
+        out[n] = {
+            "baseline": b,
+            "final": float(v),
+            "change_pct": 100.0 * (float(v) - b) / b if b else math.nan,
+            "change_in_stderr": (float(v) - b) / float(se) if np.isfinite(se) and se > 0 else math.nan,
+            "stderr": float(se),
+        }
+    return out
 
 
 @dataclass
@@ -573,12 +851,15 @@ def diagnose(
     base = _baseline(split, params, st, warnings)
     t0 = lap("baseline_s", t0)
     loc = _localize(split, base, st, rng)
+    base, clean = _clean_baseline(split, base, loc, st, warnings)
+    if clean.used:
+        loc = _localize(split, base, st, rng)
     t0 = lap("localize_s", t0)
     att = _attribute(split, base, loc, st, progress, warnings)
     t0 = lap("candidates_s", t0)
-    _second_effect(split, base, att, st, warnings)
+    _forward(split, base, att, st, warnings)
     _settle_verdict(base, att)
-    t0 = lap("pairs_s", t0)
+    t0 = lap("forward_s", t0)
     q = _quantify(split, base, loc, att, st, rng)
     lap("quantify_s", t0)
     timing["total_s"] = time.perf_counter() - t_all
@@ -588,7 +869,8 @@ def diagnose(
         scores=rank(att.scores),
         floors=base.floors,
         remaining=att.remaining,
-        baseline_params=base.params,
+        baseline_params=_undragged(base, att),
+        residual_baseline_params=base.params,
         baseline_mode="given" if base.given else "calibrated",
         baseline_stderr=base.stderr,
         views_before=loc.views,
@@ -606,6 +888,19 @@ def diagnose(
         quantization_floor=base.q_floor,
         heldout=HeldOut(split.test, split.u_test, base.fvec, base.b_test),
         warnings=warnings,
+        effects_found=list(att.verdict.selected) if att.final_fit is not None else [],
+        shares=att.shares,
+        forward_steps=att.steps,
+        law_members=att.members,
+        final_score=att.final_score if att.final_fit is not None else None,
+        constants_moved=_constants_moved(base, att),
+        baseline_calibration=clean.to_dict(base.p) if not base.given else {},
+        prior={
+            "sd_relative_to_nominal": _prior_sd(st),
+            "weight": f"one independent sample per {base.noise_lag} residual samples (the filter's main lobe)",
+        }
+        if not base.given
+        else {},
     )
 
 

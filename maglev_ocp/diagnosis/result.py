@@ -56,6 +56,19 @@ class DiagnoseSettings(Strict):
         Window of the simulated-trajectory comparison [s].
     simulate : bool
         Run the trajectory comparison.
+    prior_sd : float
+        Sd of the Gaussian prior at nominal on C1..C3 of a calibrated baseline,
+        relative to nominal (C4 five times looser; 0: no prior).
+    clean_min : float
+        Smallest fraction of the training samples outside the regions with a
+        gap for the baseline to be recalibrated on them.
+    max_effects : int
+        Most effects the forward selection names.
+    forward_pool, forward_z : int, float
+        Candidates tried at each forward step: the best ``forward_pool``
+        singles whose own held-out z reaches ``forward_z``.
+    family_top : int
+        Effects (the best singles) whose whole law family is fitted.
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -72,6 +85,12 @@ class DiagnoseSettings(Strict):
     seed: int = Field(0, ge=0)
     horizon_s: float = Field(0.05, gt=0.002, le=1.0)
     simulate: bool = True
+    prior_sd: float = Field(0.1, ge=0.0, le=10.0)
+    clean_min: float = Field(0.3, ge=0.0, le=1.0)
+    max_effects: int = Field(3, ge=1, le=8)
+    forward_pool: int = Field(4, ge=0, le=10)
+    forward_z: float = Field(2.0, ge=-100.0)
+    family_top: int = Field(2, ge=0, le=10)
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""
@@ -140,7 +159,10 @@ class Diagnosis:
     remaining : dict
         ``{channel: ChannelFloor}`` after the selected effect(s) (or the best candidate).
     baseline_params : Params
-        The baseline model.
+        The baseline model's constants as the effects do not drag them: for a
+        calibrated baseline with effects found, those of the joint refit with
+        the effects (the calibration alone is in ``baseline_calibration``);
+        otherwise the calibrated (or given) ones.
     baseline_mode : str
         ``calibrated`` or ``given``.
     baseline_stderr : dict
@@ -169,6 +191,24 @@ class Diagnosis:
         Held-out data for scoring other models (self-check).
     warnings : list of str
         Fits whose solver did not converge (their candidates are not counted as evidence).
+    effects_found : list of str
+        The effects of the verdict, in the order the forward selection added them.
+    shares : dict
+        ``{effect: {share_of_gap, heldout_rms_reduction_m_s2, ...}}`` by drop-one refits (two or more effects).
+    forward_steps : list of dict
+        Every forward-selection trial (candidate, on top of what, gain, z, dBIC, accepted).
+    law_members : list of EffectScore
+        Law-family members fitted but not chosen.
+    final_score : EffectScore or None
+        The final model's score (the joint fit of the verdict's effects).
+    constants_moved : dict
+        ``{C: {baseline, final, change_pct, change_in_stderr}}``: the joint refit's constants against the baseline.
+    baseline_calibration : dict
+        How the calibrated baseline was obtained (clean samples, excluded regions, both passes' constants).
+    prior : dict
+        The prior at nominal of the calibration (sd and weight).
+    residual_baseline_params : Params or None
+        The constants the baseline residuals (``floors``, ``views_before``, scores' "before") were computed with.
     """
 
     verdict: Verdict
@@ -193,6 +233,16 @@ class Diagnosis:
     quantization_floor: float = math.nan
     heldout: HeldOut | None = None
     warnings: list[str] = field(default_factory=list)
+    # Several effects, law families, baseline calibration (issue 11 items 2, 3, 5).
+    effects_found: list[str] = field(default_factory=list)
+    shares: dict[str, dict] = field(default_factory=dict)
+    forward_steps: list[dict] = field(default_factory=list)
+    law_members: list[EffectScore] = field(default_factory=list)
+    final_score: EffectScore | None = None
+    constants_moved: dict[str, dict] = field(default_factory=dict)
+    baseline_calibration: dict = field(default_factory=dict)
+    prior: dict = field(default_factory=dict)
+    residual_baseline_params: Params | None = None
 
     def to_json(self) -> dict:
         """The ``report.json`` content."""
@@ -250,6 +300,14 @@ def report_json(d: Diagnosis) -> dict:
         "timing_s": d.timing,
         "settings": d.settings.model_dump() if d.settings is not None else None,
         "warnings": d.warnings,
+        "effects_found": d.effects_found,
+        "effect_shares": d.shares,
+        "forward_selection": d.forward_steps,
+        "law_members": [s.to_dict() for s in d.law_members],
+        "constants_moved": d.constants_moved,
+        "baseline_calibration": d.baseline_calibration,
+        "baseline_prior": d.prior,
+        "residual_baseline_params": d.residual_baseline_params.as_dict() if d.residual_baseline_params else None,
     }
     return _clean(out)
 
@@ -286,6 +344,7 @@ def summary_table(d: Diagnosis) -> str:
                     for k, v in s.params.items()
                 )
             )
+    lines += _effects_lines(d)
     if d.regions:
         lines.append("")
         lines.append("regions where the baseline residual exceeds the floor:")
@@ -304,6 +363,31 @@ def summary_table(d: Diagnosis) -> str:
     lines += [f"warning: {w}" for w in d.warnings]
     lines.append(f"\ntime: {d.timing.get('total_s', float('nan')):.1f} s")
     return "\n".join(lines)
+
+
+def _effects_lines(d: Diagnosis) -> list[str]:
+    """Text lines: each effect's law and share of the gap, the constants' move, the calibration."""
+    lines = []
+    for e, sh in d.shares.items():
+        lines.append(
+            f"  share of the gap: {e} ({sh.get('law', 'default')}) {sh['share_of_gap']:.0%} "
+            f"(held-out rms reduction {sh['heldout_rms_reduction_m_s2']:.3g} m/s^2)"
+        )
+    for s in d.scores:
+        if s.selected and s.law_choice:
+            lines.append(f"  {s.name}: {s.law_choice}")
+    if d.baseline_calibration:
+        lines.append(f"  baseline calibration: {d.baseline_calibration.get('reason', '')}")
+    if d.constants_moved:
+        lines.append(
+            "  constants, baseline -> joint refit with the effects: "
+            + ", ".join(
+                f"{n} {v['baseline']:.4g} -> {v['final']:.4g} ({v['change_pct']:+.1f} %, "
+                f"{v['change_in_stderr']:+.1f} se)"
+                for n, v in d.constants_moved.items()
+            )
+        )
+    return lines
 
 
 __all__ = ["ChannelView", "DiagnoseSettings", "Diagnosis", "HeldOut", "report_json", "summary_table"]
