@@ -38,7 +38,17 @@ from ..errors import DataError
 from ..params import NOMINAL, Params
 from ..riglog import Dataset as RigDataset
 from ..signals import PARAM_NAMES
-from .attribution import EffectScore, Verdict, VerdictRules, decide, paired_z, rank, score
+from .attribution import (
+    EffectScore,
+    Verdict,
+    VerdictRules,
+    decide,
+    delta_bic,
+    noise_inflation,
+    paired_z,
+    rank,
+    score,
+)
 from .candidates import (
     PRIOR_SD,
     CandidateSpec,
@@ -246,6 +256,7 @@ class _Baseline:
     data_train: Dataset
     q_floor: float
     noise_lag: int
+    noise_infl: float = 1.0  # autocorrelation inflation of the filtered measurement noise (information criterion)
 
     def floors_of(self, spec: CandidateSpec, fit: FitResult | None, split: _Split) -> dict[str, ChannelFloor]:
         """Channel floors of the residuals of a fitted candidate (training and held-out runs)."""
@@ -382,7 +393,7 @@ def _baseline_at(
         base_fit = fit_candidate(base_spec, data_train, p_base)
     return _Baseline(
         base_spec, given, p_base, base_params, base_stderr, cal_free2, base_fit, b_train, b_test, floors, fvec,
-        data_train, q_floor, noise_lag,
+        data_train, q_floor, noise_lag, noise_inflation(filt.w_y, filt.decimate),
     )  # fmt: skip
 
 
@@ -513,7 +524,7 @@ def _fit_and_score(
     fit = fit_candidate(spec, base.data_train, base.p, u_runs=split.u_train, warm=warm)
     after = residuals_with(spec, fit, split.test, base.p, split.u_test)
     vals, errs = _readable(fit, pair=pair)
-    sc = score(name, fit, base.fit, base.b_test, after, base.fvec, rules, vals, errs, note)
+    sc = score(name, fit, base.fit, base.b_test, after, base.fvec, rules, vals, errs, note, base.noise_infl)
     sc.law = spec.law
     return fit, sc
 
@@ -580,7 +591,7 @@ def _choose_laws(split: _Split, base: _Baseline, att: _Attribution, st: Diagnose
             continue
         top = min(ok, key=lambda t: t[0].r2_after)
         near = [t for t in ok if t is top or paired_z(t[0].e_after, top[0].e_after) < rules.confusable_z]
-        chosen = min(near, key=lambda t: t[2].bic())
+        chosen = min(near, key=lambda t: delta_bic(t[2], top[2], base.noise_infl))
         laws = ", ".join(f"{t[1].law} (dBIC {t[0].delta_bic:.0f}, held-out {t[0].reduction:.1%})" for t in tried)
         chosen[0].law_choice = f"law '{chosen[1].law}' chosen among: {laws}"
         if chosen[0] is not sc:
@@ -600,9 +611,11 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
     baseline's constants), warm-started from the earlier fits, and scores it
     on the held-out runs against the current model. The step adds the
     candidate that closes the most of the remaining gap, if its held-out gain
-    is significant (paired z >= ``z_min``), the information criterion drops
+    is significant (paired z >= ``z_enter``), the information criterion drops
     by ``bic_margin`` and it closes at least ``second_min`` of what remained;
-    otherwise the selection stops. Candidates that pass at the same step and
+    otherwise the selection stops. A backward check (:func:`_backward`) then
+    keeps only the effects the full joint model needs (drop-one held-out z
+    >= ``z_min``). Candidates that pass at the same step and
     fit the held-out runs as well as the chosen one form a confusable slot
     (``a|b``) unless a later step adds them as effects of their own.
     """
@@ -617,14 +630,19 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
     slots = [[best.name, *best.confusable_with]]
     names = [best.name]
     att.remaining = base.floors_of(spec, fit, split)
+    # Candidates worth a joint refit: those the training data favour (information criterion) and that do not
+    # worsen the held-out runs alone, best first. The held-out z of a single is not the test here: other
+    # effects still in the residual inflate its noise.
     pool = [
         s.name
-        for s in rank(att.scores)
-        if s.name != best.name and s.fit is not None and s.fit.success and s.z >= st.forward_z
+        for s in sorted(att.scores, key=lambda s: s.delta_bic)
+        if s.name != best.name
+        and s.fit is not None
+        and s.fit.success
+        and s.z > st.forward_z
+        and s.delta_bic <= -rules.bic_margin
     ][: st.forward_pool]
     while pool and len(names) < st.max_effects:
-        if not any(f.significant for f in att.remaining.values()) and cur.closes >= 0.9:
-            break
         trials = []
         for o in pool:
             jspec = combine(spec, att.specs[o])
@@ -633,11 +651,11 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
             _check_fit(jfit, f"joint fit {jspec.name}", warnings)
             extra = (cur.r2_after - js.r2_after) / max(cur.r2_after - 1.0, cur.r2_after - js.r2_after, 1e-12)
             zp = paired_z(cur.e_after, js.e_after)
-            dbic = jfit.bic() - fit.bic()
+            dbic = delta_bic(jfit, fit, base.noise_infl)
             att.models[frozenset([*names, o])] = (jspec, jfit, js)
             att.scores.append(js)
             trials.append((o, extra, zp, dbic, js, jspec, jfit))
-        good = [t for t in trials if t[2] >= rules.z_min and t[3] <= -rules.bic_margin and t[1] >= rules.second_min
+        good = [t for t in trials if t[2] >= st.z_enter and t[3] <= -rules.bic_margin and t[1] >= rules.second_min
                 and t[6].success]  # fmt: skip
         for o, extra, zp, dbic, *_ in trials:
             att.steps.append(
@@ -662,7 +680,13 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
             + (f"; {', '.join(conf)} would do as well: confusable" if conf else "")
         )
         spec, fit, cur = jspec, jfit, js
-        att.remaining = base.floors_of(spec, fit, split)
+    if len(names) > 1:
+        names, slots = _backward(split, base, att, names, slots, st, warnings)
+        spec, fit, cur = att.models[frozenset(names)]
+    att.remaining = base.floors_of(spec, fit, split)
+    if len(names) == 1 and names[0] != best.name:  # the backward pass kept another single
+        att.verdict = Verdict("|".join(slots[0]), list(names), True, att.verdict.reasons)
+        att.final_spec, att.final_fit, att.final_score = spec, fit, cur
     if len(names) > 1:
         if att.verdict.verdict != "unexplained" or cur.closes >= rules.closes_min:
             att.verdict = Verdict("+".join("|".join(sl) for sl in slots), list(names), True, att.verdict.reasons)
@@ -676,26 +700,85 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
         )
 
 
+def _model(
+    split: _Split, base: _Baseline, att: _Attribution, names: Sequence[str], st: DiagnoseSettings, warnings: list[str]
+) -> tuple[CandidateSpec, FitResult, EffectScore]:
+    """The joint model of a set of effects: from the forward pass, or refitted (warm) from the final fit."""
+    key = frozenset(names)
+    if key not in att.models:
+        spec = att.specs[names[0]]
+        for n in names[1:]:
+            spec = combine(spec, att.specs[n])
+        warm: dict[str, float] = {}
+        for n in names:
+            warm.update(_warm(n, att.fits[n]))
+        if att.final_fit is not None:
+            warm.update(att.final_fit.params())
+        jfit, js = _fit_and_score(spec.name, spec, split, base, st.rules(), spec.note, pair=True, warm=warm)
+        _check_fit(jfit, f"drop-one refit {spec.name}", warnings)
+        att.models[key] = (spec, jfit, js)
+        att.scores.append(js)
+    return att.models[key]
+
+
+def _backward(
+    split: _Split,
+    base: _Baseline,
+    att: _Attribution,
+    names: list[str],
+    slots: list[list[str]],
+    st: DiagnoseSettings,
+    warnings: list[str],
+) -> tuple[list[str], list[list[str]]]:
+    """Backward check of the forward pass: every selected effect must still earn its place in the full model.
+
+    The forward pass admits an effect at ``z_enter`` (its held-out gain is
+    measured against a residual that still holds the effects not yet added,
+    which inflates the noise); here each effect's drop-one model (the others
+    refitted jointly without it) is compared with the full model on the
+    held-out runs, whose residual is now near the noise: an effect stays if
+    the full model is better by ``z_min`` and by the information criterion.
+    The weakest failing effect is dropped and the check repeated.
+    """
+    rules = st.rules()
+    names, slots = list(names), [list(x) for x in slots]
+    while len(names) > 1:
+        full = _model(split, base, att, names, st, warnings)
+        tests = []
+        for e in names:
+            rest = [n for n in names if n != e]
+            without = _model(split, base, att, rest, st, warnings)
+            z = paired_z(without[2].e_after, full[2].e_after)
+            dbic = delta_bic(full[1], without[1], base.noise_infl)
+            tests.append((z, dbic, e))
+        failing = [t for t in tests if t[0] < rules.z_min or t[1] > -rules.bic_margin]
+        if not failing:
+            att.verdict.reasons.append(
+                "backward check: every effect is needed in the joint model ("
+                + ", ".join(f"{e}: drop-one held-out z = {z:.1f}, dBIC = {-d:.0f}" for z, d, e in tests)
+                + ")"
+            )
+            break
+        z, dbic, e = min(failing)
+        att.verdict.reasons.append(
+            f"backward check: dropping {e} from {'+'.join(names)} does not worsen the held-out runs significantly "
+            f"(z = {z:.1f}, dBIC = {-dbic:.0f}): {e} dropped"
+        )
+        names.remove(e)
+        slots = [x for x in slots if x[0] != e]
+    return names, slots
+
+
 def _shares(
     split: _Split, base: _Baseline, att: _Attribution, names: list[str], st: DiagnoseSettings, warnings: list[str]
 ) -> None:
     """Each selected effect's share of the gap, by drop-one refits: how much the held-out residual grows
     when the others are refitted without it (floor-normalized mean squares), normalized to sum to 1."""
-    rules = st.rules()
     full = att.final_score
     inc = {}
     for e in names:
-        rest = frozenset(n for n in names if n != e)
-        if rest not in att.models:
-            parts = [att.specs[n] for n in names if n != e]
-            spec = parts[0]
-            for q in parts[1:]:
-                spec = combine(spec, q)
-            warm = att.final_fit.params()
-            jfit, js = _fit_and_score(spec.name, spec, split, base, rules, spec.note, pair=True, warm=warm)
-            _check_fit(jfit, f"drop-one refit {spec.name}", warnings)
-            att.models[rest] = (spec, jfit, js)
-        inc[e] = max(att.models[rest][2].r2_after - full.r2_after, 0.0)
+        rest = [n for n in names if n != e]
+        inc[e] = max(_model(split, base, att, rest, st, warnings)[2].r2_after - full.r2_after, 0.0)
     tot = sum(inc.values())
     gain = full.heldout_rms_before - full.heldout_rms_after
     for e in names:

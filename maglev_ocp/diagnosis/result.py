@@ -65,10 +65,14 @@ class DiagnoseSettings(Strict):
     max_effects : int
         Most effects the forward selection names.
     forward_pool, forward_z : int, float
-        Candidates tried at each forward step: the best ``forward_pool``
-        singles whose own held-out z reaches ``forward_z``.
+        Candidates tried at each forward step: the ``forward_pool`` singles
+        with the best information criterion (at least ``bic_margin`` below
+        the baseline's) whose own held-out z exceeds ``forward_z``.
     family_top : int
         Effects (the best singles) whose whole law family is fitted.
+    z_enter : float
+        Held-out z for the forward selection to admit an effect (the
+        backward check then asks ``z_min`` of each one in the full model).
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -88,9 +92,10 @@ class DiagnoseSettings(Strict):
     prior_sd: float = Field(0.1, ge=0.0, le=10.0)
     clean_min: float = Field(0.3, ge=0.0, le=1.0)
     max_effects: int = Field(3, ge=1, le=8)
-    forward_pool: int = Field(4, ge=0, le=10)
-    forward_z: float = Field(2.0, ge=-100.0)
+    forward_pool: int = Field(3, ge=0, le=10)
+    forward_z: float = Field(0.0, ge=-100.0)
     family_top: int = Field(2, ge=0, le=10)
+    z_enter: float = Field(2.0, ge=0.0)
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""
