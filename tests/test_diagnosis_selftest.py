@@ -48,7 +48,7 @@ def test_blind_selfcheck_20_datasets_with_effect_sets(tmp_path):
     assert any("+" in c.truth for c in res.cases)
     assert res.accuracy() >= 0.9, res.table()
     assert res.none_false_claims() == 0, res.table()
-    rows, cols, m = res.confusion()
+    rows, _, m = res.confusion()
     assert m.sum() == 20 and any("+" in r for r in rows)
 
 
