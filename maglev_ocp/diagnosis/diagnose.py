@@ -48,6 +48,7 @@ from .attribution import (
     paired_z,
     rank,
     score,
+    stack,
 )
 from .candidates import (
     PRIOR_SD,
@@ -325,11 +326,11 @@ def _baseline(split: _Split, params: Params | None, st: DiagnoseSettings, warnin
     """Stage 2: the baseline (C1..C4 calibrated on the training runs unless ``params`` is given), noise floors.
 
     The calibration has a Gaussian prior at nominal on C1..C4 (sd
-    ``st.prior_sd`` relative to nominal, C4 five times looser), counted like
-    independent samples of the data (one per filter main lobe), so that an
-    effect the constants cannot represent does not drag them far; the
-    constants are then refitted on the clean part of the data
-    (:func:`_clean_baseline`) and jointly with every candidate.
+    ``st.prior_sd`` relative to nominal, C4 five times looser), weighted as
+    one independent sample per filter main lobe of residual samples; the
+    constants are refitted jointly with every candidate and with the effects
+    the verdict names (the report's constants), and calibrated on the clean
+    part of the data for the report (:func:`_clean_baseline`).
     """
     filt, train = split.filt, split.train
     given = params is not None
@@ -436,17 +437,21 @@ class _CleanCalibration:
     excluded: list[dict]
     p_first: np.ndarray
     reason: str
+    p_clean: np.ndarray | None = None
 
     def to_dict(self, p_final: np.ndarray) -> dict:
         """JSON-ready view: the excluded boxes, the clean fraction, the constants of both passes."""
         names = ("C1", "C2", "C3", "C4")
         return {
-            "recalibrated_on_clean_data": self.used,
+            "calibrated_on_clean_data": self.used,
             "clean_fraction": self.fraction,
             "excluded_regions": self.excluded,
             "reason": self.reason,
-            "first_pass": {n: float(self.p_first[PARAM_NAMES.index(n)]) for n in names},
-            "clean_pass": {n: float(p_final[PARAM_NAMES.index(n)]) for n in names},
+            "all_training_samples": {n: float(self.p_first[PARAM_NAMES.index(n)]) for n in names},
+            "clean_pass": {n: float(self.p_clean[PARAM_NAMES.index(n)]) for n in names}
+            if self.p_clean is not None
+            else None,
+            "reported": {n: float(p_final[PARAM_NAMES.index(n)]) for n in names},
         }
 
 
@@ -468,15 +473,18 @@ def _clean_weights(runs: Sequence[PreparedRun], boxes: Sequence[tuple[list[float
 def _clean_baseline(
     split: _Split, base: _Baseline, loc: _Localization, st: DiagnoseSettings, warnings: list[str]
 ) -> tuple[_Baseline, _CleanCalibration]:
-    """Stage 3b: recalibrate C1..C4 (with the prior) on the training samples outside the regions with a gap.
+    """Stage 3b: calibrate C1..C4 (with the prior) also on the training samples outside the regions with a gap.
 
     An effect that lives in part of the gap x position plane (cogging at small
     gaps, end effects at the ends of the stroke, saturation near the upper
-    stop) drags a calibration over all the data; the regions the localization
-    flags are left out and the constants recalibrated on the rest, provided
-    at least ``st.clean_min`` of the samples remain. An effect that is
-    everywhere (friction, a lag) leaves no clean part: the prior and the joint
-    refit with each candidate then carry the correction.
+    stop) drags a calibration over all the data; here the regions the
+    localization flags are left out and the constants calibrated on the rest
+    (at least ``st.clean_min`` of the samples), and the result is reported.
+    It is not the residual baseline: without the small gaps the gap-shape
+    constants C2..C4 are poorly determined (on a saturation dataset C4 came
+    out 4x nominal), and an effect that is everywhere (friction, a lag) leaves
+    no clean part. What undoes the drag is the joint refit of the constants
+    with the effects found (:func:`_undragged`), and the prior at nominal.
     """
     keep = _CleanCalibration(False, 1.0, [], base.p.copy(), "")
     if base.given:
@@ -501,13 +509,17 @@ def _clean_baseline(
     data = Dataset(split.train, 1.0 / base.fvec, split.filt, row_w, base.noise_lag)
     spec = CandidateSpec("baseline", free=calibration_free(base.params, *split.has, prior_sd=_prior_sd(st)))
     fit = fit_candidate(spec, data, base.p)
-    _check_fit(fit, "baseline calibration on the clean samples", warnings)
     if not fit.success:
         keep.reason = "the calibration on the clean samples did not converge"
         return base, keep
     keep.used = True
-    keep.reason = f"recalibrated on the {frac:.0%} of the training samples outside {len(regs)} region(s)"
-    return _baseline_at(split, _params_with(base.p, fit), False, st, warnings, base.noise_lag), keep
+    keep.p_clean = _params_with(base.p, fit)
+    keep.reason = (
+        f"calibrated also on the {frac:.0%} of the training samples outside {len(regs)} region(s) (clean_pass); the "
+        "residual baseline keeps the calibration on all training samples, and the constants reported are those of "
+        "the joint refit with the effects found"
+    )
+    return base, keep
 
 
 def _fit_and_score(
@@ -603,6 +615,44 @@ def _choose_laws(split: _Split, base: _Baseline, att: _Attribution, st: Diagnose
                 att.members.append(t[0])
 
 
+def _forward_trials(
+    split: _Split,
+    base: _Baseline,
+    att: _Attribution,
+    names: list[str],
+    pool: list[str],
+    current: tuple[CandidateSpec, FitResult, EffectScore],
+    e_base: np.ndarray,
+    st: DiagnoseSettings,
+    warnings: list[str],
+) -> list[tuple]:
+    """One forward step: each pooled candidate that passes the screen refitted jointly with the current model.
+
+    Returns ``(name, closes_remaining, paired_z, delta_bic, score, spec, fit)`` per candidate refitted.
+    """
+    spec, fit, cur = current
+    rules = st.rules()
+    trials = []
+    for o in pool:
+        single = next(s for s in att.scores if s.name == o)
+        t_screen = _screen(e_base, single.e_after, cur.e_after, base)
+        if t_screen < st.z_enter:
+            att.steps.append(dict(step=len(names) + 1, candidate=o, on_top_of=list(names), screen_z=t_screen,
+                                  accepted=False))  # fmt: skip
+            continue
+        jspec = combine(spec, att.specs[o])
+        warm = {**_warm(o, att.fits[o]), **fit.params()}
+        jfit, js = _fit_and_score(jspec.name, jspec, split, base, rules, jspec.note, pair=True, warm=warm)
+        _check_fit(jfit, f"joint fit {jspec.name}", warnings)
+        extra = (cur.r2_after - js.r2_after) / max(cur.r2_after - 1.0, cur.r2_after - js.r2_after, 1e-12)
+        zp = paired_z(cur.e_after, js.e_after)
+        dbic = delta_bic(jfit, fit, base.noise_infl)
+        att.models[frozenset([*names, o])] = (jspec, jfit, js)
+        att.scores.append(js)
+        trials.append((o, extra, zp, dbic, js, jspec, jfit))
+    return trials
+
+
 def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]) -> None:
     """Stage 4b: forward selection of several effects.
 
@@ -642,19 +692,9 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
         and s.z > st.forward_z
         and s.delta_bic <= -rules.bic_margin
     ][: st.forward_pool]
+    e_base = stack(base.b_test, base.fvec)
     while pool and len(names) < st.max_effects:
-        trials = []
-        for o in pool:
-            jspec = combine(spec, att.specs[o])
-            warm = {**_warm(o, att.fits[o]), **fit.params()}
-            jfit, js = _fit_and_score(jspec.name, jspec, split, base, rules, jspec.note, pair=True, warm=warm)
-            _check_fit(jfit, f"joint fit {jspec.name}", warnings)
-            extra = (cur.r2_after - js.r2_after) / max(cur.r2_after - 1.0, cur.r2_after - js.r2_after, 1e-12)
-            zp = paired_z(cur.e_after, js.e_after)
-            dbic = delta_bic(jfit, fit, base.noise_infl)
-            att.models[frozenset([*names, o])] = (jspec, jfit, js)
-            att.scores.append(js)
-            trials.append((o, extra, zp, dbic, js, jspec, jfit))
+        trials = _forward_trials(split, base, att, names, pool, (spec, fit, cur), e_base, st, warnings)
         good = [t for t in trials if t[2] >= st.z_enter and t[3] <= -rules.bic_margin and t[1] >= rules.second_min
                 and t[6].success]  # fmt: skip
         for o, extra, zp, dbic, *_ in trials:
@@ -666,8 +706,9 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
             break
         o, extra, zp, dbic, js, jspec, jfit = max(good, key=lambda t: t[1])
         conf = [t[0] for t in good if t[0] != o and paired_z(t[4].e_after, js.e_after) < rules.confusable_z]
-        for row in att.steps[-len(trials) :]:
-            row["accepted"] = row["candidate"] == o
+        for row in att.steps:
+            if row["step"] == len(names) + 1:
+                row["accepted"] = row["candidate"] == o
         for slot in slots:
             if o in slot[1:]:
                 slot.remove(o)
@@ -698,6 +739,25 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
         att.verdict.reasons.append(
             f"no candidate, alone or with others, closes {rules.closes_min:.0%} of the gap: unexplained"
         )
+
+
+def _screen(e_base: np.ndarray, e_single: np.ndarray, e_cur: np.ndarray, base: _Baseline) -> float:
+    """Does the current model's held-out residual still hold what a candidate's single fit corrects?
+
+    ``delta = e_base - e_single`` is the single fit's correction (floor-
+    normalized, held-out samples); its regression coefficient on the current
+    residual ``e_cur``, in standard errors (noise inflation of the filter):
+    a cheap screen before a joint refit. A candidate that only absorbed part of
+    an effect already in the model corrects nothing that remains.
+    """
+    if e_single is None or len(e_single) != len(e_cur) or len(e_cur) < 10:
+        return 0.0
+    d = e_base - e_single
+    dd = float(d @ d)
+    if dd <= 0:
+        return 0.0
+    sig = float(np.sqrt(np.mean(e_cur**2)))
+    return float(d @ e_cur) / (math.sqrt(dd) * sig * math.sqrt(base.noise_infl))
 
 
 def _model(
@@ -935,8 +995,6 @@ def diagnose(
     t0 = lap("baseline_s", t0)
     loc = _localize(split, base, st, rng)
     base, clean = _clean_baseline(split, base, loc, st, warnings)
-    if clean.used:
-        loc = _localize(split, base, st, rng)
     t0 = lap("localize_s", t0)
     att = _attribute(split, base, loc, st, progress, warnings)
     t0 = lap("candidates_s", t0)
@@ -977,7 +1035,7 @@ def diagnose(
         law_members=att.members,
         final_score=att.final_score if att.final_fit is not None else None,
         constants_moved=_constants_moved(base, att),
-        baseline_calibration=clean.to_dict(base.p) if not base.given else {},
+        baseline_calibration=clean.to_dict(_undragged(base, att).vector()) if not base.given else {},
         prior={
             "sd_relative_to_nominal": _prior_sd(st),
             "weight": f"one independent sample per {base.noise_lag} residual samples (the filter's main lobe)",
