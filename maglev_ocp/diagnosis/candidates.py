@@ -698,6 +698,7 @@ class CandidateFitter:
             "qpsol_options": {"print_iter": False, "print_header": False, "error_on_fail": False},
             "hessian_approximation": "exact",
             "max_iter": self.chunk,
+            "max_iter_ls": 8,
             "tol_du": 1e-6,
             "tol_pr": 1e-9,
             "hess_lag": hess,
@@ -746,6 +747,16 @@ class CandidateFitter:
         leave undetermined then only crawl; accepted), ``iteration limit`` (still
         improving after :attr:`max_chunks` chunks) or ``failed`` (non-finite objective).
         """
+        x_start = np.asarray(x, float).copy()
+        r0 = np.asarray(self._rj(x_start, Zv)[0]).ravel()
+        f_start = 0.5 * float(r0 @ r0) + 0.5 * float(np.sum(self.pw * (x_start - self.c0) ** 2))
+        x, f, status = self._chunks(x, lo, hi, Zv)
+        if not f <= f_start:
+            # A step the line search could not tame left the start worse off: the start is the better answer.
+            return x_start, f_start, "stalled"
+        return x, f, status
+
+    def _chunks(self, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, Zv: ca.DM) -> tuple[np.ndarray, float, str]:
         f_prev = math.inf
         f = math.nan
         for _ in range(self.max_chunks):

@@ -388,6 +388,14 @@ def _baseline_at(
         cal_free2 = calibration_free(base_params, *split.has, prior_sd=_prior_sd(st))
         base_fit = fit_candidate(CandidateSpec("baseline", free=cal_free2), data_train, p_base)
         _check_fit(base_fit, "baseline calibration", warnings)
+        if base_fit.success:
+            # The residual baseline is the calibration under the floor weighting (the first pass weighted the
+            # channels by their raw rms): the candidates' "before" is then the best constants-only model.
+            p_base = _params_with(p_base, base_fit)
+            base_params = Params.from_vector(p_base)
+            b_train = residuals_with(base_spec, None, train, p_base)
+            b_test = residuals_with(base_spec, None, test, p_base)
+            cal_free2 = calibration_free(base_params, *split.has, prior_sd=_prior_sd(st))
         base_stderr = {k_.split(".", 1)[1]: float(s) for k_, s in zip(base_fit.spec.keys, base_fit.stderr, strict=True)}
     else:
         cal_free2 = ()
@@ -581,13 +589,18 @@ def _attribute(
 
 
 def _choose_laws(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]) -> None:
-    """Stage 4a: the law families of the ``st.family_top`` most promising effects; the member is chosen by
+    """Stage 4a: the law families of the ``st.family_top`` effects whose default member the information
+    criterion favours most (at least ``bic_margin``); the member is chosen by
     the information criterion (effective sample size) among those whose held-out residual is not
     significantly worse than the best member's (paired z below ``confusable_z``)."""
     rules = st.rules()
     fam = family_specs()
+    # The training data's information criterion ranks them (a law that differs can leave the default member's
+    # held-out gain small while the data clearly favour the effect).
     promising = [
-        s for s in rank(att.scores) if len(fam.get(s.name, ())) > 1 and s.z > 0 and s.fit is not None and s.fit.success
+        s
+        for s in sorted(att.scores, key=lambda s: s.delta_bic)
+        if len(fam.get(s.name, ())) > 1 and s.fit is not None and s.fit.success and s.delta_bic <= -rules.bic_margin
     ][: st.family_top]
     for sc in promising:
         name = sc.name
