@@ -60,8 +60,7 @@ def register(sub) -> None:
         "--baseline",
         choices=("given", "calibrated"),
         default="calibrated",
-        help="self-check: let the diagnosis calibrate the constants, or hand it the nominal model "
-        "(default calibrated)",
+        help="self-check: let the diagnosis calibrate the constants, or hand it the nominal model (default calibrated)",
     )
     p.add_argument("--runs", type=int, default=6, metavar="N", help="generated datasets: runs (default 6)")
     p.add_argument(
