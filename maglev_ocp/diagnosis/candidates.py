@@ -630,7 +630,7 @@ class CandidateFitter:
         self.prior = prior
         self.chunk = 4  # SQP iterations per call; calls repeat until the objective stops improving
         self.rtol = 1e-5  # relative: a chi-square change far below one unit on the data sizes of a diagnosis
-        self.max_chunks = 8
+        self.max_chunks = 16  # most fits stop long before (converged or stalled); hard joint fits need more
         self.scale = np.array([f.scale for f in spec.free])
         sc = np.where(self.scale > 0, self.scale, 1.0)
         self.s0 = np.array([f.start for f in spec.free]) / sc
