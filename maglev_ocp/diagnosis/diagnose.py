@@ -9,15 +9,20 @@ any controller, locked axes allowed) and returns a :class:`Diagnosis`, whose
    gap, every ``holdout_every``-th from the second). A dataset with fewer than
    three runs is cut into three pieces per run first.
 2. **Baseline**: the nominal model *without* cogging, its C1..C4 calibrated
-   by the filtered-equation-error NLP on the training runs (or ``params`` as
-   given).
+   by the filtered-equation-error NLP on the training runs with a Gaussian
+   prior at nominal (or ``params`` as given); also calibrated on the samples
+   outside the regions localization flags (reported).
 3. **Residuals** (:mod:`.residuals`), **floor and structure test**,
    **localization** (:mod:`.localize`).
 4. **Attribution** (:mod:`.candidates`, :mod:`.attribution`): every library
    effect fitted on the training runs on top of the baseline (jointly with
    C1..C4 when the baseline was calibrated, since the calibration absorbed
-   part of the effect), scored on the held-out runs; verdict; a second effect
-   if a significant gap remains.
+   part of the effect), scored on the held-out runs; the law families of the
+   effects the information criterion favours, the member chosen by held-out
+   score and the criterion; the single-effect verdict; then forward
+   selection of further effects with a joint refit and a held-out test at
+   each step, a backward drop-one check, and each effect's share of the gap.
+   The report's constants are those of the joint refit with the effects found.
 5. **Quantification**: held-out residual rms before/after, short-window
    simulated trajectories of the baseline and the augmented model against the
    held-out runs (:mod:`.simulate_compare`), fitted parameters with standard
