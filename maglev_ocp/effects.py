@@ -159,9 +159,10 @@ class Cogging(Effect):
     stays in ``p`` (``xi0``, ``ell``). Real motors add harmonics of the slot
     pitch (NOTES.md); the seed only says the peak force is "typically inversely
     proportional to the air-gap" (section V.C), so the decay here mixes a power
-    law with an exponential::
+    law with an exponential and a curvature of the log-decay (together a smooth
+    three-parameter family of decays; ``curv = 0`` by default)::
 
-        xi_e(g) = xi0 * (g_ref / g)^power * exp(-(g - g_ref) / ell)
+        xi_e(g) = xi0 * (g_ref / g)^power * exp(-(g - g_ref) / ell - curv ((g - g_ref) / g_ref)^2)
         Fx      = xi_e(g) * sum_k h_k sin(k pi d / t1 + phi_k)            (k = 1, 2, 3; phi_1 = 0)
         Fn      = kn * xi_e(g) * sum_k h_k sin^2(k pi d / t1 + phi_k)     (attractive, reduces g)
 
@@ -180,11 +181,14 @@ class Cogging(Effect):
         EffectParam("phi2", 0.0, -math.pi, math.pi, "rad", "phase of the 2nd harmonic"),
         EffectParam("phi3", 0.0, -math.pi, math.pi, "rad", "phase of the 3rd harmonic"),
         EffectParam("kn", 1.0, 0.0, 4.0, "-", "normal-to-tangential peak ratio"),
+        EffectParam("curv", 0.0, -20.0, 20.0, "-", "curvature of the log-decay, exp(-curv ((g - g_ref)/g_ref)^2)"),
     )
 
     def forces(self, g: Expr, d: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
         """Extra tangential and normal cogging forces ``(Fx, Fn)`` [N]."""
         xi = theta["xi0"] * (k.g_cog_ref / g) ** theta["power"] * ca.exp(-(g - k.g_cog_ref) / theta["ell"])
+        # Law family: a quadratic term in the log-decay (exactly 1 at the default curv = 0).
+        xi = xi * ca.exp(-theta["curv"] * ((g - k.g_cog_ref) / k.g_cog_ref) ** 2)
         arg = math.pi * d / k.t1
         s1, s2, s3 = ca.sin(arg), ca.sin(2 * arg + theta["phi2"]), ca.sin(3 * arg + theta["phi3"])
         Fx = xi * (theta["h1"] * s1 + theta["h2"] * s2 + theta["h3"] * s3)
@@ -265,19 +269,28 @@ class EndEffect(Effect):
         EffectParam("ripple_phase", 0.0, -math.pi, math.pi, "rad", "phase of the ripple at d = 0"),
         EffectParam("d_edge", 0.04, 0.0, 0.2, "m", "|d| at which the mover starts to overhang the stator"),
         EffectParam("edge_width", 4e-3, 1e-4, 0.05, "m", "smoothing length of the overhang onset"),
+        EffectParam("edge_gain", 1.0, 0.0, 5.0, "-", "force lost per overhanging length, relative to geometric"),
+        EffectParam("edge_quad", 0.0, -20.0, 20.0, "-", "quadratic term of the loss in the overhang fraction"),
     )
 
     @staticmethod
-    def overhang_factor(d: Expr, d_edge: Expr, w: Expr) -> Expr:
-        """Fraction of the magnet array still over the stator (1 in the middle of the stroke)."""
+    def overhang_factor(d: Expr, d_edge: Expr, w: Expr, gain: Expr = 1.0, quad: Expr = 0.0) -> Expr:
+        """Fraction of the force left as the array overhangs (1 in the middle of the stroke).
+
+        Geometric law (defaults): ``1 - o / (pm tau)``; the law family scales
+        the loss (``gain``, fringe fields) and bends it (``quad``):
+        ``1 - gain f - quad f^2`` with ``f = o / (pm tau)``.
+        """
         z = (_smooth_abs(d, 1e-5) - d_edge) / w
         softplus = ca.if_else(z > 30, z, ca.log1p(ca.exp(ca.fmin(z, 30))))
-        return 1 - w * softplus / (k.pm * k.tau)
+        f = w * softplus / (k.pm * k.tau)
+        return 1 - gain * f - quad * f**2
 
     def modify(self, terms, x, u, p, theta) -> None:
         d = x[2]
         terms.scale(["a_thrust"], 1 + theta["ripple"] * ca.cos(2 * math.pi * d / k.tau + theta["ripple_phase"]))
-        terms.scale(MAGNETIC_TERMS, self.overhang_factor(d, theta["d_edge"], theta["edge_width"]))
+        fac = self.overhang_factor(d, theta["d_edge"], theta["edge_width"], theta["edge_gain"], theta["edge_quad"])
+        terms.scale(MAGNETIC_TERMS, fac)
 
 
 class AmplifierLag(Effect):
@@ -350,15 +363,31 @@ class Saturation(Effect):
     params = (
         EffectParam("loss_8mm", 0.1, 0.0, 0.8, "-", "fractional force loss at g = 8 mm"),
         EffectParam("ell_sat", 3e-3, 2e-4, 0.05, "m", "decay length of the loss with the gap"),
+        EffectParam("w_pm", 1.0, -1.0, 3.0, "-", "share of the loss on the PM attraction and cogging"),
+        EffectParam("w_id", 1.0, -1.0, 3.0, "-", "share of the loss on the PM-current term (C3)"),
+        EffectParam("w_rel", 1.0, -1.0, 3.0, "-", "share of the loss on the reluctance term (C4)"),
+        EffectParam("w_thrust", 1.0, -1.0, 3.0, "-", "share of the loss on the thrust (C1)"),
     )
+    #: Weight of each magnetic term.
+    TERM_WEIGHT: ClassVar[dict[str, str]] = {
+        "a_pm": "w_pm",
+        "a_cogn": "w_pm",
+        "a_cogx": "w_pm",
+        "cog_extra_n": "w_pm",
+        "cog_extra_x": "w_pm",
+        "a_id": "w_id",
+        "a_rel": "w_rel",
+        "a_thrust": "w_thrust",
+    }
 
     @staticmethod
-    def factor(g: Expr, theta: Mapping[str, Expr]) -> Expr:
-        """Force factor ``k_sat(g)`` (<= 1, smallest at small gaps)."""
-        return 1 - theta["loss_8mm"] * ca.exp(-(g - k.g_stop[0]) / theta["ell_sat"])
+    def factor(g: Expr, theta: Mapping[str, Expr], weight: Expr = 1.0) -> Expr:
+        """Force factor ``k_sat(g)`` (<= 1 for a positive weight, smallest at small gaps)."""
+        return 1 - weight * (theta["loss_8mm"] * ca.exp(-(g - k.g_stop[0]) / theta["ell_sat"]))
 
     def modify(self, terms, x, u, p, theta) -> None:
-        terms.scale(MAGNETIC_TERMS, self.factor(x[0], theta))
+        for term in sorted(MAGNETIC_TERMS):
+            terms.scale([term], self.factor(x[0], theta, theta[self.TERM_WEIGHT[term]]))
 
 
 class CommutationOffset(Effect):

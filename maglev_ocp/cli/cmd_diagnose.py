@@ -69,8 +69,8 @@ def register(sub) -> None:
     p.add_argument(
         "--baseline",
         choices=("given", "calibrated"),
-        default="given",
-        help="self-check: hand the nominal model to the diagnosis, or let it calibrate (default given)",
+        default="calibrated",
+        help="self-check: let the diagnosis calibrate the constants, or hand it the nominal model (default calibrated)",
     )
     p.add_argument("--runs", type=int, default=6, metavar="N", help="generated datasets: runs (default 6)")
     p.add_argument(

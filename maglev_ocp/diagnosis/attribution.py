@@ -11,7 +11,8 @@ runs, never on the data it was fitted to:
 - ``closes``: the fraction of the gap closed, ``(R_b^2 - R_a^2) / (R_b^2 - 1)``
   in floor-normalized units (``R^2 = 1`` is a residual at the noise floor);
 - ``delta_bic``: change of the information criterion on the training runs,
-  with the effective sample size ``n / inflation`` (see :meth:`FitResult.bic`).
+  with the effective sample size ``n / inflation`` of the fitted model's
+  residual for both models (:func:`delta_bic`).
 
 Verdicts can be wrong in only one way at a time:
 
@@ -22,10 +23,12 @@ Verdicts can be wrong in only one way at a time:
   ``closes_min`` of the gap. Candidates whose held-out residual is not
   significantly worse than the best's (paired ``|z| < confusable_z``) and that
   also close the gap form a confusable set, reported together (``a|b``). If a
-  significant gap remains, a second effect is added when it closes most of
-  what is left (``a+b``).
+  significant gap remains, forward selection adds effects one at a time, each
+  refitted jointly with those already selected and kept only if its held-out
+  gain is significant (``a+b``, ``a+b+c``; ``+`` binds loosest:
+  ``a+b|c`` is ``a`` and one of ``b``, ``c`` the data cannot tell apart).
 - ``unexplained``: a gap is detected (or a candidate helps) but no candidate,
-  alone or paired, closes ``closes_min`` of it; the report says where it is.
+  alone or with others, closes ``closes_min`` of it; the report says where it is.
 """
 
 from __future__ import annotations
@@ -94,6 +97,46 @@ def paired_z(e_a: np.ndarray, e_b: np.ndarray) -> float:
     return float((np.mean(e_a**2) - np.mean(e_b**2)) / (2 * sig * rd * math.sqrt(infl / n)))
 
 
+def noise_inflation(w_y: np.ndarray, decimate: int) -> float:
+    """Autocorrelation inflation ``1 + 2 sum rho_k`` of white measurement noise after the residual filter.
+
+    ``w_y`` is the filter's kernel on the encoder readings and ``decimate``
+    its decimation: the residual's noise is white noise through ``w_y``
+    sampled every ``decimate`` samples, whose correlation is the kernel's
+    autocorrelation at multiples of ``decimate`` (summed while the pairs stay
+    positive, as :func:`~maglev_ocp.estimation.ident.autocorr_factor`). A
+    structured residual cannot inflate it.
+    """
+    w = np.asarray(w_y, float)
+    ac = np.correlate(w, w, mode="full")[len(w) - 1 :]
+    if ac[0] <= 0:
+        return 1.0
+    rho = ac[:: max(int(decimate), 1)] / ac[0]
+    s = 0.0
+    for i in range(1, len(rho) - 1, 2):
+        pair = rho[i] + rho[i + 1]
+        if pair <= 0:
+            break
+        s += pair
+    return max(1.0, 1.0 + 2.0 * s)
+
+
+def delta_bic(fit: FitResult, ref: FitResult, inflation: float | None = None) -> float:
+    """Information criterion of ``fit`` minus that of ``ref`` on the same training data (negative: fit better).
+
+    Both with the **same** effective sample size ``n_eff = n / inflation``:
+    ``n_eff ln(SSE_fit / SSE_ref) + (k_fit - k_ref) ln(n_eff)``, with the
+    inflation of the measurement noise (:func:`noise_inflation`) when given,
+    else that of ``fit``'s residual. Each model's own residual inflation would
+    penalize a fit for whitening the residual: an unexplained slow structure
+    inflates the residual's autocorrelation, not the noise's.
+    """
+    infl = inflation if inflation is not None else fit.inflation
+    n_eff = max(fit.n / max(infl, 1e-12), 1.0)
+    ratio = max(fit.sse, 1e-300) / max(ref.sse, 1e-300)
+    return n_eff * math.log(ratio) + (fit.k - ref.k) * math.log(n_eff)
+
+
 @dataclass
 class EffectScore:
     """One candidate, fitted and scored.
@@ -145,6 +188,8 @@ class EffectScore:
     note: str = ""
     e_after: np.ndarray | None = None  # floor-normalized held-out residual (for paired comparisons)
     r2_after: float = math.nan  # mean floor-normalized squared held-out residual (1 = at the floor)
+    law: str = "default"  # member of the effect's law family
+    law_choice: str = ""  # how the member was chosen
 
     def to_dict(self) -> dict:
         """JSON-ready view (the issue's ``effects`` entries plus statistics)."""
@@ -164,6 +209,8 @@ class EffectScore:
             "solver_status": self.fit.status if self.fit is not None else "none",
             "per_channel_rms": self.per_channel,
             "confusable_with": self.confusable_with,
+            "law": self.law,
+            "law_choice": self.law_choice,
             "note": self.note,
         }
 
@@ -204,8 +251,13 @@ def score(
     params: dict[str, float],
     stderr: dict[str, float],
     note: str = "",
+    inflation: float | None = None,
 ) -> EffectScore:
-    """Score one fitted candidate on the held-out residuals ``before`` (baseline) and ``after``."""
+    """Score one fitted candidate on the held-out residuals ``before`` (baseline) and ``after``.
+
+    ``inflation``: the noise's autocorrelation inflation for the information
+    criterion (:func:`delta_bic`).
+    """
     eb, ea = stack(before, floors), stack(after, floors)
     Rb2, Ra2 = float(np.mean(eb**2)), float(np.mean(ea**2))
     gap = Rb2 - 1.0
@@ -217,7 +269,7 @@ def score(
         b, a = raw_rms(before, c), raw_rms(after, c)
         if math.isfinite(b):
             chans[cname] = [b, a]
-    dbic = (fit.bic() - base_fit.bic()) if fit is not None else 0.0
+    dbic = delta_bic(fit, base_fit, inflation) if fit is not None else 0.0
     # A fit whose solver did not converge is reported, never counted as evidence.
     converged = fit is None or fit.success
     sig = bool(z >= rules.z_min and dbic <= -rules.bic_margin and converged)
@@ -305,4 +357,16 @@ def rank(scores: Sequence[EffectScore]) -> list[EffectScore]:
     return sorted(scores, key=lambda s: (not s.significant, -s.reduction, s.delta_bic))
 
 
-__all__ = ["EffectScore", "Verdict", "VerdictRules", "decide", "paired_z", "rank", "raw_rms", "score", "stack"]
+__all__ = [
+    "EffectScore",
+    "Verdict",
+    "VerdictRules",
+    "decide",
+    "delta_bic",
+    "noise_inflation",
+    "paired_z",
+    "rank",
+    "raw_rms",
+    "score",
+    "stack",
+]

@@ -62,6 +62,10 @@ class Free:
         Initial guess.
     scale : float
         Typical magnitude (the NLP works on ``value / scale``).
+    prior : tuple of float or None
+        Gaussian prior ``(mean, sd)`` in physical units (the baseline's
+        constants: a prior at nominal), weighted like ``n_eff`` independent
+        samples of the data (see :class:`CandidateFitter`).
     """
 
     key: str
@@ -69,6 +73,7 @@ class Free:
     hi: float
     start: float
     scale: float
+    prior: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -91,6 +96,8 @@ class CandidateSpec:
         Amplifier lag (searched over bandwidth and delay, see module docstring).
     note : str
         What was held fixed and why.
+    law : str
+        Member of the effect's law family (see :func:`family_specs`).
     """
 
     name: str
@@ -100,6 +107,7 @@ class CandidateSpec:
     ties: tuple[tuple[str, str], ...] = ()
     lag: bool = False
     note: str = ""
+    law: str = "default"
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -108,9 +116,13 @@ class CandidateSpec:
 
     def with_free(self, extra: Sequence[Free]) -> CandidateSpec:
         """Copy with more fitted parameters (e.g. the baseline's C1..C4 re-fitted jointly)."""
-        return CandidateSpec(
-            self.name, self.effects, tuple(extra) + self.free, self.fixed, self.ties, self.lag, self.note
-        )
+        keys = {f.key for f in extra}
+        free = tuple(extra) + tuple(f for f in self.free if f.key not in keys)
+        return CandidateSpec(self.name, self.effects, free, self.fixed, self.ties, self.lag, self.note, self.law)
+
+    def renamed(self, name: str) -> CandidateSpec:
+        """Copy under another name."""
+        return CandidateSpec(name, self.effects, self.free, self.fixed, self.ties, self.lag, self.note, self.law)
 
 
 def _eb(effect: str, param: str) -> tuple[float, float]:
@@ -222,30 +234,161 @@ def library_specs() -> dict[str, CandidateSpec]:
     return {s.name: s for s in specs}
 
 
-def calibration_free(params: Params, vertical: bool, horizontal: bool, ref: Params | None = None) -> tuple[Free, ...]:
+def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
+    """Law families: for each library effect, its members, the library's law (the nested one) first.
+
+    A rig's effects rarely follow the library's law exactly; each family nests
+    the library's law in a more general one, so that an effect whose law
+    differs is still named (the member is chosen by held-out score and the
+    information criterion, see :func:`maglev_ocp.diagnosis.diagnose.diagnose`):
+
+    - ``cogging``: ``free decay``: the decay as a free smooth function of g
+      (exponential, power law and a curvature of the log-decay,
+      :class:`~maglev_ocp.effects.Cogging`), the normal-to-tangential ratio
+      and the 2nd/3rd harmonics free;
+    - ``friction``: ``stribeck``: Coulomb + viscous + the Stribeck excess and
+      velocity (a hysteretic Dahl/LuGre term needs a friction state the
+      equation-error residual does not carry; below the 15 Hz cut-off its
+      pre-sliding part acts like a smoothed Coulomb force);
+    - ``saturation``: which terms it scales: ``field`` (the magnet field: its
+      B^2 attraction and cogging lose twice what the B-linear PM-current and
+      thrust terms lose, the reluctance term nothing), ``current terms``
+      (PM-current, reluctance and thrust; not the magnets' attraction) and
+      ``per term`` (a free share for each);
+    - ``end_effect``: ``free profile``: the overhang loss scaled and bent
+      (``edge_gain``, ``edge_quad``);
+    - the amplifier lag searches a continuous effective delay (whole samples
+      plus a lag or a fractional delay, which act alike below the cut-off);
+      ``commutation_offset`` and ``eddy_drag`` have one law each.
+    """
+    lib = library_specs()
+    out = {n: (s,) for n, s in lib.items()}
+    harm = tuple(f for f in lib["cogging"].free if f.key.startswith("cogging."))
+    out["cogging"] += (
+        CandidateSpec(
+            "cogging",
+            ("cogging",),
+            free=(
+                Free("cogging.xi0", 0.0, 50.0, 1.0, 4.0),
+                Free("cogging.ell", 1e-3, 0.05, 4e-3, 4e-3),
+                Free("cogging.power", 0.0, 4.0, 0.0, 1.0),
+                Free("cogging.curv", -20.0, 20.0, 0.0, 2.0),
+                Free("cogging.kn", 0.0, 4.0, 1.0, 0.5),
+                *harm,
+            ),
+            fixed=(("cogging.h1", 1.0),),
+            note="decay free (exponential x power law x log-curvature), normal ratio kn and harmonics free",
+            law="free decay",
+        ),
+    )
+    fr = lib["friction"]
+    out["friction"] += (
+        CandidateSpec(
+            "friction",
+            ("friction",),
+            free=(
+                *fr.free,
+                Free("friction.stribeck_g", 0.0, 10.0, 0.05, 0.2),
+                Free("friction.stribeck_d", 0.0, 10.0, 0.05, 0.2),
+                Free("friction.v_stribeck", 5e-4, 0.05, 5e-3, 5e-3),
+            ),
+            fixed=(("friction.v_reg", 1e-3),),
+            note="Coulomb + viscous + Stribeck excess and velocity per axis (v_reg fixed at 1 mm/s)",
+            law="stribeck",
+        ),
+    )
+    sat = lib["saturation"].free
+    w0 = (("saturation.w_pm", 1.0), ("saturation.w_id", 0.5), ("saturation.w_thrust", 0.5), ("saturation.w_rel", 0.0))
+    w1 = (("saturation.w_pm", 0.0), ("saturation.w_id", 1.0), ("saturation.w_thrust", 1.0), ("saturation.w_rel", 1.0))
+    out["saturation"] += (
+        CandidateSpec(
+            "saturation", ("saturation",), sat, w0, note="saturation of the magnet field (B scaled)", law="field"
+        ),
+        CandidateSpec(
+            "saturation",
+            ("saturation",),
+            sat,
+            w1,
+            note="saturation of the current terms (PM-current, reluctance, thrust)",
+            law="current terms",
+        ),
+        CandidateSpec(
+            "saturation",
+            ("saturation",),
+            free=(
+                sat[1],
+                Free("saturation.w_pm", -0.5, 0.8, 0.05, 0.1),
+                Free("saturation.w_id", -0.5, 0.8, 0.05, 0.1),
+                Free("saturation.w_rel", -0.5, 0.8, 0.05, 0.1),
+                Free("saturation.w_thrust", -0.5, 0.8, 0.05, 0.1),
+            ),
+            fixed=(("saturation.loss_8mm", 1.0),),
+            note="a free loss at g = 8 mm for each magnetic term (w_*), one decay length",
+            law="per term",
+        ),
+    )
+    out["end_effect"] += (
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
+            free=(
+                *lib["end_effect"].free,
+                Free("end_effect.edge_gain", 0.0, 5.0, 1.0, 0.5),
+                Free("end_effect.edge_quad", -20.0, 20.0, 0.0, 2.0),
+            ),
+            note="thrust ripple and an overhang loss of free size and curvature",
+            law="free profile",
+        ),
+    )
+    return out
+
+
+#: Gaussian prior of the calibrated constants: sd relative to nominal (C4, a small term, is loosely known).
+PRIOR_SD: dict[str, float] = {"C1": 0.1, "C2": 0.1, "C3": 0.1, "C4": 0.5}
+
+
+def calibration_free(
+    params: Params,
+    vertical: bool,
+    horizontal: bool,
+    ref: Params | None = None,
+    prior_sd: Mapping[str, float] | None = None,
+) -> tuple[Free, ...]:
     """Free entries C1..C4 of ``p`` for a calibration on data with the given channels.
 
     Starts at ``params``; the bounds are relative to ``ref`` (default: the nominal
     set), so that a joint re-fit can undo what a biased calibration absorbed
     (in closed loop an unmodelled force that the controller fights drags the
-    thrust constant towards zero).
+    thrust constant towards zero). ``prior_sd`` (relative to ``ref``, e.g.
+    :data:`PRIOR_SD`) puts a Gaussian prior at ``ref`` on each constant.
     """
     from ..params import NOMINAL
 
     ref = ref or NOMINAL
+
+    def pr(name: str, nominal: float) -> tuple[float, float] | None:
+        if prior_sd is None or name not in prior_sd:
+            return None
+        return (nominal, prior_sd[name] * max(abs(nominal), 1e-12))
+
     out = []
     if horizontal:
-        out.append(Free("p.C1", 0.2 * ref.C1, 3.0 * ref.C1, params.C1, ref.C1))
+        out.append(Free("p.C1", 0.2 * ref.C1, 3.0 * ref.C1, params.C1, ref.C1, pr("C1", ref.C1)))
     if vertical:
         out += [
-            Free("p.C2", 0.3 * ref.C2, 3.0 * ref.C2, params.C2, ref.C2),
-            Free("p.C3", 0.0, 5.0 * max(ref.C3, 1.0), params.C3, max(ref.C3, 1.0)),
-            Free("p.C4", 0.0, 20.0 * max(ref.C4, 0.05), params.C4, max(ref.C4, 0.05)),
+            Free("p.C2", 0.3 * ref.C2, 3.0 * ref.C2, params.C2, ref.C2, pr("C2", ref.C2)),
+            Free("p.C3", 0.0, 5.0 * max(ref.C3, 1.0), params.C3, max(ref.C3, 1.0), pr("C3", ref.C3)),
+            Free("p.C4", 0.0, 20.0 * max(ref.C4, 0.05), params.C4, max(ref.C4, 0.05), pr("C4", ref.C4)),
         ]
     return tuple(out)
 
 
 # -------------------------------------------------------------------- functions
+def _fname(name: str) -> str:
+    """A CasADi Function name from a candidate name (``a+b`` -> ``a_b``)."""
+    return "_".join(p for p in "".join(c if c.isalnum() else "_" for c in name).split("_") if p) or "x"
+
+
 @functools.lru_cache(maxsize=64)
 def _accel_function(spec: CandidateSpec) -> ca.Function:
     """``acc(z[8], p[8], w[n]) -> a[2]``: model + effects with the fitted values ``w`` (physical units)."""
@@ -270,7 +413,7 @@ def _accel_function(spec: CandidateSpec) -> ca.Function:
     x = z[0:4]
     u = z[4:6]
     a = es.accel(x, u, ca.vertcat(*pe), ca.vertcat(*theta) if theta else ca.SX(0, 1))
-    return ca.Function(f"cand_{spec.name}", [z, p, w], [a], ["z", "p", "w"], ["a"])
+    return ca.Function(f"cand_{_fname(spec.name)}", [z, p, w], [a], ["z", "p", "w"], ["a"])
 
 
 def accel_series(spec: CandidateSpec, Z: np.ndarray, p: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -303,12 +446,29 @@ class Dataset:
         Square-root weights of the two channels (1 / noise rms).
     filt : ZeroPhaseFilter
         The filter the runs were prepared with (for the symbolic filter of the NLP).
+    row_w : sequence of ndarray, optional
+        Per-run weights ``(n, 2)`` of the residual samples (0 leaves a sample
+        out: the baseline's calibration on the clean part of the data).
+    prior_weight : float
+        How many weighted residual samples one independent one is worth (the
+        residual's autocorrelation inflation): the weight of a :class:`Free`
+        prior against the data.
     """
 
-    def __init__(self, runs: Sequence[PreparedRun], sqrt_w: np.ndarray, filt: ZeroPhaseFilter):
-        self.runs = [r for r in runs if r.n > 0]
+    def __init__(
+        self,
+        runs: Sequence[PreparedRun],
+        sqrt_w: np.ndarray,
+        filt: ZeroPhaseFilter,
+        row_w: Sequence[np.ndarray] | None = None,
+        prior_weight: float = 1.0,
+    ):
+        keep = [i for i, r in enumerate(runs) if r.n > 0]
+        self.runs = [runs[i] for i in keep]
         self.sqrt_w = np.asarray(sqrt_w, float)
         self.filt = filt
+        self.prior_weight = float(prior_weight)
+        rw = [np.ones((r.n, 2)) for r in self.runs] if row_w is None else [np.asarray(row_w[i], float) for i in keep]
         self.Z = np.vstack([r.Z for r in self.runs]) if self.runs else np.zeros((0, 8))
         self.offsets = np.cumsum([0] + [len(r.Z) for r in self.runs])
         W = spa.block_diag([r.W for r in self.runs], format="csr") if self.runs else spa.csr_matrix((0, 0))
@@ -316,6 +476,8 @@ class Dataset:
         mask = np.vstack([np.tile(r.valid, (r.n, 1)) for r in self.runs]) if self.runs else np.zeros((0, 2), bool)
         self.W_c = [W[mask[:, c]] for c in range(2)]
         self.m_c = [meas[mask[:, c], c] for c in range(2)]
+        rws = np.vstack(rw) if rw else np.zeros((0, 2))
+        self.row_w_c = [rws[mask[:, c], c] for c in range(2)]
         self.n_c = [int(mask[:, c].sum()) for c in range(2)]
         self.n = sum(self.n_c)
         # independent blocks of the stacked residual (channel-major, then run): one per run and channel
@@ -325,7 +487,9 @@ class Dataset:
 
     def weighted_residual(self, a: np.ndarray) -> np.ndarray:
         """Stacked weighted residual for per-period accelerations ``a`` (N_tot, 2)."""
-        return np.concatenate([self.sqrt_w[c] * (self.m_c[c] - self.W_c[c] @ a[:, c]) for c in range(2)])
+        return np.concatenate(
+            [self.sqrt_w[c] * self.row_w_c[c] * (self.m_c[c] - self.W_c[c] @ a[:, c]) for c in range(2)]
+        )
 
     def _polyphase(self) -> list[tuple]:
         # Per run: (offset, base, n_seg, pad, nb, Q, D, Wq, S) for the polyphase form of W (see filter_mx).
@@ -465,10 +629,17 @@ class CandidateFitter:
         self.nw = len(spec.free)
         self.prior = prior
         self.chunk = 4  # SQP iterations per call; calls repeat until the objective stops improving
-        self.rtol = 1e-6
-        self.max_chunks = 8
+        self.rtol = 1e-5  # relative: a chi-square change far below one unit on the data sizes of a diagnosis
+        self.max_chunks = 16  # most fits stop long before (converged or stalled); hard joint fits need more
         self.scale = np.array([f.scale for f in spec.free])
-        self.s0 = np.array([f.start for f in spec.free]) / np.where(self.scale > 0, self.scale, 1.0)
+        sc = np.where(self.scale > 0, self.scale, 1.0)
+        self.s0 = np.array([f.start for f in spec.free]) / sc
+        # Prior centre and weight of each scaled value: the weak ridge at the start, or a Free's Gaussian prior
+        # (mean, sd) counted like one independent sample of the data (``data.prior_weight`` weighted ones).
+        self.c0 = np.array([f.prior[0] if f.prior else f.start for f in spec.free]) / sc
+        self.pw = np.array(
+            [data.prior_weight * (sc[i] / f.prior[1]) ** 2 if f.prior else prior for i, f in enumerate(spec.free)]
+        )
         self._solver = None
         self._rj = None
 
@@ -491,23 +662,26 @@ class CandidateFitter:
         for c in range(2):
             if data.n_c[c] == 0:
                 continue
-            sw = float(data.sqrt_w[c])
+            rw = data.row_w_c[c]
+            # A scalar weight, or one per residual sample (elementwise; repeated over the Jacobian's columns).
+            sw = float(data.sqrt_w[c]) if np.all(rw == 1.0) else ca.DM(float(data.sqrt_w[c]) * rw)
+            swj = sw if isinstance(sw, float) else ca.repmat(sw, 1, nw)
             m = ca.DM(data.m_c[c])
             r_parts.append(sw * (m - data.filter_mx(A[:, c], c)))
             # Value and derivative from the one mapped SX Function, filtered together.
             dAc = ca.reshape(dA[c, :], nw, N).T  # N x nw, derivative with respect to w
             F = data.filter_mx(ca.horzcat(A2[:, c], dAc), c)
             r2_parts.append(sw * (m - F[:, 0]))
-            j_parts.append(-sw * ca.mtimes(F[:, 1:], sc))  # ... and with respect to s
-        s0 = ca.DM(self.s0)
-        f = 0.5 * ca.sumsqr(ca.vertcat(*r_parts)) + 0.5 * self.prior * ca.sumsqr(s - s0)
+            j_parts.append(-swj * ca.mtimes(F[:, 1:], sc))  # ... and with respect to s
+        c0, pw = ca.DM(self.c0), ca.DM(self.pw)
+        f = 0.5 * ca.sumsqr(ca.vertcat(*r_parts)) + 0.5 * ca.sum1(pw * (s - c0) ** 2)
         r2 = ca.vertcat(*r2_parts)
         J = ca.vertcat(*j_parts)
-        grad = ca.mtimes(J.T, r2) + self.prior * (s - s0)
-        f2 = 0.5 * ca.sumsqr(r2) + 0.5 * self.prior * ca.sumsqr(s - s0)
+        grad = ca.mtimes(J.T, r2) + pw * (s - c0)
+        f2 = 0.5 * ca.sumsqr(r2) + 0.5 * ca.sum1(pw * (s - c0) ** 2)
         lam_f = ca.MX.sym("lam_f")
         lam_g = ca.MX.sym("lam_g", 0)
-        H = ca.mtimes(J.T, J) + self.prior * ca.DM.eye(nw)
+        H = ca.mtimes(J.T, J) + ca.diag(pw)
         # SQP with the Gauss-Newton Hessian: a handful of iterations on a least-squares problem.
         hess = ca.Function(
             "gn_hess", [s, pv, lam_f, lam_g], [lam_f * H], ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]
@@ -524,13 +698,14 @@ class CandidateFitter:
             "qpsol_options": {"print_iter": False, "print_header": False, "error_on_fail": False},
             "hessian_approximation": "exact",
             "max_iter": self.chunk,
+            "max_iter_ls": 8,
             "tol_du": 1e-6,
             "tol_pr": 1e-9,
             "hess_lag": hess,
             "jac_fg": jac_fg,
             "error_on_fail": False,
         }
-        self._solver = ca.nlpsol(f"fit_{spec.name}", "sqpmethod", {"x": s, "p": pv, "f": f}, opts)
+        self._solver = ca.nlpsol(f"fit_{_fname(spec.name)}", "sqpmethod", {"x": s, "p": pv, "f": f}, opts)
         self._rj = ca.Function("res_jac", [s, pv], [r2, J])
 
     def solve(self, Z: np.ndarray | None = None, starts: Sequence[np.ndarray] | None = None) -> FitResult:
@@ -572,6 +747,16 @@ class CandidateFitter:
         leave undetermined then only crawl; accepted), ``iteration limit`` (still
         improving after :attr:`max_chunks` chunks) or ``failed`` (non-finite objective).
         """
+        x_start = np.asarray(x, float).copy()
+        r0 = np.asarray(self._rj(x_start, Zv)[0]).ravel()
+        f_start = 0.5 * float(r0 @ r0) + 0.5 * float(np.sum(self.pw * (x_start - self.c0) ** 2))
+        x, f, status = self._chunks(x, lo, hi, Zv)
+        if not f <= f_start:
+            # A step the line search could not tame left the start worse off: the start is the better answer.
+            return x_start, f_start, "stalled"
+        return x, f, status
+
+    def _chunks(self, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, Zv: ca.DM) -> tuple[np.ndarray, float, str]:
         f_prev = math.inf
         f = math.nan
         for _ in range(self.max_chunks):
@@ -594,7 +779,7 @@ def _accel_jac_function(spec: CandidateSpec) -> ca.Function:
     f = _accel_function(spec)
     z, p, w = ca.SX.sym("z", 8), ca.SX.sym("p", len(PARAM_NAMES)), ca.SX.sym("w", len(spec.free))
     a = f(z, p, w)
-    return ca.Function(f"candj_{spec.name}", [z, p, w], [a, ca.jacobian(a, w)], ["z", "p", "w"], ["a", "da_dw"])
+    return ca.Function(f"candj_{_fname(spec.name)}", [z, p, w], [a, ca.jacobian(a, w)], ["z", "p", "w"], ["a", "da_dw"])
 
 
 def _inflation(r: np.ndarray, data: Dataset) -> float:
@@ -610,7 +795,12 @@ def _inflation(r: np.ndarray, data: Dataset) -> float:
 
 
 def fit_candidate(
-    spec: CandidateSpec, data: Dataset, p: np.ndarray, u_runs: Sequence[np.ndarray] | None = None, max_delay: int = 3
+    spec: CandidateSpec,
+    data: Dataset,
+    p: np.ndarray,
+    u_runs: Sequence[np.ndarray] | None = None,
+    max_delay: int = 3,
+    warm: Mapping[str, float] | None = None,
 ) -> FitResult:
     """Fit one candidate on training data.
 
@@ -626,18 +816,26 @@ def fit_candidate(
         Commanded currents of each run of ``data`` (needed by the amplifier lag).
     max_delay : int
         Largest whole-sample delay tried by the amplifier lag.
+    warm : mapping, optional
+        Values by key to start from (a warm start from earlier fits: the
+        forward selection's joint refits start where the single fits ended);
+        the lag's ``effective_delay_s`` then centres its search.
 
     Returns
     -------
     FitResult
     """
     fitter = CandidateFitter(spec, data, p)
+    starts = _starts(spec)
+    if warm:
+        x0 = np.array([warm.get(f.key, f.start) for f in spec.free])
+        starts = [x0]
     if not spec.lag:
-        starts = _starts(spec)
         return fitter.solve(starts=starts)
     if u_runs is None:
         raise ValueError("the amplifier lag needs the commanded currents of each run")
-    return _fit_lag(fitter, data, u_runs, max_delay)
+    t0 = warm.get("effective_delay_s") if warm else None
+    return _fit_lag(fitter, data, u_runs, max_delay, starts, t0)
 
 
 def _starts(spec: CandidateSpec) -> list[np.ndarray]:
@@ -680,7 +878,14 @@ def lag_theta(t_eff: float, Ts: float = 1e-3) -> dict[str, float]:
     return {"bandwidth_hz": float(min(max(bw, lo), hi)), "delay_samples": float(n)}
 
 
-def _fit_lag(fitter: CandidateFitter, data: Dataset, u_runs: Sequence[np.ndarray], max_delay: int) -> FitResult:
+def _fit_lag(
+    fitter: CandidateFitter,
+    data: Dataset,
+    u_runs: Sequence[np.ndarray],
+    max_delay: int,
+    starts: Sequence[np.ndarray] | None = None,
+    t0: float | None = None,
+) -> FitResult:
     Ts = data.filt.Ts
     t_max = (max_delay + 1) * Ts
     cache: dict[float, FitResult] = {}
@@ -689,10 +894,12 @@ def _fit_lag(fitter: CandidateFitter, data: Dataset, u_runs: Sequence[np.ndarray
         key = round(float(t_eff), 9)
         if key not in cache:
             th = lag_theta(key, Ts)
-            cache[key] = fitter.solve(Z=lag_Z(data, u_runs, th["bandwidth_hz"], int(th["delay_samples"])))
+            Z = lag_Z(data, u_runs, th["bandwidth_hz"], int(th["delay_samples"]))
+            cache[key] = fitter.solve(Z=Z, starts=starts)
         return cache[key].sse
 
-    grid = np.linspace(0.0, t_max, 9)
+    # A warm start (the single fit's delay) searches around it only; otherwise a grid over [0, t_max].
+    grid = np.linspace(max(t0 - 0.25 * Ts, 0.0), t0 + 0.25 * Ts, 3) if t0 is not None else np.linspace(0.0, t_max, 9)
     vals = [sse(t) for t in grid]
     j = int(np.argmin(vals))
     a, b = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
@@ -733,6 +940,7 @@ def residuals_with(
 
 
 __all__ = [
+    "PRIOR_SD",
     "CandidateFitter",
     "CandidateSpec",
     "Dataset",
@@ -740,6 +948,7 @@ __all__ = [
     "Free",
     "accel_series",
     "calibration_free",
+    "family_specs",
     "fit_candidate",
     "lag_Z",
     "lag_features",

@@ -9,15 +9,20 @@ any controller, locked axes allowed) and returns a :class:`Diagnosis`, whose
    gap, every ``holdout_every``-th from the second). A dataset with fewer than
    three runs is cut into three pieces per run first.
 2. **Baseline**: the nominal model *without* cogging, its C1..C4 calibrated
-   by the filtered-equation-error NLP on the training runs (or ``params`` as
-   given).
+   by the filtered-equation-error NLP on the training runs with a Gaussian
+   prior at nominal (or ``params`` as given); also calibrated on the samples
+   outside the regions localization flags (reported).
 3. **Residuals** (:mod:`.residuals`), **floor and structure test**,
    **localization** (:mod:`.localize`).
 4. **Attribution** (:mod:`.candidates`, :mod:`.attribution`): every library
    effect fitted on the training runs on top of the baseline (jointly with
    C1..C4 when the baseline was calibrated, since the calibration absorbed
-   part of the effect), scored on the held-out runs; verdict; a second effect
-   if a significant gap remains.
+   part of the effect), scored on the held-out runs; the law families of the
+   effects the information criterion favours, the member chosen by held-out
+   score and the criterion; the single-effect verdict; then forward
+   selection of further effects with a joint refit and a held-out test at
+   each step, a backward drop-one check, and each effect's share of the gap.
+   The report's constants are those of the joint refit with the effects found.
 5. **Quantification**: held-out residual rms before/after, short-window
    simulated trajectories of the baseline and the augmented model against the
    held-out runs (:mod:`.simulate_compare`), fitted parameters with standard
@@ -54,14 +59,26 @@ from ..errors import DataError
 from ..params import NOMINAL, Params
 from ..riglog import Dataset as RigDataset
 from ..signals import PARAM_NAMES
-from .attribution import EffectScore, Verdict, VerdictRules, decide, paired_z, rank, score
+from .attribution import (
+    EffectScore,
+    Verdict,
+    VerdictRules,
+    decide,
+    delta_bic,
+    noise_inflation,
+    paired_z,
+    rank,
+    score,
+    stack,
+)
 from .candidates import (
+    PRIOR_SD,
     CandidateSpec,
     Dataset,
     FitResult,
     calibration_free,
+    family_specs,
     fit_candidate,
-    library_specs,
     residuals_with,
 )
 from .consequence import EffectSize, effect_size, plant_effects, plant_file
@@ -92,7 +109,7 @@ from .result import ChannelView, Consequences, DiagnoseSettings, Diagnosis, Held
 from .simulate_compare import TrajectoryComparison, compare_trajectories
 
 #: The candidate library, in report order.
-LIBRARY: tuple[str, ...] = tuple(library_specs())
+LIBRARY: tuple[str, ...] = tuple(family_specs())
 
 
 # ------------------------------------------------------------------------ helpers
@@ -175,6 +192,7 @@ def combine(a: CandidateSpec, b: CandidateSpec) -> CandidateSpec:
         a.ties + b.ties,
         a.lag or b.lag,
         f"{a.note}; {b.note}",
+        "; ".join(x for x in (a.law, b.law) if x),
     )
 
 
@@ -271,6 +289,7 @@ class _Baseline:
     data_train: Dataset
     q_floor: float
     noise_lag: int
+    noise_infl: float = 1.0  # autocorrelation inflation of the filtered measurement noise (information criterion)
 
     def floors_of(self, spec: CandidateSpec, fit: FitResult | None, split: _Split) -> dict[str, ChannelFloor]:
         """Channel floors of the residuals of a fitted candidate (training and held-out runs)."""
@@ -310,6 +329,11 @@ class _Attribution:
     final_spec: CandidateSpec | None = None
     final_fit: FitResult | None = None
     remaining: dict[str, ChannelFloor] = field(default_factory=dict)
+    final_score: EffectScore | None = None
+    members: list[EffectScore] = field(default_factory=list)  # law-family members not chosen
+    models: dict[frozenset, tuple] = field(default_factory=dict)  # effect set -> (spec, fit, score)
+    steps: list[dict] = field(default_factory=list)  # forward-selection trials
+    shares: dict[str, dict] = field(default_factory=dict)  # drop-one shares of the selected effects
 
 
 def _split(dataset: RigDataset, st: DiagnoseSettings) -> _Split:
@@ -331,28 +355,58 @@ def _split(dataset: RigDataset, st: DiagnoseSettings) -> _Split:
 
 
 def _baseline(split: _Split, params: Params | None, st: DiagnoseSettings, warnings: list[str]) -> _Baseline:
-    """Stage 2: the baseline (C1..C4 calibrated on the training runs unless ``params`` is given), noise floors."""
-    filt, train, test = split.filt, split.train, split.test
+    """Stage 2: the baseline (C1..C4 calibrated on the training runs unless ``params`` is given), noise floors.
+
+    The calibration has a Gaussian prior at nominal on C1..C4 (sd
+    ``st.prior_sd`` relative to nominal, C4 five times looser), weighted as
+    one independent sample per filter main lobe of residual samples; the
+    constants are refitted jointly with every candidate and with the effects
+    the verdict names (the report's constants), and calibrated on the clean
+    part of the data for the report (:func:`_clean_baseline`).
+    """
+    filt, train = split.filt, split.train
     given = params is not None
     base = params if given else NOMINAL.without_cogging()
     p0 = base.vector()
     base_spec = CandidateSpec("baseline")
-    cal_free = calibration_free(base, *split.has) if not given else ()
+    # The residual's noise is correlated over the filter's main lobe: 2 fs / fc decimated samples.
+    noise_lag = max(4, math.ceil(2.0 / (st.fc_hz * filt.Ts * st.decimate)))
+    prior = _prior_sd(st)
+    cal_free = calibration_free(base, *split.has, prior_sd=prior) if not given else ()
     if cal_free:
         r0 = residuals_with(base_spec, None, train, p0)
         w0 = np.array([1.0 / max(_rms_channel(r0, c), 1e-6) for c in range(2)])
         cal_spec = CandidateSpec("baseline", free=cal_free, note="C1..C4 calibrated on the training runs")
-        fit0 = fit_candidate(cal_spec, Dataset(train, w0, filt), p0)
+        fit0 = fit_candidate(cal_spec, Dataset(train, w0, filt, prior_weight=noise_lag), p0)
         _check_fit(fit0, "baseline calibration (first pass)", warnings)
         p_base = _params_with(p0, fit0)
     else:
         p_base = p0
+    return _baseline_at(split, p_base, given, st, warnings, noise_lag)
+
+
+def _prior_sd(st: DiagnoseSettings) -> dict[str, float] | None:
+    """Relative prior sd of each calibrated constant (None: no prior)."""
+    if st.prior_sd <= 0:
+        return None
+    return {n: st.prior_sd * PRIOR_SD[n] / PRIOR_SD["C1"] for n in PRIOR_SD}
+
+
+def _baseline_at(
+    split: _Split,
+    p_base: np.ndarray,
+    given: bool,
+    st: DiagnoseSettings,
+    warnings: list[str],
+    noise_lag: int,
+) -> _Baseline:
+    """The baseline stage at calibrated constants ``p_base``: residuals, floors, the joint-refit start."""
+    filt, train, test = split.filt, split.train, split.test
+    base_spec = CandidateSpec("baseline")
     base_params = Params.from_vector(p_base)
     b_train = residuals_with(base_spec, None, train, p_base)
     b_test = residuals_with(base_spec, None, test, p_base)
     q_floor = filt.quantization_floor()
-    # The residual's noise is correlated over the filter's main lobe: 2 fs / fc decimated samples.
-    noise_lag = max(4, math.ceil(2.0 / (st.fc_hz * filt.Ts * st.decimate)))
     floors: dict[str, ChannelFloor] = {}
     for c in range(2):
         fl = channel_floor(b_train, b_test, c, q_floor, max_lag=noise_lag)
@@ -360,19 +414,27 @@ def _baseline(split: _Split, params: Params | None, st: DiagnoseSettings, warnin
             floors[CHANNELS[c]] = fl
     fvec = np.array([floors[ch].floor if ch in floors else 1.0 for ch in CHANNELS])
     fvec = np.maximum(fvec, 1e-9)
-    data_train = Dataset(train, 1.0 / fvec, filt)
+    data_train = Dataset(train, 1.0 / fvec, filt, prior_weight=noise_lag)
     base_stderr: dict[str, float] = {}
-    if cal_free:
-        cal_free2 = calibration_free(base_params, *split.has)
+    if not given:
+        cal_free2 = calibration_free(base_params, *split.has, prior_sd=_prior_sd(st))
         base_fit = fit_candidate(CandidateSpec("baseline", free=cal_free2), data_train, p_base)
         _check_fit(base_fit, "baseline calibration", warnings)
+        if base_fit.success:
+            # The residual baseline is the calibration under the floor weighting (the first pass weighted the
+            # channels by their raw rms): the candidates' "before" is then the best constants-only model.
+            p_base = _params_with(p_base, base_fit)
+            base_params = Params.from_vector(p_base)
+            b_train = residuals_with(base_spec, None, train, p_base)
+            b_test = residuals_with(base_spec, None, test, p_base)
+            cal_free2 = calibration_free(base_params, *split.has, prior_sd=_prior_sd(st))
         base_stderr = {k_.split(".", 1)[1]: float(s) for k_, s in zip(base_fit.spec.keys, base_fit.stderr, strict=True)}
     else:
         cal_free2 = ()
         base_fit = fit_candidate(base_spec, data_train, p_base)
     return _Baseline(
         base_spec, given, p_base, base_params, base_stderr, cal_free2, base_fit, b_train, b_test, floors, fvec,
-        data_train, q_floor, noise_lag,
+        data_train, q_floor, noise_lag, noise_inflation(filt.w_y, filt.decimate),
     )  # fmt: skip
 
 
@@ -406,85 +468,433 @@ def _localize(split: _Split, base: _Baseline, st: DiagnoseSettings, rng: np.rand
     return _Localization(views, evidence, infl, fs)
 
 
+@dataclass
+class _CleanCalibration:
+    """Stage 3b: where the baseline was recalibrated (the part of the data the localization finds clean)."""
+
+    used: bool
+    fraction: float
+    excluded: list[dict]
+    p_first: np.ndarray
+    reason: str
+    p_clean: np.ndarray | None = None
+
+    def to_dict(self, p_final: np.ndarray) -> dict:
+        """JSON-ready view: the excluded boxes, the clean fraction, the constants of both passes."""
+        names = ("C1", "C2", "C3", "C4")
+        return {
+            "calibrated_on_clean_data": self.used,
+            "clean_fraction": self.fraction,
+            "excluded_regions": self.excluded,
+            "reason": self.reason,
+            "all_training_samples": {n: float(self.p_first[PARAM_NAMES.index(n)]) for n in names},
+            "clean_pass": {n: float(self.p_clean[PARAM_NAMES.index(n)]) for n in names}
+            if self.p_clean is not None
+            else None,
+            "reported": {n: float(p_final[PARAM_NAMES.index(n)]) for n in names},
+        }
+
+
+def _clean_weights(runs: Sequence[PreparedRun], boxes: Sequence[tuple[list[float], list[float]]]) -> list[np.ndarray]:
+    """Per-run sample weights: 0 inside any gap x position box (both channels), 1 elsewhere."""
+    out = []
+    for r in runs:
+        w = np.ones((r.n, 2))
+        if r.n:
+            g, d = r.feat["g"], r.feat["d"]
+            bad = np.zeros(r.n, bool)
+            for (g0, g1), (d0, d1) in boxes:
+                bad |= (g >= g0) & (g <= g1) & (d >= d0) & (d <= d1)
+            w[bad] = 0.0
+        out.append(w)
+    return out
+
+
+def _clean_baseline(
+    split: _Split, base: _Baseline, loc: _Localization, st: DiagnoseSettings, warnings: list[str]
+) -> tuple[_Baseline, _CleanCalibration]:
+    """Stage 3b: calibrate C1..C4 (with the prior) also on the training samples outside the regions with a gap.
+
+    An effect that lives in part of the gap x position plane (cogging at small
+    gaps, end effects at the ends of the stroke, saturation near the upper
+    stop) drags a calibration over all the data; here the regions the
+    localization flags are left out and the constants calibrated on the rest
+    (at least ``st.clean_min`` of the samples), and the result is reported.
+    It is not the residual baseline: without the small gaps the gap-shape
+    constants C2..C4 are poorly determined (on a saturation dataset C4 came
+    out 4x nominal), and an effect that is everywhere (friction, a lag) leaves
+    no clean part. What undoes the drag is the joint refit of the constants
+    with the effects found (:func:`_undragged`), and the prior at nominal.
+    """
+    keep = _CleanCalibration(False, 1.0, [], base.p.copy(), "")
+    if base.given:
+        keep.reason = "baseline given"
+        return base, keep
+    regs = [r for r in _regions(loc.views, base.floors) if r.n_bins > 0]
+    if not loc.gap_detected or not regs:
+        keep.reason = "no region of the gap x position plane exceeds the floor"
+        return base, keep
+    boxes = [(list(r.g_range_m), list(r.d_range_m)) for r in regs]
+    row_w = _clean_weights(split.train, boxes)
+    tot = sum(float(w.sum()) for w in row_w)
+    frac = tot / max(sum(w.size for w in row_w), 1)
+    keep.fraction, keep.excluded = frac, [{"channel": r.channel, "g_range_m": b[0], "d_range_m": b[1]}
+                                          for r, b in zip(regs, boxes, strict=True)]  # fmt: skip
+    if frac < st.clean_min:
+        keep.reason = f"only {frac:.0%} of the samples lie outside the regions (< {st.clean_min:.0%})"
+        return base, keep
+    if frac > 0.999:
+        keep.reason = "the regions hold no training sample"
+        return base, keep
+    data = Dataset(split.train, 1.0 / base.fvec, split.filt, row_w, base.noise_lag)
+    spec = CandidateSpec("baseline", free=calibration_free(base.params, *split.has, prior_sd=_prior_sd(st)))
+    fit = fit_candidate(spec, data, base.p)
+    if not fit.success:
+        keep.reason = "the calibration on the clean samples did not converge"
+        return base, keep
+    keep.used = True
+    keep.p_clean = _params_with(base.p, fit)
+    keep.reason = (
+        f"calibrated also on the {frac:.0%} of the training samples outside {len(regs)} region(s) (clean_pass); the "
+        "residual baseline keeps the calibration on all training samples, and the constants reported are those of "
+        "the joint refit with the effects found"
+    )
+    return base, keep
+
+
 def _fit_and_score(
-    name: str, spec: CandidateSpec, split: _Split, base: _Baseline, rules: VerdictRules, note: str, pair: bool
+    name: str,
+    spec: CandidateSpec,
+    split: _Split,
+    base: _Baseline,
+    rules: VerdictRules,
+    note: str,
+    pair: bool,
+    warm: dict[str, float] | None = None,
 ) -> tuple[FitResult, EffectScore]:
-    """Fit one candidate (or pair) on the training runs and score it on the held-out runs."""
-    fit = fit_candidate(spec, base.data_train, base.p, u_runs=split.u_train)
+    """Fit one candidate (or a joint set) on the training runs and score it on the held-out runs."""
+    fit = fit_candidate(spec, base.data_train, base.p, u_runs=split.u_train, warm=warm)
     after = residuals_with(spec, fit, split.test, base.p, split.u_test)
     vals, errs = _readable(fit, pair=pair)
-    return fit, score(name, fit, base.fit, base.b_test, after, base.fvec, rules, vals, errs, note)
+    sc = score(name, fit, base.fit, base.b_test, after, base.fvec, rules, vals, errs, note, base.noise_infl)
+    sc.law = spec.law
+    return fit, sc
+
+
+def _joint(spec: CandidateSpec, base: _Baseline) -> CandidateSpec:
+    """The candidate with the baseline's constants refitted jointly (when the baseline was calibrated)."""
+    return spec.with_free(base.cal_free) if base.cal_free else spec
+
+
+def _warm(name: str, fit: FitResult) -> dict[str, float]:
+    """Start values from a fit, also under the effect's own keys (``p.xi0`` starts ``cogging.xi0``)."""
+    out = fit.params()
+    for key, v in list(out.items()):
+        if key.startswith("p.") and key[2:] in ("xi0", "ell"):
+            out.setdefault(f"{name}.{key[2:]}", v)
+    return out
 
 
 def _attribute(
     split: _Split, base: _Baseline, loc: _Localization, st: DiagnoseSettings, progress: bool, warnings: list[str]
 ) -> _Attribution:
-    """Stage 4: every library effect fitted on top of the baseline, scored on the held-out runs; verdict."""
+    """Stage 4: every library effect fitted on top of the baseline (its law family for the most promising
+    ones), scored on the held-out runs; the single-effect verdict."""
     rules = st.rules()
-    lib = library_specs()
-    names = [n for n in (st.candidates or LIBRARY) if n in lib]
+    fam = family_specs()
+    names = [n for n in (st.candidates or LIBRARY) if n in fam]
     if not base.given:
         names = [n for n in names if n != "parameter_error"]
     specs: dict[str, CandidateSpec] = {}
     fits: dict[str, FitResult] = {}
     scores: list[EffectScore] = []
     for name in tqdm(names, desc="candidates", disable=not progress, leave=False):
-        spec = lib[name].with_free(base.cal_free) if base.cal_free else lib[name]
-        fit, sc = _fit_and_score(name, spec, split, base, rules, lib[name].note, pair=False)
+        spec = _joint(fam[name][0], base)
+        fit, sc = _fit_and_score(name, spec, split, base, rules, spec.note, pair=False)
         _check_fit(fit, f"candidate {name}", warnings)
         specs[name], fits[name] = spec, fit
         scores.append(sc)
-    verdict, best = decide(scores, loc.gap_detected, rules, loc.evidence)
-    return _Attribution(specs, fits, scores, verdict, best)
+    att = _Attribution(specs, fits, scores, Verdict("none", [], False, []), None)
+    _choose_laws(split, base, att, st, warnings)
+    att.verdict, att.best = decide(att.scores, loc.gap_detected, rules, loc.evidence)
+    return att
 
 
-def _second_effect(
-    split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]
-) -> None:
-    """Stage 4b: if a significant gap remains after the best effect, try it with each other significant one."""
+def _choose_laws(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]) -> None:
+    """Stage 4a: the law families of the ``st.family_top`` effects whose default member the information
+    criterion favours most (at least ``bic_margin``); the member is chosen by
+    the information criterion (effective sample size) among those whose held-out residual is not
+    significantly worse than the best member's (paired z below ``confusable_z``)."""
+    rules = st.rules()
+    fam = family_specs()
+    # The training data's information criterion ranks them (a law that differs can leave the default member's
+    # held-out gain small while the data clearly favour the effect).
+    promising = [
+        s
+        for s in sorted(att.scores, key=lambda s: s.delta_bic)
+        if len(fam.get(s.name, ())) > 1 and s.fit is not None and s.fit.success and s.delta_bic <= -rules.bic_margin
+    ][: st.family_top]
+    for sc in promising:
+        name = sc.name
+        tried = [(sc, att.specs[name], att.fits[name])]
+        warm = _warm(name, att.fits[name])
+        for mem in fam[name][1:]:
+            spec = _joint(mem, base)
+            fit, ms = _fit_and_score(name, spec, split, base, rules, spec.note, pair=False, warm=warm)
+            _check_fit(fit, f"candidate {name} ({mem.law})", warnings)
+            tried.append((ms, spec, fit))
+        ok = [t for t in tried if t[2].success]
+        if not ok:
+            continue
+        top = min(ok, key=lambda t: t[0].r2_after)
+        near = [t for t in ok if t is top or paired_z(t[0].e_after, top[0].e_after) < rules.confusable_z]
+        chosen = min(near, key=lambda t: delta_bic(t[2], top[2], base.noise_infl))
+        laws = ", ".join(f"{t[1].law} (dBIC {t[0].delta_bic:.0f}, held-out {t[0].reduction:.1%})" for t in tried)
+        chosen[0].law_choice = f"law '{chosen[1].law}' chosen among: {laws}"
+        if chosen[0] is not sc:
+            att.scores[att.scores.index(sc)] = chosen[0]
+            att.specs[name], att.fits[name] = chosen[1], chosen[2]
+        for t in tried:
+            if t is not chosen:
+                t[0].name = f"{name}[{t[1].law}]"
+                att.members.append(t[0])
+
+
+def _forward_trials(
+    split: _Split,
+    base: _Baseline,
+    att: _Attribution,
+    names: list[str],
+    pool: list[str],
+    current: tuple[CandidateSpec, FitResult, EffectScore],
+    e_base: np.ndarray,
+    st: DiagnoseSettings,
+    warnings: list[str],
+) -> list[tuple]:
+    """One forward step: each pooled candidate that passes the screen refitted jointly with the current model.
+
+    Returns ``(name, closes_remaining, paired_z, delta_bic, score, spec, fit)`` per candidate refitted.
+    """
+    spec, fit, cur = current
+    rules = st.rules()
+    trials = []
+    for o in pool:
+        single = next(s for s in att.scores if s.name == o)
+        t_screen = _screen(e_base, single.e_after, cur.e_after, base)
+        if t_screen < st.z_enter:
+            att.steps.append(dict(step=len(names) + 1, candidate=o, on_top_of=list(names), screen_z=t_screen,
+                                  accepted=False))  # fmt: skip
+            continue
+        jspec = combine(spec, att.specs[o])
+        warm = {**_warm(o, att.fits[o]), **fit.params()}
+        jfit, js = _fit_and_score(jspec.name, jspec, split, base, rules, jspec.note, pair=True, warm=warm)
+        _check_fit(jfit, f"joint fit {jspec.name}", warnings)
+        extra = (cur.r2_after - js.r2_after) / max(cur.r2_after - 1.0, cur.r2_after - js.r2_after, 1e-12)
+        zp = paired_z(cur.e_after, js.e_after)
+        dbic = delta_bic(jfit, fit, base.noise_infl)
+        att.models[frozenset([*names, o])] = (jspec, jfit, js)
+        att.scores.append(js)
+        trials.append((o, extra, zp, dbic, js, jspec, jfit))
+    return trials
+
+
+def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]) -> None:
+    """Stage 4b: forward selection of several effects.
+
+    From the best single effect, each step refits every remaining promising
+    candidate **jointly** with the effects already selected (and the
+    baseline's constants), warm-started from the earlier fits, and scores it
+    on the held-out runs against the current model. The step adds the
+    candidate that closes the most of the remaining gap, if its held-out gain
+    is significant (paired z >= ``z_enter``), the information criterion drops
+    by ``bic_margin`` and it closes at least ``second_min`` of what remained;
+    otherwise the selection stops. A backward check (:func:`_backward`) then
+    keeps only the effects the full joint model needs (drop-one held-out z
+    >= ``z_min``). Candidates that pass at the same step and
+    fit the held-out runs as well as the chosen one form a confusable slot
+    (``a|b``) unless a later step adds them as effects of their own.
+    """
     rules = st.rules()
     best = att.best
     att.final_spec, att.final_fit = base.spec, None
     if best is None:
         return
-    att.final_spec, att.final_fit = att.specs[best.name], att.fits[best.name]
-    att.remaining = base.floors_of(att.final_spec, att.final_fit, split)
-    still = any(f.significant for f in att.remaining.values())
-    if still and best.closes < 0.9:
-        others = [
-            s for s in rank(att.scores) if s.significant and s.name != best.name and s.name not in best.confusable_with
-        ][:3]
-        pair_scores = []
-        for o in others:
-            spec = combine(att.specs[best.name], att.specs[o.name])
-            fit, ps = _fit_and_score(spec.name, spec, split, base, rules, spec.note, pair=True)
-            _check_fit(fit, f"candidate pair {spec.name}", warnings)
-            Ra_best2, Ra_pair2 = best.r2_after, ps.r2_after
-            extra = (Ra_best2 - Ra_pair2) / max(Ra_best2 - 1.0, Ra_best2 - Ra_pair2, 1e-12)
-            zp = paired_z(best.e_after, ps.e_after)
-            pair_scores.append((extra, zp, ps, spec, fit))
-            att.scores.append(ps)
-        good = [t for t in pair_scores if t[1] >= rules.z_min and t[0] >= rules.second_min and t[2].fit.success]
-        if good:
-            extra, zp, ps, spec, fit = max(good, key=lambda t: t[0])
-            if att.verdict.verdict != "unexplained" or ps.closes >= rules.closes_min:
-                att.verdict = Verdict(
-                    ps.name,
-                    ps.name.split("+"),
-                    True,
-                    [
-                        *att.verdict.reasons,
-                        f"a significant gap remained; adding {ps.name.split('+')[1]} closes {extra:.0%} of it "
-                        f"(paired z = {zp:.1f}): {ps.name}",
-                    ],
-                )
-                ps.selected = True
-                att.final_spec, att.final_fit = spec, fit
-                att.remaining = base.floors_of(spec, fit, split)
+    spec, fit, cur = att.specs[best.name], att.fits[best.name], best
+    att.final_spec, att.final_fit, att.final_score = spec, fit, best
+    att.models = {frozenset([s.name]): (att.specs[s.name], att.fits[s.name], s) for s in att.scores}
+    slots = [[best.name, *best.confusable_with]]
+    names = [best.name]
+    att.remaining = base.floors_of(spec, fit, split)
+    # Candidates worth a joint refit: those the training data favour (information criterion) and that do not
+    # worsen the held-out runs alone, best first. The held-out z of a single is not the test here: other
+    # effects still in the residual inflate its noise.
+    pool = [
+        s.name
+        for s in sorted(att.scores, key=lambda s: s.delta_bic)
+        if s.name != best.name
+        and s.fit is not None
+        and s.fit.success
+        and s.z > st.forward_z
+        and s.delta_bic <= -rules.bic_margin
+    ][: st.forward_pool]
+    e_base = stack(base.b_test, base.fvec)
+    while pool and len(names) < st.max_effects:
+        trials = _forward_trials(split, base, att, names, pool, (spec, fit, cur), e_base, st, warnings)
+        good = [t for t in trials if t[2] >= st.z_enter and t[3] <= -rules.bic_margin and t[1] >= rules.second_min
+                and t[6].success]  # fmt: skip
+        for o, extra, zp, dbic, *_ in trials:
+            att.steps.append(
+                dict(step=len(names) + 1, candidate=o, on_top_of=list(names), closes_remaining=extra, paired_z=zp,
+                     delta_bic=dbic, accepted=False)
+            )  # fmt: skip
+        if not good:
+            break
+        o, extra, zp, dbic, js, jspec, jfit = max(good, key=lambda t: t[1])
+        conf = [t[0] for t in good if t[0] != o and paired_z(t[4].e_after, js.e_after) < rules.confusable_z]
+        for row in att.steps:
+            if row["step"] == len(names) + 1:
+                row["accepted"] = row["candidate"] == o
+        for slot in slots:
+            if o in slot[1:]:
+                slot.remove(o)
+        slots.append([o, *conf])
+        names.append(o)
+        pool.remove(o)
+        att.verdict.reasons.append(
+            f"a significant gap remained; adding {o} (joint refit with {', '.join(names[:-1])}) closes {extra:.0%} "
+            f"of it on the held-out runs (paired z = {zp:.1f}, dBIC = {dbic:.0f})"
+            + (f"; {', '.join(conf)} would do as well: confusable" if conf else "")
+        )
+        spec, fit, cur = jspec, jfit, js
+    if len(names) > 1:
+        names, slots = _backward(split, base, att, names, slots, st, warnings)
+        spec, fit, cur = att.models[frozenset(names)]
+    att.remaining = base.floors_of(spec, fit, split)
+    if len(names) == 1 and names[0] != best.name:  # the backward pass kept another single
+        att.verdict = Verdict("|".join(slots[0]), list(names), True, att.verdict.reasons)
+        att.final_spec, att.final_fit, att.final_score = spec, fit, cur
+    if len(names) > 1:
+        if att.verdict.verdict != "unexplained" or cur.closes >= rules.closes_min:
+            att.verdict = Verdict("+".join("|".join(sl) for sl in slots), list(names), True, att.verdict.reasons)
+            att.final_spec, att.final_fit, att.final_score = spec, fit, cur
+            _shares(split, base, att, names, st, warnings)
+    elif att.verdict.verdict == "unexplained":
+        att.final_spec, att.final_fit, att.final_score = base.spec, None, None
     if att.verdict.verdict == "unexplained":
         att.verdict.reasons.append(
-            f"no candidate, alone or with a second one, closes {rules.closes_min:.0%} of the gap: unexplained"
+            f"no candidate, alone or with others, closes {rules.closes_min:.0%} of the gap: unexplained"
         )
+
+
+def _screen(e_base: np.ndarray, e_single: np.ndarray, e_cur: np.ndarray, base: _Baseline) -> float:
+    """Does the current model's held-out residual still hold what a candidate's single fit corrects?
+
+    ``delta = e_base - e_single`` is the single fit's correction (floor-
+    normalized, held-out samples); its regression coefficient on the current
+    residual ``e_cur``, in standard errors (noise inflation of the filter):
+    a cheap screen before a joint refit. A candidate that only absorbed part of
+    an effect already in the model corrects nothing that remains.
+    """
+    if e_single is None or len(e_single) != len(e_cur) or len(e_cur) < 10:
+        return 0.0
+    d = e_base - e_single
+    dd = float(d @ d)
+    if dd <= 0:
+        return 0.0
+    sig = float(np.sqrt(np.mean(e_cur**2)))
+    return float(d @ e_cur) / (math.sqrt(dd) * sig * math.sqrt(base.noise_infl))
+
+
+def _model(
+    split: _Split, base: _Baseline, att: _Attribution, names: Sequence[str], st: DiagnoseSettings, warnings: list[str]
+) -> tuple[CandidateSpec, FitResult, EffectScore]:
+    """The joint model of a set of effects: from the forward pass, or refitted (warm) from the final fit."""
+    key = frozenset(names)
+    if key not in att.models:
+        spec = att.specs[names[0]]
+        for n in names[1:]:
+            spec = combine(spec, att.specs[n])
+        warm: dict[str, float] = {}
+        for n in names:
+            warm.update(_warm(n, att.fits[n]))
+        if att.final_fit is not None:
+            warm.update(att.final_fit.params())
+        jfit, js = _fit_and_score(spec.name, spec, split, base, st.rules(), spec.note, pair=True, warm=warm)
+        _check_fit(jfit, f"drop-one refit {spec.name}", warnings)
+        att.models[key] = (spec, jfit, js)
+        att.scores.append(js)
+    return att.models[key]
+
+
+def _backward(
+    split: _Split,
+    base: _Baseline,
+    att: _Attribution,
+    names: list[str],
+    slots: list[list[str]],
+    st: DiagnoseSettings,
+    warnings: list[str],
+) -> tuple[list[str], list[list[str]]]:
+    """Backward check of the forward pass: every selected effect must still earn its place in the full model.
+
+    The forward pass admits an effect at ``z_enter`` (its held-out gain is
+    measured against a residual that still holds the effects not yet added,
+    which inflates the noise); here each effect's drop-one model (the others
+    refitted jointly without it) is compared with the full model on the
+    held-out runs, whose residual is now near the noise: an effect stays if
+    the full model is better by ``z_min`` and by the information criterion.
+    The weakest failing effect is dropped and the check repeated.
+    """
+    rules = st.rules()
+    names, slots = list(names), [list(x) for x in slots]
+    while len(names) > 1:
+        full = _model(split, base, att, names, st, warnings)
+        tests = []
+        for e in names:
+            rest = [n for n in names if n != e]
+            without = _model(split, base, att, rest, st, warnings)
+            z = paired_z(without[2].e_after, full[2].e_after)
+            dbic = delta_bic(full[1], without[1], base.noise_infl)
+            tests.append((z, dbic, e))
+        failing = [t for t in tests if t[0] < rules.z_min or t[1] > -rules.bic_margin]
+        if not failing:
+            att.verdict.reasons.append(
+                "backward check: every effect is needed in the joint model ("
+                + ", ".join(f"{e}: drop-one held-out z = {z:.1f}, dBIC = {-d:.0f}" for z, d, e in tests)
+                + ")"
+            )
+            break
+        z, dbic, e = min(failing)
+        att.verdict.reasons.append(
+            f"backward check: dropping {e} from {'+'.join(names)} does not worsen the held-out runs significantly "
+            f"(z = {z:.1f}, dBIC = {-dbic:.0f}): {e} dropped"
+        )
+        names.remove(e)
+        slots = [x for x in slots if x[0] != e]
+    return names, slots
+
+
+def _shares(
+    split: _Split, base: _Baseline, att: _Attribution, names: list[str], st: DiagnoseSettings, warnings: list[str]
+) -> None:
+    """Each selected effect's share of the gap, by drop-one refits: how much the held-out residual grows
+    when the others are refitted without it (floor-normalized mean squares), normalized to sum to 1."""
+    full = att.final_score
+    inc = {}
+    for e in names:
+        rest = [n for n in names if n != e]
+        inc[e] = max(_model(split, base, att, rest, st, warnings)[2].r2_after - full.r2_after, 0.0)
+    tot = sum(inc.values())
+    gain = full.heldout_rms_before - full.heldout_rms_after
+    for e in names:
+        sh = inc[e] / tot if tot > 0 else 1.0 / len(names)
+        rest = frozenset(n for n in names if n != e)
+        att.shares[e] = {
+            "share_of_gap": sh,
+            "heldout_rms_reduction_m_s2": sh * gain,
+            "heldout_rms_without_it_m_s2": att.models[rest][2].heldout_rms_after,
+            "law": att.specs[e].law,
+        }
 
 
 def _settle_verdict(base: _Baseline, att: _Attribution) -> None:
@@ -496,8 +906,37 @@ def _settle_verdict(base: _Baseline, att: _Attribution) -> None:
     in_verdict = set(verdict.verdict.replace("|", "+").split("+"))
     for s in att.scores:
         s.selected = verdict.verdict not in ("none", "unexplained") and (
-            s.name in in_verdict or s.name == verdict.verdict
+            s.name in in_verdict or s.name == verdict.verdict or s is att.final_score
         )
+
+
+def _undragged(base: _Baseline, att: _Attribution) -> Params:
+    """The baseline's constants as the effects do not drag them: those of the joint refit with the verdict's
+    effects when there are any (a calibrated baseline), else the calibration's."""
+    if base.given or att.final_fit is None:
+        return base.params
+    return Params.from_vector(_params_with(base.p, att.final_fit))
+
+
+def _constants_moved(base: _Baseline, att: _Attribution) -> dict[str, dict]:
+    """How far the joint refit with the verdict's effects moved each calibrated constant from the baseline."""
+    fit = att.final_fit
+    if fit is None or base.given:
+        return {}
+    out = {}
+    for f, v, se in zip(fit.spec.free, fit.w, fit.stderr, strict=True):
+        if not f.key.startswith("p.C"):
+            continue
+        n = f.key[2:]
+        b = float(base.p[PARAM_NAMES.index(n)])
+        out[n] = {
+            "baseline": b,
+            "final": float(v),
+            "change_pct": 100.0 * (float(v) - b) / b if b else math.nan,
+            "change_in_stderr": (float(v) - b) / float(se) if np.isfinite(se) and se > 0 else math.nan,
+            "stderr": float(se),
+        }
+    return out
 
 
 @dataclass
@@ -786,16 +1225,17 @@ def diagnose(
     base = _baseline(split, params, st, warnings)
     t0 = lap("baseline_s", t0)
     loc = _localize(split, base, st, rng)
+    base, clean = _clean_baseline(split, base, loc, st, warnings)
     q_enc = float(dataset.encoder_resolution or 0.0) or encoder_resolution
     noise = noise_stage(split, base, loc, q_enc, st.seed)
     t0 = lap("localize_s", t0)
     att = _attribute(split, base, loc, st, progress, warnings)
     t0 = lap("candidates_s", t0)
-    _second_effect(split, base, att, st, warnings)
+    _forward(split, base, att, st, warnings)
     _settle_verdict(base, att)
     noise.guards = lag_guards(split, base, att, noise)
     apply_resonance_guard(base, att, noise.guards)
-    t0 = lap("pairs_s", t0)
+    t0 = lap("forward_s", t0)
     q = _quantify(split, base, loc, att, st, rng)
     unexplained_stage(split, base, att, q, noise, st)
     t0 = lap("quantify_s", t0)
@@ -808,7 +1248,8 @@ def diagnose(
         scores=rank(att.scores),
         floors=base.floors,
         remaining=att.remaining,
-        baseline_params=base.params,
+        baseline_params=_undragged(base, att),
+        residual_baseline_params=base.params,
         baseline_mode="given" if base.given else "calibrated",
         baseline_stderr=base.stderr,
         views_before=loc.views,
@@ -828,6 +1269,19 @@ def diagnose(
         warnings=warnings,
         noise=noise,
         consequences=cons,
+        effects_found=list(att.verdict.selected) if att.final_fit is not None else [],
+        shares=att.shares,
+        forward_steps=att.steps,
+        law_members=att.members,
+        final_score=att.final_score if att.final_fit is not None else None,
+        constants_moved=_constants_moved(base, att),
+        baseline_calibration=clean.to_dict(_undragged(base, att).vector()) if not base.given else {},
+        prior={
+            "sd_relative_to_nominal": _prior_sd(st),
+            "weight": f"one independent sample per {base.noise_lag} residual samples (the filter's main lobe)",
+        }
+        if not base.given
+        else {},
     )
 
 

@@ -65,6 +65,23 @@ class DiagnoseSettings(Strict):
     consequence : bool
         Simulate each found effect's closed-loop consequence with the shipped
         controllers (only with ``simulate``).
+    prior_sd : float
+        Sd of the Gaussian prior at nominal on C1..C3 of a calibrated baseline,
+        relative to nominal (C4 five times looser; 0: no prior).
+    clean_min : float
+        Smallest fraction of the training samples outside the regions with a
+        gap for the baseline to be recalibrated on them.
+    max_effects : int
+        Most effects the forward selection names.
+    forward_pool, forward_z : int, float
+        Candidates tried at each forward step: the ``forward_pool`` singles
+        with the best information criterion (at least ``bic_margin`` below
+        the baseline's) whose own held-out z exceeds ``forward_z``.
+    family_top : int
+        Effects (the best singles) whose whole law family is fitted.
+    z_enter : float
+        Held-out z for the forward selection to admit an effect (the
+        backward check then asks ``z_min`` of each one in the full model).
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -82,6 +99,13 @@ class DiagnoseSettings(Strict):
     horizon_s: float = Field(0.05, gt=0.002, le=1.0)
     simulate: bool = True
     consequence: bool = True
+    prior_sd: float = Field(0.1, ge=0.0, le=10.0)
+    clean_min: float = Field(0.3, ge=0.0, le=1.0)
+    max_effects: int = Field(3, ge=1, le=8)
+    forward_pool: int = Field(3, ge=0, le=10)
+    forward_z: float = Field(0.0, ge=-100.0)
+    family_top: int = Field(2, ge=0, le=10)
+    z_enter: float = Field(2.0, ge=0.0)
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""
@@ -233,7 +257,10 @@ class Diagnosis:
     remaining : dict
         ``{channel: ChannelFloor}`` after the selected effect(s) (or the best candidate).
     baseline_params : Params
-        The baseline model.
+        The baseline model's constants as the effects do not drag them: for a
+        calibrated baseline with effects found, those of the joint refit with
+        the effects (the calibration alone is in ``baseline_calibration``);
+        otherwise the calibrated (or given) ones.
     baseline_mode : str
         ``calibrated`` or ``given``.
     baseline_stderr : dict
@@ -266,6 +293,24 @@ class Diagnosis:
         Noise-model floors, whiteness, spectral peaks, the unexplained remainder, the lag guard.
     consequences : Consequences or None
         Size and closed-loop consequence of the found effects, the model files.
+    effects_found : list of str
+        The effects of the verdict, in the order the forward selection added them.
+    shares : dict
+        ``{effect: {share_of_gap, heldout_rms_reduction_m_s2, ...}}`` by drop-one refits (two or more effects).
+    forward_steps : list of dict
+        Every forward-selection trial (candidate, on top of what, gain, z, dBIC, accepted).
+    law_members : list of EffectScore
+        Law-family members fitted but not chosen.
+    final_score : EffectScore or None
+        The final model's score (the joint fit of the verdict's effects).
+    constants_moved : dict
+        ``{C: {baseline, final, change_pct, change_in_stderr}}``: the joint refit's constants against the baseline.
+    baseline_calibration : dict
+        How the calibrated baseline was obtained (clean samples, excluded regions, both passes' constants).
+    prior : dict
+        The prior at nominal of the calibration (sd and weight).
+    residual_baseline_params : Params or None
+        The constants the baseline residuals (``floors``, ``views_before``, scores' "before") were computed with.
     """
 
     verdict: Verdict
@@ -292,6 +337,16 @@ class Diagnosis:
     warnings: list[str] = field(default_factory=list)
     noise: NoiseFindings | None = None
     consequences: Consequences | None = None
+    # Several effects, law families, baseline calibration (issue 11 items 2, 3, 5).
+    effects_found: list[str] = field(default_factory=list)
+    shares: dict[str, dict] = field(default_factory=dict)
+    forward_steps: list[dict] = field(default_factory=list)
+    law_members: list[EffectScore] = field(default_factory=list)
+    final_score: EffectScore | None = None
+    constants_moved: dict[str, dict] = field(default_factory=dict)
+    baseline_calibration: dict = field(default_factory=dict)
+    prior: dict = field(default_factory=dict)
+    residual_baseline_params: Params | None = None
 
     def to_json(self) -> dict:
         """The ``report.json`` content."""
@@ -352,6 +407,14 @@ def report_json(d: Diagnosis) -> dict:
         "noise_model": d.noise.to_dict() if d.noise is not None else None,
         "unexplained": d.noise.unexplained if d.noise is not None else [],
         "consequences": d.consequences.to_dict() if d.consequences is not None else None,
+        "effects_found": d.effects_found,
+        "effect_shares": d.shares,
+        "forward_selection": d.forward_steps,
+        "law_members": [s.to_dict() for s in d.law_members],
+        "constants_moved": d.constants_moved,
+        "baseline_calibration": d.baseline_calibration,
+        "baseline_prior": d.prior,
+        "residual_baseline_params": d.residual_baseline_params.as_dict() if d.residual_baseline_params else None,
     }
     if d.noise is not None:
         for ch, c in d.noise.checks.items():
@@ -393,6 +456,7 @@ def summary_table(d: Diagnosis) -> str:
                     for k, v in s.params.items()
                 )
             )
+    lines += _effects_lines(d)
     if d.regions:
         lines.append("")
         lines.append("regions where the baseline residual exceeds the floor:")
@@ -453,3 +517,28 @@ __all__ = [
     "report_json",
     "summary_table",
 ]
+def _effects_lines(d: Diagnosis) -> list[str]:
+    """Text lines: each effect's law and share of the gap, the constants' move, the calibration."""
+    lines = []
+    for e, sh in d.shares.items():
+        lines.append(
+            f"  share of the gap: {e} ({sh.get('law', 'default')}) {sh['share_of_gap']:.0%} "
+            f"(held-out rms reduction {sh['heldout_rms_reduction_m_s2']:.3g} m/s^2)"
+        )
+    for s in d.scores:
+        if s.selected and s.law_choice:
+            lines.append(f"  {s.name}: {s.law_choice}")
+    if d.baseline_calibration:
+        lines.append(f"  baseline calibration: {d.baseline_calibration.get('reason', '')}")
+    if d.constants_moved:
+        lines.append(
+            "  constants, baseline -> joint refit with the effects: "
+            + ", ".join(
+                f"{n} {v['baseline']:.4g} -> {v['final']:.4g} ({v['change_pct']:+.1f} %, "
+                f"{v['change_in_stderr']:+.1f} se)"
+                for n, v in d.constants_moved.items()
+            )
+        )
+    return lines
+
+
