@@ -13,7 +13,7 @@ PEER_BIN    = $(PEER_VENV)/bin
 PEER_STAMP  = $(PEER_VENV)/.installed
 PEER_ARGS  ?=
 
-.PHONY: run test test-fast test-slow lint bench peer clean-venv
+.PHONY: run test test-fast test-slow selfcheck lint bench peer clean-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -26,13 +26,16 @@ run: $(STAMP)
 
 test: $(STAMP) lint
 	$(BIN)/python -m pytest -q
-	$(BIN)/python -m pytest -q -m slow
+	$(BIN)/python -m pytest -q -m "slow and not selfcheck"
 
 test-fast: $(STAMP)
 	$(BIN)/python -m pytest -q
 
 test-slow: $(STAMP)
-	$(BIN)/python -m pytest -q -m slow
+	$(BIN)/python -m pytest -q -m "slow and not selfcheck"
+
+selfcheck: $(STAMP)
+	$(BIN)/python -m pytest -q -m selfcheck
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

@@ -26,6 +26,7 @@ def test_small_blind_selfcheck_is_right(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.selfcheck
 def test_blind_selfcheck_30_datasets_meets_the_targets(tmp_path):
     """>= 30 blind datasets, baseline calibrated, spanning none, every library effect a calibration does not
     absorb and the two- and three-effect sets: >= 29/30 right, no effect claimed on 'none', held-out
@@ -42,6 +43,7 @@ def test_blind_selfcheck_30_datasets_meets_the_targets(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.selfcheck
 def test_blind_selfcheck_20_datasets_with_effect_sets(tmp_path):
     """20 blind datasets (seed 2, calibrated baseline, singles with law variants and two- and three-effect
     sets): >= 90 % name exactly the true set, no effect claimed on 'none', the sets' confusion matrix."""

@@ -517,6 +517,8 @@ __all__ = [
     "report_json",
     "summary_table",
 ]
+
+
 def _effects_lines(d: Diagnosis) -> list[str]:
     """Text lines: each effect's law and share of the gap, the constants' move, the calibration."""
     lines = []
@@ -540,5 +542,3 @@ def _effects_lines(d: Diagnosis) -> list[str]:
             )
         )
     return lines
-
-
