@@ -147,6 +147,33 @@ def build_prep(d: StepDesign) -> ca.Function:
     return ca.Function("nmpc_prep", [st, meas, ref, p], outs, ["state", "meas", "ref", "p"], names)
 
 
+def build_qp_export(d: StepDesign) -> ca.Function:
+    """``nmpc_qp(state, meas, ref, p) -> (H, q, G, glb, gub, ubar)``: the step's QP as dense data.
+
+    The same stages 1-3 as the step and the dense condensing of :func:`~.admm.fn_condense`
+    (identical to what the Riccati x-update iterates on), for the exact reference
+    solution (:mod:`controllers.nmpc.exact_qp`) and the external QP solvers.
+    """
+    lay, m, N = d.layout, d.model, d.settings.horizon
+    st, meas, ref, p = (
+        ca.MX.sym("state", lay.size),
+        ca.MX.sym("meas", N_MEAS),
+        ca.MX.sym("ref", N_REF, N + 1),
+        ca.MX.sym("p", m.np_),
+    )
+    o = _front(d, st, meas, ref, p)
+    H, q, G, glb, gub = fn_condense(d)(
+        o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], o["u_prev"], meas[2]
+    )
+    return ca.Function(
+        "nmpc_qp",
+        [st, meas, ref, p],
+        [ca.densify(e) for e in (H, q, G, glb, gub, o["ubar"])],
+        ["state", "meas", "ref", "p"],
+        ["H", "q", "G", "glb", "gub", "ubar"],
+    )
+
+
 def build_step(d: StepDesign) -> ca.Function:
     """``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)`` (MX graph of SX Functions)."""
     s, lay, m = d.settings, d.layout, d.model
@@ -223,6 +250,10 @@ class StepBuilder:
         """``nmpc_prep`` (:func:`build_prep`)."""
         return build_prep(self.design)
 
+    def build_qp_export(self) -> ca.Function:
+        """``nmpc_qp`` (:func:`build_qp_export`)."""
+        return build_qp_export(self.design)
+
 
 def step_functions(settings: NMPCSettings, mode: str) -> tuple[ca.Function, ca.Function, StepBuilder]:
     """``nmpc_init``, ``nmpc_step`` and the builder (holding the layout) of a design, built once per design."""
@@ -235,4 +266,4 @@ def _step_functions(settings_json: str, mode: str) -> tuple[ca.Function, ca.Func
     return b.build_init(), b.build_step(), b
 
 
-__all__ = ["StepBuilder", "build_init", "build_prep", "build_step", "fn_head", "step_functions"]
+__all__ = ["StepBuilder", "build_init", "build_prep", "build_qp_export", "build_step", "fn_head", "step_functions"]
