@@ -90,6 +90,55 @@ def _track(d: StepDesign, i, rp_i, rd_i, state) -> None:
         state["iters"] = state["iters"] + (nxt - i) * ca.logic_or(rp_i > a.tol_prim, rd_i > a.tol_dual)
 
 
+def _blocks(d: StepDesign) -> list[int]:
+    """Iterations per block between consecutive residual checkpoints."""
+    checks = checkpoints(d)
+    return [b - a for a, b in zip([0, *checks[:-1]], checks, strict=True)]
+
+
+def early_exit_chain(d: StepDesign, iteration: ca.Function, xzy0: list, params: list) -> tuple[list, dict]:
+    """ADMM with early termination: blocks of iterations, each skipped once the residuals are below tolerance.
+
+    ``iteration(x, z, y, *params) -> (x, z, y, r_prim, r_dual)``. The iterations
+    between two residual checkpoints (:func:`checkpoints`) form one block
+    Function; every block is a :meth:`casadi.Function.conditional` (a switch that
+    evaluates only the chosen case, also in the generated C) between the block
+    and the identity, chosen by the previous checkpoint's residuals. The number of
+    blocks is fixed (``iterations`` at most, so the worst case is bounded:
+    ``iterations`` x the cost of one iteration); once converged, the remaining
+    blocks cost a branch each.
+
+    Returns
+    -------
+    xzy : list of casadi.MX
+        ``x, z, y`` after the last block that ran.
+    track : dict
+        ``rp``, ``rd`` (residuals of the last checkpoint that ran) and ``iters``
+        (iterations run).
+    """
+    a = d.settings.admm
+    sym = [ca.MX.sym(f"p{i}", e.sparsity()) for i, e in enumerate(params)]
+    xs = [ca.MX.sym(n, e.sparsity()) for n, e in zip("xzy", xzy0, strict=True)]
+    rp, rd, it = ca.MX.sym("rp"), ca.MX.sym("rd"), ca.MX.sym("it")
+    ident = ca.Function("nmpc_admm_skip", [*xs, rp, rd, it, *sym], [*xs, rp, rd, it])
+    switches = {}
+    for n in sorted(set(_blocks(d))):
+        cur = list(xs)
+        r = None
+        for _ in range(n):
+            r = iteration(*cur, *sym)
+            cur = list(r[:3])
+        blk = ca.Function(f"nmpc_admm_block{n}", [*xs, rp, rd, it, *sym], [*cur, r[3], r[4], it + n])
+        switches[n] = ca.Function.conditional(f"nmpc_admm_cond{n}", [blk], ident)
+    cur = list(xzy0)
+    r_p, r_d, n_it = ca.MX(ca.inf), ca.MX(ca.inf), ca.MX(0)
+    for n in _blocks(d):
+        done = ca.logic_and(r_p <= a.tol_prim, r_d <= a.tol_dual)
+        out = switches[n](done, *cur, r_p, r_d, n_it, *params)
+        cur, r_p, r_d, n_it = list(out[:3]), out[3], out[4], out[5]
+    return cur, {"rp": r_p, "rd": r_d, "iters": n_it}
+
+
 def admm_dense(d: StepDesign, o: dict):
     """Fixed-budget ADMM on the dense condensed QP (reference implementation)."""
     s = d.settings
@@ -100,6 +149,10 @@ def admm_dense(d: StepDesign, o: dict):
     checks = checkpoints(d)
     # warm start: zero correction (the linearization point is the shifted plan), shifted duals
     x, z, yv = ca.MX.zeros(nv), ca.MX.zeros(nv + ng), o["y0"]
+    if s.admm.early_exit:
+        params = [o["L"], o["dinv"], o["q"], o["G"], o["ubar"], o["glb"], o["gub"], o["rho"]]
+        (x, z, yv), track = early_exit_chain(d, it_res, [x, z, yv], params)
+        return z, yv, track
     track = {"rp": ca.MX(0), "rd": ca.MX(0), "iters": ca.MX(checks[0])}
     for i in range(1, s.iterations + 1):
         it = it_res if i in checks else it_fast
@@ -120,6 +173,10 @@ def admm_riccati(d: StepDesign, o: dict, fault):
     # warm start: zero correction (the linearization point is the shifted plan), gap rows at the free
     # response, shifted duals
     x, z, yv = ca.MX.zeros(nv), ca.vertcat(ca.MX.zeros(nv), zg0), o["y0"]
+    if s.admm.early_exit:
+        params = [K, Sinv, PB, Pc, o["As"], o["Bs"], o["cs"], o["dx0"], qW, rbase, o["ubar"], glb, gub, rho]
+        (x, z, yv), track = early_exit_chain(d, it, [x, z, yv], params)
+        return z, yv, track
     track = {"rp": ca.MX(0), "rd": ca.MX(0), "iters": ca.MX(checkpoints(d)[0])}
     for i in range(1, s.iterations + 1):
         x, z, yv, rp_i, rd_i = it(
@@ -129,4 +186,4 @@ def admm_riccati(d: StepDesign, o: dict, fault):
     return z, yv, track
 
 
-__all__ = ["admm_dense", "admm_riccati", "checkpoints", "fn_condense", "fn_kkt"]
+__all__ = ["admm_dense", "admm_riccati", "checkpoints", "early_exit_chain", "fn_condense", "fn_kkt"]

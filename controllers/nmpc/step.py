@@ -35,6 +35,7 @@ from .design import StepDesign, make_design
 from .fallback import build_post
 from .layout import N_MEAS, NU, NX
 from .observer import observe
+from .osqp_solver import osqp_callback
 from .planner import advance_plan, plan_duration, u_for_accel
 from .prediction import fn_stage
 from .qp import project_disk
@@ -174,6 +175,16 @@ def build_qp_export(d: StepDesign) -> ca.Function:
     )
 
 
+def osqp_qp(d: StepDesign, o: dict, fault) -> tuple:
+    """Stage 4 by OSQP (:mod:`.osqp_solver`): dense condensing, then the solver as a callback node."""
+    s = d.settings
+    H, q, G, glb, gub = fn_condense(d)(
+        o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], o["u_prev"], fault
+    )
+    z, rp, rd, iters = osqp_callback(s)(H, q, G, glb, gub, o["ubar"])
+    return z, ca.MX.zeros(s.horizon * NU + s.n_gap), {"rp": rp, "rd": rd, "iters": iters}
+
+
 def build_step(d: StepDesign) -> ca.Function:
     """``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)`` (MX graph of SX Functions)."""
     s, lay, m = d.settings, d.layout, d.model
@@ -185,7 +196,10 @@ def build_step(d: StepDesign) -> ca.Function:
         ca.MX.sym("ref", N_REF, s.horizon + 1),
         ca.MX.sym("p", m.np_),
     )
-    if s.qp == "dense":
+    if s.solver == "osqp":
+        o = _front(d, st, meas, ref, p)
+        z, yv, tr = osqp_qp(d, o, meas[2])
+    elif s.qp == "dense":
         o = build_prep(d)(state=st, meas=meas, ref=ref, p=p)
         z, yv, tr = admm_dense(d, o)
     else:
