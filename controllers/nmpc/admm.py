@@ -96,7 +96,7 @@ def _blocks(d: StepDesign) -> list[int]:
     return [b - a for a, b in zip([0, *checks[:-1]], checks, strict=True)]
 
 
-def early_exit_chain(d: StepDesign, iteration: ca.Function, xzy0: list, params: list) -> tuple[list, dict]:
+def early_exit_chain(d: StepDesign, iteration: ca.Function, xzy0: list, params: list, adapt=None) -> tuple[list, dict]:
     """ADMM with early termination: blocks of iterations, each skipped once the residuals are below tolerance.
 
     ``iteration(x, z, y, *params) -> (x, z, y, r_prim, r_dual)``. The iterations
@@ -106,7 +106,9 @@ def early_exit_chain(d: StepDesign, iteration: ca.Function, xzy0: list, params: 
     and the identity, chosen by the previous checkpoint's residuals. The number of
     blocks is fixed (``iterations`` at most, so the worst case is bounded:
     ``iterations`` x the cost of one iteration); once converged, the remaining
-    blocks cost a branch each.
+    blocks cost a branch each. ``adapt(done, rp, rd, params) -> params``, if
+    given, is applied once, after the block that ends at iteration
+    ``admm.adapt_at`` (a new ``rho`` and its factorization).
 
     Returns
     -------
@@ -132,10 +134,14 @@ def early_exit_chain(d: StepDesign, iteration: ca.Function, xzy0: list, params: 
         switches[n] = ca.Function.conditional(f"nmpc_admm_cond{n}", [blk], ident)
     cur = list(xzy0)
     r_p, r_d, n_it = ca.MX(ca.inf), ca.MX(ca.inf), ca.MX(0)
+    done_at = 0
     for n in _blocks(d):
         done = ca.logic_and(r_p <= a.tol_prim, r_d <= a.tol_dual)
         out = switches[n](done, *cur, r_p, r_d, n_it, *params)
         cur, r_p, r_d, n_it = list(out[:3]), out[3], out[4], out[5]
+        done_at += n
+        if adapt is not None and done_at == a.adapt_at:
+            params = adapt(ca.logic_and(r_p <= a.tol_prim, r_d <= a.tol_dual), r_p, r_d, params)
     return cur, {"rp": r_p, "rd": r_d, "iters": n_it}
 
 
@@ -161,21 +167,55 @@ def admm_dense(d: StepDesign, o: dict):
     return z, yv, track
 
 
+def rho_adaptation(d: StepDesign, fac: ca.Function, fac_in: list):
+    """The ``adapt`` hook of :func:`early_exit_chain` for the Riccati ADMM: one residual-balancing rho update.
+
+    Not converged after ``admm.adapt_at`` iterations, ``rho`` is scaled by
+    ``sqrt(r_prim / |z_k - z_{k-1}|)`` (= ``sqrt(rho r_prim / r_dual)``: the
+    primal against the dual residual, both in amperes; Boyd et al.'s residual
+    balancing, OSQP's rule without its data scaling), clipped to ``[0.1, 10]``, if
+    that ratio is outside ``[1/ratio, ratio]`` (``admm.adapt_ratio``); then the
+    Riccati factorization is recomputed (a :meth:`casadi.Function.conditional`:
+    the refactorization runs only then). The duals ``y`` are unscaled, so the
+    iterate carries over.
+    """
+    a = d.settings.admm
+    sym_in = [ca.MX.sym(f"f{i}", e.sparsity()) for i, e in enumerate(fac_in)]
+    mult, rho = ca.MX.sym("mult"), ca.MX.sym("rho", 2)
+    K, Sinv, PB, Pc, rho_new = fac(*sym_in, mult)[:5]
+    Ks, Ss, Ps, Cs = (ca.MX.sym(n, e.sparsity()) for n, e in zip(("K", "Sinv", "PB", "Pc"), (K, Sinv, PB, Pc)))
+    keep = ca.Function("nmpc_admm_keep", [*sym_in, mult, rho, Ks, Ss, Ps, Cs], [Ks, Ss, Ps, Cs, rho])
+    refac_full = ca.Function("nmpc_admm_refactor", [*sym_in, mult, rho, Ks, Ss, Ps, Cs], [K, Sinv, PB, Pc, rho_new])
+    switch = ca.Function.conditional("nmpc_admm_adapt", [keep], refac_full)
+
+    def adapt(done, rp, rd, params):
+        K0, S0, P0, C0, rho0 = params[0], params[1], params[2], params[3], params[13]
+        ratio = ca.sqrt(rp * rho0[0] / ca.fmax(rd, 1e-12))
+        go = ca.logic_and(ca.logic_not(done), ca.logic_or(ratio > a.adapt_ratio, ratio < 1 / a.adapt_ratio))
+        mult = ca.fmin(ca.fmax(ratio, 0.1), 10.0)  # the first rho had multiplier 1 (adapted once)
+        K, S, P, C, r = switch(go, *fac_in, mult, rho0, K0, S0, P0, C0)
+        out = list(params)
+        out[0], out[1], out[2], out[3], out[13] = K, S, P, C, r
+        return out
+
+    return adapt
+
+
 def admm_riccati(d: StepDesign, o: dict, fault):
     """Fixed-budget ADMM with the Riccati x-update (:mod:`controllers.nmpc.riccati`)."""
     s = d.settings
     N, nv, sg = s.horizon, s.horizon * NU, s.soft_gap
     fac = factor_function(N, s.gap_stages, np.diag(s.Q), d.P, s.R, s.admm, sg.g_min, sg.g_max)
     it = iteration_function(N, s.gap_stages, s.current_limit, s.i_box, sg.w_linear, sg.w_quadratic, s.admm)
-    K, Sinv, PB, Pc, rho, qW, rbase, glb, gub, zg0 = fac(
-        o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], fault
-    )
+    fac_in = [o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], fault]
+    K, Sinv, PB, Pc, rho, qW, rbase, glb, gub, zg0 = fac(*fac_in, 1.0)
     # warm start: zero correction (the linearization point is the shifted plan), gap rows at the free
     # response, shifted duals
     x, z, yv = ca.MX.zeros(nv), ca.vertcat(ca.MX.zeros(nv), zg0), o["y0"]
     if s.admm.early_exit:
         params = [K, Sinv, PB, Pc, o["As"], o["Bs"], o["cs"], o["dx0"], qW, rbase, o["ubar"], glb, gub, rho]
-        (x, z, yv), track = early_exit_chain(d, it, [x, z, yv], params)
+        adapt = rho_adaptation(d, fac, fac_in) if s.admm.adapt_at > 0 else None
+        (x, z, yv), track = early_exit_chain(d, it, [x, z, yv], params, adapt)
         return z, yv, track
     track = {"rp": ca.MX(0), "rd": ca.MX(0), "iters": ca.MX(checkpoints(d)[0])}
     for i in range(1, s.iterations + 1):

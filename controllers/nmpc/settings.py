@@ -45,11 +45,15 @@ class ADMMOptions(Strict):
     rho_g_rel: float = Field(1.0, gt=0, description="penalty of the soft gap rows (mm) relative to the currents'")
     sigma: float = Field(1e-6, gt=0)
     alpha: float = Field(1.6, gt=0, lt=2)
-    check_every: int = Field(5, ge=1, description="residuals computed every this many iterations")
+    check_every: int = Field(2, ge=1, description="residuals checked every this many iterations")
     tol_prim: float = Field(1e-2, gt=0, description="primal residual for status ok [A or mm]")
     tol_dual: float = Field(1e-2, gt=0, description="dual residual for status ok")
+    adapt_at: int = Field(
+        10, ge=0, description="iteration after which rho is rebalanced once if not converged (0: never; Riccati QP)"
+    )
+    adapt_ratio: float = Field(3.0, gt=1, description="rebalance only if the residual ratio is beyond this factor")
     early_exit: bool = Field(
-        False,
+        True,
         description="stop at the first checkpoint with both residuals below tolerance (iterations: the maximum)",
     )
 
@@ -114,7 +118,9 @@ class NMPCSettings(Strict):
     qp: Literal["riccati", "dense"] = Field(
         "riccati", description="ADMM x-update: stage-wise Riccati recursion (O(N)) or dense condensed Cholesky"
     )
-    iterations: int = Field(20, ge=1, le=500, description="ADMM iterations per step (fixed)")
+    iterations: int = Field(
+        40, ge=1, le=500, description="ADMM iterations per step: the maximum (admm.early_exit) or the fixed count"
+    )
     admm: ADMMOptions = Field(default_factory=ADMMOptions)
     osqp: OSQPOptions = Field(default_factory=OSQPOptions)
     soft_gap: SoftGap = Field(default_factory=SoftGap)
