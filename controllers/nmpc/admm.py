@@ -183,7 +183,9 @@ def rho_adaptation(d: StepDesign, fac: ca.Function, fac_in: list):
     sym_in = [ca.MX.sym(f"f{i}", e.sparsity()) for i, e in enumerate(fac_in)]
     mult, rho = ca.MX.sym("mult"), ca.MX.sym("rho", 2)
     K, Sinv, PB, Pc, rho_new = fac(*sym_in, mult)[:5]
-    Ks, Ss, Ps, Cs = (ca.MX.sym(n, e.sparsity()) for n, e in zip(("K", "Sinv", "PB", "Pc"), (K, Sinv, PB, Pc)))
+    Ks, Ss, Ps, Cs = (
+        ca.MX.sym(n, e.sparsity()) for n, e in zip(("K", "Sinv", "PB", "Pc"), (K, Sinv, PB, Pc), strict=True)
+    )
     keep = ca.Function("nmpc_admm_keep", [*sym_in, mult, rho, Ks, Ss, Ps, Cs], [Ks, Ss, Ps, Cs, rho])
     refac_full = ca.Function("nmpc_admm_refactor", [*sym_in, mult, rho, Ks, Ss, Ps, Cs], [K, Sinv, PB, Pc, rho_new])
     switch = ca.Function.conditional("nmpc_admm_adapt", [keep], refac_full)

@@ -76,7 +76,7 @@ class OSQPStage:
         return _csc_with_pattern(Pd, mask), _csc_with_pattern(Ad, am)
 
     def _bounds(self, ubar, glb, gub, normals):
-        nv, ng, N = self.nv, self.ng, self.N
+        ng, N = self.ng, self.N
         lo = [-self.box - ubar]
         hi = [self.box - ubar]
         for c in range(self.n_cuts):
@@ -165,27 +165,27 @@ class OSQPCallback(ca.Callback):
         self.stage = OSQPStage(settings)
         self.construct("nmpc_osqp", {})
 
-    def get_n_in(self) -> int:  # noqa: D102
+    def get_n_in(self) -> int:
         return 6
 
-    def get_n_out(self) -> int:  # noqa: D102
+    def get_n_out(self) -> int:
         return 4
 
-    def get_name_in(self, i: int) -> str:  # noqa: D102
+    def get_name_in(self, i: int) -> str:
         return ("H", "q", "G", "glb", "gub", "ubar")[i]
 
-    def get_name_out(self, i: int) -> str:  # noqa: D102
+    def get_name_out(self, i: int) -> str:
         return ("z", "r_prim", "r_dual", "iters")[i]
 
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:  # noqa: D102
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
         st = self.stage
         shapes = ((st.nv, st.nv), (st.nv, 1), (st.ng, st.nv), (st.ng, 1), (st.ng, 1), (st.nv, 1))
         return ca.Sparsity.dense(*shapes[i])
 
-    def get_sparsity_out(self, i: int) -> ca.Sparsity:  # noqa: D102
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
         return ca.Sparsity.dense(self.stage.nv + self.stage.ng, 1) if i == 0 else ca.Sparsity.dense(1, 1)
 
-    def eval(self, arg):  # noqa: D102
+    def eval(self, arg):
         H, q, G, glb, gub, ubar = (np.array(a, dtype=float) for a in arg)
         st = self.stage
         z, rp, rd, it = st.solve(
