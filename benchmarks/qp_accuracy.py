@@ -3,7 +3,7 @@
 Every RTI QP of a set of closed loops (a tour, a traverse, gap steps and the two
 disturbance scenarios) is recorded: the step's inputs go through
 ``nmpc_qp`` (:func:`controllers.nmpc.step.build_qp_export`), which gives the QP
-the step solves as dense data, and the QP is solved to ``1e-10`` by Clarabel
+the step solves as dense data, and the QP is solved to ``1e-9`` by Clarabel
 (:func:`controllers.nmpc.exact_qp.solve_exact`, the disks as second-order cones:
 the reference problem is exactly the QP our ADMM iterates on). For each solver
 setting the closed loops are run with that setting (so each setting is judged
