@@ -233,8 +233,13 @@ def parse_setting(text: str) -> tuple[str, object]:
 
 #: Settings compared by default: label -> overrides of the scenario's controller block.
 DEFAULT_SETTINGS: dict[str, dict] = {
-    "default": {},
-    "fixed 20 iterations (before issue 14)": {"iterations": 20, "admm": {"early_exit": False}},
+    "default (early exit, <= 40 iterations, rho rebalanced once)": {},
+    "fixed 20 iterations (the default before issue 14)": {
+        "iterations": 20,
+        "admm": {"early_exit": False, "check_every": 5, "adapt_at": 0},
+    },
+    "early exit, <= 40 iterations, no rho rebalancing": {"admm": {"adapt_at": 0}},
+    "solver: osqp (Python)": {"solver": "osqp"},
 }
 
 
