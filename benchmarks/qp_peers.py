@@ -268,7 +268,7 @@ def run(
     t_daqp, r_daqp = timed(daqp_solver(settings), qps, realtime)
     u_daqp = [qp.ubar[:NU] + v[:NU] for qp, v in zip(qps, r_daqp, strict=True)]
     rows.append(row("DAQP (Python, same polyhedral QP)", "QP only", t_daqp[w:], err(u_daqp)))
-    rows.append(row("Clarabel (exact reference, SOC, tol 1e-9)", "QP only", t_ex[w:], None))
+    rows.append(row("Clarabel (exact reference, SOC, tol 1e-11)", "QP only", t_ex[w:], None))
     var = ours_variants(settings, data, realtime)
     per_iter = (np.median(var["fixedN"]) - np.median(var["fixed1"])) / settings.iterations
     rows.append(

@@ -1,10 +1,14 @@
-"""Stage 4 of the step: the QP in the ``2 N`` current corrections and its fixed-budget ADMM.
+"""Stage 4 of the step: the QP in the ``2 N`` current corrections and its ADMM with a bounded budget.
 
 Two x-updates that give the same iterates: the stage-wise Riccati recursion
 (``qp = "riccati"``, default, :mod:`.riccati`) and dense condensing with a KKT
-Cholesky (``qp = "dense"``, :mod:`.qp`). Both run ``iterations`` ADMM steps
-(OSQP's iteration) on the current disks and the soft gap bounds, with the
-residuals checked every ``admm.check_every`` iterations.
+Cholesky (``qp = "dense"``, :mod:`.qp`). Both run at most ``iterations`` ADMM
+steps (OSQP's iteration) on the current disks and the soft gap bounds, with the
+residuals checked every ``admm.check_every`` iterations; with ``admm.early_exit``
+the remaining blocks are skipped once both residuals are below tolerance
+(:func:`early_exit_chain`), and the Riccati path rebalances ``rho`` once after
+``admm.adapt_at`` iterations if still not converged (:func:`rho_adaptation`).
+The QP itself, as data, and its exact solution: :mod:`.exact_qp`.
 """
 
 from __future__ import annotations

@@ -39,7 +39,13 @@ class NMPCWeights(Strict):
 
 
 class ADMMOptions(Strict):
-    """ADMM (OSQP's iteration) on the condensed QP: at most ``iterations``, stopped early on the residuals."""
+    """ADMM (OSQP's iteration) on the condensed QP: at most ``iterations``, stopped early on the residuals.
+
+    Worst case: ``iterations`` iterations and (Riccati QP, ``adapt_at > 0``) one
+    refactorization; every stop is a conditional block of a fixed chain, so the
+    generated C has no data-dependent loop. ``adapt_at`` applies to the Riccati
+    x-update only (the dense reference path keeps its first ``rho``).
+    """
 
     rho_scale: float = Field(0.35, gt=0, description="rho = rho_scale sqrt(lambda_min lambda_max) of the QP Hessian")
     rho_g_rel: float = Field(1.0, gt=0, description="penalty of the soft gap rows (mm) relative to the currents'")
