@@ -376,6 +376,7 @@ def replay_interleaved(
                         f(i)
             bar.update(len(idx))
     bar.close()
+    out["u_ours"], out["u_acados"] = u_ours, u_ac
     out["udiff"] = np.max(np.abs(u_ac - u_ours), axis=1)
     out["udiff_rec"] = np.max(np.abs(u_ours - data["u"]), axis=1)
     out["realtime"] = np.array(bool(rt))
@@ -396,6 +397,7 @@ def run(
     realtime: bool = False,
     cflags: str | None = None,
     block: int = 1,
+    dump: str | None = None,
 ) -> PeerResult:
     """Record the closed loop, then replay it interleaved (see the module docstring and
     :func:`replay_interleaved` for ``block``)."""
@@ -424,6 +426,14 @@ def run(
     data = record_loop(ours, prep, io, N, seed, progress)
     fn = ours.step_evaluator  # the very object the NMPC (and the runner, maglev bench) calls
     r = replay_interleaved(fn, solver, data, p_vec, N, realtime, progress, block)
+    if dump:  # the instances and both solutions, for the accuracy against the exact QP (benchmarks/qp_peers.py)
+        np.savez(
+            dump,
+            **{key: data[key] for key in ("state", "meas", "ref")},
+            **{key: r[key] for key in ("u_ours", "u_acados", "t_ours", "t_ac", "c_ours", "c_ac")},
+            p=p_vec,
+            warmup=warmup,
+        )
     sl = slice(warmup, None)
     o, a, ai = summary(r["t_ours"][sl]), summary(r["t_ac"][sl]), summary(r["t_ac_int"][sl])
     oc, ac = summary(r["c_ours"][sl]), summary(r["c_ac"][sl])
@@ -480,6 +490,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cflags", default=None, help="compiler flags of our step (default: the C backend's)")
     ap.add_argument("--json", default=None, metavar="FILE", help="also write the result as JSON")
     ap.add_argument("--no-progress", action="store_true")
+    ap.add_argument("--dump", default=None, metavar="FILE.npz", help="save the instances and both solutions")
     args = ap.parse_args(argv)
     why = setup_acados()
     if why:
@@ -497,6 +508,7 @@ def main(argv=None) -> int:
         realtime=args.realtime,
         cflags=args.cflags,
         block=args.block,
+        dump=args.dump,
     )
     print(res.table())
     if args.json:

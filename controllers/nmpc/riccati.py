@@ -228,9 +228,10 @@ def factor_function(
 ) -> ca.Function:
     """Per-step preparation of the Riccati ADMM (MX of stage chains and SX Functions).
 
-    ``(As, Bs, cs, dx0, Xbar, Xref, Ubar, Uref, fault) -> (K, Sinv, PB, Pc, rho, qW, rbase, glb, gub, zg0)``:
-    penalty ``rho`` from the trace of the condensed Hessian (open-loop cost-to-go
-    recursion, the rule of :func:`controllers.nmpc.qp.admm_rho`), the Riccati
+    ``(As, Bs, cs, dx0, Xbar, Xref, Ubar, Uref, fault, rho_mult) -> (K, Sinv, PB, Pc, rho, qW, rbase, glb, gub,
+    zg0)``: penalty ``rho`` from the trace of the condensed Hessian (open-loop cost-to-go
+    recursion, the rule of :func:`controllers.nmpc.qp.admm_rho`) times ``rho_mult`` (the
+    adaptation of :func:`controllers.nmpc.admm.admm_riccati`, 1 at first), the Riccati
     factorization for ``R + sigma + rho``, the constant linear terms, the soft gap
     bounds and the free response of the gap rows (warm start of ``z_g``).
 
@@ -243,20 +244,25 @@ def factor_function(
     As, Bs, cs = ca.MX.sym("As", NX, NX * N), ca.MX.sym("Bs", NX, NU * N), ca.MX.sym("cs", NX, N)
     dx0, Xb, Xr = ca.MX.sym("dx0", NX), ca.MX.sym("Xbar", NX, N + 1), ca.MX.sym("Xref", NX, N + 1)
     Ub, Ur, fault = ca.MX.sym("Ubar", NU, N), ca.MX.sym("Uref", NU, N), ca.MX.sym("fault")
+    mult = ca.MX.sym("rho_mult")
     Wc, Pt = ca.DM(Q), ca.DM(P)
     # trace of the condensed Hessian: N tr(R) + sum_j tr(B_j' S_{j+1} B_j), S_k = W_k + A_k' S_{k+1} A_k
     (_, tr), _ = stage_chain(
         open_loop_stage(), N, [ca.MX(Pt), ca.MX(N * float(sum(R)))], [As, Bs], [ca.MX(Wc)], reverse=True
     )
     # penalty, input weight of the x-update (NaN on a forced failure, for tests), gap-row weight
-    trs, fs = _sx(1, 1, "trace"), _sx(1, 1, "fault")
-    rho = rho_from_trace(trs, NU * N, min(R), admm)
+    trs, fs, ms = _sx(1, 1, "trace"), _sx(1, 1, "fault"), _sx(1, 1, "rho_mult")
+    rho = ca.fmin(ca.fmax(rho_from_trace(trs, NU * N, min(R), admm) * ms, 1e-3), 1e3)
     Rt = ca.DM(R) + admm.sigma + rho + ca.if_else(fs > 0.5, np.nan, 0)
     gam = admm.rho_g_rel * rho * 1e6  # gap rows are 1e3 dx[0]: weight rho_g (1e3)^2 on dx[0]^2
     pen = ca.Function(
-        "nmpc_ric_penalty", [trs, fs], [Rt, gam, ca.vertcat(rho, 1 / rho)], ["trace", "fault"], ["Rt", "gam", "rho"]
+        "nmpc_ric_penalty",
+        [trs, fs, ms],
+        [Rt, gam, ca.vertcat(rho, 1 / rho)],
+        ["trace", "fault", "rho_mult"],
+        ["Rt", "gam", "rho"],
     )
-    Rt, gam, rho2 = pen(tr, fault)
+    Rt, gam, rho2 = pen(tr, fault, mult)
     e11 = ca.DM.zeros(NX, NX)
     e11[0, 0] = 1
     gset = set(gap_stages)
@@ -269,9 +275,9 @@ def factor_function(
     outs = [K, Sinv, PB, Pc, rho2, qW, rbase, glb, gub, zg0]
     return ca.Function(
         "nmpc_ric_factor",
-        [As, Bs, cs, dx0, Xb, Xr, Ub, Ur, fault],
+        [As, Bs, cs, dx0, Xb, Xr, Ub, Ur, fault, mult],
         outs,
-        ["As", "Bs", "cs", "dx0", "Xbar", "Xref", "Ubar", "Uref", "fault"],
+        ["As", "Bs", "cs", "dx0", "Xbar", "Xref", "Ubar", "Uref", "fault", "rho_mult"],
         ["K", "Sinv", "PB", "Pc", "rho", "qW", "rbase", "glb", "gub", "zg0"],
     )
 

@@ -39,15 +39,39 @@ class NMPCWeights(Strict):
 
 
 class ADMMOptions(Strict):
-    """Fixed-budget ADMM (OSQP's iteration) on the condensed QP."""
+    """ADMM (OSQP's iteration) on the condensed QP: at most ``iterations``, stopped early on the residuals.
+
+    Worst case: ``iterations`` iterations and (Riccati QP, ``adapt_at > 0``) one
+    refactorization; every stop is a conditional block of a fixed chain, so the
+    generated C has no data-dependent loop. ``adapt_at`` applies to the Riccati
+    x-update only (the dense reference path keeps its first ``rho``).
+    """
 
     rho_scale: float = Field(0.35, gt=0, description="rho = rho_scale sqrt(lambda_min lambda_max) of the QP Hessian")
     rho_g_rel: float = Field(1.0, gt=0, description="penalty of the soft gap rows (mm) relative to the currents'")
     sigma: float = Field(1e-6, gt=0)
     alpha: float = Field(1.6, gt=0, lt=2)
-    check_every: int = Field(5, ge=1, description="residuals computed every this many iterations")
+    check_every: int = Field(2, ge=1, description="residuals checked every this many iterations")
     tol_prim: float = Field(1e-2, gt=0, description="primal residual for status ok [A or mm]")
     tol_dual: float = Field(1e-2, gt=0, description="dual residual for status ok")
+    adapt_at: int = Field(
+        10, ge=0, description="iteration after which rho is rebalanced once if not converged (0: never; Riccati QP)"
+    )
+    adapt_ratio: float = Field(3.0, gt=1, description="rebalance only if the residual ratio is beyond this factor")
+    early_exit: bool = Field(
+        True,
+        description="stop at the first checkpoint with both residuals below tolerance (iterations: the maximum)",
+    )
+
+
+class OSQPOptions(Strict):
+    """OSQP (``solver: osqp``, Python backend only) on the condensed QP with the disks as tangent cuts."""
+
+    eps_abs: float = Field(1e-5, gt=0)
+    eps_rel: float = Field(1e-5, gt=0)
+    max_iter: int = Field(4000, ge=1)
+    polish: bool = True
+    passes: int = Field(2, ge=1, le=5, description="cutting-plane passes on the disks (1: one cut at ubar)")
 
 
 class SoftGap(Strict):
@@ -102,12 +126,17 @@ class NMPCSettings(Strict):
     n_sub: int = Field(1, ge=1, le=10, description="RK4 sub-steps of the prediction model")
     jacobian: Literal["taylor", "exact"] = "taylor"
     weights: NMPCWeights = Field(default_factory=NMPCWeights)
-    solver: Literal["admm"] = "admm"
+    solver: Literal["admm", "osqp"] = Field(
+        "admm", description="QP solver: our ADMM (code-generated) or OSQP (osqp package, Python backend only)"
+    )
     qp: Literal["riccati", "dense"] = Field(
         "riccati", description="ADMM x-update: stage-wise Riccati recursion (O(N)) or dense condensed Cholesky"
     )
-    iterations: int = Field(20, ge=1, le=500, description="ADMM iterations per step (fixed)")
+    iterations: int = Field(
+        40, ge=1, le=500, description="ADMM iterations per step: the maximum (admm.early_exit) or the fixed count"
+    )
     admm: ADMMOptions = Field(default_factory=ADMMOptions)
+    osqp: OSQPOptions = Field(default_factory=OSQPOptions)
     soft_gap: SoftGap = Field(default_factory=SoftGap)
     observer_eps: float = Field(3e-3, gt=1e-4, le=0.1, description="high-gain observer time constant [s]")
     offset_free: bool = True
@@ -175,4 +204,4 @@ class NMPCSettings(Strict):
         return len(self.gap_stages)
 
 
-__all__ = ["ADMMOptions", "NMPCSettings", "NMPCWeights", "PlanOptions", "SoftGap"]
+__all__ = ["ADMMOptions", "NMPCSettings", "NMPCWeights", "OSQPOptions", "PlanOptions", "SoftGap"]

@@ -37,6 +37,7 @@ from .design import StepDesign, make_design
 from .fallback import build_post
 from .layout import N_MEAS, NU, NX
 from .observer import observe
+from .osqp_solver import osqp_callback
 from .planner import advance_plan, plan_duration, u_for_accel
 from .prediction import fn_stage, predict_through_delay
 from .qp import project_disk
@@ -157,6 +158,43 @@ def build_prep(d: StepDesign) -> ca.Function:
     return ca.Function("nmpc_prep", [st, meas, ref, p], outs, ["state", "meas", "ref", "p"], names)
 
 
+def build_qp_export(d: StepDesign) -> ca.Function:
+    """``nmpc_qp(state, meas, ref, p) -> (H, q, G, glb, gub, ubar)``: the step's QP as dense data.
+
+    The same stages 1-3 as the step and the dense condensing of :func:`~.admm.fn_condense`
+    (identical to what the Riccati x-update iterates on), for the exact reference
+    solution (:mod:`controllers.nmpc.exact_qp`) and the external QP solvers.
+    """
+    lay, m, N = d.layout, d.model, d.settings.horizon
+    st, meas, ref, p = (
+        ca.MX.sym("state", lay.size),
+        ca.MX.sym("meas", N_MEAS),
+        ca.MX.sym("ref", N_REF, N + 1),
+        ca.MX.sym("p", m.np_),
+    )
+    o = _front(d, st, meas, ref, p)
+    H, q, G, glb, gub = fn_condense(d)(
+        o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], o["u_prev"], meas[2]
+    )
+    return ca.Function(
+        "nmpc_qp",
+        [st, meas, ref, p],
+        [ca.densify(e) for e in (H, q, G, glb, gub, o["ubar"])],
+        ["state", "meas", "ref", "p"],
+        ["H", "q", "G", "glb", "gub", "ubar"],
+    )
+
+
+def osqp_qp(d: StepDesign, o: dict, fault) -> tuple:
+    """Stage 4 by OSQP (:mod:`.osqp_solver`): dense condensing, then the solver as a callback node."""
+    s = d.settings
+    H, q, G, glb, gub = fn_condense(d)(
+        o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], o["u_prev"], fault
+    )
+    z, rp, rd, iters = osqp_callback(s)(H, q, G, glb, gub, o["ubar"])
+    return z, ca.MX.zeros(s.horizon * NU + s.n_gap), {"rp": rp, "rd": rd, "iters": iters}
+
+
 def build_step(d: StepDesign) -> ca.Function:
     """``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)`` (MX graph of SX Functions)."""
     s, lay, m = d.settings, d.layout, d.model
@@ -168,7 +206,10 @@ def build_step(d: StepDesign) -> ca.Function:
         ca.MX.sym("ref", N_REF, s.horizon + 1),
         ca.MX.sym("p", m.np_),
     )
-    if s.qp == "dense":
+    if s.solver == "osqp":
+        o = _front(d, st, meas, ref, p)
+        z, yv, tr = osqp_qp(d, o, meas[2])
+    elif s.qp == "dense":
         o = build_prep(d)(state=st, meas=meas, ref=ref, p=p)
         z, yv, tr = admm_dense(d, o)
     else:
@@ -257,6 +298,10 @@ class StepBuilder:
         """``nmpc_prep`` (:func:`build_prep`)."""
         return build_prep(self.design)
 
+    def build_qp_export(self) -> ca.Function:
+        """``nmpc_qp`` (:func:`build_qp_export`)."""
+        return build_qp_export(self.design)
+
 
 def step_functions(
     settings: NMPCSettings, mode: str, params: Params | None = None
@@ -279,4 +324,4 @@ def _step_functions(
     return b.build_init(), b.build_step(), b
 
 
-__all__ = ["StepBuilder", "build_init", "build_prep", "build_step", "fn_head", "step_functions"]
+__all__ = ["StepBuilder", "build_init", "build_prep", "build_qp_export", "build_step", "fn_head", "step_functions"]

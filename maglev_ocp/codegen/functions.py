@@ -30,6 +30,7 @@ from controllers.nmpc.layout import MEAS_TABLE, N_MEAS, STATS_TABLE
 from controllers.nmpc.reference import resolve_mode
 
 from .. import constants as k
+from ..errors import UserError
 from ..observers import ObserverSettings
 from ..params import Params
 from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, REF_FIELDS, REFERENCE, STATES
@@ -240,6 +241,8 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
     """
     if mode not in ("plan", "preview"):
         raise ValueError(f"NMPC reference mode must be 'plan' or 'preview', got {mode!r}")
+    if settings.solver != "admm":  # OSQP runs as a Python callback inside the step: no C
+        raise UserError(f"NMPC solver {settings.solver!r} has no C backend (use backend: python, or solver: admm)")
     model_params = params if settings.use_cogging else params.without_cogging()
     init, step, b = step_functions(settings, mode, model_params)
     lay = b.layout
