@@ -145,9 +145,9 @@ def daqp_solver(settings: NMPCSettings):
     def solve(qp: QPData) -> np.ndarray:
         N = st.N
         U = qp.ubar.reshape(N, NU)
-        normals = [st._unit(U)] * st.n_cuts
+        normals = st.initial_normals(U)
         v = None
-        for c in range(st.n_cuts):
+        for c in range(st.n_cuts - st.n_poly):
             P, A = st._matrices(qp.H, qp.G, normals)
             lo, hi = st._bounds(qp.ubar, qp.glb, qp.gub, normals)
             Pd = P.toarray()
@@ -161,10 +161,11 @@ def daqp_solver(settings: NMPCSettings):
             v = x[: qp.nv]
             w = U + v.reshape(N, NU)
             out = np.linalg.norm(w, axis=1) > qp.radius * (1 + 1e-9)
-            if c + 1 >= st.n_cuts or not out.any():
+            j = st.n_poly + c
+            if j + 1 >= st.n_cuts or not out.any():
                 break
             normals = list(normals)
-            normals[c + 1] = np.where(out[:, None], st._unit(w), normals[c])
+            normals[j + 1] = np.where(out[:, None], st._unit(w), normals[j])
         return v
 
     return solve
@@ -264,7 +265,7 @@ def run(
     osqp_stage = OSQPStage(settings)
     t_osqp, r_osqp = timed(lambda qp: osqp_stage.solve(qp.H, qp.q, qp.G, qp.glb, qp.gub, qp.ubar)[0], qps, realtime)
     u_osqp = [qp.ubar[:NU] + z[:NU] for qp, z in zip(qps, r_osqp, strict=True)]
-    rows.append(row("OSQP 1.x (Python, polished, 2 cut passes)", "QP only", t_osqp[w:], err(u_osqp)))
+    rows.append(row("OSQP 1.x (Python, polished, octagon + 6 cut passes)", "QP only", t_osqp[w:], err(u_osqp)))
     t_daqp, r_daqp = timed(daqp_solver(settings), qps, realtime)
     u_daqp = [qp.ubar[:NU] + v[:NU] for qp, v in zip(qps, r_daqp, strict=True)]
     rows.append(row("DAQP (Python, same polyhedral QP)", "QP only", t_daqp[w:], err(u_daqp)))

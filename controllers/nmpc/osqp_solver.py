@@ -2,13 +2,13 @@
 
 OSQP takes linear constraints only, so the current disks of the QP
 (:mod:`controllers.nmpc.exact_qp`) become, per stage, the per-axis box and
-tangent cuts ``n' (ubar_k + v_k) <= r``: the first at the direction of the
-linearization point ``ubar_k`` (the cut acados's RTI linearization of
-``|u|^2 <= r^2`` also gives, but tangent to the disk), and after every
-refinement pass (``osqp.passes > 1``) one more at the direction of the last
-pass's solution where it left the disk: a cutting-plane outer approximation
-that converges to the disk. The soft gap rows use one slack each (as in the
-reference problem). Variables ``(v, s)``; rows ``[box (2N) | cuts (P N) | G v -
+tangent cuts ``n' (ubar_k + v_k) <= r``: a fixed circumscribed polygon of
+``osqp.polygon`` sides, one cut at the direction of the linearization point
+``ubar_k`` (the cut acados's RTI linearization of ``|u|^2 <= r^2`` also gives,
+but tangent to the disk), and after every refinement pass (``osqp.passes > 1``)
+one more at the direction of the last pass's solution where it left the disk:
+a cutting-plane outer approximation that converges to the disk. The soft gap rows use one slack each (as in the
+reference problem). Variables ``(v, s)``; rows ``[box (2N) | cuts ((polygon + passes) N) | G v -
 s <= gub | G v + s >= glb | s >= 0]``.
 
 The solver is a :class:`casadi.Callback` inside the step Function, so the
@@ -39,7 +39,8 @@ class OSQPStage:
         self.radius, self.box = s.current_limit, s.i_box
         self.w1, self.w2 = s.soft_gap.w_linear, s.soft_gap.w_quadratic
         self.opts = s.osqp
-        self.n_cuts = max(s.osqp.passes, 1)
+        self.n_poly = s.osqp.polygon
+        self.n_cuts = self.n_poly + max(s.osqp.passes, 1)
         self._solver = None
         self._A = None
 
@@ -93,6 +94,12 @@ class OSQPStage:
         n = np.linalg.norm(w, axis=1, keepdims=True)
         return np.where(n > 1e-9, w / np.maximum(n, 1e-12), np.array([1.0, 0.0]))
 
+    def initial_normals(self, U: np.ndarray) -> list[np.ndarray]:
+        """Cut normals per stage: the fixed polygon's, then the refinement cuts (all at ``ubar``'s direction)."""
+        ang = 2 * np.pi * np.arange(self.n_poly) / max(self.n_poly, 1)
+        poly = [np.tile([np.cos(a), np.sin(a)], (self.N, 1)) for a in ang]
+        return poly + [self._unit(U)] * (self.n_cuts - self.n_poly)
+
     # ------------------------------------------------------------------ solve
     def solve(self, H, q, G, glb, gub, ubar):
         """One QP: ``(z, r_prim, r_dual, iterations)`` (NaN on non-finite data or a failed solve)."""
@@ -103,8 +110,7 @@ class OSQPStage:
         if not (np.all(np.isfinite(H)) and np.all(np.isfinite(q))):
             return nan
         U = ubar.reshape(N, NU)
-        # first cut at ubar's direction; the others start there too and move to the previous pass's solution
-        normals = [self._unit(U)] * self.n_cuts
+        normals = self.initial_normals(U)
         qq = np.concatenate([q, np.full(ng, self.w1)])
         P, A = self._matrices(H, G, normals)
         lo, hi = self._bounds(ubar, glb, gub, normals)
@@ -128,7 +134,7 @@ class OSQPStage:
             self._solver.update(q=qq, l=lo, u=hi, Px=P.data, Ax=A.data)
         iters = 0
         res = None
-        for c in range(self.n_cuts):
+        for c in range(self.n_cuts - self.n_poly):
             res = self._solver.solve()
             iters += res.info.iter
             if res.info.status_val not in (1, 2):  # solved, solved inaccurate
@@ -136,10 +142,11 @@ class OSQPStage:
             v = res.x[:nv]
             w = U + v.reshape(N, NU)
             out = np.linalg.norm(w, axis=1) > self.radius * (1 + 1e-9)
-            if c + 1 >= self.n_cuts or not out.any():
+            j = self.n_poly + c
+            if j + 1 >= self.n_cuts or not out.any():
                 break
             normals = list(normals)
-            normals[c + 1] = np.where(out[:, None], self._unit(w), normals[c])
+            normals[j + 1] = np.where(out[:, None], self._unit(w), normals[j])
             _, A = self._matrices(H, G, normals)
             lo, hi = self._bounds(ubar, glb, gub, normals)
             self._solver.update(l=lo, u=hi, Ax=A.data)

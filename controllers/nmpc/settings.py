@@ -69,9 +69,10 @@ class OSQPOptions(Strict):
 
     eps_abs: float = Field(1e-5, gt=0)
     eps_rel: float = Field(1e-5, gt=0)
-    max_iter: int = Field(4000, ge=1)
+    max_iter: int = Field(40000, ge=1)
     polish: bool = True
-    passes: int = Field(2, ge=1, le=5, description="cutting-plane passes on the disks (1: one cut at ubar)")
+    passes: int = Field(6, ge=1, le=8, description="cutting-plane passes on the disks (1: one cut at ubar)")
+    polygon: int = Field(8, ge=0, le=64, description="sides of the fixed circumscribed polygon of each disk")
 
 
 class SoftGap(Strict):
