@@ -86,7 +86,7 @@ def test_fallback_gain_follows_the_gap_and_the_parameters():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="issue 12 target not met yet: measured 5.4 / 6.1 um (g / d) steady RMS (results/summary.md)", strict=False)
+@pytest.mark.xfail(reason="issue 12 target not met yet: measured 5.4 / 6.1 um (g / d) steady RMS", strict=False)
 def test_one_period_delay_tour_holds_6um():
     """Issue 12: with a one-period delay, every tour target settles and its steady RMS is <= 6 um."""
     res = run_scenario(SCENARIOS / "tour_nmpc_delay1.yaml", progress=False)
