@@ -46,7 +46,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
-from benchmarks.qp_accuracy import pct  # noqa: E402
+from benchmarks.qp_accuracy import pct, qp_of_call  # noqa: E402
 from controllers.nmpc import NMPC, NMPCSettings, step_functions  # noqa: E402
 from controllers.nmpc.exact_qp import QPData, solve_exact  # noqa: E402
 from controllers.nmpc.layout import NU  # noqa: E402
@@ -102,24 +102,10 @@ def record_here(settings: NMPCSettings, seed: int = 7) -> dict:
 def qps_of(data: dict, settings: NMPCSettings) -> list[QPData]:
     """The QP of every recorded instance (``nmpc_qp``)."""
     export = BufferedFunction(step_functions(settings, "plan")[2].build_qp_export())
-    nv, ng, sg = settings.horizon * NU, settings.n_gap, settings.soft_gap
-    out = []
-    for st, me, rf in zip(data["state"], data["meas"], data["ref"], strict=True):
-        H, q, G, glb, gub, ubar = export(st, me, rf, data["p"])
-        out.append(
-            QPData(
-                H=H.reshape(nv, nv, order="F"),
-                q=q.ravel(),
-                G=G.reshape(ng, nv, order="F"),
-                glb=glb.ravel(),
-                gub=gub.ravel(),
-                ubar=ubar.ravel(),
-                radius=settings.current_limit,
-                w1=sg.w_linear,
-                w2=sg.w_quadratic,
-            )
-        )
-    return out
+    return [
+        qp_of_call(export, settings, (st, me, rf, data["p"]))
+        for st, me, rf in zip(data["state"], data["meas"], data["ref"], strict=True)
+    ]
 
 
 def timed(fn, items, realtime: bool) -> tuple[np.ndarray, list]:
