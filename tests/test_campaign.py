@@ -19,7 +19,7 @@ import pytest
 
 from maglev_ocp import constants as k
 from maglev_ocp.campaign import deterministic_columns, expand, load_campaign, run_campaign
-from maglev_ocp.campaign.execute import execute, read_run_record, run_dir, worker_cache
+from maglev_ocp.campaign.execute import chunk_sizes, execute, read_run_record, run_dir, worker_cache
 from maglev_ocp.campaign.expand import apply_overrides, draw_seed_sequence, n_cases
 from maglev_ocp.errors import ConfigError, UserError
 from maglev_ocp.params import NOMINAL
@@ -260,6 +260,15 @@ def test_failed_runs_can_be_retried_and_changed_campaign_is_refused(camp_dir: Pa
     changed._root_dir = camp.root_dir
     with pytest.raises(UserError, match="different version of the campaign"):
         execute(changed, out, run_fn=toy_run, progress=False)
+
+
+@pytest.mark.parametrize(("n", "workers"), [(1, 2), (5, 2), (31, 2), (32, 2), (1000, 2), (1000, 3), (7, 1)])
+def test_chunks_cover_every_run_once_and_balance(n: int, workers: int) -> None:
+    sizes = chunk_sizes(n, workers)
+    assert sum(sizes) == n
+    assert min(sizes) >= 1
+    assert max(sizes) - min(sizes) <= 1  # near-equal chunks
+    assert len(sizes) == min(n, 16 * workers)  # few tasks, but enough for load balance
 
 
 def test_worker_cache_builds_once_per_key() -> None:
