@@ -100,9 +100,16 @@ class ScalingResult:
 
 
 def scaling(
-    name_or_path: str | os.PathLike, workers: tuple[int, ...] = (1, 2), limit: int | None = None, progress: bool = False
+    name_or_path: str | os.PathLike,
+    workers: tuple[int, ...] = (1, 2),
+    limit: int | None = None,
+    progress: bool = False,
+    n_runs: int | None = None,
 ) -> ScalingResult:
     """Run one campaign afresh (temporary folders) on each number of workers; wall time of each.
+
+    ``n_runs`` replaces the campaign's number of runs (more draws of the same
+    distributions, from the same root seed), ``limit`` executes only the first ones.
 
     The wall time includes the cluster start-up and each worker's first builds,
     which is what a user waits for. The CPU efficiency (the runs' CPU time over
@@ -113,6 +120,8 @@ def scaling(
     if not path.suffix:
         path = campaign_path(str(name_or_path))
     camp = load_campaign(path)
+    if n_runs is not None:
+        camp = camp.model_copy(update={"n_runs": int(n_runs)})
     walls: dict[int, float] = {}
     eff: dict[int, float] = {}
     load: dict[int, float] = {}
