@@ -43,6 +43,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from controllers.fl import fl_delay_samples
 from controllers.nmpc.layout import STATS_NAMES, STATUS_TEXT
 from controllers.nmpc.reference import resolve_mode
 
@@ -260,7 +261,22 @@ def _fl_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> Co
     init, step = lib.function("fl_init"), lib.function("fl_step")
     (st0,) = init(np.asarray(y0, dtype=float))
     consts = {3: params.vector(), 4: np.asarray(s.gains(k.Ts), dtype=float)}
-    return ControllerRun(step, st0.copy(), consts, 2, np.ascontiguousarray(rp.refs), np.zeros(rp.n), step.out_sizes)
+    refs = fl_refs(rp, fl_delay_samples(s))
+    return ControllerRun(step, st0.copy(), consts, 2, np.ascontiguousarray(refs), np.zeros(rp.n), step.out_sizes)
+
+
+def fl_refs(rp: RunPlan, delay: int) -> np.ndarray:
+    """FL's ``ref`` input of every step (``n x 6``): the runner's rows, or with a delay of ``N`` samples the plan
+    ``N`` samples ahead, as :meth:`controllers.fl.FeedbackLinearization.set_reference_plan` makes it read."""
+    if not delay:
+        return rp.refs
+    Ts, plan = k.Ts, rp.plan
+    n_plan = round(plan.duration / Ts) + 1
+    rows = plan.sample(np.arange(n_plan) * Ts + delay * Ts, zoh=Ts)  # the very rows the FL samples once
+    if rp.n <= n_plan:
+        return rows[: rp.n]
+    later = plan.sample(rp.t[n_plan:] + delay * Ts, zoh=Ts)  # past the plan's end (looked up per step there)
+    return np.concatenate([rows, later])
 
 
 def _nmpc_stats(log: np.ndarray, t_us: np.ndarray) -> tuple[np.ndarray, dict, dict]:
@@ -507,6 +523,7 @@ __all__ = [
     "code_version",
     "compiled_supported",
     "controller_library",
+    "fl_refs",
     "nmpc_refs",
     "plant_library",
     "run_compiled_loop",
