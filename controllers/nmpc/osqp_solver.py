@@ -20,6 +20,9 @@ design.
 
 from __future__ import annotations
 
+import ctypes
+import time
+
 import casadi as ca
 import numpy as np
 
@@ -42,39 +45,50 @@ class OSQPStage:
         self.n_poly = s.osqp.polygon
         self.n_cuts = self.n_poly + max(s.osqp.passes, 1)
         self._solver = None
-        self._A = None
+        self._structure()
 
     # ------------------------------------------------------------------ problem data
-    def _matrices(self, H, G, normals):
-        """``P`` (upper triangle) and ``A`` as CSC with a fixed sparsity (all structural entries kept)."""
-        nv, ng, N = self.nv, self.ng, self.N
-        # fixed sparsity: dense upper triangle of H, whatever its values
-        Pd = np.zeros((nv + ng, nv + ng))
-        Pd[:nv, :nv] = np.triu(H)
-        Pd[nv:, nv:] = self.w2 * np.eye(ng)
-        mask = np.zeros_like(Pd, dtype=bool)
-        mask[:nv, :nv] = np.triu(np.ones((nv, nv), dtype=bool))
-        mask[nv:, nv:] = np.eye(ng, dtype=bool)
-        rows = self.nv + self.n_cuts * N + 3 * ng
-        Ad = np.zeros((rows, nv + ng))
-        am = np.zeros_like(Ad, dtype=bool)
-        Ad[:nv, :nv] = np.eye(nv)
-        am[:nv, :nv] = np.eye(nv, dtype=bool)
+    def _structure(self) -> None:
+        """The fixed CSC sparsity of ``P`` (upper triangle) and ``A``, and where each stored entry comes from.
+
+        Every structural entry is kept (zeros included), so the sparsity never changes and the values of a
+        new QP are one gather: ``P.data = [H.ravel(), w2][p_src]``, ``A.data = [1, -1, normals.ravel(),
+        G.ravel()][a_src]`` (see :meth:`_values`).
+        """
+        nv, ng, N, nc = self.nv, self.ng, self.N, self.n_cuts
+        rows, cols, src = [], [], []  # P: dense upper triangle of H, then w2 on the slacks' diagonal
+        for j in range(nv):
+            for i in range(j + 1):
+                rows.append(i), cols.append(j), src.append(i * nv + j)
+        for i in range(ng):
+            rows.append(nv + i), cols.append(nv + i), src.append(nv * nv)
+        self._P_struct = _csc_structure(rows, cols, src, nv + ng)
+        one, neg, o_nrm = 0, 1, 2
+        o_g = o_nrm + nc * N * NU
+        rows, cols, src = [], [], []
+        for i in range(nv):  # box rows
+            rows.append(i), cols.append(i), src.append(one)
         r0 = nv
-        for c in range(self.n_cuts):
+        for c in range(nc):  # cut rows: n' v_k
             for k_ in range(N):
-                Ad[r0 + c * N + k_, k_ * NU : (k_ + 1) * NU] = normals[c][k_]
-                am[r0 + c * N + k_, k_ * NU : (k_ + 1) * NU] = True
-        r0 += self.n_cuts * N
-        if ng:
-            for blk, sg in ((0, -1.0), (1, 1.0)):
-                Ad[r0 + blk * ng : r0 + (blk + 1) * ng, :nv] = G
-                am[r0 + blk * ng : r0 + (blk + 1) * ng, :nv] = True
-                Ad[r0 + blk * ng : r0 + (blk + 1) * ng, nv:] = sg * np.eye(ng)
-                am[r0 + blk * ng : r0 + (blk + 1) * ng, nv:] = np.eye(ng, dtype=bool)
-            Ad[r0 + 2 * ng :, nv:] = np.eye(ng)
-            am[r0 + 2 * ng :, nv:] = np.eye(ng, dtype=bool)
-        return _csc_with_pattern(Pd, mask), _csc_with_pattern(Ad, am)
+                for j in range(NU):
+                    rows.append(r0 + c * N + k_), cols.append(k_ * NU + j), src.append(o_nrm + (c * N + k_) * NU + j)
+        r0 += nc * N
+        for blk, sg in ((0, neg), (1, one)):  # G v - s <= gub, G v + s >= glb
+            for i in range(ng):
+                for j in range(nv):
+                    rows.append(r0 + blk * ng + i), cols.append(j), src.append(o_g + i * nv + j)
+                rows.append(r0 + blk * ng + i), cols.append(nv + i), src.append(sg)
+        for i in range(ng):  # s >= 0
+            rows.append(r0 + 2 * ng + i), cols.append(nv + i), src.append(one)
+        self.n_rows = nv + nc * N + 3 * ng
+        self._A_struct = _csc_structure(rows, cols, src, nv + ng)
+
+    def _values(self, H, G, normals) -> tuple[np.ndarray, np.ndarray]:
+        """``(P.data, A.data)`` of the QP in the fixed sparsity of :meth:`_structure`."""
+        px = np.concatenate([np.ravel(H), [self.w2]])[self._P_struct[2]]
+        ax = np.concatenate([[1.0, -1.0], np.ravel(normals), np.ravel(G)])[self._A_struct[2]]
+        return px, ax
 
     def _bounds(self, ubar, glb, gub, normals):
         ng, N = self.ng, self.N
@@ -103,8 +117,6 @@ class OSQPStage:
     # ------------------------------------------------------------------ solve
     def solve(self, H, q, G, glb, gub, ubar):
         """One QP: ``(z, r_prim, r_dual, iterations)`` (NaN on non-finite data or a failed solve)."""
-        import osqp
-
         nv, ng, N = self.nv, self.ng, self.N
         nan = (np.full(nv + ng, np.nan), np.nan, np.nan, 0.0)
         if not (np.all(np.isfinite(H)) and np.all(np.isfinite(q))):
@@ -112,34 +124,17 @@ class OSQPStage:
         U = ubar.reshape(N, NU)
         normals = self.initial_normals(U)
         qq = np.concatenate([q, np.full(ng, self.w1)])
-        P, A = self._matrices(H, G, normals)
+        px, ax = self._values(H, G, normals)
         lo, hi = self._bounds(ubar, glb, gub, normals)
-        o = self.opts
-        if self._solver is None:
-            self._solver = osqp.OSQP()
-            self._solver.setup(
-                P,
-                qq,
-                A,
-                lo,
-                hi,
-                verbose=False,
-                eps_abs=o.eps_abs,
-                eps_rel=o.eps_rel,
-                max_iter=o.max_iter,
-                polishing=o.polish,
-                warm_starting=True,
-            )
-        else:
-            self._solver.update(q=qq, l=lo, u=hi, Px=P.data, Ax=A.data)
+        self._load(qq, lo, hi, px, ax)
         iters = 0
-        res = None
+        x = info = None
         for c in range(self.n_cuts - self.n_poly):
-            res = self._solver.solve()
-            iters += res.info.iter
-            if res.info.status_val not in (1, 2):  # solved, solved inaccurate
+            x, info = self._run()
+            iters += info[1]
+            if info[0] not in (1, 2):  # solved, solved inaccurate
                 return nan
-            v = res.x[:nv]
+            v = x[:nv]
             w = U + v.reshape(N, NU)
             out = np.linalg.norm(w, axis=1) > self.radius * (1 + 1e-9)
             j = self.n_poly + c
@@ -147,21 +142,122 @@ class OSQPStage:
                 break
             normals = list(normals)
             normals[j + 1] = np.where(out[:, None], self._unit(w), normals[j])
-            _, A = self._matrices(H, G, normals)
+            _, ax = self._values(H, G, normals)
             lo, hi = self._bounds(ubar, glb, gub, normals)
-            self._solver.update(l=lo, u=hi, Ax=A.data)
-        v = res.x[:nv]
+            self._recut(lo, hi, ax)
+        v = x[:nv]
         z = np.concatenate([v, G @ v]) if ng else v
-        return z, float(res.info.prim_res), float(res.info.dual_res), float(iters)
+        return z, float(info[2]), float(info[3]), float(iters)
+
+    # ------------------------------------------------------------------ the solver (osqp package)
+    def _load(self, q, lo, hi, px, ax) -> None:
+        """A new QP: set up the solver on the first, else update all its data (warm start: the last solution)."""
+        import osqp
+
+        if self._solver is None:
+            o = self.opts
+            P, A = self._matrices_of(px, ax)
+            self._solver = osqp.OSQP()
+            self._solver.setup(
+                P,
+                q,
+                A,
+                lo,
+                hi,
+                verbose=False,
+                eps_abs=o.abs_tolerance,
+                eps_rel=o.rel_tolerance,
+                max_iter=o.max_iter,
+                polishing=o.polishing,
+                warm_starting=True,
+            )
+        else:
+            self._solver.update(q=q, l=lo, u=hi, Px=px, Ax=ax)
+
+    def _recut(self, lo, hi, ax) -> None:
+        """The next cutting-plane pass: new cut rows (``A`` and the bounds)."""
+        self._solver.update(l=lo, u=hi, Ax=ax)
+
+    def _run(self) -> tuple[np.ndarray, tuple[int, int, float, float]]:
+        """Solve: ``x`` and ``(status, iterations, primal residual, dual residual)``."""
+        res = self._solver.solve()
+        i = res.info
+        return res.x, (int(i.status_val), int(i.iter), float(i.prim_res), float(i.dual_res))
+
+    def _matrices(self, H, G, normals):
+        """``P`` (upper triangle) and ``A`` of the QP as scipy CSC, in the fixed sparsity."""
+        return self._matrices_of(*self._values(H, G, normals))
+
+    def _matrices_of(self, px, ax):
+        """``P`` and ``A`` as scipy CSC from their values in the fixed sparsity."""
+        import scipy.sparse as sp
+
+        n = self.nv + self.ng
+        (pi, pp, _), (ai, ap, _) = self._P_struct, self._A_struct
+        return sp.csc_matrix((px, pi, pp), shape=(n, n)), sp.csc_matrix((ax, ai, ap), shape=(self.n_rows, n))
 
 
-def _csc_with_pattern(values: np.ndarray, mask: np.ndarray):
-    """CSC matrix holding every entry of ``mask`` (zeros included), so the sparsity never changes."""
-    import scipy.sparse as sp
+def _csc_structure(rows: list[int], cols: list[int], src: list[int], n_cols: int):
+    """``(indices, indptr, src)`` of a CSC matrix with the given entries, in column-major order."""
+    rows_a, cols_a, src_a = (np.asarray(a, dtype=np.int64) for a in (rows, cols, src))
+    order = np.lexsort((rows_a, cols_a))
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(cols_a, minlength=n_cols))])
+    return rows_a[order], indptr, src_a[order]
 
-    r, c = np.nonzero(mask.T)  # column-major order
-    rows, cols = c, r
-    return sp.csc_matrix((values[rows, cols], (rows, cols)), shape=values.shape)
+
+#: OSQP's infinity (``OSQP_INFTY``): bounds beyond it are absent.
+_OSQP_INFTY = 1e30
+
+
+class EmbeddedOSQPStage(OSQPStage):
+    """:class:`OSQPStage` on OSQP's generated C (embedded mode 2) instead of the osqp package.
+
+    Attributes
+    ----------
+    library : pathlib.Path
+        The cached shared library this stage loaded a private copy of
+        (:func:`controllers.nmpc.osqp_embedded.load`).
+    c_seconds : float
+        Time spent in the generated code's calls (updates and solves) since the stage was made [s].
+    """
+
+    def __init__(self, settings: NMPCSettings, progress: bool = False):
+        from .osqp_embedded import load
+
+        super().__init__(settings)
+        self.library, self._lib = load(self, progress)  # a private copy: its own workspace and warm start
+        n = int(self._lib.nmpc_osqp_n())
+        if n != self.nv + self.ng:
+            raise RuntimeError(f"OSQP's embedded code has {n} variables, the QP {self.nv + self.ng}")
+        self._x, self._info = np.zeros(n), np.zeros(4)
+        self.c_seconds = 0.0
+
+    @staticmethod
+    def _ptr(a: np.ndarray | None):
+        return None if a is None else a.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+    def _update(self, q, lo, hi, px, ax) -> None:
+        # OSQP's C API takes +-OSQP_INFTY (1e30) for a missing bound, not inf (the package clips it for us)
+        lo, hi = np.maximum(lo, -_OSQP_INFTY), np.minimum(hi, _OSQP_INFTY)
+        arrs = [None if a is None else np.ascontiguousarray(a, dtype=float) for a in (q, lo, hi, px, ax)]
+        t0 = time.perf_counter()
+        err = self._lib.nmpc_osqp_update(*(self._ptr(a) for a in arrs))
+        self.c_seconds += time.perf_counter() - t0
+        if err:
+            raise RuntimeError(f"OSQP's embedded update failed (error {err})")
+
+    def _load(self, q, lo, hi, px, ax) -> None:
+        self._update(q, lo, hi, px, ax)
+
+    def _recut(self, lo, hi, ax) -> None:
+        self._update(None, lo, hi, None, ax)
+
+    def _run(self) -> tuple[np.ndarray, tuple[int, int, float, float]]:
+        t0 = time.perf_counter()
+        self._lib.nmpc_osqp_solve(self._ptr(self._x), self._ptr(self._info))
+        self.c_seconds += time.perf_counter() - t0
+        i = self._info
+        return self._x.copy(), (int(i[0]), int(i[1]), float(i[2]), float(i[3]))
 
 
 class OSQPCallback(ca.Callback):
@@ -169,7 +265,10 @@ class OSQPCallback(ca.Callback):
 
     def __init__(self, settings: NMPCSettings):
         ca.Callback.__init__(self)
-        self.stage = OSQPStage(settings)
+        if settings.osqp.embedded:
+            self.stage: OSQPStage = EmbeddedOSQPStage(settings)
+        else:
+            self.stage = OSQPStage(settings)
         self.construct("nmpc_osqp", {})
 
     def get_n_in(self) -> int:
@@ -206,10 +305,10 @@ _ALIVE: list[OSQPCallback] = []
 
 
 def osqp_callback(settings: NMPCSettings) -> OSQPCallback:
-    """A new :class:`OSQPCallback` for ``settings``, kept alive for the process."""
+    """A new :class:`OSQPCallback` for ``settings`` (package or embedded, ``osqp.embedded``), kept alive."""
     cb = OSQPCallback(settings)
     _ALIVE.append(cb)
     return cb
 
 
-__all__ = ["OSQPCallback", "OSQPStage", "osqp_callback"]
+__all__ = ["EmbeddedOSQPStage", "OSQPCallback", "OSQPStage", "osqp_callback"]
