@@ -472,7 +472,10 @@ def _error_text(code: int, done: int, u_last: np.ndarray) -> str | None:
 
 
 def compiled_supported(sc: Scenario) -> bool:
-    """Whether the compiled loop can run ``sc`` (its controller's step is a CasADi Function)."""
+    """Whether the compiled loop can run ``sc`` (its controller's step is a CasADi Function with C code:
+    not an NMPC on ``solver: osqp``, whose QP is a Python callback)."""
+    if sc.controller.type == "nmpc" and sc.controller.settings.solver != "admm":
+        return False
     return sc.controller.type in COMPILED_TYPES
 
 
