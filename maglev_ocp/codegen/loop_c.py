@@ -494,7 +494,10 @@ def run_scenario_compiled(
     t_wall = time.perf_counter()
     sc = sc.with_seed(seed)
     if not compiled_supported(sc):
-        raise UserError(f"{sc.source}: the compiled loop runs {', '.join(COMPILED_TYPES)}, not {sc.controller.type}")
+        what = sc.controller.type
+        if what == "nmpc":
+            what = f"nmpc with solver: {sc.controller.settings.solver} (a Python callback; solver: admm is compiled)"
+        raise UserError(f"{sc.source}: the compiled loop runs {', '.join(COMPILED_TYPES)}, not {what}")
     rp = plan_run(sc)
     ss_plant, _ = sc.seed_sequences()
     plant = Plant(sc.plant_config(), params=sc.plant_params(), seed=ss_plant, Ts=k.Ts)
