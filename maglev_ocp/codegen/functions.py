@@ -385,7 +385,8 @@ def fl_code(settings, params: Params) -> ControllerCode:
         defines={"STATE_SIZE": state_size},
         settings=_design(settings),
         notes=f"Observer time constant eps = {settings.observer_eps} s baked in "
-        f"(disturbance estimate: {settings.disturbance}); p and gains are inputs.",
+        f"(disturbance estimate: {settings.disturbance}); p and gains are inputs."
+        + (f" Delay predictor: {delay} samples (ref is the reference {delay} samples ahead)." if delay else ""),
     )
 
 
