@@ -56,3 +56,29 @@ def test_embedded_osqp_gives_the_package_currents_on_a_tour(tmp_path, monkeypatc
     # the currents move (target switches at full current): agreement is not a trivial constant
     u = np.array([c[4] for c in rec.calls])
     assert np.ptp(u[:, 0]) > 1.0
+    # each stage has its own workspace (its own warm start): a second stage solves the QP the first just
+    # solved from cold, with as many iterations (a shared workspace would start at the solution: fewer)
+    from benchmarks.qp_accuracy import qp_of_call
+    from controllers.nmpc import step_functions
+    from controllers.nmpc.osqp_solver import EmbeddedOSQPStage
+    from maglev_ocp.fastcall import BufferedFunction
+
+    export = BufferedFunction(step_functions(s, rec.fns.mode)[2].build_qp_export())
+    qa = qp_of_call(export, s, rec.calls[400])
+    first, second = EmbeddedOSQPStage(emb), EmbeddedOSQPStage(emb)
+    assert first.library == second.library  # one build, two loaded copies
+    it_cold = first.solve(qa.H, qa.q, qa.G, qa.glb, qa.gub, qa.ubar)[3]
+    it_warm = first.solve(qa.H, qa.q, qa.G, qa.glb, qa.gub, qa.ubar)[3]
+    assert it_warm < it_cold  # the warm start is visible in the iteration count ...
+    assert second.solve(qa.H, qa.q, qa.G, qa.glb, qa.gub, qa.ubar)[3] == it_cold  # ... and not shared
+
+
+def test_compiled_loop_leaves_osqp_to_the_python_loop():
+    """An NMPC on ``solver: osqp`` (a Python callback in its step) is not run on the compiled loop."""
+    from maglev_ocp.campaign.runner_adapter import use_compiled
+    from maglev_ocp.scenario import scenario_from_dict
+
+    d = {"name": "q", "controller": {"type": "nmpc"}, "targets": [{"g": 0.02, "d": 0.0, "hold": 0.1}]}
+    assert use_compiled(scenario_from_dict(d), "auto") or not shutil.which("cc")
+    d["controller"] = {"type": "nmpc", "solver": "osqp", "osqp": {"embedded": True}}
+    assert not use_compiled(scenario_from_dict(d), "auto")
