@@ -240,6 +240,7 @@ DEFAULT_SETTINGS: dict[str, dict] = {
     },
     "early exit, <= 40 iterations, no rho rebalancing": {"admm": {"adapt_at": 0}},
     "solver: osqp (Python)": {"solver": "osqp"},
+    "solver: osqp, embedded (OSQP's generated C)": {"solver": "osqp", "osqp": {"embedded": True}},
 }
 
 

@@ -15,9 +15,10 @@ Procedure:
    Without that environment the tour is recorded here and acados is left out.
 2. Here, each instance's QP (``nmpc_qp``: the QP our step solves) is solved
    exactly by Clarabel (:mod:`controllers.nmpc.exact_qp`, the disks as cones) and
-   by OSQP (the ``solver: osqp`` stage, disks as tangent cuts refined once) and
-   DAQP (dual active set, the same polyhedral QP), each timed around the solver call
-   under SCHED_FIFO.
+   by OSQP (the ``solver: osqp`` stage, disks as tangent cuts refined once), by
+   OSQP's own generated C of the same QP (``osqp: {embedded: true}``, embedded
+   mode 2; timed from Python and its C calls alone) and DAQP (dual active set,
+   the same polyhedral QP), each timed around the solver call under SCHED_FIFO.
 3. Ours at its worst-case path (tolerances 0: all ``iterations`` and the rho
    refactorization run) is timed on the same instances, and the cost of one
    iteration is the slope between fixed budgets of 1 and ``iterations + 1``.
@@ -50,7 +51,7 @@ from benchmarks.qp_accuracy import pct, qp_of_call  # noqa: E402
 from controllers.nmpc import NMPC, NMPCSettings, step_functions  # noqa: E402
 from controllers.nmpc.exact_qp import QPData, solve_exact  # noqa: E402
 from controllers.nmpc.layout import NU  # noqa: E402
-from controllers.nmpc.osqp_solver import OSQPStage  # noqa: E402
+from controllers.nmpc.osqp_solver import EmbeddedOSQPStage, OSQPStage  # noqa: E402
 from maglev_ocp.codegen.bench import realtime_priority  # noqa: E402
 from maglev_ocp.fastcall import BufferedFunction  # noqa: E402
 from maglev_ocp.params import NOMINAL  # noqa: E402
@@ -120,6 +121,31 @@ def timed(fn, items, realtime: bool) -> tuple[np.ndarray, list]:
             t[i] = (perf() - t0) * 1e6
             res.append(r)
     return t, res
+
+
+def osqp_embedded_rows(settings: NMPCSettings, qps: list[QPData], realtime: bool, w: int, err) -> tuple:
+    """OSQP's own generated C (``osqp: {embedded: true}``): the stage from Python, and its C calls alone."""
+    emb = EmbeddedOSQPStage(settings.model_copy(update={"osqp": settings.osqp.model_copy(update={"embedded": True})}))
+    t_c, iters = [], []
+
+    def solve(qp: QPData) -> np.ndarray:
+        c0 = emb.c_seconds
+        z, _, _, it = emb.solve(qp.H, qp.q, qp.G, qp.glb, qp.gub, qp.ubar)
+        t_c.append((emb.c_seconds - c0) * 1e6)
+        iters.append(it)
+        return z
+
+    t, r = timed(solve, qps, realtime)
+    u = [qp.ubar[:NU] + z[:NU] for qp, z in zip(qps, r, strict=True)]
+    o = emb.opts
+    name = f"OSQP 1.x embedded codegen (C, mode 2: P, A as parameters; no polish, eps {o.abs_tolerance:g})"
+    rows = [
+        row(name, "QP only (Python glue + C)", t[w:], err(u)),
+        row(name.split(" (")[0] + ", its C calls alone", "updates + solves", np.asarray(t_c)[w:], None),
+    ]
+    it = np.asarray(iters)[w:]
+    facts = {"osqp_embedded_iterations_median": float(np.median(it)), "osqp_embedded_iterations_max": float(it.max())}
+    return rows, facts
 
 
 def daqp_solver(settings: NMPCSettings):
@@ -252,6 +278,8 @@ def run(
     t_osqp, r_osqp = timed(lambda qp: osqp_stage.solve(qp.H, qp.q, qp.G, qp.glb, qp.gub, qp.ubar)[0], qps, realtime)
     u_osqp = [qp.ubar[:NU] + z[:NU] for qp, z in zip(qps, r_osqp, strict=True)]
     rows.append(row("OSQP 1.x (Python, polished, octagon + 6 cut passes)", "QP only", t_osqp[w:], err(u_osqp)))
+    emb_rows, emb_facts = osqp_embedded_rows(settings, qps, realtime, w, err)
+    rows += emb_rows
     t_daqp, r_daqp = timed(daqp_solver(settings), qps, realtime)
     u_daqp = [qp.ubar[:NU] + v[:NU] for qp, v in zip(qps, r_daqp, strict=True)]
     rows.append(row("DAQP (Python, same polyhedral QP)", "QP only", t_daqp[w:], err(u_daqp)))
@@ -277,6 +305,7 @@ def run(
         "worst_path_max_us": float(var["worst"][w:].max()),
         "peer": peer,
         "realtime": realtime,
+        **emb_facts,
     }
     return rows, facts
 

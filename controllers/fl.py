@@ -226,6 +226,17 @@ def law_stats(flags, v, dist, law_failed: bool, fallback: int) -> dict[str, floa
     }
 
 
+def fl_delay_samples(settings: FLSettings, model=None) -> int:
+    """The delay the FL predicts through [control periods]: ``settings.delay_samples`` plus the model file's.
+
+    ``model`` is the loaded model file of ``settings.model`` if the caller has it
+    (else it is loaded here); its amplifier lag's transport delay adds to the setting.
+    """
+    if model is None and settings.model:
+        model = load_controller_model(settings.model)
+    return int(settings.delay_samples) + (int(model.delay_samples) if model is not None else 0)
+
+
 class FeedbackLinearization:
     """Feedback-linearizing controller with a high-gain (extended-state) observer.
 
@@ -277,7 +288,7 @@ class FeedbackLinearization:
         self._u_good: np.ndarray | None = None  # last finite command of the law
         self._x0 = (0.020, 0.0)  # reading at reset (where the hover fallback is taken before any estimate)
         self._started = False
-        self.delay = int(self.settings.delay_samples) + (self.model.delay_samples if self.model is not None else 0)
+        self.delay = fl_delay_samples(self.settings, self.model)
         self._pred = BufferedFunction(fl_predictor_function(self.delay, Ts)) if self.delay else None
         # commands sent, oldest first: [0] is the one applied over the last period, [1:] are still on their way
         self._sent: deque[np.ndarray] = deque([np.zeros(2)] * (self.delay + 1), maxlen=self.delay + 1)
@@ -415,6 +426,7 @@ __all__ = [
     "GAIN_FIELDS",
     "FLSettings",
     "FeedbackLinearization",
+    "fl_delay_samples",
     "fl_law_function",
     "fl_predictor_function",
     "law_stats",

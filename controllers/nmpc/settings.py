@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from maglev_ocp import constants as k
 from maglev_ocp.config import Strict
@@ -65,14 +65,49 @@ class ADMMOptions(Strict):
 
 
 class OSQPOptions(Strict):
-    """OSQP (``solver: osqp``, Python backend only) on the condensed QP with the disks as tangent cuts."""
+    """OSQP (``solver: osqp``, Python backend only) on the condensed QP with the disks as tangent cuts.
 
-    eps_abs: float = Field(1e-5, gt=0)
-    eps_rel: float = Field(1e-5, gt=0)
+    ``embedded: false`` runs the osqp package (polished by default); ``embedded: true`` runs OSQP's own
+    generated C (``codegen``, embedded mode 2: the matrices are parameters, since the linearization
+    changes them every step), built once per design (:mod:`controllers.nmpc.osqp_embedded`). Embedded
+    mode has no polishing, so its default tolerances are tighter.
+    """
+
+    embedded: bool = Field(
+        False, description="OSQP's own generated C (embedded mode 2, compiled once per design) instead of the package"
+    )
+    eps_abs: float | None = Field(None, gt=0, description="absolute tolerance (default 1e-5; embedded 1e-8)")
+    eps_rel: float | None = Field(None, gt=0, description="relative tolerance (default 1e-5; embedded 1e-8)")
     max_iter: int = Field(40000, ge=1)
-    polish: bool = True
+    polish: bool | None = Field(
+        None, description="polish the ADMM solution (default: on for the package; embedded code has no polishing)"
+    )
     passes: int = Field(6, ge=1, le=8, description="cutting-plane passes on the disks (1: one cut at ubar)")
     polygon: int = Field(8, ge=0, le=64, description="sides of the fixed circumscribed polygon of each disk")
+
+    @model_validator(mode="after")
+    def _embedded_has_no_polishing(self) -> OSQPOptions:
+        if self.embedded and self.polish:
+            raise ValueError(
+                "osqp.polish: true is not available with osqp.embedded: true (OSQP's embedded code has no "
+                "polishing); allowed: polish: false or unset"
+            )
+        return self
+
+    @property
+    def abs_tolerance(self) -> float:
+        """``eps_abs`` in effect."""
+        return self.eps_abs if self.eps_abs is not None else (1e-8 if self.embedded else 1e-5)
+
+    @property
+    def rel_tolerance(self) -> float:
+        """``eps_rel`` in effect."""
+        return self.eps_rel if self.eps_rel is not None else (1e-8 if self.embedded else 1e-5)
+
+    @property
+    def polishing(self) -> bool:
+        """Whether the solution is polished (never in embedded code)."""
+        return (not self.embedded) if self.polish is None else bool(self.polish)
 
 
 class SoftGap(Strict):
@@ -128,7 +163,9 @@ class NMPCSettings(Strict):
     jacobian: Literal["taylor", "exact"] = "taylor"
     weights: NMPCWeights = Field(default_factory=NMPCWeights)
     solver: Literal["admm", "osqp"] = Field(
-        "admm", description="QP solver: our ADMM (code-generated) or OSQP (osqp package, Python backend only)"
+        "admm",
+        description="QP solver: our ADMM (code-generated) or OSQP (the osqp package or, osqp.embedded, OSQP's "
+        "own generated C; Python backend only)",
     )
     qp: Literal["riccati", "dense"] = Field(
         "riccati", description="ADMM x-update: stage-wise Riccati recursion (O(N)) or dense condensed Cholesky"

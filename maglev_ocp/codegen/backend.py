@@ -135,8 +135,6 @@ class CompiledFL(FeedbackLinearization):
         super().__init__(settings, params, Ts)
         if abs(Ts - k.Ts) > 1e-15:
             raise UserError(f"the C backend is generated for Ts = {k.Ts} s, got {Ts}")
-        if self.delay:
-            raise UserError("fl: the C backend has no delay predictor yet; use delay_samples: 0 or backend: python")
         self.build = compile_codes([fl_code(self.settings, params)], cflags, progress)
         lib = CompiledLibrary(self.build.library)
         self._c_init = lib.function("fl_init")
@@ -154,6 +152,8 @@ class CompiledFL(FeedbackLinearization):
         if self._state is None:
             raise RuntimeError("call reset() before step()")
         r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
+        if self.delay and self._plan is not None:  # the reference when the command computed now takes effect
+            r = self._plan_ahead(y.t)
         u, st, xh, dist, v, fl = self._c_step(self._state, y.y, r, self._p, self._gains)
         self._state = st.copy()
         u = u.copy()

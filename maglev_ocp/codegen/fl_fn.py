@@ -13,14 +13,20 @@ with the controller's memory in one state vector (:data:`FL_STATE`), and
 ``fl_init(meas) -> state``: at rest at the reading (as ``FeedbackLinearization.reset``).
 
 Both mirror ``FeedbackLinearization.reset`` / ``step`` line by line, so the C
-backend reproduces the Python controller to rounding.
+backend reproduces the Python controller to rounding. With a computation
+delay of ``N > 0`` samples (:func:`controllers.fl.fl_delay_samples`) the state
+also holds the ``N + 1`` commands sent (:func:`fl_state`), the observer is
+updated with the oldest (the one applied over the last period) and the law runs
+on the FL's own predictor (:func:`controllers.fl.fl_predictor_function`, the
+shared model's RK4 step through the ``N`` commands in flight); the caller hands
+in the reference ``N`` samples ahead, as the Python FL reads it from its plan.
 """
 
 from __future__ import annotations
 
 import casadi as ca
 
-from controllers.fl import GAIN_FIELDS, fl_law_function
+from controllers.fl import GAIN_FIELDS, fl_delay_samples, fl_law_function, fl_predictor_function
 
 from .. import constants as k
 from ..model import get_model
@@ -39,10 +45,24 @@ FL_STATE: tuple[tuple[str, int, str, str], ...] = (
 FL_STATE_SIZE = sum(n for _, n, _, _ in FL_STATE)
 
 
-def fl_state_slices() -> dict[str, slice]:
-    """Slice of each piece of :data:`FL_STATE`."""
+def fl_state(delay: int = 0) -> tuple[tuple[str, int, str, str], ...]:
+    """The state's pieces for a computation delay of ``delay`` samples (:data:`FL_STATE`, then the queue)."""
+    if delay <= 0:
+        return FL_STATE
+    sent = (
+        "sent",
+        2 * (delay + 1),
+        "A",
+        f"the {delay + 1} commands sent (i_q, i_d pairs), oldest first: the first was applied over the "
+        "last period, the others are still in flight",
+    )
+    return (*FL_STATE, sent)
+
+
+def fl_state_slices(delay: int = 0) -> dict[str, slice]:
+    """Slice of each piece of :func:`fl_state` ``(delay)``."""
     out, i = {}, 0
-    for name, n, _, _ in FL_STATE:
+    for name, n, _, _ in fl_state(delay):
         out[name] = slice(i, i + n)
         i += n
     return out
@@ -51,7 +71,8 @@ def fl_state_slices() -> dict[str, slice]:
 def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
     """``fl_init`` and ``fl_step`` for :class:`controllers.fl.FLSettings` ``settings``.
 
-    The observer gain (``settings.observer_eps``, ``settings.disturbance``) is
+    The observer gain (``settings.observer_eps``, ``settings.disturbance``) and
+    the delay predicted through (:func:`controllers.fl.fl_delay_samples`) are
     baked in; the model parameters ``p`` and the gain vector ``gains`` (order
     :data:`controllers.fl.GAIN_FIELDS`) are inputs.
 
@@ -63,25 +84,38 @@ def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
     law = fl_law_function()
     osettings = ObserverSettings(eps=settings.observer_eps, disturbance=settings.disturbance)
     L = observer_gain(osettings, Ts)
-    np_ = get_model().np_
-    sl = fl_state_slices()
+    m = get_model()
+    delay = fl_delay_samples(settings)
+    sl = fl_state_slices(delay)
+    size = sum(n for _, n, _, _ in fl_state(delay))
 
     meas0 = ca.SX.sym("meas", 2)
-    state0 = ca.vertcat(meas0[0], 0, meas0[1], 0, ca.SX.zeros(2 + 2 + 2), 0)
+    # the queue of commands sent is filled with the hover current on the first step (it needs p)
+    state0 = ca.vertcat(meas0[0], 0, meas0[1], 0, ca.SX.zeros(2 + 2 + 2), 0, ca.SX.zeros(size - FL_STATE_SIZE))
     fl_init = ca.Function("fl_init", [meas0], [state0], ["meas"], ["state"])
 
-    st, meas, ref = ca.SX.sym("state_in", FL_STATE_SIZE), ca.SX.sym("meas", 2), ca.SX.sym("ref", len(REF_FIELDS))
-    p, gains = ca.SX.sym("p", np_), ca.SX.sym("gains", len(GAIN_FIELDS))
+    st, meas, ref = ca.SX.sym("state_in", size), ca.SX.sym("meas", 2), ca.SX.sym("ref", len(REF_FIELDS))
+    p, gains = ca.SX.sym("p", m.np_), ca.SX.sym("gains", len(GAIN_FIELDS))
     x_old, d_old, z, u_prev = st[sl["x_hat"]], st[sl["dist"]], st[sl["z"]], st[sl["u_prev"]]
     started = st[sl["started"]][0] > 0.5
-    x_obs, d_obs = observer_update(x_old, d_old, u_prev, meas, p, L, Ts, settings.disturbance)
+    u_applied = u_prev
+    if delay:
+        # before the run the amplifiers carried the hover current at the reset reading (FeedbackLinearization.reset)
+        u_hover = m.u_eq(x_old[0], x_old[2], p)
+        u_hover = ca.if_else(ca.fabs(u_hover[0]) + ca.fabs(u_hover[1]) < ca.inf, u_hover, ca.SX.zeros(2))
+        sent = ca.if_else(started, st[sl["sent"]], ca.repmat(u_hover, delay + 1))
+        u_applied = sent[:2]  # the command sent N + 1 samples ago: applied over the last period
+    x_obs, d_obs = observer_update(x_old, d_old, u_applied, meas, p, L, Ts, settings.disturbance)
     # first step after reset: the estimate is the reset reading (no prediction), as in the Python class
     x_hat = ca.if_else(started, x_obs, x_old)
     dist = ca.if_else(started, d_obs, d_old)
-    u, z_next, v, flags = law(x_hat, dist, ref, z, p, gains)
+    x_law = x_hat
+    if delay:  # the FL's own predictor: the estimate N samples ahead through the commands in flight
+        x_law = fl_predictor_function(delay, Ts)(x_hat, dist, sent[2:], p)
+    u, z_next, v, flags = law(x_law, dist, ref, z, p, gains)
     finite = ca.fabs(u[0]) + ca.fabs(u[1]) < ca.inf  # never command NaN/inf (NaN compares false)
     u = ca.if_else(finite, u, ca.SX.zeros(2))
-    state = ca.vertcat(x_hat, dist, z_next, u, 1)
+    state = ca.vertcat(x_hat, dist, z_next, u, 1, *([sent[2:], u] if delay else []))
     fl_step = ca.Function(
         "fl_step",
         [st, meas, ref, p, gains],
@@ -92,4 +126,4 @@ def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
     return fl_init, fl_step
 
 
-__all__ = ["FL_STATE", "FL_STATE_SIZE", "fl_functions", "fl_state_slices"]
+__all__ = ["FL_STATE", "FL_STATE_SIZE", "fl_functions", "fl_state", "fl_state_slices"]

@@ -24,7 +24,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from controllers.fl import FLAG_FIELDS, GAIN_FIELDS
+from controllers.fl import FLAG_FIELDS, GAIN_FIELDS, fl_delay_samples
 from controllers.nmpc import step_functions
 from controllers.nmpc.layout import MEAS_TABLE, N_MEAS, STATS_TABLE
 from controllers.nmpc.reference import resolve_mode
@@ -34,7 +34,7 @@ from ..errors import UserError
 from ..observers import ObserverSettings
 from ..params import Params
 from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, REF_FIELDS, REFERENCE, STATES
-from .fl_fn import FL_STATE, FL_STATE_SIZE, fl_functions
+from .fl_fn import fl_functions, fl_state
 from .observer_fn import observer_step_function
 
 #: Controllers that can be generated.
@@ -311,15 +311,19 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
 def fl_code(settings, params: Params) -> ControllerCode:
     """Code units of :class:`controllers.fl.FeedbackLinearization` (observer + law in one step)."""
     init, step = fl_functions(settings, k.Ts)
-    pieces = tuple(Piece(*q) for q in FL_STATE)
-    state_in = Port("state_in", FL_STATE_SIZE, 1, "mixed", "controller memory", pieces)
+    delay = fl_delay_samples(settings)
+    pieces = tuple(Piece(*q) for q in fl_state(delay))
+    state_size = sum(q.size for q in pieces)
+    state_in = Port("state_in", state_size, 1, "mixed", "controller memory", pieces)
     ref_units = dict(REF_ROW_UNITS)
     ref = Port(
         "ref",
         len(REF_FIELDS),
         1,
         "m, m/s, m/s^2",
-        "reference at this sample",
+        f"reference {delay} samples ahead (when the command computed now takes effect)"
+        if delay
+        else "reference at this sample",
         tuple(Piece(r, 1, ref_units[r], "reference " + r) for r in REF_FIELDS),
     )
     gain_units = {
@@ -346,7 +350,7 @@ def fl_code(settings, params: Params) -> ControllerCode:
         init,
         "state at rest at the reading (integrators cleared)",
         (_meas2_port(),),
-        (Port("state", FL_STATE_SIZE, 1, "mixed", "initial controller memory", pieces),),
+        (Port("state", state_size, 1, "mixed", "initial controller memory", pieces),),
     )
     step_unit = CodeUnit(
         step,
@@ -354,7 +358,7 @@ def fl_code(settings, params: Params) -> ControllerCode:
         (state_in, _meas2_port(), ref, p_port, gains),
         (
             _u_port(),
-            Port("state_out", FL_STATE_SIZE, 1, "mixed", "controller memory for the next call", pieces),
+            Port("state_out", state_size, 1, "mixed", "controller memory for the next call", pieces),
             _xhat_port(),
             _dist_port(),
             Port("v", 2, 1, "m/s^2", "demanded output accelerations (gap, horizontal)"),
@@ -378,10 +382,11 @@ def fl_code(settings, params: Params) -> ControllerCode:
             "PARAMS": (params.vector(), "model parameters p, " + _unit_list(PARAMETERS)),
             "GAINS": (settings.gains(k.Ts), "gains: " + ", ".join(f"{g} [{gain_units[g]}]" for g in GAIN_FIELDS)),
         },
-        defines={"STATE_SIZE": FL_STATE_SIZE},
+        defines={"STATE_SIZE": state_size},
         settings=_design(settings),
         notes=f"Observer time constant eps = {settings.observer_eps} s baked in "
-        f"(disturbance estimate: {settings.disturbance}); p and gains are inputs.",
+        f"(disturbance estimate: {settings.disturbance}); p and gains are inputs."
+        + (f" Delay predictor: {delay} samples (ref is the reference {delay} samples ahead)." if delay else ""),
     )
 
 

@@ -43,6 +43,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from controllers.fl import fl_delay_samples
 from controllers.nmpc.layout import STATS_NAMES, STATUS_TEXT
 from controllers.nmpc.reference import resolve_mode
 
@@ -260,7 +261,22 @@ def _fl_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> Co
     init, step = lib.function("fl_init"), lib.function("fl_step")
     (st0,) = init(np.asarray(y0, dtype=float))
     consts = {3: params.vector(), 4: np.asarray(s.gains(k.Ts), dtype=float)}
-    return ControllerRun(step, st0.copy(), consts, 2, np.ascontiguousarray(rp.refs), np.zeros(rp.n), step.out_sizes)
+    refs = fl_refs(rp, fl_delay_samples(s))
+    return ControllerRun(step, st0.copy(), consts, 2, np.ascontiguousarray(refs), np.zeros(rp.n), step.out_sizes)
+
+
+def fl_refs(rp: RunPlan, delay: int) -> np.ndarray:
+    """FL's ``ref`` input of every step (``n x 6``): the runner's rows, or with a delay of ``N`` samples the plan
+    ``N`` samples ahead, as :meth:`controllers.fl.FeedbackLinearization.set_reference_plan` makes it read."""
+    if not delay:
+        return rp.refs
+    Ts, plan = k.Ts, rp.plan
+    n_plan = round(plan.duration / Ts) + 1
+    rows = plan.sample(np.arange(n_plan) * Ts + delay * Ts, zoh=Ts)  # the very rows the FL samples once
+    if rp.n <= n_plan:
+        return rows[: rp.n]
+    later = plan.sample(rp.t[n_plan:] + delay * Ts, zoh=Ts)  # past the plan's end (looked up per step there)
+    return np.concatenate([rows, later])
 
 
 def _nmpc_stats(log: np.ndarray, t_us: np.ndarray) -> tuple[np.ndarray, dict, dict]:
@@ -456,7 +472,10 @@ def _error_text(code: int, done: int, u_last: np.ndarray) -> str | None:
 
 
 def compiled_supported(sc: Scenario) -> bool:
-    """Whether the compiled loop can run ``sc`` (its controller's step is a CasADi Function)."""
+    """Whether the compiled loop can run ``sc`` (its controller's step is a CasADi Function with C code:
+    not an NMPC on ``solver: osqp``, whose QP is a Python callback)."""
+    if sc.controller.type == "nmpc" and sc.controller.settings.solver != "admm":
+        return False
     return sc.controller.type in COMPILED_TYPES
 
 
@@ -475,7 +494,10 @@ def run_scenario_compiled(
     t_wall = time.perf_counter()
     sc = sc.with_seed(seed)
     if not compiled_supported(sc):
-        raise UserError(f"{sc.source}: the compiled loop runs {', '.join(COMPILED_TYPES)}, not {sc.controller.type}")
+        what = sc.controller.type
+        if what == "nmpc":
+            what = f"nmpc with solver: {sc.controller.settings.solver} (a Python callback; solver: admm is compiled)"
+        raise UserError(f"{sc.source}: the compiled loop runs {', '.join(COMPILED_TYPES)}, not {what}")
     rp = plan_run(sc)
     ss_plant, _ = sc.seed_sequences()
     plant = Plant(sc.plant_config(), params=sc.plant_params(), seed=ss_plant, Ts=k.Ts)
@@ -507,6 +529,7 @@ __all__ = [
     "code_version",
     "compiled_supported",
     "controller_library",
+    "fl_refs",
     "nmpc_refs",
     "plant_library",
     "run_compiled_loop",
