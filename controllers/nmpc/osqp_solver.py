@@ -184,7 +184,8 @@ class OSQPStage:
 
     def _run(self) -> tuple[np.ndarray, tuple[int, int, float, float]]:
         """Solve: ``x`` and ``(status, iterations, primal residual, dual residual)``."""
-        res = self._solver.solve()
+        # Status is checked by the caller (a failed solve falls back), so OSQP must not raise.
+        res = self._solver.solve(raise_error=False)
         i = res.info
         return res.x, (int(i.status_val), int(i.iter), float(i.prim_res), float(i.dual_res))
 
