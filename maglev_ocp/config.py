@@ -180,6 +180,13 @@ def _atomic_write(path: str | os.PathLike, mode: str, suffix: str, write: Any) -
         raise
 
 
+def make_dir(path: str | os.PathLike) -> Path:
+    """The folder ``path`` as a :class:`~pathlib.Path`, created with its parents if missing."""
+    out = Path(path)
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     """Write ``text`` to ``path`` via a temporary file and rename (never a truncated file)."""
     _atomic_write(path, "w", ".tmp", lambda fh: fh.write(text))

@@ -191,6 +191,13 @@ class EffectScore:
     law: str = "default"  # member of the effect's law family
     law_choice: str = ""  # how the member was chosen
 
+    def fitted_text(self, eq: str = "=", pm: str = "±") -> str:
+        """The fitted parameters and their standard errors, ``k=v±se, ...`` (``eq``, ``pm``: the separators)."""
+        return ", ".join(
+            f"{k}{eq}{v:.4g}" + (f"{pm}{self.stderr[k]:.2g}" if self.stderr.get(k) is not None else "")
+            for k, v in self.params.items()
+        )
+
     def to_dict(self) -> dict:
         """JSON-ready view (the issue's ``effects`` entries plus statistics)."""
         return {

@@ -273,16 +273,11 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
             f"| {s.name} | {s.heldout_rms_before:.4g} | {s.heldout_rms_after:.4g} | {s.reduction:.1%} | "
             f"{s.closes:.0%} | {s.z:.1f} | {s.delta_bic:.0f} | {'**yes**' if s.selected else ''} |"
         )
-    for s in d.scores:
-        if s.selected:
-            md.append(
-                f"\nFitted `{s.name}` (± standard error): "
-                + ", ".join(
-                    f"{k} = {v:.4g}" + (f" ± {s.stderr[k]:.2g}" if s.stderr.get(k) is not None else "")
-                    for k, v in s.params.items()
-                )
-                + f". {s.note}."
-            )
+    md += [
+        f"\nFitted `{s.name}` (± standard error): {s.fitted_text(' = ', ' ± ')}. {s.note}."
+        for s in d.scores
+        if s.selected
+    ]
     if d.regions or d.remaining_regions:
         md.append("\n## Regions\n")
         md.append("| model | channel | g [mm] | d [mm] | band [Hz] | excess / floor | z |")
