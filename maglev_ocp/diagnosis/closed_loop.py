@@ -40,7 +40,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
@@ -58,6 +58,9 @@ from ..signals import PARAM_NAMES
 from .candidates import CandidateSpec, _accel_function, library_specs
 from .diagnose import DiagnoseSettings, diagnose
 from .generate import GeneratorSettings, generate_dataset
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 @functools.lru_cache(maxsize=32)
@@ -89,7 +92,9 @@ def _pick(obj: Any, *names: str) -> dict[str, Any]:
     return {n: getattr(obj, n) for n in names}
 
 
-def _save_view(out_dir: str | os.PathLike, doc: dict, title: str, table: str, figure: Callable[[], Any]) -> Path:
+def _save_view(
+    out_dir: str | os.PathLike, doc: dict, title: str, table: str, figure: Callable[[], Figure | None]
+) -> Path:
     """Write ``closed_loop.json``, ``closed_loop.md`` (``title`` over ``table``) and ``closed_loop.png``.
 
     ``figure()`` draws the figure (None: there is none to draw).
@@ -252,7 +257,7 @@ class ClosedLoopView:
         }
         return _save_view(out_dir, doc, "Closed-loop view", self.table(), self.figure)
 
-    def figure(self):
+    def figure(self) -> Figure | None:
         """Tracking error of every run (None without logs)."""
         if self.logs:
             import matplotlib.pyplot as plt
@@ -467,7 +472,7 @@ class ReportClosedLoop:
         }
         return _save_view(out_dir, doc, "Closed loop: rig log vs the diagnosis's models", self.table(), self.figure)
 
-    def figure(self):
+    def figure(self) -> Figure | None:
         """Each compared signal of both simulations minus the rig log (None without logs)."""
         if self.logs:
             import matplotlib.pyplot as plt
