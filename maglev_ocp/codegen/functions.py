@@ -33,7 +33,7 @@ from .. import constants as k
 from ..errors import UserError
 from ..observers import ObserverSettings
 from ..params import Params
-from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, REF_FIELDS, REFERENCE, STATES
+from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, REF_FIELDS, REFERENCE, STATES, Signal
 from .fl_fn import FL_STATE, FL_STATE_SIZE, fl_functions
 from .observer_fn import observer_step_function
 
@@ -167,7 +167,7 @@ def _unit_list(signals) -> str:
     return ", ".join(f"{s.name} [{s.unit}]" for s in signals)
 
 
-def _signal_port(name: str, signals, unit: str, what: str, rows: int | None = None) -> Port:
+def _signal_port(name: str, signals: tuple[Signal, ...], unit: str, what: str, rows: int | None = None) -> Port:
     """A packed column vector with one double per row of the signal table ``signals``.
 
     ``rows`` overrides the length (the parameter vector may be longer than its named head).
