@@ -270,17 +270,33 @@ static void ref_at(const Table *t, const Refs *rf, int r, double out[6]) {
     dc = cpu_us() - c0_;                                                                    \
   } while (0)
 
-/* Step the stateful controller v (NMPC, FL) from v_state (its step writes v_state_next, copied back), record
- * the step's times and, on the last repeat, write the row t, u, x_hat. Uses the caller's t, k, jt, mem, rep,
- * repeat and out. */
-#define STEP_AND_LOG(v)                                                                      \
-  do {                                                                                      \
-    double dt_, dc_;                                                                        \
-    TIMED_CALL(v##_step, v, mem, dt_, dc_);                                                 \
-    memcpy(v##_state, v##_state_next, sizeof(v##_state));                                   \
-    record(dt_, dc_);                                                                       \
-    if (rep == repeat - 1) print_row(out, AT(t, k, jt), v##_u, 2, v##_xhat, 4, dt_, dc_);   \
-  } while (0)
+/* run_<v>() of a stateful controller v (NMPC, FL): its init Function turns log row 0 into the controller state
+ * v_state, its step Function advances the state by one log row (into v_state_next, copied back) and gives the
+ * currents v_u and the state estimate v_xhat. v_wire_init(t, rf, jg, jd) and v_wire_step(t, rf, k, jg, jd)
+ * fill the inputs of the two; the step is timed, and the last repeat writes one row per log row. */
+#define RUN_STATEFUL(v, V)                                                                   \
+  static int run_##v(const Table *t, const Refs *rf, FILE *out, int repeat) {                \
+    int jt = col(t, "t"), jg = col(t, "g"), jd = col(t, "d");                               \
+    int mem = v##_step_checkout(), mem0 = v##_init_checkout();                              \
+    CHECK_WORK(v##_step, V##_STEP);                                                         \
+    CHECK_WORK(v##_init, V##_INIT);                                                         \
+    fprintf(out, "t,i_q,i_d,g_hat,g_dot_hat,d_hat,d_dot_hat,step_time_us,step_cpu_us\n");   \
+    for (int rep = 0; rep < repeat; rep++) {                                                \
+      v##_wire_init(t, rf, jg, jd);                                                         \
+      if (v##_init(v##_init_arg, v##_init_res, v##_init_iw, v##_init_w, mem0)) return 1;    \
+      for (int k = 0; k < t->n; k++) {                                                      \
+        double dt, dc;                                                                      \
+        v##_wire_step(t, rf, k, jg, jd);                                                    \
+        TIMED_CALL(v##_step, v, mem, dt, dc);                                               \
+        memcpy(v##_state, v##_state_next, sizeof(v##_state));                               \
+        record(dt, dc);                                                                     \
+        if (rep == repeat - 1) print_row(out, AT(t, k, jt), v##_u, 2, v##_xhat, 4, dt, dc); \
+      }                                                                                     \
+    }                                                                                       \
+    v##_step_release(mem);                                                                  \
+    v##_init_release(mem0);                                                                 \
+    return 0;                                                                               \
+  }
 
 /* One output row: time, then the a and b vectors (17 significant digits), then the step's times. */
 static void print_row(FILE *out, double t, const casadi_real *a, int na, const casadi_real *b, int nb, double dt,
@@ -394,30 +410,25 @@ static void nmpc_fill_ref(const Table *t, const Refs *rf, int k) {
   }
 }
 
-static int run_nmpc(const Table *t, const Refs *rf, FILE *out, int repeat) {
-  int jt = col(t, "t"), jg = col(t, "g"), jd = col(t, "d");
-  int mem = nmpc_step_checkout(), mem0 = nmpc_init_checkout();
-  CHECK_WORK(nmpc_step, NMPC_STEP);
-  CHECK_WORK(nmpc_init, NMPC_INIT);
-  fprintf(out, "t,i_q,i_d,g_hat,g_dot_hat,d_hat,d_dot_hat,step_time_us,step_cpu_us\n");
-  for (int rep = 0; rep < repeat; rep++) {
-    nmpc_meas[0] = AT(t, 0, jg); nmpc_meas[1] = AT(t, 0, jd); nmpc_meas[2] = 0;
-    nmpc_fill_ref(t, rf, 0);
-    nmpc_init_arg[0] = nmpc_meas; nmpc_init_arg[1] = nmpc_ref; nmpc_init_arg[2] = NMPC_PARAMS;
-    nmpc_init_res[0] = nmpc_state;
-    if (nmpc_init(nmpc_init_arg, nmpc_init_res, nmpc_init_iw, nmpc_init_w, mem0)) return 1;
-    for (int k = 0; k < t->n; k++) {
-      nmpc_meas[0] = AT(t, k, jg); nmpc_meas[1] = AT(t, k, jd); nmpc_meas[2] = 0;
-      nmpc_fill_ref(t, rf, k);
-      nmpc_arg[0] = nmpc_state; nmpc_arg[1] = nmpc_meas; nmpc_arg[2] = nmpc_ref; nmpc_arg[3] = NMPC_PARAMS;
-      nmpc_res[0] = nmpc_u; nmpc_res[1] = nmpc_state_next; nmpc_res[2] = nmpc_stats; nmpc_res[3] = nmpc_xhat;
-      STEP_AND_LOG(nmpc);
-    }
-  }
-  nmpc_step_release(mem);
-  nmpc_init_release(mem0);
-  return 0;
+/* measurement (g, d, and 0: no third encoder) and reference horizon of log row k */
+static void nmpc_read_row(const Table *t, const Refs *rf, int k, int jg, int jd) {
+  nmpc_meas[0] = AT(t, k, jg); nmpc_meas[1] = AT(t, k, jd); nmpc_meas[2] = 0;
+  nmpc_fill_ref(t, rf, k);
 }
+
+static void nmpc_wire_init(const Table *t, const Refs *rf, int jg, int jd) {
+  nmpc_read_row(t, rf, 0, jg, jd);
+  nmpc_init_arg[0] = nmpc_meas; nmpc_init_arg[1] = nmpc_ref; nmpc_init_arg[2] = NMPC_PARAMS;
+  nmpc_init_res[0] = nmpc_state;
+}
+
+static void nmpc_wire_step(const Table *t, const Refs *rf, int k, int jg, int jd) {
+  nmpc_read_row(t, rf, k, jg, jd);
+  nmpc_arg[0] = nmpc_state; nmpc_arg[1] = nmpc_meas; nmpc_arg[2] = nmpc_ref; nmpc_arg[3] = NMPC_PARAMS;
+  nmpc_res[0] = nmpc_u; nmpc_res[1] = nmpc_state_next; nmpc_res[2] = nmpc_stats; nmpc_res[3] = nmpc_xhat;
+}
+
+RUN_STATEFUL(nmpc, NMPC)
 """
 
 FL_C = r"""
@@ -427,29 +438,21 @@ WORK_ARRAYS(fl_init, FL_INIT);
 static casadi_real fl_state[FL_STATE_SIZE], fl_state_next[FL_STATE_SIZE];
 static casadi_real fl_meas[2], fl_ref[6], fl_u[2], fl_xhat[4], fl_dist[2], fl_v[2], fl_flags[3];
 
-static int run_fl(const Table *t, const Refs *rf, FILE *out, int repeat) {
-  int jt = col(t, "t"), jg = col(t, "g"), jd = col(t, "d");
-  int mem = fl_step_checkout(), mem0 = fl_init_checkout();
-  CHECK_WORK(fl_step, FL_STEP);
-  CHECK_WORK(fl_init, FL_INIT);
-  fprintf(out, "t,i_q,i_d,g_hat,g_dot_hat,d_hat,d_dot_hat,step_time_us,step_cpu_us\n");
-  for (int rep = 0; rep < repeat; rep++) {
-    fl_meas[0] = AT(t, 0, jg); fl_meas[1] = AT(t, 0, jd);
-    fl_init_arg[0] = fl_meas; fl_init_res[0] = fl_state;
-    if (fl_init(fl_init_arg, fl_init_res, fl_init_iw, fl_init_w, mem0)) return 1;
-    for (int k = 0; k < t->n; k++) {
-      fl_meas[0] = AT(t, k, jg); fl_meas[1] = AT(t, k, jd);
-      ref_at(t, rf, k, fl_ref);
-      fl_arg[0] = fl_state; fl_arg[1] = fl_meas; fl_arg[2] = fl_ref; fl_arg[3] = FL_PARAMS; fl_arg[4] = FL_GAINS;
-      fl_res[0] = fl_u; fl_res[1] = fl_state_next; fl_res[2] = fl_xhat; fl_res[3] = fl_dist; fl_res[4] = fl_v;
-      fl_res[5] = fl_flags;
-      STEP_AND_LOG(fl);
-    }
-  }
-  fl_step_release(mem);
-  fl_init_release(mem0);
-  return 0;
+static void fl_wire_init(const Table *t, const Refs *rf, int jg, int jd) {
+  (void)rf;
+  fl_meas[0] = AT(t, 0, jg); fl_meas[1] = AT(t, 0, jd);
+  fl_init_arg[0] = fl_meas; fl_init_res[0] = fl_state;
 }
+
+static void fl_wire_step(const Table *t, const Refs *rf, int k, int jg, int jd) {
+  fl_meas[0] = AT(t, k, jg); fl_meas[1] = AT(t, k, jd);
+  ref_at(t, rf, k, fl_ref);
+  fl_arg[0] = fl_state; fl_arg[1] = fl_meas; fl_arg[2] = fl_ref; fl_arg[3] = FL_PARAMS; fl_arg[4] = FL_GAINS;
+  fl_res[0] = fl_u; fl_res[1] = fl_state_next; fl_res[2] = fl_xhat; fl_res[3] = fl_dist; fl_res[4] = fl_v;
+  fl_res[5] = fl_flags;
+}
+
+RUN_STATEFUL(fl, FL)
 """
 
 OBSERVER_C = r"""
