@@ -22,37 +22,12 @@ import argparse
 import json
 import os
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_SCENARIOS = ("traverse_20mm_nmpc.yaml", "tour_nmpc.yaml")
-
-
-class _CpuTimed:
-    """Wraps a controller; records the thread CPU time of each ``step`` and its ``kernel_us`` statistic [us]."""
-
-    def __init__(self, ctrl):
-        self.ctrl = ctrl
-        self.name = ctrl.name
-        self.cpu_us: list[float] = []
-        self.kernel_us: list[float] = []
-
-    def set_reference_plan(self, plan) -> None:
-        self.ctrl.set_reference_plan(plan)
-
-    def reset(self, y0, ref) -> None:
-        self.cpu_us, self.kernel_us = [], []
-        self.ctrl.reset(y0, ref)
-
-    def step(self, y, ref):
-        t0 = time.thread_time_ns()
-        out = self.ctrl.step(y, ref)
-        self.cpu_us.append((time.thread_time_ns() - t0) * 1e-3)
-        self.kernel_us.append(float(out.stats.get("kernel_us", np.nan)))
-        return out
 
 
 def _stats(a: np.ndarray) -> dict:
@@ -70,6 +45,7 @@ def bench(
         ``{"backend", "horizon", "n_steps", "median_us", "p99_us", "max_us", "per_scenario": {...}}``.
     """
     import maglev_ocp.codegen  # noqa: F401  (registers backend: c with the runner)
+    from maglev_ocp.codegen.bench import StepTimer
     from maglev_ocp.config import load_yaml
     from maglev_ocp.runner import build_controller, run_scenario
     from maglev_ocp.scenario import scenario_from_dict
@@ -84,7 +60,7 @@ def bench(
         if horizon is not None:
             ctrl["horizon"] = horizon
         data["controller"] = ctrl
-        timed = _CpuTimed(build_controller(scenario_from_dict(data)))
+        timed = StepTimer(build_controller(scenario_from_dict(data)))  # its CPU time and kernel_us per step
         res = run_scenario(data, progress=progress, figures=False, controller=timed)
         st = np.asarray(res.step_time_us, float)[warmup:]
         cpu = np.asarray(timed.cpu_us, float)[warmup:]

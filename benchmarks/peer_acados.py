@@ -324,17 +324,21 @@ def replay_interleaved(
     u_ours, u_ac = np.zeros((n, 2)), np.zeros((n, 2))
     perf, cpu = time.perf_counter, time.thread_time
 
+    def timed(call, i: int, wall: str, cpu_key: str) -> None:
+        """``call()``, its wall and thread CPU time [us] into ``out[wall][i]``, ``out[cpu_key][i]``."""
+        c0 = cpu()
+        t0 = perf()
+        call()
+        t1 = perf()
+        c1 = cpu()
+        out[wall][i], out[cpu_key][i] = (t1 - t0) * 1e6, (c1 - c0) * 1e6
+
     def ours_step(i: int) -> None:
         fn.args[0][:] = data["state"][i]
         fn.args[1][:] = data["meas"][i]
         fn.args[2][:] = data["ref"][i]
         fn.args[3][:] = p_vec
-        c0 = cpu()
-        t0 = perf()
-        fn.call_raw()
-        t1 = perf()
-        c1 = cpu()
-        out["t_ours"][i], out["c_ours"][i] = (t1 - t0) * 1e6, (c1 - c0) * 1e6
+        timed(fn.call_raw, i, "t_ours", "c_ours")
         u_ours[i] = fn.res[0]
 
     def acados_step(i: int) -> None:
@@ -347,12 +351,7 @@ def replay_interleaved(
         solver.set(N, "p", pw)
         solver.set(0, "lbx", data["xhat"][i])
         solver.set(0, "ubx", data["xhat"][i])
-        c0 = cpu()
-        t0 = perf()
-        solver.solve()
-        t1 = perf()
-        c1 = cpu()
-        out["t_ac"][i], out["c_ac"][i] = (t1 - t0) * 1e6, (c1 - c0) * 1e6
+        timed(solver.solve, i, "t_ac", "c_ac")
         out["t_ac_int"][i] = float(np.ravel(solver.get_stats("time_tot"))[0]) * 1e6
         u_ac[i] = solver.get(0, "u")
         xs = [solver.get(kk, "x") for kk in range(N + 1)]

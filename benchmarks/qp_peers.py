@@ -171,13 +171,10 @@ def daqp_solver(settings: NMPCSettings):
             if flag < 1:
                 return np.full(qp.nv, np.nan)
             v = x[: qp.nv]
-            w = U + v.reshape(N, NU)
-            out = np.linalg.norm(w, axis=1) > qp.radius * (1 + 1e-9)
-            j = st.n_poly + c
-            if j + 1 >= st.n_cuts or not out.any():
+            refined = st.refined_normals(U, v, normals, c)  # st.radius is qp.radius: both the current limit
+            if refined is None:
                 break
-            normals = list(normals)
-            normals[j + 1] = np.where(out[:, None], st._unit(w), normals[j])
+            normals = refined
         return v
 
     return solve

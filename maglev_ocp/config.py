@@ -13,10 +13,11 @@ import math
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any, TypeVar
 
+import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError
 
@@ -180,9 +181,32 @@ def _atomic_write(path: str | os.PathLike, mode: str, suffix: str, write: Any) -
         raise
 
 
+def make_dir(path: str | os.PathLike) -> Path:
+    """The folder ``path`` as a :class:`~pathlib.Path`, created with its parents if missing."""
+    out = Path(path)
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     """Write ``text`` to ``path`` via a temporary file and rename (never a truncated file)."""
     _atomic_write(path, "w", ".tmp", lambda fh: fh.write(text))
+
+
+def plain_data(v: Any) -> Any:
+    """Copy of ``v`` safe for a YAML dump.
+
+    Mappings become dicts with string keys, tuples and arrays lists, numpy scalars Python numbers.
+    """
+    if isinstance(v, Mapping):
+        return {str(a): plain_data(b) for a, b in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [plain_data(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return [plain_data(x) for x in v.tolist()]
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
 
 
 def dump_yaml(path: str | os.PathLike, data: Any) -> None:

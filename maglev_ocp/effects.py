@@ -410,6 +410,11 @@ class CommutationOffset(Effect):
         return ca.vertcat(c * u[0] - s * u[1], s * u[0] + c * u[1])
 
 
+def _factor(name: str, what: str, lo: float = 0.5, hi: float = 2.0) -> EffectParam:
+    """A dimensionless factor (default 1, range ``[lo, hi]``) on the model's ``what``."""
+    return EffectParam(name, 1.0, lo, hi, "-", f"factor on the {what}")
+
+
 class ParameterError(Effect):
     """Lumped constants and masses off their nominal values (seed eq. (2), Table III).
 
@@ -420,12 +425,12 @@ class ParameterError(Effect):
 
     name = "parameter_error"
     params = (
-        EffectParam("k_C1", 1.0, 0.5, 2.0, "-", "factor on the thrust term (C1)"),
-        EffectParam("k_C2", 1.0, 0.5, 2.0, "-", "factor on the PM attraction term (C2)"),
-        EffectParam("k_C3", 1.0, 0.5, 2.0, "-", "factor on the PM-current term (C3)"),
-        EffectParam("k_C4", 1.0, 0.0, 5.0, "-", "factor on the reluctance term (C4)"),
-        EffectParam("k_Mh", 1.0, 0.5, 2.0, "-", "factor on the horizontal mass"),
-        EffectParam("k_Mv", 1.0, 0.5, 2.0, "-", "factor on the vertical mass"),
+        _factor("k_C1", "thrust term (C1)"),
+        _factor("k_C2", "PM attraction term (C2)"),
+        _factor("k_C3", "PM-current term (C3)"),
+        _factor("k_C4", "reluctance term (C4)", lo=0.0, hi=5.0),
+        _factor("k_Mh", "horizontal mass"),
+        _factor("k_Mv", "vertical mass"),
     )
 
     def modify(self, terms, x, u, p, theta) -> None:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -591,35 +592,42 @@ def disturbance_rows(name: str, result: Any) -> list[dict[str, Any]]:
     return [{**base, **dm.to_dict()} for dm in run_disturbance_metrics(result)]
 
 
-_DIST_COLS = (
-    ("scenario", "scenario", "<24"),
-    ("ctrl", "controller", ">5"),
-    ("disturbance", "kind", ">12"),
-    ("t0 [s]", "t_start", ">7"),
-    ("peak g [um]", "peak_error_g_m", ">11"),
-    ("peak d [um]", "peak_error_d_m", ">11"),
-    ("back in tol [ms]", "recovery_time_s", ">16"),
-    ("stops", "stop_hits", ">5"),
-    ("max|i| [A]", "max_current_A", ">10"),
-    ("at limit [ms]", "time_at_limit_s", ">13"),
-    ("rms after [um]", "rms_error_after_m", ">14"),
-    ("settled", "settled", ">8"),
-)
-
-
-def _dist_cell(key: str, row: dict[str, Any]) -> str:
-    v = row[key]
-    if key == "recovery_time_s":
-        return "-" if "cable" in row["kind"] else "never" if v is None else f"{v * 1e3:.0f}"
-    if key in ("peak_error_g_m", "peak_error_d_m", "rms_error_after_m"):
-        return "-" if v is None else f"{v * 1e6:.1f}"
-    if key == "time_at_limit_s":
-        return f"{v * 1e3:.0f}"
-    if key == "t_start":
-        return f"{v:.3f}"
-    if key == "max_current_A":
-        return f"{v:.2f}"
+# Cells of the disturbance table: ``cell(value, row) -> text``.
+def _text(v: Any, row: dict[str, Any]) -> str:
     return str(v)
+
+
+def _um(v: float | None, row: dict[str, Any]) -> str:
+    return "-" if v is None else f"{v * 1e6:.1f}"
+
+
+def _ms(v: float, row: dict[str, Any]) -> str:
+    return f"{v * 1e3:.0f}"
+
+
+def _recovery_ms(v: float | None, row: dict[str, Any]) -> str:
+    return "-" if "cable" in row["kind"] else "never" if v is None else f"{v * 1e3:.0f}"
+
+
+def _fixed(spec: str) -> Callable[[float, dict[str, Any]], str]:
+    return lambda v, row: f"{v:{spec}}"
+
+
+#: Columns of :func:`disturbance_table`: header, row key, text width/alignment, cell format.
+_DIST_COLS: tuple[tuple[str, str, str, Callable[[Any, dict[str, Any]], str]], ...] = (
+    ("scenario", "scenario", "<24", _text),
+    ("ctrl", "controller", ">5", _text),
+    ("disturbance", "kind", ">12", _text),
+    ("t0 [s]", "t_start", ">7", _fixed(".3f")),
+    ("peak g [um]", "peak_error_g_m", ">11", _um),
+    ("peak d [um]", "peak_error_d_m", ">11", _um),
+    ("back in tol [ms]", "recovery_time_s", ">16", _recovery_ms),
+    ("stops", "stop_hits", ">5", _text),
+    ("max|i| [A]", "max_current_A", ">10", _fixed(".2f")),
+    ("at limit [ms]", "time_at_limit_s", ">13", _ms),
+    ("rms after [um]", "rms_error_after_m", ">14", _um),
+    ("settled", "settled", ">8", _text),
+)
 
 
 def disturbance_table(rows: list[dict[str, Any]], markdown: bool = False) -> str:
@@ -630,12 +638,12 @@ def disturbance_table(rows: list[dict[str, Any]], markdown: bool = False) -> str
     """
     rows = sorted(rows, key=lambda r: (r["scenario"], r["index"]))
     if markdown:
-        lines = ["| " + " | ".join(h for h, _, _ in _DIST_COLS) + " |", "|" + "---|" * len(_DIST_COLS)]
-        lines += ["| " + " | ".join(_dist_cell(key, r) for _, key, _ in _DIST_COLS) + " |" for r in rows]
+        lines = ["| " + " | ".join(h for h, _, _, _ in _DIST_COLS) + " |", "|" + "---|" * len(_DIST_COLS)]
+        lines += ["| " + " | ".join(cell(r[key], r) for _, key, _, cell in _DIST_COLS) + " |" for r in rows]
         return "\n".join(lines)
-    head = " ".join(f"{h:{fmt}}" for h, _, fmt in _DIST_COLS)
+    head = " ".join(f"{h:{fmt}}" for h, _, fmt, _ in _DIST_COLS)
     lines = [head, "-" * len(head)]
-    lines += [" ".join(f"{_dist_cell(key, r):{fmt}}" for _, key, fmt in _DIST_COLS) for r in rows]
+    lines += [" ".join(f"{cell(r[key], r):{fmt}}" for _, key, fmt, cell in _DIST_COLS) for r in rows]
     return "\n".join(lines)
 
 

@@ -35,7 +35,7 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from . import constants as k
-from .config import Strict, atomic_write_text, dump_yaml, load_yaml, parse_model
+from .config import Strict, atomic_write_text, dump_yaml, load_yaml, parse_model, plain_data
 from .errors import ConfigError, DataError
 
 FORMAT = "maglev-rig-log/1"
@@ -325,7 +325,7 @@ def write_dataset(
         r.save(folder / r.file)
         entry: dict[str, Any] = {"file": r.file, "locked": list(r.locked)}
         if r.meta:
-            entry["meta"] = _plain(r.meta)
+            entry["meta"] = plain_data(r.meta)
         entries.append(entry)
     doc: dict[str, Any] = {
         "format": FORMAT,
@@ -335,23 +335,10 @@ def write_dataset(
     if description:
         doc["description"] = description
     if meta:
-        doc["meta"] = _plain(meta)
+        doc["meta"] = plain_data(meta)
     doc["runs"] = entries
     dump_yaml(folder / "dataset.yaml", doc)
     return folder
-
-
-def _plain(v: Any) -> Any:
-    """Convert numpy scalars / arrays / tuples for a safe YAML dump."""
-    if isinstance(v, Mapping):
-        return {str(a): _plain(b) for a, b in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_plain(x) for x in v]
-    if isinstance(v, np.ndarray):
-        return [_plain(x) for x in v.tolist()]
-    if isinstance(v, np.generic):
-        return v.item()
-    return v
 
 
 def read_header(folder: str | os.PathLike) -> dict[str, Any]:
@@ -413,7 +400,7 @@ def merge_datasets(new_folder: str | os.PathLike, old_folder: str | os.PathLike)
         kept.append(e)
     doc = {k_: new[k_] for k_ in ("format", "sample_time", "encoder_resolution", "description", "meta") if k_ in new}
     doc["runs"] = kept + new["runs"]
-    dump_yaml(new_folder / "dataset.yaml", _plain(doc))
+    dump_yaml(new_folder / "dataset.yaml", plain_data(doc))
     return new_folder
 
 

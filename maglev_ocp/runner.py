@@ -362,6 +362,29 @@ def run_metrics(
     return metrics
 
 
+def finish_run(
+    sc: Scenario,
+    rp: RunPlan,
+    trace: TraceRecorder,
+    done: int,
+    plant: Plant,
+    error: str | None,
+    t_wall: float,
+    out_dir: str | os.PathLike | None = None,
+    figures: bool = True,
+) -> RunResult:
+    """Result stage: the log's columns and the metrics as a :class:`RunResult`, saved to ``out_dir`` if given.
+
+    ``t_wall`` is the :func:`time.perf_counter` reading when the run started (the result's ``wall_s``).
+    """
+    cols, stat_cols = run_columns(rp, trace, done)
+    metrics = run_metrics(sc, rp, trace, done, stat_cols, plant, error)
+    res = RunResult(sc, cols, trace.step_time_us[:done], rp.plan, metrics, wall_s=time.perf_counter() - t_wall)
+    if out_dir is not None:
+        res.save(out_dir, figures=figures)
+    return res
+
+
 def run_scenario(
     scenario: Scenario | dict | str | os.PathLike,
     out_dir: str | os.PathLike | None = None,
@@ -402,12 +425,7 @@ def run_scenario(
     rp = plan_run(sc)
     ctrl, plant = build_run(sc, controller, cache)
     trace, done, error = loop_run(sc, ctrl, plant, rp, progress)
-    cols, stat_cols = run_columns(rp, trace, done)
-    metrics = run_metrics(sc, rp, trace, done, stat_cols, plant, error)
-    res = RunResult(sc, cols, trace.step_time_us[:done], rp.plan, metrics, wall_s=time.perf_counter() - t_wall)
-    if out_dir is not None:
-        res.save(out_dir, figures=figures)
-    return res
+    return finish_run(sc, rp, trace, done, plant, error, t_wall, out_dir, figures)
 
 
 def summary_table(results: list[tuple[str, RunResult | None, str | None]]) -> str:
@@ -453,6 +471,7 @@ __all__ = [
     "build_controller",
     "build_run",
     "cached_controller",
+    "finish_run",
     "loop_run",
     "plan_run",
     "register_backend",

@@ -91,12 +91,17 @@ def label(name: str) -> str:
 
 #: Rows of a reference sample, in the order every controller's reference input uses
 #: (FL's ``ref`` vector, the NMPC's reference matrix, one column per node) with units.
+def _reference_axis(axis: str, position: str, rate: str, acceleration: str) -> tuple[Signal, Signal, Signal]:
+    """The reference rows of one axis: its position and the position's first two time derivatives."""
+    return (
+        Signal(axis, "m", f"reference {position}"),
+        Signal(f"{axis}_dot", "m/s", f"reference {rate}"),
+        Signal(f"{axis}_ddot", "m/s^2", f"reference {acceleration}"),
+    )
+
+
 REFERENCE: tuple[Signal, ...] = (
-    Signal("g", "m", "reference air gap"),
-    Signal("g_dot", "m/s", "reference air-gap rate"),
-    Signal("g_ddot", "m/s^2", "reference air-gap acceleration"),
-    Signal("d", "m", "reference horizontal position"),
-    Signal("d_dot", "m/s", "reference horizontal velocity"),
-    Signal("d_ddot", "m/s^2", "reference horizontal acceleration"),
+    *_reference_axis("g", "air gap", "air-gap rate", "air-gap acceleration"),
+    *_reference_axis("d", "horizontal position", "horizontal velocity", "horizontal acceleration"),
 )
 REF_FIELDS: tuple[str, ...] = tuple(s.name for s in REFERENCE)

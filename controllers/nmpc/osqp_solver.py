@@ -118,6 +118,21 @@ class OSQPStage:
         poly = [np.tile([np.cos(a), np.sin(a)], (self.N, 1)) for a in ang]
         return poly + [self._unit(U)] * (self.n_cuts - self.n_poly)
 
+    def refined_normals(self, U: np.ndarray, v: np.ndarray, normals: list[np.ndarray], c: int):
+        """Cut refinement after the ``c``-th solve (``v``: the input step, ``U``: ``ubar`` per stage).
+
+        Returns the normals with the next refinement cut turned, at each stage whose input ``U + v`` lies
+        outside the current disc, to that input's direction; None when no input is outside or no cut is left.
+        """
+        w = U + v.reshape(self.N, NU)
+        out = np.linalg.norm(w, axis=1) > self.radius * (1 + 1e-9)
+        j = self.n_poly + c
+        if j + 1 >= self.n_cuts or not out.any():
+            return None
+        normals = list(normals)
+        normals[j + 1] = np.where(out[:, None], self._unit(w), normals[j])
+        return normals
+
     # ------------------------------------------------------------------ solve
     def solve(self, H, q, G, glb, gub, ubar):
         """One QP: ``(z, r_prim, r_dual, iterations)`` (NaN on non-finite data or a failed solve)."""
@@ -138,14 +153,10 @@ class OSQPStage:
             iters += info[1]
             if info[0] not in (1, 2):  # solved, solved inaccurate
                 return nan
-            v = x[:nv]
-            w = U + v.reshape(N, NU)
-            out = np.linalg.norm(w, axis=1) > self.radius * (1 + 1e-9)
-            j = self.n_poly + c
-            if j + 1 >= self.n_cuts or not out.any():
+            refined = self.refined_normals(U, x[:nv], normals, c)
+            if refined is None:
                 break
-            normals = list(normals)
-            normals[j + 1] = np.where(out[:, None], self._unit(w), normals[j])
+            normals = refined
             _, ax = self._values(H, G, normals)
             lo, hi = self._bounds(ubar, glb, gub, normals)
             self._recut(lo, hi, ax)

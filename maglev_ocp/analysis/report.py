@@ -42,6 +42,11 @@ AXES: tuple[str, ...] = ("g", "d")
 BREAKS: tuple[str, ...] = ("input", "output")
 
 
+def _loop_columns(controller: str, g: float, d: float, axis: str) -> dict[str, object]:
+    """The columns of a table row that say which loop it is: controller, operating point [mm], axis."""
+    return {"controller": controller, "g_mm": round(g * 1e3, 3), "d_mm": round(d * 1e3, 3), "axis": axis}
+
+
 @dataclass
 class LoopResult:
     """One broken loop at one operating point: margins and the frequency response of ``L``."""
@@ -60,10 +65,7 @@ class LoopResult:
         m = self.margins
         db = lambda x: 20 * math.log10(x) if 0 < x < math.inf else (math.inf if x == math.inf else -math.inf)  # noqa: E731
         return {
-            "controller": self.controller,
-            "g_mm": round(self.g * 1e3, 3),
-            "d_mm": round(self.d * 1e3, 3),
-            "axis": self.axis,
+            **_loop_columns(self.controller, self.g, self.d, self.axis),
             "at": self.at,
             "gm_upper_db": db(m.gm_upper),
             "gm_lower_db": db(m.gm_lower) if m.gm_lower > 0 else -math.inf,
@@ -178,10 +180,7 @@ class DelayCheck:
     def row(self) -> dict[str, object]:
         """One row of the cross-check table."""
         return {
-            "controller": self.controller,
-            "g_mm": round(self.g * 1e3, 3),
-            "d_mm": round(self.d * 1e3, 3),
-            "axis": self.axis,
+            **_loop_columns(self.controller, self.g, self.d, self.axis),
             "computed_samples": self.computed_samples,
             "simulated_samples": self.simulated.delay_samples,
             "bracket": [self.simulated.stable_below, self.simulated.unstable_above],

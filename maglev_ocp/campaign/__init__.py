@@ -17,9 +17,10 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from .config import Campaign, load_campaign
-from .execute import ExecutionReport, RunFn, execute, worker_cache
+from .execute import ExecutionReport, execute, worker_cache
 from .expand import RunSpec, expand
 from .summary import CampaignSummary, deterministic_columns, summarize
 
@@ -58,13 +59,8 @@ def run_campaign(
     campaign: str | os.PathLike | Campaign,
     out_dir: str | os.PathLike,
     *,
-    workers: int = 1,
-    scheduler: str | None = None,
-    limit: int | None = None,
-    retry_failed: bool = False,
-    run_fn: RunFn | None = None,
-    progress: bool = True,
     figures: bool = True,
+    **execute_options: Any,
 ) -> CampaignResult:
     """Execute (or resume) a campaign and write its summary.
 
@@ -74,10 +70,11 @@ def run_campaign(
         Campaign file or a loaded campaign.
     out_dir : path
         Campaign folder; finished runs in it are skipped.
-    workers, scheduler, limit, retry_failed, run_fn, progress
-        See :func:`.execute.execute`.
     figures : bool
         Also draw the summary figures.
+    **execute_options
+        Passed on to :func:`.execute.execute`: ``workers``, ``scheduler``, ``limit``,
+        ``retry_failed``, ``run_fn``, ``progress``.
 
     Returns
     -------
@@ -86,17 +83,7 @@ def run_campaign(
     """
     camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
     base = camp.base_scenario_dict()
-    report = execute(
-        camp,
-        out_dir,
-        workers=workers,
-        scheduler=scheduler,
-        limit=limit,
-        retry_failed=retry_failed,
-        run_fn=run_fn,
-        progress=progress,
-        base=base,
-    )
+    report = execute(camp, out_dir, base=base, **execute_options)
     summary = summarize(out_dir, expand(camp, base), camp.name)
     result = CampaignResult(report, summary)
     result.save(figures=figures)

@@ -253,6 +253,25 @@ def _groups(s: CampaignSummary) -> list[tuple[str, Any]]:
     return [(s.case_label(g.iloc[0]), g) for _, g in t.groupby("case", sort=True)]
 
 
+def _per_case_axes(ax, labels: list[str], ylabel: str, title: str) -> None:
+    """One x tick per case (slanted when there are many), the y label, the title and a y grid."""
+    n = len(labels)
+    ax.set_xticks(range(n), labels, rotation=20 if n > 3 else 0, ha="right" if n > 3 else "center", fontsize=8)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, axis="y", alpha=0.3)
+
+
+def _save_figure(fig, path: Path, written: list[Path], **layout: Any) -> None:
+    """Lay ``fig`` out (``layout``: ``tight_layout``'s arguments), write it to ``path`` and close it."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout(**layout)
+    written.append(path)
+    atomic_write_bytes(path, fig)
+    plt.close(fig)
+
+
 def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
     """Figures: success rate and settle-time distribution per case, metrics vs each varied quantity."""
     import matplotlib
@@ -278,15 +297,14 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
     ax.bar(range(n_g), rates, yerr=errs, capsize=4, color="tab:blue", alpha=0.8)
     for i, (_, g) in enumerate(groups):
         ax.text(i, 2, f"n={len(g)}", ha="center", va="bottom", fontsize=8, color="white")
-    ax.set_xticks(range(n_g), labels, rotation=20 if n_g > 3 else 0, ha="right" if n_g > 3 else "center", fontsize=8)
     ax.set_ylim(0, 105)
-    ax.set_ylabel("success rate [%] (all targets within tolerance, no stop)")
-    ax.set_title(f"{s.name}: success rate per case (95 % Wilson interval)")
-    ax.grid(True, axis="y", alpha=0.3)
-    fig.tight_layout()
-    written.append(out / "success_rate.png")
-    atomic_write_bytes(written[-1], fig)
-    plt.close(fig)
+    _per_case_axes(
+        ax,
+        labels,
+        "success rate [%] (all targets within tolerance, no stop)",
+        f"{s.name}: success rate per case (95 % Wilson interval)",
+    )
+    _save_figure(fig, out / "success_rate.png", written)
 
     # Settle-time distributions (every settled target of every run).
     fig, ax = plt.subplots(figsize=(max(5.0, 0.9 * n_g + 2), 3.8))
@@ -297,14 +315,8 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
         data.append(1e3 * vals[np.isfinite(vals)])
     if any(len(d) for d in data):
         ax.violinplot([d if len(d) else [np.nan] for d in data], positions=range(n_g), showmedians=True)
-    ax.set_xticks(range(n_g), labels, rotation=20 if n_g > 3 else 0, ha="right" if n_g > 3 else "center", fontsize=8)
-    ax.set_ylabel("settle time per target [ms]")
-    ax.set_title(f"{s.name}: settle-time distribution per case")
-    ax.grid(True, axis="y", alpha=0.3)
-    fig.tight_layout()
-    written.append(out / "settle_time.png")
-    atomic_write_bytes(written[-1], fig)
-    plt.close(fig)
+    _per_case_axes(ax, labels, "settle time per target [ms]", f"{s.name}: settle-time distribution per case")
+    _save_figure(fig, out / "settle_time.png", written)
 
     # Trade-off of a sweep: per case, median settle time against median controller step time.
     t = s.finished
@@ -321,10 +333,7 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
         ax.set_ylabel("slowest settle time, median over runs [ms]")
         ax.set_title(f"{s.name}: speed of motion vs computation per case")
         ax.grid(True, alpha=0.3)
-        fig.tight_layout(rect=(0, 0.17 * n_g / (4.4 / 0.16 + n_g) * 6 + 0.02, 1, 1))
-        written.append(out / "tradeoff.png")
-        atomic_write_bytes(written[-1], fig)
-        plt.close(fig)
+        _save_figure(fig, out / "tradeoff.png", written, rect=(0, 0.17 * n_g / (4.4 / 0.16 + n_g) * 6 + 0.02, 1, 1))
 
     # Metrics against each varied quantity.
     metrics_y = [
@@ -364,8 +373,5 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
                 a.set_ylabel(ylab)
                 a.grid(True, axis="y", alpha=0.3)
         fig.suptitle(f"{s.name}: metrics vs {col}")
-        fig.tight_layout()
-        written.append(out / f"vs_{col.replace('.', '_')}.png")
-        atomic_write_bytes(written[-1], fig)
-        plt.close(fig)
+        _save_figure(fig, out / f"vs_{col.replace('.', '_')}.png", written)
     return written

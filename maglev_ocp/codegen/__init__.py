@@ -81,16 +81,13 @@ def controller_codes(
     return out
 
 
-def generate_controllers(
-    kinds=KINDS,
-    params: Params = NOMINAL,
-    nmpc_settings: Any = None,
-    fl_settings: Any = None,
-    shaping: str | None = "trajectory",
-    cflags: str = DEFAULT_CFLAGS,
-) -> GeneratedSources:
-    """Generate the folder's files for ``kinds`` (see :func:`controller_codes`); nothing written yet."""
-    return generate_sources(controller_codes(kinds, params, nmpc_settings, fl_settings, shaping), cflags)
+def generate_controllers(kinds=KINDS, cflags: str = DEFAULT_CFLAGS, **designs: Any) -> GeneratedSources:
+    """Generate the folder's files for ``kinds``; nothing written yet.
+
+    ``designs`` are :func:`controller_codes`'s other arguments (``params``, ``nmpc_settings``,
+    ``fl_settings``, ``shaping``); ``cflags`` the Makefile's default compiler flags.
+    """
+    return generate_sources(controller_codes(kinds, **designs), cflags)
 
 
 register_c_backend()

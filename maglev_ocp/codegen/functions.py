@@ -33,7 +33,7 @@ from .. import constants as k
 from ..errors import UserError
 from ..observers import ObserverSettings
 from ..params import Params
-from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, REF_FIELDS, REFERENCE, STATES
+from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, REF_FIELDS, REFERENCE, STATES, Signal
 from .fl_fn import fl_functions, fl_state
 from .observer_fn import observer_step_function
 
@@ -167,49 +167,36 @@ def _unit_list(signals) -> str:
     return ", ".join(f"{s.name} [{s.unit}]" for s in signals)
 
 
+def _signal_port(name: str, signals: tuple[Signal, ...], unit: str, what: str, rows: int | None = None) -> Port:
+    """A packed column vector with one double per row of the signal table ``signals``.
+
+    ``rows`` overrides the length (the parameter vector may be longer than its named head).
+    """
+    return Port(
+        name,
+        len(signals) if rows is None else rows,
+        1,
+        unit,
+        f"{what}: " + _unit_list(signals),
+        tuple(Piece(s.name, 1, s.unit, s.description) for s in signals),
+    )
+
+
 def params_port(np_: int) -> Port:
     """The model parameter vector input ``p``."""
-    return Port(
-        "p",
-        np_,
-        1,
-        "SI",
-        "model parameters: " + _unit_list(PARAMETERS),
-        tuple(Piece(s.name, 1, s.unit, s.description) for s in PARAMETERS),
-    )
+    return _signal_port("p", PARAMETERS, "SI", "model parameters", rows=np_)
 
 
 def _u_port(name: str = "u") -> Port:
-    return Port(
-        name,
-        2,
-        1,
-        "A",
-        "commanded currents: " + _unit_list(INPUTS),
-        tuple(Piece(s.name, 1, s.unit, s.description) for s in INPUTS),
-    )
+    return _signal_port(name, INPUTS, "A", "commanded currents")
 
 
 def _xhat_port(name: str = "x_hat") -> Port:
-    return Port(
-        name,
-        4,
-        1,
-        "m, m/s",
-        "state estimate: " + _unit_list(STATES),
-        tuple(Piece(s.name, 1, s.unit, s.description) for s in STATES),
-    )
+    return _signal_port(name, STATES, "m, m/s", "state estimate")
 
 
 def _meas2_port(name: str = "meas") -> Port:
-    return Port(
-        name,
-        2,
-        1,
-        "m",
-        "encoder readings: " + _unit_list(MEASUREMENTS),
-        tuple(Piece(s.name, 1, s.unit, s.description) for s in MEASUREMENTS),
-    )
+    return _signal_port(name, MEASUREMENTS, "m", "encoder readings")
 
 
 def _dist_port(name: str = "dist") -> Port:

@@ -53,7 +53,7 @@ from ..errors import UserError
 from ..loop.compiled import PlantInputs, compiled_trace, plant_inputs, stop_events
 from ..plant import Plant
 from ..plant.plant import build_step
-from ..runner import RunPlan, RunResult, plan_run, run_columns, run_metrics
+from ..runner import RunPlan, RunResult, finish_run, plan_run
 from ..scenario import Scenario
 from .backend import compile_codes, default_cflags
 from .build import cache_root, compiler_id, find_compiler
@@ -330,6 +330,16 @@ class _Work:
         self.addr = ctypes.cast(getattr(lib.lib, name), ctypes.c_void_p).value
         self.arg, self.res, self.iw, self.w = f._arg, f._resp, f._iw, f._w
 
+    def fields(self, fn_field: str, prefix: str) -> dict[str, int]:
+        """The ``loop_t`` fields that hand this function to the C loop: its address and work arrays."""
+        return {
+            fn_field: self.addr,
+            f"{prefix}_arg": ctypes.addressof(self.arg),
+            f"{prefix}_res": ctypes.addressof(self.res),
+            f"{prefix}_iw": _ptr(self.iw),
+            f"{prefix}_w": _ptr(self.w),
+        }
+
 
 def run_compiled_loop(pi: PlantInputs, plant: Plant, cr: ControllerRun, *, timing: bool = True) -> dict[str, Any]:
     """Run ``pi.n`` steps of plant and controller in one C call; the logged arrays and how the run ended.
@@ -389,8 +399,15 @@ def run_compiled_loop(pi: PlantInputs, plant: Plant, cr: ControllerRun, *, timin
     contact, y, ia = pi.contact.copy(), pi.y0.copy(), pi.ia0.copy()
     f_time = np.ascontiguousarray(pi.f_time)
     fl = pi.flags
-    keep = [xa, xa_out, u_in, pbuf, wbuf, imp, iapp, theta, free, lim, sa, sb, meas, lrow, queue]
-    keep += [cables, cstart, std, contact, y, ia, f_time, *out.values()]
+    # the arrays the C loop reads and writes, by their ``loop_t`` field
+    buffers = {
+        **dict(xa=xa, xa_out=xa_out, u_in=u_in, pbuf=pbuf, wbuf=wbuf, imp=imp, iapp=iapp, lim=lim, queue=queue),
+        **dict(pseq=pi.p_seq, std=std, n_proc=pi.noise["proc"], n_cur=pi.noise["cur"], n_meas=pi.noise["meas"]),
+        **dict(f_time=f_time, cables=cables, cable_start=cstart, contact=contact, y=y, ia=ia),
+        **dict(state_a=sa, state_b=sb, meas=meas, lrow=lrow, fault=cr.fault, refs=cr.refs),
+        **out,
+    }
+    keep = [theta, free, *buffers.values()]  # alive until the C call returns
     s = LoopStruct(
         n=n,
         nxa=len(xa),
@@ -412,43 +429,9 @@ def run_compiled_loop(pi: PlantInputs, plant: Plant, cr: ControllerRun, *, timin
         i_axis=fl["i_axis"],
         i_amp=fl["i_amp"],
         q=fl["q"],
-        plant_f=pw.addr,
-        p_arg=ctypes.addressof(pw.arg),
-        p_res=ctypes.addressof(pw.res),
-        p_iw=_ptr(pw.iw),
-        p_w=_ptr(pw.w),
-        xa=_ptr(xa),
-        xa_out=_ptr(xa_out),
-        u_in=_ptr(u_in),
-        pbuf=_ptr(pbuf),
-        wbuf=_ptr(wbuf),
-        imp=_ptr(imp),
-        iapp=_ptr(iapp),
-        lim=_ptr(lim),
-        queue=_ptr(queue),
-        pseq=_ptr(pi.p_seq),
-        std=_ptr(std),
-        n_proc=_ptr(pi.noise["proc"]),
-        n_cur=_ptr(pi.noise["cur"]),
-        n_meas=_ptr(pi.noise["meas"]),
-        f_time=_ptr(f_time),
-        cables=_ptr(cables),
-        cable_start=_ptr(cstart),
-        contact=_ptr(contact),
-        y=_ptr(y),
-        ia=_ptr(ia),
-        c_f=cw.addr,
-        c_arg=ctypes.addressof(cw.arg),
-        c_res=ctypes.addressof(cw.res),
-        c_iw=_ptr(cw.iw),
-        c_w=_ptr(cw.w),
-        state_a=_ptr(sa),
-        state_b=_ptr(sb),
-        meas=_ptr(meas),
-        lrow=_ptr(lrow),
-        fault=_ptr(cr.fault),
-        refs=_ptr(cr.refs),
-        **{key: _ptr(out[key]) for key in ("Y", "X", "U", "UA", "limited", "LOG", "t_us", "IMP")},
+        **pw.fields("plant_f", "p"),
+        **cw.fields("c_f", "c"),
+        **{key: _ptr(a) for key, a in buffers.items()},
     )
     run = lib.lib.run_loop
     run.restype = ctypes.c_int
@@ -513,12 +496,7 @@ def run_scenario_compiled(
     trace = compiled_trace(rp.n, arrays, x_hat, stats, timings)
     plant.events = stop_events(r["IMP"], done, k.Ts)
     error = _error_text(r["error"], done, r["u_last"])
-    cols, stat_cols = run_columns(rp, trace, done)
-    metrics = run_metrics(sc, rp, trace, done, stat_cols, plant, error)
-    res = RunResult(sc, cols, trace.step_time_us[:done], rp.plan, metrics, wall_s=time.perf_counter() - t_wall)
-    if out_dir is not None:
-        res.save(out_dir, figures=figures)
-    return res
+    return finish_run(sc, rp, trace, done, plant, error, t_wall, out_dir, figures)
 
 
 __all__ = [

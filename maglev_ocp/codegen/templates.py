@@ -254,6 +254,59 @@ static void ref_at(const Table *t, const Refs *rf, int r, double out[6]) {
     }                                                                                       \
   } while (0)
 
+/* The static work arrays of one generated Function (sizes from maglev_controller.h; +1: never 0). */
+#define WORK_ARRAYS(v, SZ)                                                                   \
+  static const casadi_real *v##_arg[SZ##_SZ_ARG + 1];                                       \
+  static casadi_real *v##_res[SZ##_SZ_RES + 1];                                             \
+  static casadi_int v##_iw[SZ##_SZ_IW + 1];                                                 \
+  static casadi_real v##_w[SZ##_SZ_W + 1]
+
+/* Call fn on the work arrays v_*, timing it: wall clock into dt, thread CPU time into dc [us]. */
+#define TIMED_CALL(fn, v, mem, dt, dc)                                                       \
+  do {                                                                                      \
+    double c0_ = cpu_us(), t0_ = now_us();                                                  \
+    if (fn(v##_arg, v##_res, v##_iw, v##_w, mem)) return 1;                                 \
+    dt = now_us() - t0_;                                                                    \
+    dc = cpu_us() - c0_;                                                                    \
+  } while (0)
+
+/* run_<v>() of a stateful controller v (NMPC, FL): its init Function turns log row 0 into the controller state
+ * v_state, its step Function advances the state by one log row (into v_state_next, copied back) and gives the
+ * currents v_u and the state estimate v_xhat. v_wire_init(t, rf, jg, jd) and v_wire_step(t, rf, k, jg, jd)
+ * fill the inputs of the two; the step is timed, and the last repeat writes one row per log row. */
+#define RUN_STATEFUL(v, V)                                                                   \
+  static int run_##v(const Table *t, const Refs *rf, FILE *out, int repeat) {                \
+    int jt = col(t, "t"), jg = col(t, "g"), jd = col(t, "d");                               \
+    int mem = v##_step_checkout(), mem0 = v##_init_checkout();                              \
+    CHECK_WORK(v##_step, V##_STEP);                                                         \
+    CHECK_WORK(v##_init, V##_INIT);                                                         \
+    fprintf(out, "t,i_q,i_d,g_hat,g_dot_hat,d_hat,d_dot_hat,step_time_us,step_cpu_us\n");   \
+    for (int rep = 0; rep < repeat; rep++) {                                                \
+      v##_wire_init(t, rf, jg, jd);                                                         \
+      if (v##_init(v##_init_arg, v##_init_res, v##_init_iw, v##_init_w, mem0)) return 1;    \
+      for (int k = 0; k < t->n; k++) {                                                      \
+        double dt, dc;                                                                      \
+        v##_wire_step(t, rf, k, jg, jd);                                                    \
+        TIMED_CALL(v##_step, v, mem, dt, dc);                                               \
+        memcpy(v##_state, v##_state_next, sizeof(v##_state));                               \
+        record(dt, dc);                                                                     \
+        if (rep == repeat - 1) print_row(out, AT(t, k, jt), v##_u, 2, v##_xhat, 4, dt, dc); \
+      }                                                                                     \
+    }                                                                                       \
+    v##_step_release(mem);                                                                  \
+    v##_init_release(mem0);                                                                 \
+    return 0;                                                                               \
+  }
+
+/* One output row: time, then the a and b vectors (17 significant digits), then the step's times. */
+static void print_row(FILE *out, double t, const casadi_real *a, int na, const casadi_real *b, int nb, double dt,
+                      double dc) {
+  fprintf(out, "%.17g", t);
+  for (int i = 0; i < na; i++) fprintf(out, ",%.17g", a[i]);
+  for (int i = 0; i < nb; i++) fprintf(out, ",%.17g", b[i]);
+  fprintf(out, ",%.3f,%.3f\n", dt, dc);
+}
+
 @CONTROLLER_CODE@
 
 static void usage(void) {
@@ -328,14 +381,8 @@ int main(int argc, char **argv) {
 
 NMPC_C = r"""
 /* ---------------------------------------------------------------- NMPC */
-static const casadi_real *nmpc_arg[NMPC_STEP_SZ_ARG + 1];
-static casadi_real *nmpc_res[NMPC_STEP_SZ_RES + 1];
-static casadi_int nmpc_iw[NMPC_STEP_SZ_IW + 1];
-static casadi_real nmpc_w[NMPC_STEP_SZ_W + 1];
-static const casadi_real *nmpc_init_arg[NMPC_INIT_SZ_ARG + 1];
-static casadi_real *nmpc_init_res[NMPC_INIT_SZ_RES + 1];
-static casadi_int nmpc_init_iw[NMPC_INIT_SZ_IW + 1];
-static casadi_real nmpc_init_w[NMPC_INIT_SZ_W + 1];
+WORK_ARRAYS(nmpc, NMPC_STEP);
+WORK_ARRAYS(nmpc_init, NMPC_INIT);
 static casadi_real nmpc_state[NMPC_STATE_SIZE], nmpc_state_next[NMPC_STATE_SIZE];
 static casadi_real nmpc_meas[3], nmpc_ref[6 * NMPC_REF_COLS], nmpc_u[2], nmpc_stats[NMPC_N_STATS], nmpc_xhat[4];
 
@@ -363,96 +410,54 @@ static void nmpc_fill_ref(const Table *t, const Refs *rf, int k) {
   }
 }
 
-static int run_nmpc(const Table *t, const Refs *rf, FILE *out, int repeat) {
-  int jt = col(t, "t"), jg = col(t, "g"), jd = col(t, "d");
-  int mem = nmpc_step_checkout(), mem0 = nmpc_init_checkout();
-  CHECK_WORK(nmpc_step, NMPC_STEP);
-  CHECK_WORK(nmpc_init, NMPC_INIT);
-  fprintf(out, "t,i_q,i_d,g_hat,g_dot_hat,d_hat,d_dot_hat,step_time_us,step_cpu_us\n");
-  for (int rep = 0; rep < repeat; rep++) {
-    nmpc_meas[0] = AT(t, 0, jg); nmpc_meas[1] = AT(t, 0, jd); nmpc_meas[2] = 0;
-    nmpc_fill_ref(t, rf, 0);
-    nmpc_init_arg[0] = nmpc_meas; nmpc_init_arg[1] = nmpc_ref; nmpc_init_arg[2] = NMPC_PARAMS;
-    nmpc_init_res[0] = nmpc_state;
-    if (nmpc_init(nmpc_init_arg, nmpc_init_res, nmpc_init_iw, nmpc_init_w, mem0)) return 1;
-    for (int k = 0; k < t->n; k++) {
-      double t0, dt, c0, dc;
-      nmpc_meas[0] = AT(t, k, jg); nmpc_meas[1] = AT(t, k, jd); nmpc_meas[2] = 0;
-      nmpc_fill_ref(t, rf, k);
-      nmpc_arg[0] = nmpc_state; nmpc_arg[1] = nmpc_meas; nmpc_arg[2] = nmpc_ref; nmpc_arg[3] = NMPC_PARAMS;
-      nmpc_res[0] = nmpc_u; nmpc_res[1] = nmpc_state_next; nmpc_res[2] = nmpc_stats; nmpc_res[3] = nmpc_xhat;
-      c0 = cpu_us();
-      t0 = now_us();
-      if (nmpc_step(nmpc_arg, nmpc_res, nmpc_iw, nmpc_w, mem)) return 1;
-      dt = now_us() - t0;
-      dc = cpu_us() - c0;
-      memcpy(nmpc_state, nmpc_state_next, sizeof(nmpc_state));
-      record(dt, dc);
-      if (rep == repeat - 1)
-        fprintf(out, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.3f,%.3f\n", AT(t, k, jt), nmpc_u[0],
-                nmpc_u[1], nmpc_xhat[0], nmpc_xhat[1], nmpc_xhat[2], nmpc_xhat[3], dt, dc);
-    }
-  }
-  nmpc_step_release(mem);
-  nmpc_init_release(mem0);
-  return 0;
+/* measurement (g, d, and 0: no third encoder) and reference horizon of log row k */
+static void nmpc_read_row(const Table *t, const Refs *rf, int k, int jg, int jd) {
+  nmpc_meas[0] = AT(t, k, jg); nmpc_meas[1] = AT(t, k, jd); nmpc_meas[2] = 0;
+  nmpc_fill_ref(t, rf, k);
 }
+
+static void nmpc_wire_init(const Table *t, const Refs *rf, int jg, int jd) {
+  nmpc_read_row(t, rf, 0, jg, jd);
+  nmpc_init_arg[0] = nmpc_meas; nmpc_init_arg[1] = nmpc_ref; nmpc_init_arg[2] = NMPC_PARAMS;
+  nmpc_init_res[0] = nmpc_state;
+}
+
+static void nmpc_wire_step(const Table *t, const Refs *rf, int k, int jg, int jd) {
+  nmpc_read_row(t, rf, k, jg, jd);
+  nmpc_arg[0] = nmpc_state; nmpc_arg[1] = nmpc_meas; nmpc_arg[2] = nmpc_ref; nmpc_arg[3] = NMPC_PARAMS;
+  nmpc_res[0] = nmpc_u; nmpc_res[1] = nmpc_state_next; nmpc_res[2] = nmpc_stats; nmpc_res[3] = nmpc_xhat;
+}
+
+RUN_STATEFUL(nmpc, NMPC)
 """
 
 FL_C = r"""
 /* ---------------------------------------------------------------- feedback linearization */
-static const casadi_real *fl_arg[FL_STEP_SZ_ARG + 1];
-static casadi_real *fl_res[FL_STEP_SZ_RES + 1];
-static casadi_int fl_iw[FL_STEP_SZ_IW + 1];
-static casadi_real fl_w[FL_STEP_SZ_W + 1];
-static const casadi_real *fl_init_arg[FL_INIT_SZ_ARG + 1];
-static casadi_real *fl_init_res[FL_INIT_SZ_RES + 1];
-static casadi_int fl_init_iw[FL_INIT_SZ_IW + 1];
-static casadi_real fl_init_w[FL_INIT_SZ_W + 1];
+WORK_ARRAYS(fl, FL_STEP);
+WORK_ARRAYS(fl_init, FL_INIT);
 static casadi_real fl_state[FL_STATE_SIZE], fl_state_next[FL_STATE_SIZE];
 static casadi_real fl_meas[2], fl_ref[6], fl_u[2], fl_xhat[4], fl_dist[2], fl_v[2], fl_flags[3];
 
-static int run_fl(const Table *t, const Refs *rf, FILE *out, int repeat) {
-  int jt = col(t, "t"), jg = col(t, "g"), jd = col(t, "d");
-  int mem = fl_step_checkout(), mem0 = fl_init_checkout();
-  CHECK_WORK(fl_step, FL_STEP);
-  CHECK_WORK(fl_init, FL_INIT);
-  fprintf(out, "t,i_q,i_d,g_hat,g_dot_hat,d_hat,d_dot_hat,step_time_us,step_cpu_us\n");
-  for (int rep = 0; rep < repeat; rep++) {
-    fl_meas[0] = AT(t, 0, jg); fl_meas[1] = AT(t, 0, jd);
-    fl_init_arg[0] = fl_meas; fl_init_res[0] = fl_state;
-    if (fl_init(fl_init_arg, fl_init_res, fl_init_iw, fl_init_w, mem0)) return 1;
-    for (int k = 0; k < t->n; k++) {
-      double t0, dt, c0, dc;
-      fl_meas[0] = AT(t, k, jg); fl_meas[1] = AT(t, k, jd);
-      ref_at(t, rf, k, fl_ref);
-      fl_arg[0] = fl_state; fl_arg[1] = fl_meas; fl_arg[2] = fl_ref; fl_arg[3] = FL_PARAMS; fl_arg[4] = FL_GAINS;
-      fl_res[0] = fl_u; fl_res[1] = fl_state_next; fl_res[2] = fl_xhat; fl_res[3] = fl_dist; fl_res[4] = fl_v;
-      fl_res[5] = fl_flags;
-      c0 = cpu_us();
-      t0 = now_us();
-      if (fl_step(fl_arg, fl_res, fl_iw, fl_w, mem)) return 1;
-      dt = now_us() - t0;
-      dc = cpu_us() - c0;
-      memcpy(fl_state, fl_state_next, sizeof(fl_state));
-      record(dt, dc);
-      if (rep == repeat - 1)
-        fprintf(out, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.3f,%.3f\n", AT(t, k, jt), fl_u[0], fl_u[1],
-                fl_xhat[0], fl_xhat[1], fl_xhat[2], fl_xhat[3], dt, dc);
-    }
-  }
-  fl_step_release(mem);
-  fl_init_release(mem0);
-  return 0;
+static void fl_wire_init(const Table *t, const Refs *rf, int jg, int jd) {
+  (void)rf;
+  fl_meas[0] = AT(t, 0, jg); fl_meas[1] = AT(t, 0, jd);
+  fl_init_arg[0] = fl_meas; fl_init_res[0] = fl_state;
 }
+
+static void fl_wire_step(const Table *t, const Refs *rf, int k, int jg, int jd) {
+  fl_meas[0] = AT(t, k, jg); fl_meas[1] = AT(t, k, jd);
+  ref_at(t, rf, k, fl_ref);
+  fl_arg[0] = fl_state; fl_arg[1] = fl_meas; fl_arg[2] = fl_ref; fl_arg[3] = FL_PARAMS; fl_arg[4] = FL_GAINS;
+  fl_res[0] = fl_u; fl_res[1] = fl_state_next; fl_res[2] = fl_xhat; fl_res[3] = fl_dist; fl_res[4] = fl_v;
+  fl_res[5] = fl_flags;
+}
+
+RUN_STATEFUL(fl, FL)
 """
 
 OBSERVER_C = r"""
 /* ---------------------------------------------------------------- observer */
-static const casadi_real *obs_arg[OBSERVER_STEP_SZ_ARG + 1];
-static casadi_real *obs_res[OBSERVER_STEP_SZ_RES + 1];
-static casadi_int obs_iw[OBSERVER_STEP_SZ_IW + 1];
-static casadi_real obs_w[OBSERVER_STEP_SZ_W + 1];
+WORK_ARRAYS(obs, OBSERVER_STEP);
 
 static int run_observer(const Table *t, const Refs *rf, FILE *out, int repeat) {
   int jt = col(t, "t"), jg = col(t, "g"), jd = col(t, "d"), jq = col(t, "i_q"), jid = col(t, "i_d");
@@ -463,22 +468,16 @@ static int run_observer(const Table *t, const Refs *rf, FILE *out, int repeat) {
   fprintf(out, "t,g_hat,g_dot_hat,d_hat,d_dot_hat,dist_g,dist_d,step_time_us,step_cpu_us\n");
   for (int rep = 0; rep < repeat; rep++) {
     x[0] = AT(t, 0, jg); x[1] = 0; x[2] = AT(t, 0, jd); x[3] = 0; dist[0] = dist[1] = 0;
-    if (rep == repeat - 1) fprintf(out, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.3f,%.3f\n", AT(t, 0, jt),
-                                   x[0], x[1], x[2], x[3], dist[0], dist[1], 0.0, 0.0);
+    if (rep == repeat - 1) print_row(out, AT(t, 0, jt), x, 4, dist, 2, 0.0, 0.0);
     for (int k = 1; k < t->n; k++) {
-      double t0, dt, c0, dc;
+      double dt, dc;
       u[0] = AT(t, k - 1, jq); u[1] = AT(t, k - 1, jid); y[0] = AT(t, k, jg); y[1] = AT(t, k, jd);
       obs_arg[0] = x; obs_arg[1] = dist; obs_arg[2] = u; obs_arg[3] = y; obs_arg[4] = OBSERVER_PARAMS;
       obs_res[0] = xn; obs_res[1] = dn;
-      c0 = cpu_us();
-      t0 = now_us();
-      if (observer_step(obs_arg, obs_res, obs_iw, obs_w, mem)) return 1;
-      dt = now_us() - t0;
-      dc = cpu_us() - c0;
+      TIMED_CALL(observer_step, obs, mem, dt, dc);
       memcpy(x, xn, sizeof(x)); memcpy(dist, dn, sizeof(dist));
       record(dt, dc);
-      if (rep == repeat - 1) fprintf(out, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.3f,%.3f\n", AT(t, k, jt),
-                                     x[0], x[1], x[2], x[3], dist[0], dist[1], dt, dc);
+      if (rep == repeat - 1) print_row(out, AT(t, k, jt), x, 4, dist, 2, dt, dc);
     }
   }
   observer_step_release(mem);

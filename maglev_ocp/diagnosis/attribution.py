@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..estimation.ident import autocorr_factor
+from ..estimation.ident import autocorr_factor, geyer_factor
 from .candidates import FitResult
 from .residuals import Residual
 
@@ -111,14 +111,7 @@ def noise_inflation(w_y: np.ndarray, decimate: int) -> float:
     ac = np.correlate(w, w, mode="full")[len(w) - 1 :]
     if ac[0] <= 0:
         return 1.0
-    rho = ac[:: max(int(decimate), 1)] / ac[0]
-    s = 0.0
-    for i in range(1, len(rho) - 1, 2):
-        pair = rho[i] + rho[i + 1]
-        if pair <= 0:
-            break
-        s += pair
-    return max(1.0, 1.0 + 2.0 * s)
+    return geyer_factor(ac[:: max(int(decimate), 1)] / ac[0])
 
 
 def delta_bic(fit: FitResult, ref: FitResult, inflation: float | None = None) -> float:
@@ -190,6 +183,13 @@ class EffectScore:
     r2_after: float = math.nan  # mean floor-normalized squared held-out residual (1 = at the floor)
     law: str = "default"  # member of the effect's law family
     law_choice: str = ""  # how the member was chosen
+
+    def fitted_text(self, eq: str = "=", pm: str = "±") -> str:
+        """The fitted parameters and their standard errors, ``k=v±se, ...`` (``eq``, ``pm``: the separators)."""
+        return ", ".join(
+            f"{k}{eq}{v:.4g}" + (f"{pm}{self.stderr[k]:.2g}" if self.stderr.get(k) is not None else "")
+            for k, v in self.params.items()
+        )
 
     def to_dict(self) -> dict:
         """JSON-ready view (the issue's ``effects`` entries plus statistics)."""

@@ -129,6 +129,69 @@ def _eb(effect: str, param: str) -> tuple[float, float]:
     return EFFECTS[effect].bounds()[param]
 
 
+_TWO_PI = 2 * math.pi
+# Shared rows of :data:`_FREE`: (lo, hi, start, scale) of parameters of the same kind.
+_PHASE = (-_TWO_PI, _TWO_PI, 0.3, 1.0)  # a phase [rad]: any angle
+_HARMONIC = (-2.0, 2.0, 0.05, 0.2)  # a cogging harmonic relative to xi0
+_COGGING_PEAK = (0.0, 50.0, 1.0, 4.0)  # xi0 [N]
+_GUIDE_FORCE = (0.0, 10.0, 0.05, 0.2)  # a Coulomb or Stribeck force of a guide [N]
+_VISCOUS = (0.0, 100.0, 0.5, 1.0)  # a viscous coefficient [N s/m]
+_TERM_WEIGHT = (-0.5, 0.8, 0.05, 0.1)  # a magnetic term's share of the saturation loss
+_FACTOR = (0.5, 2.0, 1.0, 0.05)  # a factor on a model term
+
+#: Every parameter a candidate fits: key -> (lo, hi, start, scale) in physical units (see :class:`Free`).
+#: One definition per key; the specs below pick theirs by key.
+_FREE: dict[str, tuple[float, float, float, float]] = {
+    # cogging: the seed's law (in p), harmonics, and the free-decay law's own amplitude, decay and shape
+    "p.xi0": _COGGING_PEAK,
+    "p.ell": (1e-3, 0.03, 4e-3, 4e-3),
+    "cogging.h2": _HARMONIC,
+    "cogging.h3": _HARMONIC,
+    "cogging.phi2": _PHASE,
+    "cogging.phi3": _PHASE,
+    "cogging.xi0": _COGGING_PEAK,
+    "cogging.ell": (1e-3, 0.05, 4e-3, 4e-3),
+    "cogging.power": (0.0, 4.0, 0.0, 1.0),
+    "cogging.curv": (-20.0, 20.0, 0.0, 2.0),
+    "cogging.kn": (0.0, 4.0, 1.0, 0.5),
+    # friction
+    "friction.coulomb_g": _GUIDE_FORCE,
+    "friction.coulomb_d": _GUIDE_FORCE,
+    "friction.viscous_g": _VISCOUS,
+    "friction.viscous_d": _VISCOUS,
+    "friction.stribeck_g": _GUIDE_FORCE,
+    "friction.stribeck_d": _GUIDE_FORCE,
+    "friction.v_stribeck": (5e-4, 0.05, 5e-3, 5e-3),
+    # end effect
+    "end_effect.ripple": (0.0, 0.5, 0.02, 0.05),
+    "end_effect.ripple_phase": _PHASE,
+    "end_effect.d_edge": (0.0, 0.2, 0.04, 0.02),
+    "end_effect.edge_width": (1e-3, 0.05, 5e-3, 5e-3),
+    "end_effect.edge_gain": (0.0, 5.0, 1.0, 0.5),
+    "end_effect.edge_quad": (-20.0, 20.0, 0.0, 2.0),
+    # saturation
+    "saturation.loss_8mm": (0.0, 0.8, 0.05, 0.1),
+    "saturation.ell_sat": (5e-4, 0.05, 3e-3, 3e-3),
+    "saturation.w_pm": _TERM_WEIGHT,
+    "saturation.w_id": _TERM_WEIGHT,
+    "saturation.w_rel": _TERM_WEIGHT,
+    "saturation.w_thrust": _TERM_WEIGHT,
+    # one-parameter effects (the effect's own bounds)
+    "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
+    "eddy_drag.c_eddy": (*_eb("eddy_drag", "c_eddy"), 10.0, 50.0),
+    # parameter error: factors on C1..C4 (C4, a small term, may be off by more)
+    "parameter_error.k_C1": _FACTOR,
+    "parameter_error.k_C2": _FACTOR,
+    "parameter_error.k_C3": _FACTOR,
+    "parameter_error.k_C4": (0.0, 5.0, 1.0, 0.5),
+}
+
+
+def _free(*keys: str) -> tuple[Free, ...]:
+    """The :class:`Free` of each key of :data:`_FREE`, in the order given (the fit's vector order)."""
+    return tuple(Free(key, *_FREE[key]) for key in keys)
+
+
 def library_specs() -> dict[str, CandidateSpec]:
     """The candidate library: one spec per effect of :mod:`maglev_ocp.effects`.
 
@@ -136,19 +199,11 @@ def library_specs() -> dict[str, CandidateSpec]:
     against a model calibrated on the same data it is absorbed by the
     calibration by construction.
     """
-    pi = math.pi
     specs = [
         CandidateSpec(
             "cogging",
             ("cogging",),
-            free=(
-                Free("p.xi0", 0.0, 50.0, 1.0, 4.0),
-                Free("p.ell", 1e-3, 0.03, 4e-3, 4e-3),
-                Free("cogging.h2", -2.0, 2.0, 0.05, 0.2),
-                Free("cogging.h3", -2.0, 2.0, 0.05, 0.2),
-                Free("cogging.phi2", -2 * pi, 2 * pi, 0.3, 1.0),
-                Free("cogging.phi3", -2 * pi, 2 * pi, 0.3, 1.0),
-            ),
+            free=_free("p.xi0", "p.ell", "cogging.h2", "cogging.h3", "cogging.phi2", "cogging.phi3"),
             fixed=(("cogging.h1", 0.0), ("cogging.power", 0.0), ("cogging.kn", 1.0)),
             ties=(("cogging.xi0", "p.xi0"), ("cogging.ell", "p.ell")),
             note=(
@@ -160,12 +215,7 @@ def library_specs() -> dict[str, CandidateSpec]:
         CandidateSpec(
             "friction",
             ("friction",),
-            free=(
-                Free("friction.coulomb_g", 0.0, 10.0, 0.05, 0.2),
-                Free("friction.coulomb_d", 0.0, 10.0, 0.05, 0.2),
-                Free("friction.viscous_g", 0.0, 100.0, 0.5, 1.0),
-                Free("friction.viscous_d", 0.0, 100.0, 0.5, 1.0),
-            ),
+            free=_free("friction.coulomb_g", "friction.coulomb_d", "friction.viscous_g", "friction.viscous_d"),
             fixed=(("friction.stribeck_g", 0.0), ("friction.stribeck_d", 0.0), ("friction.v_reg", 1e-3)),
             note=(
                 "Coulomb + viscous per axis; the Stribeck excess (below a few mm/s) and the sign "
@@ -175,12 +225,7 @@ def library_specs() -> dict[str, CandidateSpec]:
         CandidateSpec(
             "end_effect",
             ("end_effect",),
-            free=(
-                Free("end_effect.ripple", 0.0, 0.5, 0.02, 0.05),
-                Free("end_effect.ripple_phase", -2 * pi, 2 * pi, 0.3, 1.0),
-                Free("end_effect.d_edge", 0.0, 0.2, 0.04, 0.02),
-                Free("end_effect.edge_width", 1e-3, 0.05, 5e-3, 5e-3),
-            ),
+            free=_free("end_effect.ripple", "end_effect.ripple_phase", "end_effect.d_edge", "end_effect.edge_width"),
             note="thrust ripple with the pole pitch and loss of force at overhang, all four parameters",
         ),
         CandidateSpec(
@@ -197,33 +242,25 @@ def library_specs() -> dict[str, CandidateSpec]:
         CandidateSpec(
             "saturation",
             ("saturation",),
-            free=(
-                Free("saturation.loss_8mm", 0.0, 0.8, 0.05, 0.1),
-                Free("saturation.ell_sat", 5e-4, 0.05, 3e-3, 3e-3),
-            ),
+            free=_free("saturation.loss_8mm", "saturation.ell_sat"),
             note="gap-dependent loss of every magnetic force",
         ),
         CandidateSpec(
             "commutation_offset",
             ("commutation_offset",),
-            free=(Free("commutation_offset.delta", *_eb("commutation_offset", "delta"), 0.0, 0.05),),
+            free=_free("commutation_offset.delta"),
             note="dq-frame rotation of the motor currents",
         ),
         CandidateSpec(
             "eddy_drag",
             ("eddy_drag",),
-            free=(Free("eddy_drag.c_eddy", *_eb("eddy_drag", "c_eddy"), 10.0, 50.0),),
+            free=_free("eddy_drag.c_eddy"),
             note="drag proportional to B(g)^2 times the horizontal velocity",
         ),
         CandidateSpec(
             "parameter_error",
             ("parameter_error",),
-            free=(
-                Free("parameter_error.k_C1", 0.5, 2.0, 1.0, 0.05),
-                Free("parameter_error.k_C2", 0.5, 2.0, 1.0, 0.05),
-                Free("parameter_error.k_C3", 0.5, 2.0, 1.0, 0.05),
-                Free("parameter_error.k_C4", 0.0, 5.0, 1.0, 0.5),
-            ),
+            free=_free(*(f"parameter_error.k_C{i}" for i in range(1, 5))),
             fixed=(("parameter_error.k_Mh", 1.0), ("parameter_error.k_Mv", 1.0)),
             note=(
                 "factors on the C1..C4 terms; mass factors are not separable from them (a mass error "
@@ -264,34 +301,23 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
     lib = library_specs()
     out = {n: (s,) for n, s in lib.items()}
     harm = tuple(f for f in lib["cogging"].free if f.key.startswith("cogging."))
+    decay = _free("cogging.xi0", "cogging.ell", "cogging.power", "cogging.curv", "cogging.kn")
     out["cogging"] += (
         CandidateSpec(
             "cogging",
             ("cogging",),
-            free=(
-                Free("cogging.xi0", 0.0, 50.0, 1.0, 4.0),
-                Free("cogging.ell", 1e-3, 0.05, 4e-3, 4e-3),
-                Free("cogging.power", 0.0, 4.0, 0.0, 1.0),
-                Free("cogging.curv", -20.0, 20.0, 0.0, 2.0),
-                Free("cogging.kn", 0.0, 4.0, 1.0, 0.5),
-                *harm,
-            ),
+            free=(*decay, *harm),
             fixed=(("cogging.h1", 1.0),),
             note="decay free (exponential x power law x log-curvature), normal ratio kn and harmonics free",
             law="free decay",
         ),
     )
-    fr = lib["friction"]
+    stribeck = _free("friction.stribeck_g", "friction.stribeck_d", "friction.v_stribeck")
     out["friction"] += (
         CandidateSpec(
             "friction",
             ("friction",),
-            free=(
-                *fr.free,
-                Free("friction.stribeck_g", 0.0, 10.0, 0.05, 0.2),
-                Free("friction.stribeck_d", 0.0, 10.0, 0.05, 0.2),
-                Free("friction.v_stribeck", 5e-4, 0.05, 5e-3, 5e-3),
-            ),
+            free=(*lib["friction"].free, *stribeck),
             fixed=(("friction.v_reg", 1e-3),),
             note="Coulomb + viscous + Stribeck excess and velocity per axis (v_reg fixed at 1 mm/s)",
             law="stribeck",
@@ -300,6 +326,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
     sat = lib["saturation"].free
     w0 = (("saturation.w_pm", 1.0), ("saturation.w_id", 0.5), ("saturation.w_thrust", 0.5), ("saturation.w_rel", 0.0))
     w1 = (("saturation.w_pm", 0.0), ("saturation.w_id", 1.0), ("saturation.w_thrust", 1.0), ("saturation.w_rel", 1.0))
+    per_term = _free("saturation.w_pm", "saturation.w_id", "saturation.w_rel", "saturation.w_thrust")
     out["saturation"] += (
         CandidateSpec(
             "saturation", ("saturation",), sat, w0, note="saturation of the magnet field (B scaled)", law="field"
@@ -315,13 +342,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
         CandidateSpec(
             "saturation",
             ("saturation",),
-            free=(
-                sat[1],
-                Free("saturation.w_pm", -0.5, 0.8, 0.05, 0.1),
-                Free("saturation.w_id", -0.5, 0.8, 0.05, 0.1),
-                Free("saturation.w_rel", -0.5, 0.8, 0.05, 0.1),
-                Free("saturation.w_thrust", -0.5, 0.8, 0.05, 0.1),
-            ),
+            free=(sat[1], *per_term),
             fixed=(("saturation.loss_8mm", 1.0),),
             note="a free loss at g = 8 mm for each magnetic term (w_*), one decay length",
             law="per term",
@@ -331,11 +352,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
         CandidateSpec(
             "end_effect",
             ("end_effect",),
-            free=(
-                *lib["end_effect"].free,
-                Free("end_effect.edge_gain", 0.0, 5.0, 1.0, 0.5),
-                Free("end_effect.edge_quad", -20.0, 20.0, 0.0, 2.0),
-            ),
+            free=(*lib["end_effect"].free, *_free("end_effect.edge_gain", "end_effect.edge_quad")),
             note="thrust ripple and an overhang loss of free size and curvature",
             law="free profile",
         ),

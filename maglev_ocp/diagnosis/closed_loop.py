@@ -37,16 +37,17 @@ import functools
 import json
 import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
 
 from .. import constants as k
 from ..blocks import ControlOutput, Measurement, Reference
-from ..config import atomic_write_bytes, atomic_write_text
+from ..config import atomic_write_bytes, atomic_write_text, make_dir
 from ..effects import EFFECTS
 from ..errors import UserError
 from ..params import Params
@@ -57,6 +58,9 @@ from ..signals import PARAM_NAMES
 from .candidates import CandidateSpec, _accel_function, library_specs
 from .diagnose import DiagnoseSettings, diagnose
 from .generate import GeneratorSettings, generate_dataset
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 @functools.lru_cache(maxsize=32)
@@ -83,10 +87,28 @@ def _compensator(spec: CandidateSpec) -> ca.Function:
     )
 
 
-def _write_text_files(out: Path, doc: dict, title: str, table: str) -> None:
-    """``closed_loop.json`` (``doc``) and ``closed_loop.md`` (``title``, the text ``table``, the figure)."""
+def _pick(obj: Any, *names: str) -> dict[str, Any]:
+    """``{name: obj.name}`` for each of ``names``, in order."""
+    return {n: getattr(obj, n) for n in names}
+
+
+def _save_view(
+    out_dir: str | os.PathLike, doc: dict, title: str, table: str, figure: Callable[[], Figure | None]
+) -> Path:
+    """Write ``closed_loop.json``, ``closed_loop.md`` (``title`` over ``table``) and ``closed_loop.png``.
+
+    ``figure()`` draws the figure (None: there is none to draw).
+    """
+    out = make_dir(out_dir)
     atomic_write_text(out / "closed_loop.json", json.dumps(doc, indent=2, default=_jsonable))
     atomic_write_text(out / "closed_loop.md", f"# {title}\n\n```\n{table}\n```\n\n![closed loop](closed_loop.png)\n")
+    fig = figure()
+    if fig is not None:
+        import matplotlib.pyplot as plt
+
+        atomic_write_bytes(out / "closed_loop.png", fig)
+        plt.close(fig)
+    return out
 
 
 class EffectCompensation:
@@ -228,17 +250,15 @@ class ClosedLoopView:
 
     def save(self, out_dir: str | os.PathLike) -> Path:
         """Write ``closed_loop.json``, ``closed_loop.md`` and ``closed_loop.png``."""
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
         doc = {
-            "scenario": self.scenario,
-            "effect": self.effect,
-            "plant_effect": self.plant_effect,
-            "fitted": self.fitted,
+            **_pick(self, "scenario", "effect", "plant_effect", "fitted"),
             "runs": self.rows(),
             "metrics": self.metrics,
         }
-        _write_text_files(out, doc, "Closed-loop view", self.table())
+        return _save_view(out_dir, doc, "Closed-loop view", self.table(), self.figure)
+
+    def figure(self) -> Figure | None:
+        """Tracking error of every run (None without logs)."""
         if self.logs:
             import matplotlib.pyplot as plt
 
@@ -253,9 +273,8 @@ class ClosedLoopView:
             ax[0].legend(fontsize=8)
             ax[0].set_title(f"{self.scenario}: tracking error with and without {self.effect}")
             fig.tight_layout()
-            atomic_write_bytes(out / "closed_loop.png", fig)
-            plt.close(fig)
-        return out
+            return fig
+        return None
 
 
 def _jsonable(v):
@@ -446,18 +465,15 @@ class ReportClosedLoop:
 
     def save(self, out_dir: str | os.PathLike) -> Path:
         """Write ``closed_loop.json``, ``closed_loop.md`` and ``closed_loop.png``."""
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
         doc = {
-            "scenario": self.scenario,
-            "report": self.report,
-            "verdict": self.verdict,
-            "model": self.model,
+            **_pick(self, "scenario", "report", "verdict", "model"),
             "rms_vs_rig": self.rms,
-            "shrink": self.shrink,
-            "metrics": self.metrics,
+            **_pick(self, "shrink", "metrics"),
         }
-        _write_text_files(out, doc, "Closed loop: rig log vs the diagnosis's models", self.table())
+        return _save_view(out_dir, doc, "Closed loop: rig log vs the diagnosis's models", self.table(), self.figure)
+
+    def figure(self) -> Figure | None:
+        """Each compared signal of both simulations minus the rig log (None without logs)."""
         if self.logs:
             import matplotlib.pyplot as plt
 
@@ -474,9 +490,8 @@ class ReportClosedLoop:
             ax[-1].set_xlabel("time t [s]")
             ax[0].set_title(f"{self.scenario}: simulation minus rig log")
             fig.tight_layout()
-            atomic_write_bytes(out / "closed_loop.png", fig)
-            plt.close(fig)
-        return out
+            return fig
+        return None
 
 
 def closed_loop_from_report(

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..config import atomic_write_bytes, atomic_write_text
+from ..config import atomic_write_bytes, atomic_write_text, plain_data
 from ..params import NOMINAL
 from ..signals import label
 from .result import Diagnosis, report_json, summary_table
@@ -273,16 +273,11 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
             f"| {s.name} | {s.heldout_rms_before:.4g} | {s.heldout_rms_after:.4g} | {s.reduction:.1%} | "
             f"{s.closes:.0%} | {s.z:.1f} | {s.delta_bic:.0f} | {'**yes**' if s.selected else ''} |"
         )
-    for s in d.scores:
-        if s.selected:
-            md.append(
-                f"\nFitted `{s.name}` (± standard error): "
-                + ", ".join(
-                    f"{k} = {v:.4g}" + (f" ± {s.stderr[k]:.2g}" if s.stderr.get(k) is not None else "")
-                    for k, v in s.params.items()
-                )
-                + f". {s.note}."
-            )
+    md += [
+        f"\nFitted `{s.name}` (± standard error): {s.fitted_text(' = ', ' ± ')}. {s.note}."
+        for s in d.scores
+        if s.selected
+    ]
     if d.regions or d.remaining_regions:
         md.append("\n## Regions\n")
         md.append("| model | channel | g [mm] | d [mm] | band [Hz] | excess / floor | z |")
@@ -409,7 +404,9 @@ def write_model_files(d: Diagnosis, out_dir: str | os.PathLike) -> list[Path]:
         ("model.yaml", c.model_file, f"Augmented model ({c.label})"),
         ("baseline.yaml", c.baseline_file, "Baseline model"),
     ):
-        atomic_write_text(out / name, head.format(what=what, name=name) + yaml.safe_dump(_plain(data), sort_keys=False))
+        atomic_write_text(
+            out / name, head.format(what=what, name=name) + yaml.safe_dump(plain_data(data), sort_keys=False)
+        )
         written.append(out / name)
     # The augmented model's constants as a parameter file, for a controller's model (``--params``,
     # ``controller_params: {file: ...}``); its effects are in model.yaml.
@@ -417,17 +414,6 @@ def write_model_files(d: Diagnosis, out_dir: str | os.PathLike) -> list[Path]:
     NOMINAL.with_(**consts).save(out / "model_params.yaml")
     written.append(out / "model_params.yaml")
     return written
-
-
-def _plain(x):
-    """YAML-safe copy (numpy scalars to Python)."""
-    if isinstance(x, dict):
-        return {str(k): _plain(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
-    if isinstance(x, np.generic):
-        return x.item()
-    return x
 
 
 def write_report(d: Diagnosis, out_dir: str | os.PathLike, figures: bool = True) -> Path:

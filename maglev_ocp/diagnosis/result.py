@@ -447,15 +447,7 @@ def summary_table(d: Diagnosis) -> str:
             f"{s.name:<32} {s.heldout_rms_before:9.4g} {s.heldout_rms_after:9.4g} {s.reduction:9.1%} "
             f"{s.closes:7.0%} {s.z:7.1f} {s.delta_bic:8.0f}  {'*' if s.selected else ''}"
         )
-    for s in d.scores:
-        if s.selected:
-            lines.append(
-                f"  {s.name}: "
-                + ", ".join(
-                    f"{k}={v:.4g}" + (f"±{s.stderr[k]:.2g}" if s.stderr.get(k) is not None else "")
-                    for k, v in s.params.items()
-                )
-            )
+    lines += [f"  {s.name}: {s.fitted_text()}" for s in d.scores if s.selected]
     lines += _effects_lines(d)
     if d.regions:
         lines.append("")

@@ -51,7 +51,7 @@ import numpy as np
 from pydantic import Field
 from tqdm import tqdm
 
-from ..config import Strict, atomic_write_text
+from ..config import Strict, atomic_write_text, make_dir
 from ..effects import EFFECTS
 from ..params import NOMINAL, Params
 from ..plant import PlantConfig
@@ -378,22 +378,7 @@ class SelftestResult:
         for i, r in enumerate(rows):
             lines.append(f"{r:<{w}}" + "".join(f"{v:>6}" for v in m[i]))
         lines.append("columns: " + ", ".join(f"{_abbr(c)} = {c}" for c in cols))
-        s = self.summary()
-        lines += [
-            "",
-            f"right verdicts: {s['right_verdicts']:.1%} of {s['datasets']}",
-            f"effects claimed on 'none' datasets: {s['effects_claimed_on_none']} of {s['none_datasets']}",
-            f"localization accuracy: {s['localization_accuracy']:.1%}",
-        ]
-        if s["reduction_over_ideal_median"] is not None:
-            lines.append(
-                f"held-out reduction / ideal on right verdicts: median {s['reduction_over_ideal_median']:.2f}"
-                f", min {s['reduction_over_ideal_min']:.2f}, >= 0.7 in "
-                f"{s['reduction_at_least_70pct_of_ideal']:.0%}"
-            )
-        lines.append(
-            f"diagnosis time: median {s['diagnosis_seconds_median']:.1f} s, max {s['diagnosis_seconds_max']:.1f} s"
-        )
+        lines += ["", *_summary_lines(self.summary(), markdown=False)]
         return "\n".join(lines)
 
     def markdown(self) -> str:
@@ -402,29 +387,12 @@ class SelftestResult:
         md = ["| truth \\ verdict | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
         for i, r in enumerate(rows):
             md.append(f"| {r} | " + " | ".join(str(v) if v else "." for v in m[i]) + " |")
-        s = self.summary()
-        md += [
-            "",
-            f"- right verdicts: **{s['right_verdicts']:.1%}** of {s['datasets']} datasets",
-            f"- effects claimed on `none` datasets: **{s['effects_claimed_on_none']}** of {s['none_datasets']}",
-            f"- localization accuracy: {s['localization_accuracy']:.1%}",
-        ]
-        if s["reduction_over_ideal_median"] is not None:
-            md.append(
-                f"- held-out reduction / ideal reduction on right verdicts: median "
-                f"{s['reduction_over_ideal_median']:.2f}, min {s['reduction_over_ideal_min']:.2f}, "
-                f"at least 0.7 in {s['reduction_at_least_70pct_of_ideal']:.0%}"
-            )
-        md.append(
-            f"- diagnosis time per dataset: median {s['diagnosis_seconds_median']:.1f} s, "
-            f"max {s['diagnosis_seconds_max']:.1f} s"
-        )
+        md += ["", *_summary_lines(self.summary(), markdown=True)]
         return "\n".join(md)
 
     def save(self, out_dir: str | os.PathLike) -> Path:
         """Write ``selftest.json`` and ``selftest.md``."""
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+        out = make_dir(out_dir)
         doc = {
             "settings": self.settings.model_dump(),
             "summary": self.summary(),
@@ -438,6 +406,48 @@ class SelftestResult:
             out / "selftest.md", "# Blind self-check\n\n" + self.markdown() + "\n\n```\n" + self.table() + "\n```\n"
         )
         return out
+
+
+#: The summary's sentences over the keys of :meth:`SelfTestReport.summary`: ``(key that must not be
+#: None, text, Markdown)``, each a :meth:`str.format` template.
+_SUMMARY_SENTENCES: tuple[tuple[str | None, str, str], ...] = (
+    (
+        None,
+        "right verdicts: {right_verdicts:.1%} of {datasets}",
+        "- right verdicts: **{right_verdicts:.1%}** of {datasets} datasets",
+    ),
+    (
+        None,
+        "effects claimed on 'none' datasets: {effects_claimed_on_none} of {none_datasets}",
+        "- effects claimed on `none` datasets: **{effects_claimed_on_none}** of {none_datasets}",
+    ),
+    (
+        None,
+        "localization accuracy: {localization_accuracy:.1%}",
+        "- localization accuracy: {localization_accuracy:.1%}",
+    ),
+    (
+        "reduction_over_ideal_median",
+        "held-out reduction / ideal on right verdicts: median {reduction_over_ideal_median:.2f}, "
+        "min {reduction_over_ideal_min:.2f}, >= 0.7 in {reduction_at_least_70pct_of_ideal:.0%}",
+        "- held-out reduction / ideal reduction on right verdicts: median {reduction_over_ideal_median:.2f}, "
+        "min {reduction_over_ideal_min:.2f}, at least 0.7 in {reduction_at_least_70pct_of_ideal:.0%}",
+    ),
+    (
+        None,
+        "diagnosis time: median {diagnosis_seconds_median:.1f} s, max {diagnosis_seconds_max:.1f} s",
+        "- diagnosis time per dataset: median {diagnosis_seconds_median:.1f} s, max {diagnosis_seconds_max:.1f} s",
+    ),
+)
+
+
+def _summary_lines(s: dict, markdown: bool) -> list[str]:
+    """The summary ``s``'s sentences as text lines or Markdown bullets (see :data:`_SUMMARY_SENTENCES`)."""
+    return [
+        (md if markdown else text).format(**s)
+        for need, text, md in _SUMMARY_SENTENCES
+        if need is None or s[need] is not None
+    ]
 
 
 _ORDER = ["none", *LIBRARY, "unexplained"]

@@ -190,9 +190,16 @@ def autocorr_factor(r: np.ndarray, max_lag: int = 200) -> float:
     ac = np.fft.irfft(f * np.conj(f), nfft)[: min(max_lag, n - 1) + 1]
     if ac[0] <= 0:
         return 1.0
-    rho = ac / ac[0]
+    return geyer_factor(ac / ac[0])
+
+
+def geyer_factor(rho: np.ndarray) -> float:
+    """Variance inflation ``1 + 2 sum rho_k`` (at least 1) of the autocorrelation ``rho`` (``rho[0] = 1``).
+
+    The sum is truncated by Geyer's initial positive sequence: the pairs
+    ``rho[i] + rho[i+1]`` (odd ``i``) are summed while they stay positive.
+    """
     s = 0.0
-    # Geyer's initial positive sequence: sum pairs while they stay positive.
     for i in range(1, len(rho) - 1, 2):
         pair = rho[i] + rho[i + 1]
         if pair <= 0:
@@ -343,6 +350,7 @@ __all__ = [
     "filtered_acceleration",
     "gauss_newton_stderr",
     "gaussian_kernel",
+    "geyer_factor",
     "hac_stderr",
     "kaiser_kernel",
     "newey_west",

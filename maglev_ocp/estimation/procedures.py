@@ -367,18 +367,9 @@ class CoggingResult:
         return self.xi0 * np.exp(-(np.asarray(g, float) - k.g_cog_ref) / self.ell)
 
     def to_dict(self) -> dict:
-        """Plain data for JSON."""
-        return {
-            "eps": self.eps,
-            "C2_peak": self.C2_peak,
-            "C2_d0": self.C2_d0,
-            "d_peak": self.d_peak,
-            "per_gap": self.per_gap,
-            "xi0": self.xi0,
-            "ell": self.ell,
-            "equilibrium": self.equilibrium,
-            "warning": self.warning,
-        }
+        """Plain data for JSON (every field but ``npfisi``, under its own name)."""
+        keys = ("eps", "C2_peak", "C2_d0", "d_peak", "per_gap", "xi0", "ell", "equilibrium", "warning")
+        return {key: getattr(self, key) for key in keys}
 
     def table(self) -> str:
         """Markdown table of the peak cogging force by gap."""

@@ -28,7 +28,7 @@ import casadi as ca
 import numpy as np
 
 from .. import constants as k
-from ..config import atomic_write_bytes, atomic_write_text
+from ..config import atomic_write_bytes, atomic_write_text, make_dir
 from ..model import get_model, rk4
 from ..params import NOMINAL, Params
 
@@ -355,8 +355,7 @@ class TraverseBounds:
 
     def save(self, out_dir: str | os.PathLike) -> Path:
         """Write ``bounds.json``, ``bounds.txt`` and per gap ``min_time_g<mm>.{json,csv,png}``."""
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+        out = make_dir(out_dir)
         for r in self.results:
             r.save(out, stem=f"min_time_g{r.start[0] * 1e3:g}")
         atomic_write_text(out / "bounds.json", json.dumps([r.summary() for r in self.results], indent=2) + "\n")
