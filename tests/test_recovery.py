@@ -28,7 +28,7 @@ from benchmarks.diagnosed_recovery import (
 )
 from controllers.model_file import load_controller_model
 from maglev_ocp.config import dump_yaml
-from maglev_ocp.effects import EFFECTS, EffectSet
+from maglev_ocp.effects import EffectSet
 from maglev_ocp.plant import Plant
 from maglev_ocp.scenario import scenario_from_dict
 
