@@ -13,6 +13,9 @@ For each library effect (:data:`maglev_ocp.effects.EFFECTS`) set strong (:data:`
 4. steady and tracking RMS of each, and the recovered fraction ``(a - b) / (a - c)`` of the
    blind-to-true improvement; ``n/a`` where that improvement is below :data:`MIN_GAIN_M` (1 um).
 
+Beside them, an ablation (:data:`ABLATION`): the diagnosed effects on the nominal constants, which
+separates what the fitted law recovers from what the diagnosis's calibrated constants cost or add.
+
 Run::
 
     python -m benchmarks.diagnosed_recovery --out results/recovery            # all effects (~1 h)
@@ -30,7 +33,6 @@ import json
 import math
 import shutil
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
@@ -42,7 +44,7 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from maglev_ocp.cli import main as maglev  # noqa: E402
-from maglev_ocp.config import atomic_write_text, dump_yaml  # noqa: E402
+from maglev_ocp.config import atomic_write_text, dump_yaml, load_yaml  # noqa: E402
 from maglev_ocp.effects import EFFECTS  # noqa: E402
 from maglev_ocp.params import NOMINAL  # noqa: E402
 
@@ -79,6 +81,11 @@ TOUR: tuple[tuple[float, float, float], ...] = (
     (0.020, 0.000, 0.4),
 )
 MODELS: tuple[str, ...] = ("blind", "diagnosed", "true")
+#: Ablation run beside them: the diagnosed effects (and cogging law) on the nominal C1..C4, Mh, Mv
+#: (separates what the fitted law recovers from what the calibrated constants cost or add).
+ABLATION: str = "diagnosed_law"
+#: Constants the ablation takes from the nominal set.
+NOMINAL_KEYS: tuple[str, ...] = ("C1", "C2", "C3", "C4", "Mh", "Mv")
 CONTROLLERS: tuple[str, ...] = ("fl", "nmpc")
 
 
@@ -109,6 +116,17 @@ def true_model(effect: str) -> dict[str, Any]:
     return {**consts, "effects": {n: v for n, v in blk["effects"].items() if v.get("enabled")}}
 
 
+def law_only(model_file: dict[str, Any]) -> dict[str, Any]:
+    """A diagnosed plant file with :data:`NOMINAL_KEYS` set back to nominal (:data:`ABLATION`).
+
+    Its effects and its cogging law (``xi0``, ``ell``) are kept.
+    """
+    out = json.loads(json.dumps(model_file))
+    over = out.setdefault("mismatch", {}).setdefault("overrides", {})
+    over.update({n: float(getattr(NOMINAL, n)) for n in NOMINAL_KEYS})
+    return out
+
+
 def blind_model() -> dict[str, Any]:
     """The blind model: the nominal constants without cogging, no effects (where a diagnosis starts)."""
     consts = {n: float(getattr(NOMINAL, n)) for n in ("C1", "C2", "C3", "C4", "Mh", "Mv", "ell")}
@@ -119,13 +137,12 @@ def blind_model() -> dict[str, Any]:
 def generate_and_diagnose(effect: str, work: Path, seed: int, reuse: bool) -> tuple[Path, dict[str, Any]]:
     """Steps 1-2: ``maglev diagnose --generate``, then ``maglev diagnose`` with default settings.
 
-    Returns the diagnosed ``model.yaml`` and ``{"verdict", "seconds", "commands"}``.
+    Returns the diagnosed ``model.yaml`` and ``{"verdict", "commands"}``.
     """
     data, rep = work / effect / "dataset", work / effect / "diagnosis"
     gen = ["diagnose", "--generate", str(data), "--effect", effect, "--seed", str(seed), "--effect-param"]
     gen += [f"{kk}={v!r}" for kk, v in STRONG[effect].items()]
     diag = ["diagnose", str(data), "--out", str(rep), "--no-figures"]
-    t0 = time.perf_counter()
     if not (reuse and (rep / "model.yaml").is_file()):
         for args in (gen, diag):
             if maglev(args) != 0:
@@ -133,7 +150,6 @@ def generate_and_diagnose(effect: str, work: Path, seed: int, reuse: bool) -> tu
     report = json.loads((rep / "report.json").read_text())
     return rep / "model.yaml", {
         "verdict": verdict_text(report),
-        "seconds": round(time.perf_counter() - t0, 1),
         "commands": [f"maglev {' '.join(a)}" for a in (gen, diag)],
     }
 
@@ -194,14 +210,15 @@ def run_effect(effect: str, work: Path, seed: int, reuse: bool, backend: str, ba
     diagnosed, info = generate_and_diagnose(effect, work, seed, reuse)
     mdir = work / effect / "models"
     mdir.mkdir(parents=True, exist_ok=True)
-    files = {"blind": mdir / "blind.yaml", "diagnosed": mdir / "diagnosed.yaml", "true": mdir / "true.yaml"}
+    files = {m: mdir / f"{m}.yaml" for m in (*MODELS, ABLATION)}
     dump_yaml(files["blind"], blind_model())
     dump_yaml(files["true"], true_model(effect))
     shutil.copyfile(diagnosed, files["diagnosed"])
+    dump_yaml(files[ABLATION], law_only(load_yaml(diagnosed)))
     row: dict[str, Any] = {"effect": effect, "strong": STRONG[effect], **info, "controllers": {}}
     for ctype in CONTROLLERS:
         res: dict[str, Any] = {}
-        for model in MODELS:
+        for model in (*MODELS, ABLATION):
             r = run_scenario(tour_scenario(effect, ctype, files[model], backend=backend), progress=False, figures=False)
             m = r.metrics
             res[model] = {
@@ -215,6 +232,7 @@ def run_effect(effect: str, work: Path, seed: int, reuse: bool, backend: str, ba
         for metric in ("steady_m", "tracking_m"):
             b, d, t = (res[x][metric] for x in MODELS)
             res[f"recovered_{metric[:-2]}"] = recovered(b, d, t)
+            res[f"recovered_{metric[:-2]}_{ABLATION}"] = recovered(b, res[ABLATION][metric], t)
         row["controllers"][ctype] = res
     return row
 
@@ -270,9 +288,20 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
         f"Scored cells (improvement > {MIN_GAIN_M * 1e6:g} um): {len(scored)}; at or above "
         f"{TARGET_FRACTION * 100:.0f} %: {len(scored) - len(short)}; below: {', '.join(short) or 'none'}.",
         "",
-        "Commands of each row (datasets and reports under the work folder):",
+        "Ablation: the diagnosed effects (and cogging law) on the nominal constants "
+        f"({', '.join(NOMINAL_KEYS)}), i.e. what the fitted law alone recovers:",
         "",
+        "| effect | ctrl | steady | recovered | tracking | recovered |",
+        "|---|---|---|---|---|---|",
     ]
+    for r in rows:
+        for ctype, res in r["controllers"].items():
+            ab = res[ABLATION]
+            lines.append(
+                f"| {r['effect']} | {ctype} | {_um(ab['steady_m'])} | {_frac(res[f'recovered_steady_{ABLATION}'])} "
+                f"| {_um(ab['tracking_m'])} | {_frac(res[f'recovered_tracking_{ABLATION}'])} |"
+            )
+    lines += ["", "Commands of each row (datasets and reports under the work folder):", ""]
     for r in rows:
         lines.append(f"- {r['effect']}: `{r['commands'][0]}`; `{r['commands'][1]}`")
     return "\n".join(lines) + "\n"
@@ -291,7 +320,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(a.out)
     work = Path(a.work) if a.work else out / "work"
     rows = []
-    with tqdm(total=len(a.effects) * len(CONTROLLERS) * len(MODELS), desc="tours", unit="run") as bar:
+    with tqdm(total=len(a.effects) * len(CONTROLLERS) * (len(MODELS) + 1), desc="tours", unit="run") as bar:
         for eff in a.effects:
             rows.append(run_effect(eff, work, a.seed, a.reuse, a.backend, bar))
     command = "python -m benchmarks.diagnosed_recovery " + " ".join(argv if argv is not None else sys.argv[1:])

@@ -84,6 +84,7 @@ def test_diagnosed_commutation_offset_recovers_the_true_models_gain(tmp_path):
     doc = json.loads((tmp_path / "recovery.json").read_text())
     (row,) = doc["rows"]
     assert row["verdict"] == "commutation_offset"
-    scored = [v for c in row["controllers"].values() for k, v in c.items() if k.startswith("recovered_") and v]
+    scored = [c[f"recovered_{kind}"] for c in row["controllers"].values() for kind in ("steady", "tracking")]
+    scored = [v for v in scored if v is not None]
     assert scored and min(scored) >= 0.7, row
     assert (tmp_path / "recovery.md").read_text().count("| commutation_offset |") == 2
