@@ -42,7 +42,7 @@ from collections import deque
 
 import casadi as ca
 import numpy as np
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
@@ -53,7 +53,7 @@ from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL, Params
 from maglev_ocp.signals import REF_FIELDS
 
-from .model_file import effect_delta_function, load_controller_model
+from .model_file import check_model_path, effect_delta_function, load_controller_model
 
 #: Order of the gain / limit vector fed to :func:`fl_law_function`.
 GAIN_FIELDS: tuple[str, ...] = ("kp_g", "kd_g", "ki_g", "kp_d", "kd_d", "ki_d", "i_axis_max", "i_amp_max", "Ts")
@@ -198,6 +198,11 @@ class FLSettings(Strict):
         0, ge=0, le=10, description="computation delay compensated by the predictor [control periods]"
     )
     model: str | None = Field(None, description="model file with constants and effects (controllers.model_file)")
+
+    @field_validator("model")
+    @classmethod
+    def _model_exists(cls, v: str | None) -> str | None:
+        return check_model_path(v)
 
     def gains(self, Ts: float = k.Ts) -> np.ndarray:
         """Gain / limit vector in the order of :data:`GAIN_FIELDS`."""

@@ -12,6 +12,13 @@ profiles' format (``{name: {enabled: true, <param>: value, ...}}``, see
       friction: {enabled: true, coulomb_d: 0.6, viscous_d: 2.0}
       commutation_offset: {enabled: true, angle: 0.05}
 
+A plant file (what ``maglev diagnose`` writes as ``model.yaml``, and the
+plant profiles) is a model file too: its constants are read from
+``mismatch.overrides`` (the random spread of ``mismatch.relative`` is the rig's,
+not the model's), its ``delay_samples`` (the loop's computation delay) adds to
+the delay, and the keys that only describe the rig (noise, quantization,
+limits, stops, integrator, disturbances) are ignored.
+
 The static effects (everything but the amplifier lag) enter the controller
 through :func:`effect_delta_function`: the effect library's own CasADi
 expressions (:meth:`maglev_ocp.effects.EffectSet.accel`, not retyped) minus
@@ -23,17 +30,33 @@ current. The amplifier lag's transport delay is reported as ``delay_samples``
 from __future__ import annotations
 
 import functools
+import math
 import os
 from dataclasses import dataclass, fields
 
 import casadi as ca
 import numpy as np
 
-from maglev_ocp.config import load_yaml
+from maglev_ocp.config import load_yaml, parse_model
 from maglev_ocp.effects import EFFECTS, EffectSet
 from maglev_ocp.errors import ConfigError
 from maglev_ocp.model import get_model
 from maglev_ocp.params import Params, ParamsFile
+
+#: Plant-file keys that describe the rig, not its model (ignored when a plant file is loaded as a model file).
+RIG_KEYS: tuple[str, ...] = (
+    "process_noise",
+    "current_noise",
+    "measurement_noise",
+    "quantization",
+    "current_limits",
+    "stops",
+    "lock",
+    "integrator",
+    "disturbances",
+)
+#: Keys of a plant file's ``mismatch`` block.
+MISMATCH_KEYS: tuple[str, ...] = ("relative", "distribution", "overrides")
 
 #: Effects with plant states: not part of the static prediction (the lag's delay is reported instead).
 DYNAMIC_EFFECTS: tuple[str, ...] = tuple(n for n, cls in EFFECTS.items() if cls.dynamic)
@@ -70,15 +93,15 @@ def load_controller_model(path: str | os.PathLike) -> ControllerModel:
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: a model file is a mapping of constants and 'effects'")
     effects = data.pop("effects", None) or {}
-    for key in ("name", "description", "profile"):
+    if not isinstance(effects, dict):
+        raise ConfigError(f"{path}: effects: a mapping of effect names to their laws")
+    for key in ("name", "description", "profile", *RIG_KEYS):
         data.pop(key, None)
-    try:
-        consts = ParamsFile.model_validate(data)
-    except Exception as err:  # pydantic's message, on one line
-        raise ConfigError(f"{path}: {str(err).splitlines()[0]} ({err})") from None
+    delay = _plant_delay(path, data.pop("delay_samples", 0))
+    data = {**_mismatch_constants(path, data.pop("mismatch", None)), **data}
+    consts = parse_model(ParamsFile, data, str(path))  # one line: file, key, what is allowed
     params = Params(**{f.name: getattr(consts, f.name) for f in fields(Params)})
     on: dict[str, dict[str, float]] = {}
-    delay = 0
     for name, block in effects.items():
         if name not in EFFECTS:
             raise ConfigError(f"{path}: effects.{name}: unknown effect; choose from {', '.join(EFFECTS)}")
@@ -86,7 +109,7 @@ def load_controller_model(path: str | os.PathLike) -> ControllerModel:
         if not block.pop("enabled", False):
             continue
         if name in DYNAMIC_EFFECTS:
-            delay = round(float(block.get("delay_samples", 0)))
+            delay += _plant_delay(f"{path}: effects.{name}", block.get("delay_samples", 0))
             continue
         on[name] = {k: float(v) for k, v in block.items()}
     try:
@@ -99,6 +122,39 @@ def load_controller_model(path: str | os.PathLike) -> ControllerModel:
     if bad:
         raise ConfigError(f"{path}: effects: {', '.join(bad)} outside the effect library's bounds")
     return ControllerModel(params, es.names, theta, delay, str(path))
+
+
+def check_model_path(path: str | None) -> str | None:
+    """Settings validator of a ``model:`` key: the file must exist (its content is checked when loaded)."""
+    if path is not None and not os.path.isfile(path):
+        raise ValueError(f"no such model file: {path!r} (a path from the working directory)")
+    return path
+
+
+def _plant_delay(where: str | os.PathLike, value: object) -> int:
+    """A delay in whole control periods (``delay_samples``), 0..10."""
+    try:
+        n = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ConfigError(f"{where}: delay_samples: not a number: {value!r}") from None
+    if not (math.isfinite(n) and n == round(n) and 0 <= n <= 10):
+        raise ConfigError(f"{where}: delay_samples: {value!r} is not a whole number of periods in 0..10")
+    return int(n)
+
+
+def _mismatch_constants(path: str | os.PathLike, block: object) -> dict:
+    """The constants of a plant file's ``mismatch`` block (its ``overrides``)."""
+    if block is None:
+        return {}
+    if not isinstance(block, dict):
+        raise ConfigError(f"{path}: mismatch: a mapping with {', '.join(MISMATCH_KEYS)}")
+    bad = sorted(set(block) - set(MISMATCH_KEYS))
+    if bad:
+        raise ConfigError(f"{path}: mismatch.{bad[0]}: unknown key; allowed: {', '.join(MISMATCH_KEYS)}")
+    over = block.get("overrides") or {}
+    if not isinstance(over, dict):
+        raise ConfigError(f"{path}: mismatch.overrides: a mapping of constants")
+    return dict(over)
 
 
 @functools.lru_cache(maxsize=32)
@@ -118,4 +174,11 @@ def effect_delta_function(names: tuple[str, ...]) -> ca.Function:
     return ca.Function("effect_delta", [x, u, p, theta], [delta], ["x", "u", "p", "theta"], ["delta"])
 
 
-__all__ = ["DYNAMIC_EFFECTS", "ControllerModel", "effect_delta_function", "load_controller_model"]
+__all__ = [
+    "DYNAMIC_EFFECTS",
+    "RIG_KEYS",
+    "ControllerModel",
+    "check_model_path",
+    "effect_delta_function",
+    "load_controller_model",
+]

@@ -24,8 +24,9 @@ Every key (SI units):
     (``controllers.nmpc.NMPCSettings``, ``controllers.fl.FLSettings``,
     ``controllers.pid.PIDSettings``); e.g. ``delay_samples`` (the loop's
     computation delay the controller predicts through, FL and NMPC) and, for
-    FL, ``model`` (a model file with constants and effects,
-    :mod:`controllers.model_file`; a path from the working directory).
+    FL and NMPC, ``model`` (a model file with constants and effects, e.g. the
+    ``model.yaml`` of ``maglev diagnose``, :mod:`controllers.model_file`; a
+    path from the working directory).
 ``controller_params``
     What the controller's model believes: ``file`` (a parameter YAML), single
     entries (``C1: 14.5``), and ``cogging: false`` for a cogging-blind model.

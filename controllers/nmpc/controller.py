@@ -35,6 +35,7 @@ from maglev_ocp.blocks import ControlOutput, Measurement, Reference
 from maglev_ocp.fastcall import BufferedFunction
 from maglev_ocp.params import NOMINAL, Params
 
+from ..model_file import load_controller_model
 from .layout import STATS_NAMES, STATUS_TEXT, StateLayout
 from .reference import HorizonReference
 from .settings import NMPCSettings
@@ -117,6 +118,14 @@ class NMPC:
         evaluators: StepEvaluators = casadi_evaluators,
     ):
         self.settings = settings or NMPCSettings()
+        # a model file (settings.model): its constants are the controller's parameters, its lag's transport
+        # delay (and a plant file's computation delay) adds to delay_samples; the step takes its effects
+        self.model = load_controller_model(self.settings.model) if self.settings.model else None
+        if self.model is not None:
+            params = self.model.params
+            if self.model.delay_samples:
+                total = self.settings.delay_samples + self.model.delay_samples
+                self.settings = NMPCSettings.model_validate({**self.settings.model_dump(), "delay_samples": total})
         self.params = params
         self.evaluators = evaluators
         self.backend: str = getattr(evaluators, "backend", "custom")

@@ -27,9 +27,15 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX) -> tuple[ca.SX, ca.SX, c
         the prediction uses (``dist``, or zero without ``offset_free``).
     """
     fresh = S["fresh"][0] > 0.5
+    # a model file's effects are part of the prediction over the period (as in FL): added to the
+    # disturbance for the update, taken out after it, so ``dist`` stays the residual disturbance
+    eff = d.effect_accel(S["xhat"], S["u_prev"], p) if d.effects else None
+    dist_in = S["dist"] if eff is None else S["dist"] + eff
     xo, do = observer_update(
-        S["xhat"], S["dist"], S["u_prev"], y, p, d.L_obs, d.Ts, disturbance=True, skip_nonfinite=True
+        S["xhat"], dist_in, S["u_prev"], y, p, d.L_obs, d.Ts, disturbance=True, skip_nonfinite=True
     )
+    if eff is not None:
+        do = do - eff
     xhat = ca.if_else(fresh, S["xhat"], xo)
     dist = ca.if_else(fresh, S["dist"], do)
     w = dist if d.settings.offset_free else ca.SX.zeros(2)

@@ -13,10 +13,12 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from maglev_ocp import constants as k
 from maglev_ocp.config import Strict
+
+from ..model_file import check_model_path
 
 
 class NMPCWeights(Strict):
@@ -153,6 +155,15 @@ class NMPCSettings(Strict):
         samples ahead through them and optimises from that predicted state
         against the reference ``N`` samples ahead (a state-space Smith
         predictor inside the step: nothing to retune).
+    model : str or None
+        A model file (:mod:`controllers.model_file`: constants plus fitted
+        effects, the plant files' format, e.g. the ``model.yaml`` of ``maglev
+        diagnose``). Its constants replace the controller's parameters; its
+        static effects enter the prediction model (inside the RK4), the
+        observer's prediction and the feed-forward currents (the step bakes
+        their parameters in, so the compiled C carries them too); an amplifier
+        lag's transport delay (and a plant file's ``delay_samples``) adds to
+        ``delay_samples`` (:class:`NMPC` does the sum).
     force_failure_steps : list of int
         Step indices at which the QP is poisoned with NaN (tests of the fallback).
     """
@@ -195,7 +206,13 @@ class NMPCSettings(Strict):
         "is applied at k + N; the step propagates its estimate N samples with the commands in flight and "
         "optimises from there (0: no delay model)",
     )
+    model: str | None = Field(None, description="model file with constants and effects (controllers.model_file)")
     force_failure_steps: list[int] = Field(default_factory=list)
+
+    @field_validator("model")
+    @classmethod
+    def _model_exists(cls, v: str | None) -> str | None:
+        return check_model_path(v)
 
     # ------------------------------------------------------------- planning defaults
     @staticmethod
