@@ -17,7 +17,7 @@ from maglev_ocp.blocks import Reference
 from maglev_ocp.signals import REF_FIELDS
 
 from .design import StepDesign
-from .planner import move_at, u_for_accel
+from .planner import feedforward_currents, move_at
 from .qp import project_disk
 
 N_REF = len(REF_FIELDS)  #: rows of the ``ref`` input
@@ -40,7 +40,7 @@ def fn_node(d: StepDesign) -> ca.Function:
         r, a = ca.vertcat(g_s + pg, vg, d_s + pd, vd), ca.vertcat(ag, ad)
     else:
         r, a = ca.vertcat(rc[0], rc[1], rc[3], rc[4]), ca.vertcat(rc[2], rc[5])
-    uref = project_disk(u_for_accel(r, a, p, w), s.current_limit, s.i_box)
+    uref = project_disk(feedforward_currents(r, a, p, w), s.current_limit, s.i_box)
     return ca.Function(
         "nmpc_node",
         [dt, plan, rc, p, w],
