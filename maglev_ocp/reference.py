@@ -62,7 +62,7 @@ class ReferenceSettings(Strict):
         ``current_fraction`` of the current limits
         (:func:`maglev_ocp.ocp.min_time.solve_min_time`, gap kept between the
         start and target gaps), a move at the limits for a controller that
-        handles them itself (the NMPC's default, see
+        handles them itself (an option of the NMPC, see
         :meth:`controllers.nmpc.NMPCSettings.reference_defaults`); a move the
         solver does not converge on falls back to ``trajectory``.
     current_fraction : float
@@ -76,6 +76,12 @@ class ReferenceSettings(Strict):
         planned feedforward may use, when it should differ from
         ``current_fraction`` (which then bounds the amplitude only): a move that
         saturates ``i_d`` leaves the open-loop unstable gap axis no feedback.
+    i_d_fraction : float or None
+        Fraction of the ``i_d`` axis limit the planned feedforward may use, when
+        it should differ from the ``i_q`` axis's (``axis_fraction``, else
+        ``current_fraction``): ``i_d`` holds the open-loop unstable gap, whose
+        feedback needs headroom when a fast gap move drives ``i_d`` to its limit,
+        while the thrust's ``i_q`` is only bounded by the amplitude.
     gap_timing : {"with_d", "free"}
         ``with_d``: both axes share the move's duration (a straight line in the
         ``(g, d)`` plane); ``free``: the gap changes in a part of the move (a
@@ -91,12 +97,18 @@ class ReferenceSettings(Strict):
     current_fraction: float = Field(0.85, gt=0.05, le=1.0)
     ramp_fraction: float = Field(0.05, ge=0.0, le=0.25)
     axis_fraction: float | None = Field(None, gt=0.05, le=1.0)
+    i_d_fraction: float | None = Field(None, gt=0.05, le=1.0)
     gap_timing: Literal["with_d", "free"] = "with_d"
 
     @property
     def axis_limit_fraction(self) -> float:
         """Fraction of the per-axis limit: ``axis_fraction``, else ``current_fraction``."""
         return self.current_fraction if self.axis_fraction is None else self.axis_fraction
+
+    @property
+    def i_d_limit_fraction(self) -> float:
+        """Fraction of the ``i_d`` axis limit: ``i_d_fraction``, else :attr:`axis_limit_fraction`."""
+        return self.axis_limit_fraction if self.i_d_fraction is None else self.i_d_fraction
 
 
 #: Shares of the move's duration the gap may take with ``gap_timing: free`` (the fastest move is kept).
@@ -339,9 +351,11 @@ def plan_min_time_move(
     return plan_move(a, b, params, settings, t0=t0)
 
 
-def _limits_ok(samples: np.ndarray, params: Params, fraction: float, i_axis: float, i_amp: float) -> bool:
-    """Do the model-inverse currents along ``samples`` (rows of :meth:`Move.sample`) fit the limits?"""
+def _limits_ok(samples: np.ndarray, params: Params, lim_axes: np.ndarray, lim_amp: float) -> bool:
+    """Do the model-inverse currents along ``samples`` (rows of :meth:`Move.sample`) fit the limits?
 
+    ``lim_axes``: bounds of ``|i_q|`` and ``|i_d|`` [A]; ``lim_amp``: bound of the amplitude [A].
+    """
     n = samples.shape[0]
     inv = _mapped_inverse(n)
     x = np.vstack([samples[:, 0], samples[:, 1], samples[:, 3], samples[:, 4]])
@@ -351,14 +365,13 @@ def _limits_ok(samples: np.ndarray, params: Params, fraction: float, i_axis: flo
     if np.any(np.asarray(unr) > 0) or not np.all(np.isfinite(u)):
         return False
     amp = np.hypot(u[0], u[1])
-    return bool(np.all(np.abs(u) <= fraction * i_axis) and np.all(amp <= fraction * i_amp))
+    return bool(np.all(np.abs(u) <= np.asarray(lim_axes)[:, None]) and np.all(amp <= lim_amp))
 
 
 def _limits_ok_st(samples: np.ndarray, params: Params, st: ReferenceSettings, i_axis: float, i_amp: float) -> bool:
-    """:func:`_limits_ok` with the settings' fractions (``axis_fraction`` may bound the axes separately)."""
-    if st.axis_fraction is None:
-        return _limits_ok(samples, params, st.current_fraction, i_axis, i_amp)
-    return _limits_ok(samples, params, st.current_fraction, i_axis * st.axis_fraction / st.current_fraction, i_amp)
+    """:func:`_limits_ok` with the settings' fractions of the axis limit ``i_axis`` and the amplitude ``i_amp``."""
+    lim_axes = np.array([st.axis_limit_fraction, st.i_d_limit_fraction]) * i_axis
+    return _limits_ok(samples, params, lim_axes, st.current_fraction * i_amp)
 
 
 @functools.lru_cache(maxsize=8)
