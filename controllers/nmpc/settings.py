@@ -139,7 +139,13 @@ class NMPCSettings(Strict):
     admm: ADMMOptions = Field(default_factory=ADMMOptions)
     osqp: OSQPOptions = Field(default_factory=OSQPOptions)
     soft_gap: SoftGap = Field(default_factory=SoftGap)
-    observer_eps: float = Field(3e-3, gt=1e-4, le=0.1, description="high-gain observer time constant [s]")
+    observer_eps: float = Field(
+        2e-3,
+        gt=1e-4,
+        le=0.1,
+        description="high-gain observer time constant [s]: how fast the disturbance estimate follows a change "
+        "(after a move the thrust-gain mismatch it held vanishes with i_q; 3 ms left a 30 um overshoot)",
+    )
     offset_free: bool = True
     use_cogging: bool = True
     reference: Literal["auto", "preview", "plan"] = "auto"
