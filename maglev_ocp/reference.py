@@ -36,6 +36,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
+import casadi as ca
 import numpy as np
 from pydantic import Field
 
@@ -61,7 +62,7 @@ class ReferenceSettings(Strict):
         ``current_fraction`` of the current limits
         (:func:`maglev_ocp.ocp.min_time.solve_min_time`, gap kept between the
         start and target gaps), a move at the limits for a controller that
-        handles them itself (the NMPC's default, see
+        handles them itself (an option of the NMPC, see
         :meth:`controllers.nmpc.NMPCSettings.reference_defaults`); a move the
         solver does not converge on falls back to ``trajectory``.
     current_fraction : float
@@ -75,6 +76,12 @@ class ReferenceSettings(Strict):
         planned feedforward may use, when it should differ from
         ``current_fraction`` (which then bounds the amplitude only): a move that
         saturates ``i_d`` leaves the open-loop unstable gap axis no feedback.
+    i_d_fraction : float or None
+        Fraction of the ``i_d`` axis limit the planned feedforward may use, when
+        it should differ from the ``i_q`` axis's (``axis_fraction``, else
+        ``current_fraction``): ``i_d`` holds the open-loop unstable gap, whose
+        feedback needs headroom when a fast gap move drives ``i_d`` to its limit,
+        while the thrust's ``i_q`` is only bounded by the amplitude.
     gap_timing : {"with_d", "free"}
         ``with_d``: both axes share the move's duration (a straight line in the
         ``(g, d)`` plane); ``free``: the gap changes in a part of the move (a
@@ -90,12 +97,18 @@ class ReferenceSettings(Strict):
     current_fraction: float = Field(0.85, gt=0.05, le=1.0)
     ramp_fraction: float = Field(0.05, ge=0.0, le=0.25)
     axis_fraction: float | None = Field(None, gt=0.05, le=1.0)
+    i_d_fraction: float | None = Field(None, gt=0.05, le=1.0)
     gap_timing: Literal["with_d", "free"] = "with_d"
 
     @property
     def axis_limit_fraction(self) -> float:
         """Fraction of the per-axis limit: ``axis_fraction``, else ``current_fraction``."""
         return self.current_fraction if self.axis_fraction is None else self.axis_fraction
+
+    @property
+    def i_d_limit_fraction(self) -> float:
+        """Fraction of the ``i_d`` axis limit: ``i_d_fraction``, else :attr:`axis_limit_fraction`."""
+        return self.axis_limit_fraction if self.i_d_fraction is None else self.i_d_fraction
 
 
 #: Shares of the move's duration the gap may take with ``gap_timing: free`` (the fastest move is kept).
@@ -104,58 +117,74 @@ GAP_SHARES: tuple[float, ...] = (1.0, 0.75, 0.55, 0.4)
 GAP_PLACES: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)
 
 
-@functools.lru_cache(maxsize=16)
-def _shape_knots(ramp: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Knots of the normalized acceleration profile on tau in [0, 1] (s(0)=0, s(1)=1).
-
-    Acceleration is piecewise linear through the knots (a zero-length
-    segment is a jump); returns ``(tau, acc, vel, pos)`` at the knots.
-    """
-    r, h = ramp, 0.5
-    tau = np.array([0.0, r, h - r, h, h, h + r, 1 - r, 1.0])
-    acc = np.array([0.0, 1.0, 1.0, 0.0, 0.0, -1.0, -1.0, 0.0])
-    if r == 0.0:  # pure bang-bang: jump to +1 at 0, to -1 at 1/2, to 0 at 1
-        acc = np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0])
-    vel, pos = np.zeros_like(tau), np.zeros_like(tau)
-    for i in range(1, len(tau)):
-        dt = tau[i] - tau[i - 1]
-        vel[i] = vel[i - 1] + 0.5 * (acc[i - 1] + acc[i]) * dt
-        pos[i] = pos[i - 1] + vel[i - 1] * dt + (2 * acc[i - 1] + acc[i]) * dt**2 / 6
-    scale = 1.0 / pos[-1]  # peak acceleration of the unit move over unit time
-    return tau, acc * scale, vel * scale, pos * scale
+def _backend(x):
+    """``(where, fmin, fmax, logic_or)`` of the array type of ``x``: CasADi's for SX/MX/DM, NumPy's otherwise."""
+    if isinstance(x, ca.SX | ca.MX | ca.DM):
+        return ca.if_else, ca.fmin, ca.fmax, ca.logic_or
+    return np.where, np.minimum, np.maximum, np.logical_or
 
 
-def unit_profile(tau: np.ndarray, ramp: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Normalized rest-to-rest profile ``(s, s', s'')`` at ``tau`` in [0, 1].
+def unit_profile(tau, ramp):
+    """Normalized jerk-limited rest-to-rest profile ``(s, s', s'')`` at ``tau`` in [0, 1].
+
+    The one jerk-limited (trapezoidal-acceleration) bang-bang profile of the
+    suite: the runner's :class:`Move` samples it with NumPy arrays, the NMPC's
+    internal planner (:mod:`controllers.nmpc.planner`) builds it from CasADi SX
+    (branch-free ``if_else``, so it is part of the generated C). The
+    acceleration ramps from 0 to its peak ``A = 4 / (1 - 2 ramp)`` over
+    ``ramp``, holds, ramps back to 0 at ``tau = 1/2``; the second half mirrors
+    the first (``s(tau) = 1 - s(1 - tau)``, ``s''(tau) = -s''(1 - tau)``).
+    Before the move it is at rest at 0, after it at rest at 1.
 
     Parameters
     ----------
-    tau : ndarray
-        Normalized time (clipped to [0, 1]).
-    ramp : float
-        Ramp fraction (see :class:`ReferenceSettings`).
+    tau : ndarray or casadi.SX
+        Normalized time ``t / T``.
+    ramp : float or casadi.SX
+        Ramp fraction (see :class:`ReferenceSettings`), ``0 <= ramp <= 1/4``
+        (0: pure bang-bang, the time-optimal profile of a double integrator).
+
+    Returns
+    -------
+    s, s', s'' : same type as ``tau``
+        Position, velocity and acceleration of the unit move in unit time.
     """
-    kt, ka, kv, kp = _shape_knots(float(ramp))
-    raw = np.asarray(tau, dtype=float)
-    tau = np.clip(raw, 0.0, 1.0)
-    # Segment of each tau among the segments of positive length (zero-length ones are jumps).
-    segs = np.flatnonzero(np.diff(kt) > 0)
-    idx = segs[np.clip(np.searchsorted(kt[segs], tau, side="right") - 1, 0, len(segs) - 1)]
-    dt_seg = kt[idx + 1] - kt[idx]
-    slope = (ka[idx + 1] - ka[idx]) / np.where(dt_seg > 0, dt_seg, 1.0)
-    dt = tau - kt[idx]
-    a = ka[idx] + slope * dt
-    v = kv[idx] + ka[idx] * dt + slope * dt**2 / 2
-    s = kp[idx] + kv[idx] * dt + ka[idx] * dt**2 / 2 + slope * dt**3 / 6
-    done = raw >= 1.0
-    a = np.where(raw < 0.0, 0.0, a)
-    s, v, a = np.where(done, 1.0, s), np.where(done, 0.0, v), np.where(done, 0.0, a)
-    return s, v, a
+    where, fmin, fmax, lor = _backend(tau)
+    if where is np.where:
+        tau = np.asarray(tau, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        first = tau < 0.5
+        u = fmax(fmin(where(first, tau, 1.0 - tau), 0.5), 0.0)  # time into the accelerating half
+        r = ramp
+        rs = fmax(r, 1e-300)  # ramp 0: the ramp branches are never taken, but must not divide by zero
+        A = 4.0 / (1.0 - 2.0 * r)  # peak: the half move covers A (1/2)(1/2 - r) / 2 = 1/2
+        # ramp up (u < r)
+        a1, v1, p1 = u / rs, u**2 / (2 * rs), u**3 / (6 * rs)
+        # constant acceleration (r <= u < 1/2 - r)
+        vr, pr = r / 2, r**2 / 6
+        e = u - r
+        a2, v2, p2 = 1.0 + 0 * u, vr + e, pr + vr * e + e**2 / 2
+        # ramp down (u >= 1/2 - r)
+        sc = 0.5 - 2 * r  # length of the constant phase
+        vc, pc = vr + sc, pr + vr * sc + sc**2 / 2
+        e = u - (0.5 - r)
+        a3 = 1.0 - e / rs
+        v3 = vc + e - e**2 / (2 * rs)
+        p3 = pc + vc * e + e**2 / 2 - e**3 / (6 * rs)
+        in1, in2 = u < r, u < 0.5 - r
+        phases = ((p1, p2, p3), (v1, v2, v3), (a1, a2, a3))
+        pos, vel, acc = (A * where(in1, x1, where(in2, x2, x3)) for x1, x2, x3 in phases)
+        before, done = tau < 0.0, tau >= 1.0
+        rest = lor(before, done)
+        s = where(done, 1.0, where(before, 0.0, where(first, pos, 1.0 - pos)))
+        vel = where(rest, 0.0, vel)
+        acc = where(rest, 0.0, where(first, acc, -acc))
+    return s, vel, acc
 
 
 def peak_acceleration_factor(ramp: float) -> float:
-    """Peak of ``s''`` of the unit move (4 for pure bang-bang)."""
-    return float(np.max(np.abs(_shape_knots(float(ramp))[1])))
+    """Peak of ``s''`` of the unit move, ``4 / (1 - 2 ramp)`` (4 for pure bang-bang)."""
+    return 4.0 / (1.0 - 2.0 * float(ramp))
 
 
 @dataclass(frozen=True)
@@ -322,9 +351,11 @@ def plan_min_time_move(
     return plan_move(a, b, params, settings, t0=t0)
 
 
-def _limits_ok(samples: np.ndarray, params: Params, fraction: float, i_axis: float, i_amp: float) -> bool:
-    """Do the model-inverse currents along ``samples`` (rows of :meth:`Move.sample`) fit the limits?"""
+def _limits_ok(samples: np.ndarray, params: Params, lim_axes: np.ndarray, lim_amp: float) -> bool:
+    """Do the model-inverse currents along ``samples`` (rows of :meth:`Move.sample`) fit the limits?
 
+    ``lim_axes``: bounds of ``|i_q|`` and ``|i_d|`` [A]; ``lim_amp``: bound of the amplitude [A].
+    """
     n = samples.shape[0]
     inv = _mapped_inverse(n)
     x = np.vstack([samples[:, 0], samples[:, 1], samples[:, 3], samples[:, 4]])
@@ -334,14 +365,13 @@ def _limits_ok(samples: np.ndarray, params: Params, fraction: float, i_axis: flo
     if np.any(np.asarray(unr) > 0) or not np.all(np.isfinite(u)):
         return False
     amp = np.hypot(u[0], u[1])
-    return bool(np.all(np.abs(u) <= fraction * i_axis) and np.all(amp <= fraction * i_amp))
+    return bool(np.all(np.abs(u) <= np.asarray(lim_axes)[:, None]) and np.all(amp <= lim_amp))
 
 
 def _limits_ok_st(samples: np.ndarray, params: Params, st: ReferenceSettings, i_axis: float, i_amp: float) -> bool:
-    """:func:`_limits_ok` with the settings' fractions (``axis_fraction`` may bound the axes separately)."""
-    if st.axis_fraction is None:
-        return _limits_ok(samples, params, st.current_fraction, i_axis, i_amp)
-    return _limits_ok(samples, params, st.current_fraction, i_axis * st.axis_fraction / st.current_fraction, i_amp)
+    """:func:`_limits_ok` with the settings' fractions of the axis limit ``i_axis`` and the amplitude ``i_amp``."""
+    lim_axes = np.array([st.axis_limit_fraction, st.i_d_limit_fraction]) * i_axis
+    return _limits_ok(samples, params, lim_axes, st.current_fraction * i_amp)
 
 
 @functools.lru_cache(maxsize=8)

@@ -9,15 +9,17 @@ import numpy as np
 import pytest
 
 from controllers.nmpc import NMPC, NMPCSettings, StepBuilder, casadi_evaluators
-from controllers.nmpc.planner import half_duration, move_at
+from controllers.nmpc.planner import feedforward_currents, half_duration, move_at
 from controllers.nmpc.qp import admm_iteration
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import Controller, Measurement, Reference
 from maglev_ocp.config import parse_model
 from maglev_ocp.errors import ConfigError
+from maglev_ocp.model import get_model
 from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.plant import Plant, PlantConfig
+from maglev_ocp.reference import Move
 from maglev_ocp.runner import run_scenario
 
 TOL = k.position_tolerance
@@ -139,6 +141,36 @@ def test_planner_profile_is_consistent():
     np.testing.assert_allclose(np.gradient(vel, dt)[5:-5], a[5:-5], atol=acc * 0.05)
     # time-optimal within the jerk ramp: duration 2h vs. pure bang-bang 2 sqrt(D/A)
     assert 2 * math.sqrt(dist / acc) < 2 * hh < 2 * math.sqrt(dist / acc) + 2 * jt
+
+
+def test_planner_move_is_the_suites_profile():
+    """The internal planner's move is the runner's jerk-limited Move (one profile, SX and NumPy)."""
+    t, D, h, tj = ca.SX.sym("t"), ca.SX.sym("D"), ca.SX.sym("h"), ca.SX.sym("tj")
+    f = ca.Function("f", [t, D, h, tj], [ca.vertcat(*move_at(t, D, h, tj))])
+    for hh, tje in ((0.04, 2e-3), (0.01, 0.005)):
+        ts = np.linspace(-0.005, 2 * hh + 0.005, 301)
+        sym = np.asarray(f.map(len(ts))(ts, -0.07, hh, tje))
+        ref = Move(0.0, 2 * hh, (0.02, 0.03), (0.02, -0.04), tje / (2 * hh)).sample(ts)
+        np.testing.assert_allclose(sym.T, ref[:, 3:] - [0.03, 0, 0], rtol=0, atol=1e-12 * np.abs(ref[:, 3:]).max())
+
+
+def test_feedforward_currents_invert_the_model_with_cogging():
+    """The NMPC's feed-forward currents give the demanded accelerations (minus the disturbance) exactly."""
+    m = get_model()
+    x, a, w = ca.SX.sym("x", 4), ca.SX.sym("a", 2), ca.SX.sym("w", 2)
+    p = NOMINAL.vector()
+    F = ca.Function("ff", [x, a, w], [feedforward_currents(x, a, p, w)])
+    rng = np.random.default_rng(np.random.SeedSequence(12))
+    worst, n = 0.0, 0
+    for _ in range(300):
+        xs = [rng.uniform(0.012, 0.028), rng.uniform(-0.5, 0.5), rng.uniform(-0.06, 0.06), rng.uniform(-2, 2)]
+        acc, ws = rng.uniform([-30, -60], [30, 60]), rng.uniform(-1, 1, 2)
+        u = np.asarray(F(xs, acc, ws)).ravel()
+        if np.hypot(*u) > k.i_amp_max:  # beyond the limits: not a reference the planner makes
+            continue
+        got = np.asarray(m.f(xs, u, p)).ravel()[[1, 3]] + ws
+        worst, n = max(worst, float(np.max(np.abs(got - acc)))), n + 1
+    assert n > 100 and worst < 1e-9  # 3 Newton steps (the former inverse) left up to 1e-3 m/s^2
 
 
 def test_admm_converges_to_the_qp_solution_with_active_disks():

@@ -91,6 +91,22 @@ def test_planned_currents_stay_within_the_fraction(frac):
     assert amp.max() >= 0.97 * frac * k.i_amp_max  # a shorter move would not fit
 
 
+def test_i_d_fraction_keeps_gap_headroom_while_the_thrust_uses_the_limits():
+    """``i_d_fraction`` bounds i_d alone: a gap step is as at that fraction, a traverse uses the amplitude."""
+    st = ReferenceSettings(current_fraction=0.97, i_d_fraction=0.85)
+    gap = plan_move((0.015, 0.0), (0.025, 0.0), NOMINAL, st)
+    u = _currents(gap)
+    assert np.abs(u[:, 1]).max() <= 0.85 * k.i_axis_max * (1 + 1e-6)
+    assert gap.T == pytest.approx(plan_move((0.015, 0.0), (0.025, 0.0), NOMINAL, ReferenceSettings()).T, rel=1e-3)
+    trav = plan_move((0.020, -0.05), (0.020, 0.05), NOMINAL, st)
+    u = _currents(trav)
+    assert np.hypot(u[:, 0], u[:, 1]).max() >= 0.96 * k.i_amp_max  # the thrust takes the amplitude ...
+    assert np.abs(u[:, 0]).max() > 0.85 * k.i_axis_max  # ... beyond what i_d may use
+    assert trav.T == pytest.approx(
+        plan_move((0.020, -0.05), (0.020, 0.05), NOMINAL, ReferenceSettings(current_fraction=0.97)).T, rel=1e-3
+    )
+
+
 def test_gap_moves_are_planned_too():
     mv = plan_move((0.015, 0.0), (0.025, 0.0), NOMINAL)
     assert 0.01 < mv.T < 0.2

@@ -18,7 +18,7 @@ import math
 import casadi as ca
 import numpy as np
 
-from .design import StepDesign
+from .design import StepDesign, fn_terminal_weight, terminal_weight
 from .layout import NU, NX
 from .qp import admm_iteration, admm_rho, chol_sx, condensed_qp
 from .riccati import factor_function, iteration_function
@@ -39,8 +39,8 @@ def fn_condense(d: StepDesign) -> ca.Function:
     Al = [As[:, j * NX : (j + 1) * NX] for j in range(N)]
     Bl = [Bs[:, j * NU : (j + 1) * NU] for j in range(N)]
     cl = [cs[:, j] for j in range(N)]
-    # Cost: sum_k |x_k - r_k|_Q (P at N) + |u_k - uref_k|_R.
-    Ws = [ca.DM(np.diag(s.Q))] * N + [ca.DM(d.P)]
+    # Cost: sum_k |x_k - r_k|_Q (P at N, scheduled at the terminal reference gap) + |u_k - uref_k|_R.
+    Ws = [ca.DM(np.diag(s.Q))] * N + [terminal_weight(d, Xr[0, N])]
     E = [Xb[:, j] - Xr[:, j] for j in range(N + 1)]
     qp = condensed_qp(Al, Bl, cl, dx0, E, Ws, s.gap_stages, [Xb[0, j] for j in range(N + 1)])
     H, q = qp["H"], qp["q"]
@@ -211,9 +211,10 @@ def admm_riccati(d: StepDesign, o: dict, fault):
     """Fixed-budget ADMM with the Riccati x-update (:mod:`controllers.nmpc.riccati`)."""
     s = d.settings
     N, nv, sg = s.horizon, s.horizon * NU, s.soft_gap
-    fac = factor_function(N, s.gap_stages, np.diag(s.Q), d.P, s.R, s.admm, sg.g_min, sg.g_max)
+    fac = factor_function(N, s.gap_stages, np.diag(s.Q), s.R, s.admm, sg.g_min, sg.g_max)
     it = iteration_function(N, s.gap_stages, s.current_limit, s.i_box, sg.w_linear, sg.w_quadratic, s.admm)
-    fac_in = [o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], fault]
+    P_N = fn_terminal_weight(d)(o["Xref"][0, N])
+    fac_in = [o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], fault, P_N]
     K, Sinv, PB, Pc, rho, qW, rbase, glb, gub, zg0 = fac(*fac_in, 1.0)
     # warm start: zero correction (the linearization point is the shifted plan), gap rows at the free
     # response, shifted duals

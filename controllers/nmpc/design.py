@@ -51,14 +51,17 @@ class StepDesign:
         Prediction ``F(x, u, p, w) -> x_next`` and ``FJ(x, u, p, w) -> (x_next, A, B)``.
     P, K : ndarray
         LQR terminal weight (times ``weights.terminal_scale``) and fallback
-        gain at the design gap (20 mm), on the controller's own parameters.
+        gain at the design gap (20 mm), on the controller's own parameters
+        (the step uses them without ``lqr_schedule``).
     L_obs : ndarray
         Observer gain (disturbance rows zeroed without ``offset_free``).
     K_grid : ndarray, shape (len(LQR_GAP_GRID), 2, 4)
         Fallback gains at the gaps of :data:`LQR_GAP_GRID` (the step interpolates
         them at the reference gap, :func:`scheduled_gain`).
     P_grid : ndarray, shape (len(LQR_GAP_GRID), 4, 4)
-        Terminal weights at the same gaps (times ``weights.terminal_scale``).
+        Terminal weights at the same gaps (times ``weights.terminal_scale``); the
+        step interpolates them at the terminal stage's reference gap
+        (:func:`terminal_weight`).
     effects : tuple of str
         Static effects of the model file (``settings.model``) in the prediction,
         the observer and the feed-forward (empty: the shared model alone).
@@ -227,6 +230,26 @@ def scheduled_gain(grid: np.ndarray, g: ca.SX) -> ca.SX:
     return out
 
 
+def terminal_weight(d: StepDesign, g: ca.SX) -> ca.SX:
+    """Terminal weight of the QP at the terminal stage's reference gap ``g`` (SX).
+
+    With ``lqr_schedule`` the DARE solutions on :data:`LQR_GAP_GRID` (the
+    controller's own parameters, times ``weights.terminal_scale``) interpolated
+    at ``g`` like the fallback gain (:func:`scheduled_gain`): the infinite-horizon
+    tail the terminal cost stands for is the one of the operating point the
+    horizon ends at. Without it, the constant 20 mm design ``d.P``.
+    """
+    if d.P_grid is None:
+        return ca.SX(ca.DM(d.P))
+    return scheduled_gain(d.P_grid, g)
+
+
+def fn_terminal_weight(d: StepDesign) -> ca.Function:
+    """``nmpc_terminal_weight(g) -> P`` (SX Function of :func:`terminal_weight`)."""
+    g = ca.SX.sym("g")
+    return ca.Function("nmpc_terminal_weight", [g], [terminal_weight(d, g)], ["g"], ["P"], {"cse": True})
+
+
 def observer_gain(s: NMPCSettings, Ts: float = k.Ts) -> np.ndarray:
     """Gain of the extended-state high-gain observer (:class:`~maglev_ocp.observers.HighGainObserver`)."""
     obs = HighGainObserver(NOMINAL, ObserverSettings(eps=s.observer_eps, disturbance=True), Ts)
@@ -282,10 +305,12 @@ __all__ = [
     "StepDesign",
     "effect_accel",
     "effect_substeps",
+    "fn_terminal_weight",
     "lqr_design",
     "make_design",
     "model_effects",
     "observer_gain",
     "prediction_model",
     "scheduled_gain",
+    "terminal_weight",
 ]

@@ -7,8 +7,10 @@ axes, synchronized to the same duration, at a fraction of the acceleration the
 current disk leaves for thrust at hover. All of it is CasADi SX, evaluated
 branch-free, so it is part of the generated C as well.
 
-Also here: the feed-forward currents of a reference (the model inverted for
-given accelerations by Newton's method on the shared model, not retyped), used
+The profile is the suite's one jerk-limited profile
+(:func:`maglev_ocp.reference.unit_profile`, written for NumPy and SX alike).
+Also here: the feed-forward currents of a reference (the shared model's
+inverse, :func:`maglev_ocp.model.inverse_expressions`, cogging included), used
 by the NMPC's input cost.
 """
 
@@ -16,7 +18,8 @@ from __future__ import annotations
 
 import casadi as ca
 
-from maglev_ocp.model import get_model
+from maglev_ocp.model import get_model, inverse_expressions
+from maglev_ocp.reference import unit_profile
 
 from .design import StepDesign
 
@@ -24,48 +27,10 @@ from .design import StepDesign
 MIN_MOVE_TIME = 4e-3
 
 
-def unit_half_profile(t: ca.SX, h: ca.SX, tj: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
-    """Accelerating half of a jerk-limited bang-bang move with unit peak acceleration.
-
-    Acceleration ramps from 0 to 1 over ``tj``, holds, ramps back to 0 at ``h``
-    (``h >= 2 tj``). Position at ``h`` is ``h (h - tj) / 2``.
-
-    Parameters
-    ----------
-    t : casadi.SX
-        Time since the start [s], clamped to ``[0, h]``.
-    h : casadi.SX
-        Duration of the half move [s].
-    tj : casadi.SX
-        Jerk (ramp) time [s], ``0 < tj <= h/2``.
-
-    Returns
-    -------
-    tuple of casadi.SX
-        Position, velocity and acceleration for unit peak acceleration.
-    """
-    t = ca.fmin(ca.fmax(t, 0), h)
-    # phase 1: ramp up
-    v1, p1 = tj / 2, tj**2 / 6
-    # phase 2: constant acceleration, length h - 2 tj
-    s2 = h - 2 * tj
-    v2, p2 = v1 + s2, p1 + v1 * s2 + s2**2 / 2
-    a_1, v_1, p_1 = t / tj, t**2 / (2 * tj), t**3 / (6 * tj)
-    s = t - tj
-    a_2, v_2, p_2 = ca.SX(1), v1 + s, p1 + v1 * s + s**2 / 2
-    s = t - (h - tj)
-    a_3 = 1 - s / tj
-    v_3 = v2 + s - s**2 / (2 * tj)
-    p_3 = p2 + v2 * s + s**2 / 2 - s**3 / (6 * tj)
-    in1, in2 = t < tj, t < h - tj
-    pick = lambda e1, e2, e3: ca.if_else(in1, e1, ca.if_else(in2, e2, e3))  # noqa: E731
-    return pick(p_1, p_2, p_3), pick(v_1, v_2, v_3), pick(a_1, a_2, a_3)
-
-
 def half_duration(dist: ca.SX, acc: ca.SX, tj: float) -> tuple[ca.SX, ca.SX]:
     """Half duration ``h`` and effective jerk time of a rest-to-rest move of ``|dist|`` at peak ``acc``.
 
-    Solves ``|dist| = acc h (h - tj)`` (from :func:`unit_half_profile`); moves
+    Solves ``|dist| = acc h (h - tj)`` (the half move of :func:`move_at` covers ``acc h (h - tj) / 2``); moves
     too short for a constant-acceleration phase use ``tj = h/2``.
     """
     D = ca.fabs(dist)
@@ -78,44 +43,25 @@ def half_duration(dist: ca.SX, acc: ca.SX, tj: float) -> tuple[ca.SX, ca.SX]:
 def move_at(t: ca.SX, dist: ca.SX, h: ca.SX, tj: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
     """Displacement, velocity and acceleration at time ``t`` of a move of ``dist`` in ``2 h``.
 
-    The peak acceleration follows from ``dist = A h (h - tj)``; the second half
-    mirrors the first (``p(t) = dist - p(2h - t)``, ``a(t) = -a(2h - t)``).
+    The suite's one jerk-limited profile (:func:`maglev_ocp.reference.unit_profile`)
+    over ``T = 2 h`` with ramp fraction ``tj / T``; its peak acceleration is
+    ``dist / (h (h - tj))``. At rest at ``dist`` from ``t = 2 h`` on.
     """
-    A = dist / (h * (h - tj))
-    first = t < h
-    tt = ca.if_else(first, t, 2 * h - t)
-    p, v, a = unit_half_profile(tt, h, tj)
-    pos = ca.if_else(first, A * p, dist - A * p)
-    vel = A * v
-    acc = ca.if_else(first, A * a, -A * a)
-    done = t >= 2 * h
-    return ca.if_else(done, dist, pos), ca.if_else(done, 0, vel), ca.if_else(done, 0, acc)
+    T = 2 * h
+    s, v, a = unit_profile(t / T, tj / T)
+    return dist * s, dist * v / T, dist * a / T**2
 
 
-def u_for_accel(x: ca.SX, acc: ca.SX, p: ca.SX, w: ca.SX, n_newton: int = 3) -> ca.SX:
-    """Currents that give accelerations ``acc = (g_ddot, d_ddot)`` at state ``x`` (model inversion).
+def feedforward_currents(x: ca.SX, acc: ca.SX, p: ca.SX, w: ca.SX) -> ca.SX:
+    """Currents ``(i_q, i_d)`` that give accelerations ``acc = (g_ddot, d_ddot)`` at state ``x``.
 
-    Newton's method on ``f(x, u, p) + w - acc = 0`` in ``u`` from the hover
-    currents ``u_eq``; the vertical equation is quadratic in ``i_d`` and the
-    horizontal one linear in ``i_q``, so three steps reach machine precision.
-    ``w`` is the acceleration disturbance ``(w_g, w_d)`` of the observer.
+    The shared model inverse (:func:`maglev_ocp.model.inverse_expressions`,
+    cogging included) for the model accelerations ``acc - w``, ``w`` the
+    observer's acceleration disturbance ``(w_g, w_d)``. An opening acceleration
+    beyond the field's reach gives the current of the largest one.
     """
-    m = get_model()
-    u = ca.SX.sym("u", 2)
-    xs, ps = ca.SX.sym("x", 4), ca.SX.sym("p", m.np_)
-    fx = m.f(xs, u, ps)
-    res = ca.vertcat(fx[1], fx[3])
-    F = ca.Function("acc_of_u", [xs, u, ps], [res, ca.jacobian(res, u)])
-    u0 = m.u_eq(x[0], x[2], p)
-    u_k = ca.if_else(ca.fabs(u0[0]) + ca.fabs(u0[1]) < 1e3, u0, ca.vertcat(0, 0))  # NaN: no hover
-    for _ in range(n_newton):
-        r, J = F(x, u_k, p)
-        r = r + w - acc
-        det = J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0]
-        du0 = (J[1, 1] * r[0] - J[0, 1] * r[1]) / det
-        du1 = (-J[1, 0] * r[0] + J[0, 0] * r[1]) / det
-        u_k = u_k - ca.vertcat(du0, du1)
-    return u_k
+    i_q, i_d, _ = inverse_expressions(x, acc - w, p)
+    return ca.vertcat(i_q, i_d)
 
 
 def thrust_accel_available(g: ca.SX, p: ca.SX, i_max: float, w_g: ca.SX, n_fix: int = 3) -> ca.SX:
@@ -131,23 +77,10 @@ def thrust_accel_available(g: ca.SX, p: ca.SX, i_max: float, w_g: ca.SX, n_fix: 
     u = None
     for _ in range(n_fix):
         # hover with the current i_q: vertical acceleration 0 (horizontal left free: i_q given)
-        u = _hover_id(x, iq, p, w_g)
+        u = inverse_expressions(x, ca.vertcat(-w_g, 0), p, i_q=iq)[1]
         iq = ca.sqrt(ca.fmax(i_max**2 - u**2, 0))
     _, B = m.linearization(x, ca.vertcat(iq, u), p)
     return ca.fabs(B[3, 0]) * iq
-
-
-def _hover_id(x: ca.SX, iq: ca.SX, p: ca.SX, w_g: ca.SX, n_newton: int = 3) -> ca.SX:
-    """``i_d`` that makes the vertical acceleration zero at ``x`` for a given ``i_q`` (Newton)."""
-    m = get_model()
-    i_d = m.u_eq(x[0], 0, p)[1]
-    i_d = ca.if_else(ca.fabs(i_d) < 1e3, i_d, 0)
-    for _ in range(n_newton):
-        u = ca.vertcat(iq, i_d)
-        a = m.f(x, u, p)[1] + w_g
-        _, B = m.linearization(x, u, p)
-        i_d = i_d - a / B[1, 1]
-    return i_d
 
 
 def plan_duration(d: StepDesign, g_s, d_s, g_t, d_t, p, w_g):

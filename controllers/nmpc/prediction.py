@@ -13,7 +13,7 @@ import casadi as ca
 
 from .design import StepDesign
 from .layout import NU, NX
-from .planner import u_for_accel
+from .planner import feedforward_currents
 
 
 def fn_stage(d: StepDesign) -> ca.Function:
@@ -77,18 +77,18 @@ def predict_through_delay(d: StepDesign, xhat: ca.SX, u_flight: ca.SX, p: ca.SX,
 def u_feedforward(d: StepDesign, x: ca.SX, acc: ca.SX, p: ca.SX, w: ca.SX, n_fix: int = 2) -> ca.SX:
     """Feed-forward currents for accelerations ``acc`` at state ``x`` on the prediction model.
 
-    The shared model's inversion (:func:`~.planner.u_for_accel`) with the
+    The shared model's inversion (:func:`~.planner.feedforward_currents`) with the
     model file's effects (``d.effects``) as part of the disturbance, evaluated
     at the currents of the previous pass (a fixed point: exact after one pass
     for effects of the state alone, such as friction and cogging; effects of the
     current, such as a commutation offset, converge geometrically). Without
-    effects: :func:`~.planner.u_for_accel` itself.
+    effects: :func:`~.planner.feedforward_currents` itself.
     """
-    u = u_for_accel(x, acc, p, w)
+    u = feedforward_currents(x, acc, p, w)
     if not d.effects:
         return u
     for _ in range(n_fix):
-        u = u_for_accel(x, acc, p, w + d.effect_accel(x, u, p))
+        u = feedforward_currents(x, acc, p, w + d.effect_accel(x, u, p))
     return u
 
 

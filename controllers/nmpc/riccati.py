@@ -220,7 +220,6 @@ def factor_function(
     N: int,
     gap_stages: tuple[int, ...],
     Q: np.ndarray,
-    P: np.ndarray,
     R: tuple[float, float],
     admm,
     gap_lo: float,
@@ -228,12 +227,14 @@ def factor_function(
 ) -> ca.Function:
     """Per-step preparation of the Riccati ADMM (MX of stage chains and SX Functions).
 
-    ``(As, Bs, cs, dx0, Xbar, Xref, Ubar, Uref, fault, rho_mult) -> (K, Sinv, PB, Pc, rho, qW, rbase, glb, gub,
-    zg0)``: penalty ``rho`` from the trace of the condensed Hessian (open-loop cost-to-go
-    recursion, the rule of :func:`controllers.nmpc.qp.admm_rho`) times ``rho_mult`` (the
-    adaptation of :func:`controllers.nmpc.admm.admm_riccati`, 1 at first), the Riccati
-    factorization for ``R + sigma + rho``, the constant linear terms, the soft gap
-    bounds and the free response of the gap rows (warm start of ``z_g``).
+    ``(As, Bs, cs, dx0, Xbar, Xref, Ubar, Uref, fault, P, rho_mult) -> (K, Sinv, PB, Pc, rho, qW,
+    rbase, glb, gub, zg0)``, ``P`` the terminal weight (an input: scheduled with the
+    operating point, :func:`controllers.nmpc.design.terminal_weight`): penalty ``rho``
+    from the trace of the condensed Hessian (open-loop cost-to-go recursion, the rule of
+    :func:`controllers.nmpc.qp.admm_rho`) times ``rho_mult`` (the adaptation of
+    :func:`controllers.nmpc.admm.admm_riccati`, 1 at first), the Riccati factorization
+    for ``R + sigma + rho``, the constant linear terms, the soft gap bounds and the free
+    response of the gap rows (warm start of ``z_g``).
 
     The recursions over the horizon are :func:`stage_chain` s of
     :func:`open_loop_stage`, :func:`riccati_stage` and :func:`free_stage`, so the
@@ -244,12 +245,10 @@ def factor_function(
     As, Bs, cs = ca.MX.sym("As", NX, NX * N), ca.MX.sym("Bs", NX, NU * N), ca.MX.sym("cs", NX, N)
     dx0, Xb, Xr = ca.MX.sym("dx0", NX), ca.MX.sym("Xbar", NX, N + 1), ca.MX.sym("Xref", NX, N + 1)
     Ub, Ur, fault = ca.MX.sym("Ubar", NU, N), ca.MX.sym("Uref", NU, N), ca.MX.sym("fault")
-    mult = ca.MX.sym("rho_mult")
-    Wc, Pt = ca.DM(Q), ca.DM(P)
+    Pt, mult = ca.MX.sym("P", NX, NX), ca.MX.sym("rho_mult")
+    Wc = ca.DM(Q)
     # trace of the condensed Hessian: N tr(R) + sum_j tr(B_j' S_{j+1} B_j), S_k = W_k + A_k' S_{k+1} A_k
-    (_, tr), _ = stage_chain(
-        open_loop_stage(), N, [ca.MX(Pt), ca.MX(N * float(sum(R)))], [As, Bs], [ca.MX(Wc)], reverse=True
-    )
+    (_, tr), _ = stage_chain(open_loop_stage(), N, [Pt, ca.MX(N * float(sum(R)))], [As, Bs], [ca.MX(Wc)], reverse=True)
     # penalty, input weight of the x-update (NaN on a forced failure, for tests), gap-row weight
     trs, fs, ms = _sx(1, 1, "trace"), _sx(1, 1, "fault"), _sx(1, 1, "rho_mult")
     rho = ca.fmin(ca.fmax(rho_from_trace(trs, NU * N, min(R), admm) * ms, 1e-3), 1e3)
@@ -267,17 +266,17 @@ def factor_function(
     e11[0, 0] = 1
     gset = set(gap_stages)
     Wq = ca.horzcat(*[Wc + gam * e11 if j in gset else ca.MX(Wc) for j in range(N)])
-    PN = Pt + gam * e11 if N in gset else ca.MX(Pt)
+    PN = Pt + gam * e11 if N in gset else Pt
     _, (K, Sinv, PB, Pc) = stage_chain(riccati_stage(), N, [PN], [As, Bs, cs, Wq], [Rt], reverse=True)
     # free response xi_{j+1} = A_j xi_j + c_j (its gap: warm start of z_g)
     _, (g_free,) = stage_chain(free_stage(), N, [dx0], [As, cs])
-    qW, rbase, glb, gub, zg0 = linear_terms_function(N, gap_stages, Q, P, R, gap_lo, gap_hi)(Xb, Xr, Ub, Ur, g_free)
+    qW, rbase, glb, gub, zg0 = linear_terms_function(N, gap_stages, Q, R, gap_lo, gap_hi)(Xb, Xr, Ub, Ur, g_free, Pt)
     outs = [K, Sinv, PB, Pc, rho2, qW, rbase, glb, gub, zg0]
     return ca.Function(
         "nmpc_ric_factor",
-        [As, Bs, cs, dx0, Xb, Xr, Ub, Ur, fault, mult],
+        [As, Bs, cs, dx0, Xb, Xr, Ub, Ur, fault, Pt, mult],
         outs,
-        ["As", "Bs", "cs", "dx0", "Xbar", "Xref", "Ubar", "Uref", "fault", "rho_mult"],
+        ["As", "Bs", "cs", "dx0", "Xbar", "Xref", "Ubar", "Uref", "fault", "P", "rho_mult"],
         ["K", "Sinv", "PB", "Pc", "rho", "qW", "rbase", "glb", "gub", "zg0"],
     )
 
@@ -293,20 +292,19 @@ def linear_terms_function(
     N: int,
     gap_stages: tuple[int, ...],
     Q: np.ndarray,
-    P: np.ndarray,
     R: tuple[float, float],
     gap_lo: float,
     gap_hi: float,
 ) -> ca.Function:
     """Constant linear terms of the x-update, soft gap bounds and free gap rows (SX).
 
-    ``(Xbar, Xref, Ubar, Uref, g_free) -> (qW, rbase, glb, gub, zg0)``; ``g_free``
-    (1 x N) is the free response's gap deviation at nodes ``1..N``.
+    ``(Xbar, Xref, Ubar, Uref, g_free, P) -> (qW, rbase, glb, gub, zg0)``; ``g_free``
+    (1 x N) is the free response's gap deviation at nodes ``1..N``, ``P`` the terminal weight.
     """
     ng = len(gap_stages)
     Xb, Xr = _sx(NX, N + 1, "Xbar"), _sx(NX, N + 1, "Xref")
-    Ub, Ur, gf = _sx(NU, N, "Ubar"), _sx(NU, N, "Uref"), _sx(1, N, "g_free")
-    W = [ca.DM(Q)] * N + [ca.DM(P)]
+    Ub, Ur, gf, P = _sx(NU, N, "Ubar"), _sx(NU, N, "Uref"), _sx(1, N, "g_free"), _sx(NX, NX, "P")
+    W = [ca.DM(Q)] * N + [P]
     qW = ca.horzcat(*[ca.mtimes(W[j], Xb[:, j] - Xr[:, j]) for j in range(N + 1)])
     rbase = ca.DM(R) * (Ub - Ur)
     glb = ca.vertcat(*[1e3 * (gap_lo - Xb[0, j]) for j in gap_stages]) if ng else ca.SX(0, 1)
@@ -314,9 +312,9 @@ def linear_terms_function(
     zg0 = ca.vertcat(*[1e3 * gf[j - 1] for j in gap_stages]) if ng else ca.SX(0, 1)
     return ca.Function(
         "nmpc_ric_linear",
-        [Xb, Xr, Ub, Ur, gf],
+        [Xb, Xr, Ub, Ur, gf, P],
         [qW, rbase, glb, gub, zg0],
-        ["Xbar", "Xref", "Ubar", "Uref", "g_free"],
+        ["Xbar", "Xref", "Ubar", "Uref", "g_free", "P"],
         ["qW", "rbase", "glb", "gub", "zg0"],
         {"cse": True},
     )

@@ -38,8 +38,8 @@ from .fallback import build_post
 from .layout import N_MEAS, NU, NX
 from .observer import observe
 from .osqp_solver import osqp_callback
-from .planner import advance_plan, plan_duration, u_for_accel
-from .prediction import fn_stage, predict_through_delay
+from .planner import advance_plan, plan_duration
+from .prediction import fn_stage, predict_through_delay, u_feedforward
 from .qp import project_disk
 from .reference import N_REF, fn_node
 from .settings import NMPCSettings
@@ -81,7 +81,8 @@ def build_init(d: StepDesign) -> ca.Function:
     xh = ca.vertcat(ms[0], 0, ms[1], 0)
     h, tj = plan_duration(d, ms[0], ms[1], tg[0], tg[1], ps, 0)
     pl = ca.vertcat(ms[0], ms[1], tg[0], tg[1], 0, h, tj)
-    u0 = project_disk(u_for_accel(xh, ca.vertcat(0, 0), ps, ca.SX.zeros(2)), s.current_limit, s.i_box)
+    # hover at rest on the prediction model (the model file's effects included)
+    u0 = project_disk(u_feedforward(d, xh, ca.vertcat(0, 0), ps, ca.SX.zeros(2)), s.current_limit, s.i_box)
     head = ca.Function("nmpc_init_head", [ms, tg, ps], [xh, pl, u0], {"cse": True})
 
     meas, ref, p = ca.MX.sym("meas", N_MEAS), ca.MX.sym("ref", N_REF, N + 1), ca.MX.sym("p", m.np_)
