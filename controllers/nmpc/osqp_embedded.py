@@ -84,6 +84,33 @@ def _compiler() -> str:
     raise RuntimeError("solver: osqp with osqp.embedded: true needs a C compiler (cc, gcc or clang; or set CC)")
 
 
+def osqp_setup(P, q, A, lo, hi, opts, polishing: bool):
+    """An ``osqp.OSQP`` set up on the NMPC's QP with the settings ``opts`` (``NMPCSettings.osqp``).
+
+    The one setup of both OSQP paths: the package solver of
+    :class:`~controllers.nmpc.osqp_solver.OSQPStage` and the placeholder
+    problem :func:`generate` hands to OSQP's code generator (warm starts on,
+    quiet; polishing only where the variant has it).
+    """
+    import osqp
+
+    m = osqp.OSQP()
+    m.setup(
+        P,
+        q,
+        A,
+        lo,
+        hi,
+        verbose=False,
+        eps_abs=opts.abs_tolerance,
+        eps_rel=opts.rel_tolerance,
+        max_iter=opts.max_iter,
+        polishing=polishing,
+        warm_starting=True,
+    )
+    return m
+
+
 def generate(stage, folder: Path) -> None:
     """Write OSQP's embedded code (mode 2) for ``stage``'s QP into ``folder``, plus :data:`GLUE_C`.
 
@@ -93,7 +120,6 @@ def generate(stage, folder: Path) -> None:
     rows, the polygon's normals); only the sparsity, the settings and the dimensions matter, every
     value is replaced at the first update.
     """
-    import osqp
 
     o = stage.opts
     N, nv, ng = stage.N, stage.nv, stage.ng
@@ -101,20 +127,7 @@ def generate(stage, folder: Path) -> None:
     px, ax = stage._values(np.eye(nv), np.zeros((ng, nv)), normals)
     P, A = stage._matrices_of(px, ax)
     lo, hi = stage._bounds(np.zeros(nv), -np.ones(ng), np.ones(ng), normals)
-    m = osqp.OSQP()
-    m.setup(
-        P,
-        np.zeros(nv + ng),
-        A,
-        lo,
-        hi,
-        verbose=False,
-        eps_abs=o.abs_tolerance,
-        eps_rel=o.rel_tolerance,
-        max_iter=o.max_iter,
-        polishing=False,
-        warm_starting=True,
-    )
+    m = osqp_setup(P, np.zeros(nv + ng), A, lo, hi, o, polishing=False)
     m.codegen(str(folder), parameters="matrices", extension_name=None, force_rewrite=True)
     (folder / "nmpc_osqp_glue.c").write_text(GLUE_C)
 

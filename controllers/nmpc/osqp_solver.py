@@ -31,6 +31,7 @@ import casadi as ca
 import numpy as np
 
 from .layout import NU
+from .osqp_embedded import osqp_setup
 from .settings import NMPCSettings
 
 
@@ -167,25 +168,10 @@ class OSQPStage:
     # ------------------------------------------------------------------ the solver (osqp package)
     def _load(self, q, lo, hi, px, ax) -> None:
         """A new QP: set up the solver on the first, else update all its data (warm start: the last solution)."""
-        import osqp
-
         if self._solver is None:
             o = self.opts
             P, A = self._matrices_of(px, ax)
-            self._solver = osqp.OSQP()
-            self._solver.setup(
-                P,
-                q,
-                A,
-                lo,
-                hi,
-                verbose=False,
-                eps_abs=o.abs_tolerance,
-                eps_rel=o.rel_tolerance,
-                max_iter=o.max_iter,
-                polishing=o.polishing,
-                warm_starting=True,
-            )
+            self._solver = osqp_setup(P, q, A, lo, hi, o, polishing=o.polishing)
         else:
             self._solver.update(q=q, l=lo, u=hi, Px=px, Ax=ax)
 
