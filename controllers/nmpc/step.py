@@ -136,23 +136,36 @@ def _front(d: StepDesign, st, meas, ref, p) -> dict:
     }
 
 
-def build_prep(d: StepDesign) -> ca.Function:
-    """Stages 1-3 and (dense path) condensing and KKT factorization, as one MX Function ``nmpc_prep``."""
-    s, lay, m = d.settings, d.layout, d.model
-    N = s.horizon
-    st, meas, ref, p = (
+def _front_inputs(d: StepDesign) -> tuple[tuple[ca.MX, ...], dict]:
+    """The step's inputs ``(state, meas, ref, p)`` as MX symbols and stages 1-3 on them (:func:`_front`)."""
+    lay, m, N = d.layout, d.model, d.settings.horizon
+    ins = (
         ca.MX.sym("state", lay.size),
         ca.MX.sym("meas", N_MEAS),
         ca.MX.sym("ref", N_REF, N + 1),
         ca.MX.sym("p", m.np_),
     )
-    o = _front(d, st, meas, ref, p)
+    return ins, _front(d, *ins)
+
+
+def _condensed(d: StepDesign, o: dict, fault: ca.MX) -> tuple:
+    """Dense condensing (:func:`~.admm.fn_condense`) of stage 3's linearization ``o``: ``(H, q, G, glb, gub)``.
+
+    ``fault`` is the measurement's fault flag (``meas[2]``).
+    """
+    return fn_condense(d)(
+        o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], o["u_prev"], fault
+    )
+
+
+def build_prep(d: StepDesign) -> ca.Function:
+    """Stages 1-3 and (dense path) condensing and KKT factorization, as one MX Function ``nmpc_prep``."""
+    s = d.settings
+    (st, meas, ref, p), o = _front_inputs(d)
     names = ["ubar", "y0", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w", "x0"]
     outs = [o[n] for n in names]
     if s.qp == "dense":
-        H, q, G, glb, gub = fn_condense(d)(
-            o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], o["u_prev"], meas[2]
-        )
+        H, q, G, glb, gub = _condensed(d, o, meas[2])
         Lc, dinv, rho = fn_kkt(d)(H, G)
         names = ["L", "dinv", "q", "G", "glb", "gub", "rho", *names]
         outs = [Lc, dinv, q, G, glb, gub, rho, *outs]
@@ -166,17 +179,8 @@ def build_qp_export(d: StepDesign) -> ca.Function:
     (identical to what the Riccati x-update iterates on), for the exact reference
     solution (:mod:`controllers.nmpc.exact_qp`) and the external QP solvers.
     """
-    lay, m, N = d.layout, d.model, d.settings.horizon
-    st, meas, ref, p = (
-        ca.MX.sym("state", lay.size),
-        ca.MX.sym("meas", N_MEAS),
-        ca.MX.sym("ref", N_REF, N + 1),
-        ca.MX.sym("p", m.np_),
-    )
-    o = _front(d, st, meas, ref, p)
-    H, q, G, glb, gub = fn_condense(d)(
-        o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], o["u_prev"], meas[2]
-    )
+    (st, meas, ref, p), o = _front_inputs(d)
+    H, q, G, glb, gub = _condensed(d, o, meas[2])
     return ca.Function(
         "nmpc_qp",
         [st, meas, ref, p],
@@ -189,9 +193,7 @@ def build_qp_export(d: StepDesign) -> ca.Function:
 def osqp_qp(d: StepDesign, o: dict, fault) -> tuple:
     """Stage 4 by OSQP (:mod:`.osqp_solver`): dense condensing, then the solver as a callback node."""
     s = d.settings
-    H, q, G, glb, gub = fn_condense(d)(
-        o["As"], o["Bs"], o["cs"], o["dx0"], o["Xbar"], o["Xref"], o["Ubar"], o["Uref"], o["u_prev"], fault
-    )
+    H, q, G, glb, gub = _condensed(d, o, fault)
     z, rp, rd, iters = osqp_callback(s)(H, q, G, glb, gub, o["ubar"])
     return z, ca.MX.zeros(s.horizon * NU + s.n_gap), {"rp": rp, "rd": rd, "iters": iters}
 
