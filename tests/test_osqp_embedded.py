@@ -52,14 +52,10 @@ def test_embedded_osqp_gives_the_package_currents_on_a_tour(tmp_path, monkeypatc
     step = ctrl.step_evaluator
     du = np.array([np.max(np.abs(np.asarray(step(*c[:4])[0]).ravel() - c[4])) for c in rec.calls])
     assert len(du) > 2000 and np.all(np.isfinite(du))
-    # Same QP, same cuts: equal to solver precision on almost every step. On the few saturated QPs after
-    # target switches (moves planned at 0.97 of the current limits) the unpolished embedded solver needs
-    # 1e4-1e5 iterations for eps 1e-8 or stops at its limit and the step falls back: measured median
-    # 2e-13 A, p99 7e-5 A, 11 of 2,300 steps above 1e-3 A, max 0.059 A.
-    assert np.median(du) <= 1e-9, float(np.median(du))
-    assert np.percentile(du, 99) <= 1e-3, float(np.percentile(du, 99))
-    assert np.mean(du > 1e-3) <= 0.01, int(np.sum(du > 1e-3))
-    assert du.max() <= 0.1, (float(du.max()), int(du.argmax()))
+    # Same QP, same cuts: equal to solver precision (measured max 7.9e-8 A). With moves planned at 0.97 of
+    # the limits (an option) a few saturated QPs after target switches need 1e4-1e5 unpolished iterations for
+    # eps 1e-8 and some fall back (11 of 2,300 steps above 1e-3 A there, max 0.059 A).
+    assert du.max() <= 1e-6, (float(du.max()), int(du.argmax()))
     # the currents move (target switches at full current): agreement is not a trivial constant
     u = np.array([c[4] for c in rec.calls])
     assert np.ptp(u[:, 0]) > 1.0
