@@ -561,7 +561,8 @@ def run_closed_loop_compiled(
     The PID regulators ``controller`` (its settings and believed parameters) run on their compiled step
     (``pid_step``); the plant's run is decided beforehand (:func:`maglev_ocp.loop.compiled.plant_inputs`:
     its next seed stream, pre-drawn noise, lock, limits, stops) and the reference is sampled in
-    Python at every step exactly as the Python loop asks for it. A failed step raises (as
+    Python at every step exactly as the Python loop asks for it (a reference with a ``sample(t)`` method,
+    rows ``(g, g_dot, g_ddot, d, d_dot, d_ddot)`` equal to its calls, is sampled at once). A failed step raises (as
     ``on_error="raise"``). ``progress`` and ``desc`` are accepted for the same signature (one C call
     of well under a second per run has no progress to show).
 
@@ -583,8 +584,11 @@ def run_closed_loop_compiled(
     if x0 is None:
         x0 = np.array([r0.g, 0.0, r0.d, 0.0])
     pi = plant_inputs(plant, n, np.asarray(x0, dtype=float), lock=lock)
-    rows = [r0] + [reference(i * Ts) for i in range(1, n)]  # the loop's reference(i * Ts) if i else r0
-    refs = np.array([(r.g, r.g_dot, r.g_ddot, r.d, r.d_dot, r.d_ddot) for r in rows], dtype=float)
+    if hasattr(reference, "sample"):  # vectorized, equal to the calls (e.g. SumOfSines.sample)
+        refs = np.asarray(reference.sample(np.arange(n) * Ts), dtype=float).reshape(n, 6)
+    else:  # the Python loop's reference(i * Ts) if i else r0
+        rows = [r0] + [reference(i * Ts) for i in range(1, n)]
+        refs = np.array([(r.g, r.g_dot, r.g_ddot, r.d, r.d_dot, r.d_ddot) for r in rows], dtype=float)
     cr = _pid_controller_run(controller.settings, controller.params, pi.y0, refs, cflags)
     r = run_compiled_loop(pi, plant, cr, timing=False)
     done = r["done"]
