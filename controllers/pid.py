@@ -175,7 +175,14 @@ class PIDController:
         u_eq, b_v, a21, L1 = self.schedule(ref.g, ref.d)
         r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
         out = pid_law(
-            NUMERIC, self.settings, self.Ts, x_hat.tolist(), (*u_eq.tolist(), b_v, a21, L1), r, self._int, self._ueq_good
+            NUMERIC,
+            self.settings,
+            self.Ts,
+            x_hat.tolist(),
+            (*u_eq.tolist(), b_v, a21, L1),
+            r,
+            self._int,
+            self._ueq_good,
         )
         u, z_next, ueq_good, hover_fallback = out.u, out.z, out.ueq_good, out.fallback
         self._int[:] = z_next

@@ -39,7 +39,7 @@ from .fl_fn import fl_functions, fl_state
 from .observer_fn import observer_step_function
 from .pid_fn import PID_FLAGS, PID_STATE, PID_STATE_SIZE, pid_functions
 
-#: Controllers the standalone harness (`maglev codegen`) generates (``pid_code`` serves the C backend and the compiled loop).
+#: Controllers the standalone harness (`maglev codegen`) generates (``pid_code`` serves backend: c and the C loop).
 KINDS: tuple[str, ...] = ("nmpc", "fl", "observer")
 
 

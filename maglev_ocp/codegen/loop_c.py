@@ -56,8 +56,8 @@ from controllers.nmpc.reference import resolve_mode
 from controllers.pid import PIDController, hover_error
 
 from .. import constants as k
-from ..effects import EffectSet
 from ..blocks import Reference
+from ..effects import EffectSet
 from ..errors import UserError
 from ..loop import run_closed_loop
 from ..loop.compiled import PlantInputs, compiled_trace, plant_inputs, stop_events
