@@ -44,7 +44,9 @@ def _assert_same_log(py, cc) -> float:
         diff = np.abs(a - b)[~np.isnan(a)]
         worst = max(worst, float(diff.max()) if diff.size else 0.0)
         assert worst <= TOL, (key, worst)
-    assert np.array_equal(py.columns["g"], cc.columns["g"]) and np.array_equal(py.columns["d"], cc.columns["d"])
+    for key in ("g", "d"):  # the readings bit for bit (no encoder count flipped; a zero reading is +0.0 in both)
+        a, b = np.asarray(py.columns[key]), np.asarray(cc.columns[key])
+        assert np.array_equal(a, b) and np.array_equal(np.signbit(a), np.signbit(b)), key
     return worst
 
 
@@ -110,8 +112,9 @@ def test_compiled_loop_equals_python_with_lock_and_stop_hits():
 
 
 @needs_cc
-def test_generate_dataset_compiled_equals_python():
-    """``maglev diagnose --generate``'s generator: the dataset is the same with loop: compiled and python."""
+def test_generate_dataset_compiled_equals_python(tmp_path):
+    """``maglev diagnose --generate``'s generator: the dataset is the same with loop: compiled and python
+    (to 1e-9 column by column, and the saved files byte for byte)."""
     cfg = _config(effects={"cogging": {"enabled": True}})
     small = {"n_runs": 3, "run_duration": 2.5}
     gp = generate_dataset(cfg, NOMINAL, seed=9, settings=GeneratorSettings(loop="python", **small))
@@ -121,6 +124,12 @@ def test_generate_dataset_compiled_equals_python():
     for a, b in zip(gp.dataset.runs, gc.dataset.runs, strict=True):
         assert a.file == b.file
         _assert_same_log(a, b)
+    gp.save(tmp_path / "python")
+    gc.save(tmp_path / "compiled")
+    files = sorted(p.name for p in (tmp_path / "python").iterdir())
+    assert len(files) == 4 and files == sorted(p.name for p in (tmp_path / "compiled").iterdir())
+    for name in files:
+        assert (tmp_path / "python" / name).read_bytes() == (tmp_path / "compiled" / name).read_bytes(), name
 
 
 def test_rig_loop_choice():
