@@ -112,6 +112,17 @@ def test_compiled_loop_equals_python_with_lock_and_stop_hits():
 
 
 @needs_cc
+def test_compiled_loop_equals_python_where_the_plant_limiter_acts():
+    """The rig's amplitude limit below the PID's own: the logged commands are the limiter's on both loops."""
+    ref = run_reference(0, GeneratorSettings(), np.random.SeedSequence(8))
+    cfg = _config(current_limits={"enabled": True, "axis": 8.0, "amplitude": 3.9})
+    py, cc = _both(cfg, 12, ref, 3.0)
+    amp = np.hypot(py.columns["i_q"], py.columns["i_d"])
+    assert np.sum(np.isclose(amp, 3.9, rtol=0, atol=1e-12)) > 10  # the limiter acted on many steps
+    _assert_same_log(py, cc)
+
+
+@needs_cc
 def test_generate_dataset_compiled_equals_python(tmp_path):
     """``maglev diagnose --generate``'s generator: the dataset is the same with loop: compiled and python
     (to 1e-9 column by column, and the saved files byte for byte)."""

@@ -595,7 +595,13 @@ def run_closed_loop_compiled(
     if r["error"]:
         raise RuntimeError(f"{file}: " + str(_error_text(r["error"], done, r["u_last"])))
     # the plant's log of the run (Plant.step's rows: reading, command after the limiter, true state)
-    cmd = np.array([plant.limit(u)[0] for u in r["U"]]).reshape(done, 2)
+    cmd = r["U"].copy()
+    fl = pi.flags
+    if fl["lim_on"]:  # Plant.limit where it can act (elsewhere it returns the command unchanged)
+        U = r["U"]
+        act = (np.abs(U) > fl["i_axis"]).any(axis=1) | (np.hypot(U[:, 0], U[:, 1]) > fl["i_amp"])
+        for i in np.nonzero(act)[0]:
+            cmd[i] = plant.limit(U[i])[0]
     plant._rows = np.column_stack([np.arange(done) * Ts, r["Y"], cmd, r["X"]])
     plant.events = stop_events(r["IMP"], done, Ts)
     rec = RigLogRecorder(n)
