@@ -156,3 +156,16 @@ def test_rig_loop_choice():
         rig_loop("fast", plant)
     if find_compiler() is not None:
         assert rig_loop("auto", plant) is run_closed_loop_compiled
+
+
+def test_rig_loop_without_a_compiler_falls_back_with_a_warning(monkeypatch, caplog):
+    """No C compiler: auto runs the Python loop and says so in the log; compiled is a clear error."""
+    import maglev_ocp.codegen.loop_c as loop_c
+
+    monkeypatch.setattr(loop_c, "find_compiler", lambda: None)
+    plant = Plant(_config(), NOMINAL, seed=1)
+    with caplog.at_level("WARNING", logger="maglev_ocp.codegen.loop_c"):
+        assert rig_loop("auto", plant) is run_closed_loop
+    assert any("no C compiler" in r.getMessage() for r in caplog.records)
+    with pytest.raises(UserError, match="no C compiler"):
+        rig_loop("compiled", plant)
