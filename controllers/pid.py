@@ -22,6 +22,9 @@ the output is clipped to ±8 A per axis and 8 A amplitude, the gap loop first.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -76,7 +79,7 @@ class PIDSettings(Strict):
     i_amp_max: float = Field(k.i_amp_max, gt=0, le=100)
 
 
-def _schedule_function() -> ca.Function:
+def schedule_function() -> ca.Function:
     """``(g, d, p) -> (u_eq, b_v, a21, L1)`` from the shared model's Functions (not retyped)."""
     m = get_model()
     g, d = ca.SX.sym("g"), ca.SX.sym("d")
@@ -86,6 +89,14 @@ def _schedule_function() -> ca.Function:
     A, B = m.linearization(ca.vertcat(g, 0, 0, 0), u0, p)
     return ca.Function(
         "pid_schedule", [g, d, p], [u_eq, B[1, 1], A[1, 0], -B[3, 0]], ["g", "d", "p"], ["u_eq", "b_v", "a21", "L1"]
+    )
+
+
+def hover_error(g: float, d: float) -> ConfigError:
+    """The error of a reset where the controller's model has no hover current (0 A would drop the mover)."""
+    return ConfigError(
+        f"pid: the controller's model has no hover current at g = {g * 1e3:.2f} mm, "
+        f"d = {d * 1e3:.2f} mm (seed eq. (8) has no real root); check controller_params"
     )
 
 
@@ -117,7 +128,7 @@ class PIDController:
         self.settings = settings or PIDSettings()
         self.Ts = float(Ts)
         self.observer = HighGainObserver(params, ObserverSettings(eps=self.settings.observer_eps), self.Ts)
-        self._sched = _schedule_function()
+        self._sched = schedule_function()
         # buffer evaluation: ~5 us instead of ~100 us for a numpy call
         self._in_p = params.vector()
         self._out = [np.zeros(2), np.zeros(1), np.zeros(1), np.zeros(1)]
@@ -144,21 +155,14 @@ class PIDController:
         self._int[:] = 0.0
         u_eq, *_ = self.schedule(float(y0.y[0]), float(y0.y[1]))
         if not np.all(np.isfinite(u_eq)):  # 0 A here would drop the mover: say so instead
-            raise ConfigError(
-                f"pid: the controller's model has no hover current at g = {float(y0.y[0]) * 1e3:.2f} mm, "
-                f"d = {float(y0.y[1]) * 1e3:.2f} mm (seed eq. (8) has no real root); check controller_params"
-            )
+            raise hover_error(float(y0.y[0]), float(y0.y[1]))
         self._ueq_good = (float(u_eq[0]), float(u_eq[1]))
         self._u_prev = self._clip(u_eq)[0]
 
     def _clip(self, u: np.ndarray) -> tuple[np.ndarray, bool, bool]:
         """Limit: each axis to ±i_axis_max, then i_q to what the amplitude leaves after i_d."""
-        s = self.settings
-        i_d = min(max(u[1], -s.i_axis_max), s.i_axis_max)
-        i_d = min(max(i_d, -s.i_amp_max), s.i_amp_max)
-        q_max = min(s.i_axis_max, math.sqrt(max(s.i_amp_max**2 - i_d**2, 0.0)))
-        i_q = min(max(u[0], -q_max), q_max)
-        return np.array([i_q, i_d]), i_q != u[0], i_d != u[1]
+        i_q, i_d, q_sat, d_sat = clip_currents(NUMERIC, self.settings, float(u[0]), float(u[1]))
+        return np.array([i_q, i_d]), q_sat, d_sat
 
     def step(self, y: Measurement, ref: Reference) -> ControlOutput:
         """Currents for the next period from reading ``y`` and reference ``ref``.
@@ -167,45 +171,159 @@ class PIDController:
         real root there), the last good hover current is held instead of 0 A and
         ``stats["fallback"] = 1`` (counted in the run's metrics).
         """
-        s = self.settings
         x_hat = self.observer.step(y.y, self._u_prev)
-        g_hat, g_dot_hat, d_hat, d_dot_hat = x_hat.tolist()
         u_eq, b_v, a21, L1 = self.schedule(ref.g, ref.d)
-        iq_eq, id_eq = u_eq.tolist()
-        hover_fallback = not (math.isfinite(iq_eq) and math.isfinite(id_eq))
-        if hover_fallback:  # the model cannot hover at this reference: hold the last good hover current
-            iq_eq, id_eq = self._ueq_good
-        else:
-            self._ueq_good = (iq_eq, id_eq)
-        ff = 1.0 if s.feedforward else 0.0
-        e_g, e_d = ref.g - g_hat, ref.d - d_hat
-        ed_g, ed_d = ref.g_dot - g_dot_hat, ref.d_dot - d_dot_hat
-        wg, wd = s.omega_g, s.omega_d
-        # gap: b_v di_d = (a21 + 3 w^2) e + 3 w e_dot + w^3 int(e) (+ g_ddot_ref)
-        i_d_pd = ((a21 + 3 * wg**2) * e_g + 3 * wg * ed_g + ff * ref.g_ddot) / b_v
-        # horizontal: d_ddot = -L1 i_q, so -L1 di_q = 3 w^2 e + 3 w e_dot + w^3 int(e) (+ d_ddot_ref)
-        i_q_pd = -(3 * wd**2 * e_d + 3 * wd * ed_d + ff * ref.d_ddot) / L1
-        kig, kid = wg**3 / b_v, -(wd**3) / L1
-        lim = s.integral_limit
-        if s.integral:
-            ig = min(max((self._int[0] + e_g * self.Ts) * kig, -lim), lim)  # integral current [A]
-            iq_int = min(max((self._int[1] + e_d * self.Ts) * kid, -lim), lim)
-        else:
-            ig = iq_int = 0.0
-        i_d = ff * id_eq + i_d_pd + ig if s.control_g else (s.i_d_fixed if s.i_d_fixed is not None else id_eq)
-        i_q = ff * iq_eq + i_q_pd + iq_int if s.control_d else s.i_q_fixed
-        u, q_sat, d_sat = self._clip(np.array([i_q, i_d]))
-        # anti-windup: keep an integrator only if it does not push further into saturation
-        if s.integral:
-            if not (d_sat and (ig - self._int[0] * kig) * (i_d - u[1]) > 0):
-                self._int[0] = ig / kig
-            if not (q_sat and (iq_int - self._int[1] * kid) * (i_q - u[0]) > 0):
-                self._int[1] = iq_int / kid
+        r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
+        out = pid_law(
+            NUMERIC,
+            self.settings,
+            self.Ts,
+            x_hat.tolist(),
+            (*u_eq.tolist(), b_v, a21, L1),
+            r,
+            self._int,
+            self._ueq_good,
+        )
+        u, z_next, ueq_good, hover_fallback = out.u, out.z, out.ueq_good, out.fallback
+        self._int[:] = z_next
+        self._ueq_good = ueq_good
+        u = np.array(u)
         self._u_prev = u
-        stats = {"i_q_eq": iq_eq, "i_d_eq": id_eq, "saturated": bool(q_sat or d_sat)}
+        stats = {"i_q_eq": ueq_good[0], "i_d_eq": ueq_good[1], "saturated": bool(out.q_sat or out.d_sat)}
         if hover_fallback:  # the column appears only in runs that needed it (NaN = 0 in the other rows)
             stats["fallback"] = 1
         return ControlOutput(u=u, x_hat=x_hat, stats=stats)
 
 
-__all__ = ["PIDController", "PIDSettings"]
+# ----------------------------------------------------------------------------- the law, numeric or symbolic
+@dataclass(frozen=True)
+class _Ops:
+    """Scalar operations the law is written in: Python floats (:data:`NUMERIC`) or CasADi SX (:data:`SYMBOLIC`).
+
+    The law (:func:`pid_law`) is written once in these operations, so the Python
+    controller and its CasADi step Function (``maglev_ocp.codegen.pid_fn``, the
+    ``backend: c`` code) evaluate the same expressions in the same order.
+    """
+
+    fmin: Callable[[Any, Any], Any]
+    fmax: Callable[[Any, Any], Any]
+    sqrt: Callable[[Any], Any]
+    where: Callable[[Any, Any, Any], Any]
+    ne: Callable[[Any, Any], Any]
+    gt0: Callable[[Any], Any]
+    both: Callable[[Any, Any], Any]
+    neg: Callable[[Any], Any]
+    finite: Callable[[Any, Any], Any]
+
+
+NUMERIC = _Ops(
+    fmin=min,
+    fmax=max,
+    sqrt=math.sqrt,
+    where=lambda c, a, b: a if c else b,
+    ne=lambda a, b: a != b,
+    gt0=lambda a: a > 0,
+    both=lambda a, b: a and b,
+    neg=lambda a: not a,
+    finite=lambda a, b: math.isfinite(a) and math.isfinite(b),
+)
+SYMBOLIC = _Ops(
+    fmin=ca.fmin,
+    fmax=ca.fmax,
+    sqrt=ca.sqrt,
+    where=ca.if_else,
+    ne=lambda a, b: a != b,
+    gt0=lambda a: a > 0,
+    both=ca.logic_and,
+    neg=ca.logic_not,
+    finite=lambda a, b: ca.fabs(a) + ca.fabs(b) < ca.inf,  # NaN compares false
+)
+
+
+def clip_currents(ops: _Ops, s: PIDSettings, u_q, u_d) -> tuple[Any, Any, Any, Any]:
+    """The PID's limits: ``(i_q, i_d, q_saturated, d_saturated)``, the gap axis first, then the amplitude."""
+    i_d = ops.fmin(ops.fmax(u_d, -s.i_axis_max), s.i_axis_max)
+    i_d = ops.fmin(ops.fmax(i_d, -s.i_amp_max), s.i_amp_max)
+    q_max = ops.fmin(s.i_axis_max, ops.sqrt(ops.fmax(s.i_amp_max**2 - i_d**2, 0.0)))
+    i_q = ops.fmin(ops.fmax(u_q, -q_max), q_max)
+    return i_q, i_d, ops.ne(i_q, u_q), ops.ne(i_d, u_d)
+
+
+@dataclass
+class LawOutput:
+    """What one period of :func:`pid_law` gives: currents, next integrals, hover current, flags."""
+
+    u: tuple[Any, Any]
+    z: tuple[Any, Any]
+    ueq_good: tuple[Any, Any]
+    fallback: Any
+    q_sat: Any
+    d_sat: Any
+
+
+def pid_law(ops: _Ops, s: PIDSettings, Ts: float, x_hat, sched, ref, z, ueq_good) -> LawOutput:
+    """One period of the two PID regulators after the observer update (numeric or symbolic, see :class:`_Ops`).
+
+    Parameters
+    ----------
+    ops : _Ops
+        :data:`NUMERIC` or :data:`SYMBOLIC`.
+    s : PIDSettings
+        Tuning (its switches are fixed at build time).
+    Ts : float
+        Control period [s].
+    x_hat : sequence (4,)
+        Observer estimate ``(g, g_dot, d, d_dot)``.
+    sched : sequence (5,)
+        ``(i_q,eq, i_d,eq, b_v, a21, L1)`` at the reference (:func:`schedule_function`).
+    ref : sequence (6,)
+        Reference ``(g, g_dot, g_ddot, d, d_dot, d_ddot)`` (``signals.REF_FIELDS`` order).
+    z : sequence (2,)
+        Integrals of the position errors (gap, horizontal) [m s].
+    ueq_good : sequence (2,)
+        Last finite hover current (held where the model cannot hover at the reference).
+    """
+    g_hat, g_dot_hat, d_hat, d_dot_hat = x_hat[0], x_hat[1], x_hat[2], x_hat[3]
+    iq_eq, id_eq, b_v, a21, L1 = sched[0], sched[1], sched[2], sched[3], sched[4]
+    r_g, r_g_dot, r_g_ddot, r_d, r_d_dot, r_d_ddot = ref[0], ref[1], ref[2], ref[3], ref[4], ref[5]
+    ok = ops.finite(iq_eq, id_eq)
+    hover_fallback = ops.neg(ok)
+    # the model cannot hover at this reference: hold the last good hover current
+    iq_eq, id_eq = ops.where(ok, iq_eq, ueq_good[0]), ops.where(ok, id_eq, ueq_good[1])
+    ff = 1.0 if s.feedforward else 0.0
+    e_g, e_d = r_g - g_hat, r_d - d_hat
+    ed_g, ed_d = r_g_dot - g_dot_hat, r_d_dot - d_dot_hat
+    wg, wd = s.omega_g, s.omega_d
+    # gap: b_v di_d = (a21 + 3 w^2) e + 3 w e_dot + w^3 int(e) (+ g_ddot_ref)
+    i_d_pd = ((a21 + 3 * wg**2) * e_g + 3 * wg * ed_g + ff * r_g_ddot) / b_v
+    # horizontal: d_ddot = -L1 i_q, so -L1 di_q = 3 w^2 e + 3 w e_dot + w^3 int(e) (+ d_ddot_ref)
+    i_q_pd = -(3 * wd**2 * e_d + 3 * wd * ed_d + ff * r_d_ddot) / L1
+    kig, kid = wg**3 / b_v, -(wd**3) / L1
+    lim = s.integral_limit
+    if s.integral:
+        ig = ops.fmin(ops.fmax((z[0] + e_g * Ts) * kig, -lim), lim)  # integral current [A]
+        iq_int = ops.fmin(ops.fmax((z[1] + e_d * Ts) * kid, -lim), lim)
+    else:
+        ig = iq_int = 0.0
+    i_d = ff * id_eq + i_d_pd + ig if s.control_g else (s.i_d_fixed if s.i_d_fixed is not None else id_eq)
+    i_q = ff * iq_eq + i_q_pd + iq_int if s.control_d else s.i_q_fixed
+    u_q, u_d, q_sat, d_sat = clip_currents(ops, s, i_q, i_d)
+    z_g, z_d = z[0], z[1]
+    # anti-windup: keep an integrator only if it does not push further into saturation
+    if s.integral:
+        z_g = ops.where(ops.both(d_sat, ops.gt0((ig - z[0] * kig) * (i_d - u_d))), z[0], ig / kig)
+        z_d = ops.where(ops.both(q_sat, ops.gt0((iq_int - z[1] * kid) * (i_q - u_q))), z[1], iq_int / kid)
+    return LawOutput((u_q, u_d), (z_g, z_d), (iq_eq, id_eq), hover_fallback, q_sat, d_sat)
+
+
+__all__ = [
+    "NUMERIC",
+    "SYMBOLIC",
+    "LawOutput",
+    "PIDController",
+    "PIDSettings",
+    "clip_currents",
+    "hover_error",
+    "pid_law",
+    "schedule_function",
+]

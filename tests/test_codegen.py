@@ -290,11 +290,12 @@ def test_bench_reports_every_controller_and_backend(tmp_path):
     sc = {**_scenario("fl"), "targets": [{"g": 0.02, "d": 0.0, "hold": 0.1}]}
     res = run_bench(sc, controllers=("fl", "pid"), warmup=10, cflags=TEST_CFLAGS, progress=False)
     d = res.to_dict()
-    assert set(d) == {"fl", "pid"} and d["pid"]["c"] is None
-    for b in ("python", "c"):
-        e = d["fl"][b]
-        assert e["n"] == 90 and 0 < e["median_us"] <= e["p99_us"] <= e["max_us"]
-    assert 0 < d["fl"]["c"]["kernel_median_us"] <= d["fl"]["c"]["median_us"]
+    assert set(d) == {"fl", "pid"}
+    for ct in ("fl", "pid"):
+        for b in ("python", "c"):
+            e = d[ct][b]
+            assert e["n"] == 90 and 0 < e["median_us"] <= e["p99_us"] <= e["max_us"]
+        assert 0 < d[ct]["c"]["kernel_median_us"] <= d[ct]["c"]["median_us"]
     assert 0 < d["fl"]["c"]["kernel_cpu_median_us"] <= d["fl"]["c"]["kernel_cpu_max_us"]
     assert "controller" in res.table() and res.save(tmp_path / "b.json").exists()
 
@@ -315,12 +316,18 @@ def test_runner_builds_backend_c_through_the_registered_evaluators():
     assert type(py) is NMPC and py.backend == "python"
 
 
-def test_pid_has_no_c_backend():
-    from maglev_ocp.codegen.backend import build_c_controller
+@needs_cc
+def test_pid_backend_c_is_the_compiled_pid():
+    """``backend: c`` of the PID: its whole step compiled (the law of controllers.pid, observer, schedule)."""
+    from controllers.pid import PIDController, PIDSettings
+    from maglev_ocp.codegen.backend import CompiledPID, build_c_controller
     from maglev_ocp.errors import UserError
 
-    with pytest.raises(UserError, match="not for 'pid'"):
-        build_c_controller("pid", None, NOMINAL)
+    ctrl = build_c_controller("pid", PIDSettings(omega_g=70.0), NOMINAL, cflags=TEST_CFLAGS, progress=False)
+    assert type(ctrl) is CompiledPID and isinstance(ctrl, PIDController) and ctrl.backend == "c"
+    assert ctrl.settings.omega_g == 70.0
+    with pytest.raises(UserError, match="not for 'lqr'"):
+        build_c_controller("lqr", None, NOMINAL)
 
 
 @pytest.mark.slow

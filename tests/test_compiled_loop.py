@@ -83,6 +83,16 @@ def test_fl_compiled_loop_equals_python_loop():
 
 
 @needs_cc
+@pytest.mark.parametrize("backend", ["c", "python"])
+def test_pid_compiled_loop_equals_python_loop(backend):
+    """The PID regulators' scenario on the compiled loop (pid_step) equals the Python loop with the Python PID
+    and with its backend: c."""
+    d = _scenario("pid")
+    d["controller"] = {"type": "pid", "backend": backend}
+    assert _compare(d) <= TOL
+
+
+@needs_cc
 @pytest.mark.parametrize(
     "extra",
     [

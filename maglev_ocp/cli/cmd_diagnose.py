@@ -76,6 +76,13 @@ def register(sub) -> None:
     p.add_argument(
         "--duration", type=float, default=10.0, metavar="S", help="generated datasets: seconds per run (default 10)"
     )
+    p.add_argument(
+        "--loop",
+        choices=("auto", "compiled", "python"),
+        default="auto",
+        help="generated datasets: closed loop of the runs: compiled (one C call per run, equal to the Python loop), "
+        "python, or auto (compiled where a C compiler is found, default)",
+    )
     p.add_argument("--keep-reports", action="store_true", help="self-check: write every dataset's report")
     p.add_argument(
         "--truths",
@@ -158,7 +165,7 @@ def _generator(args):
     if not 2 <= args.runs <= 100:
         raise UserError(f"--runs: {args.runs} is outside 2..100")
     check_range("--duration", args.duration, 2.0, 600.0, "s")
-    return GeneratorSettings(n_runs=args.runs, run_duration=args.duration)
+    return GeneratorSettings(n_runs=args.runs, run_duration=args.duration, loop=getattr(args, "loop", "auto"))
 
 
 def run(args: argparse.Namespace) -> int:

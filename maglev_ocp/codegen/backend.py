@@ -11,7 +11,8 @@ rig would run. There is one C path:
   Python glue around the call (reference input, statistics, timing) is the
   NMPC's own, so both backends feed identical inputs to the same Function and
   are timed the same way;
-* feedback linearization: :class:`CompiledFL` (observer and law in one compiled call).
+* feedback linearization: :class:`CompiledFL` (observer and law in one compiled call);
+* the PID regulators: :class:`CompiledPID` (observer, schedule and regulators in one compiled call).
 
 :func:`build_c_controller` is the runner's builder for ``backend: c``;
 :func:`register_c_backend` (called when :mod:`maglev_ocp.codegen` is imported)
@@ -34,6 +35,7 @@ import numpy as np
 
 from controllers.fl import FeedbackLinearization, law_stats
 from controllers.nmpc import NMPC, StepFunctions
+from controllers.pid import PIDController, hover_error
 
 from .. import constants as k
 from ..blocks import ControlOutput, Measurement, Reference
@@ -41,7 +43,7 @@ from ..errors import UserError
 from ..params import NOMINAL, Params
 from ..runner import register_backend
 from .build import BuildResult, build_cached
-from .functions import ControllerCode, fl_code, nmpc_code, observer_code
+from .functions import ControllerCode, fl_code, nmpc_code, observer_code, pid_code
 from .loader import CompiledFunction, CompiledLibrary
 from .sources import generate_sources
 from .templates import DEFAULT_CFLAGS
@@ -171,6 +173,55 @@ class CompiledFL(FeedbackLinearization):
         return ControlOutput(u=u, x_hat=xh.copy(), stats=stats)
 
 
+class CompiledPID(PIDController):
+    """:class:`controllers.pid.PIDController` whose whole step (observer + schedule + regulators) is compiled C."""
+
+    backend = "c"
+
+    def __init__(
+        self,
+        params: Params = NOMINAL,
+        settings=None,
+        Ts: float = k.Ts,
+        cflags: str | None = None,
+        progress: bool = True,
+    ):
+        super().__init__(params, settings, Ts)
+        if abs(Ts - k.Ts) > 1e-15:
+            raise UserError(f"the C backend is generated for Ts = {k.Ts} s, got {Ts}")
+        self.build = compile_codes([pid_code(self.settings, params)], cflags, progress)
+        lib = CompiledLibrary(self.build.library)
+        self._c_init = lib.function("pid_init")
+        self._c_step = _Timed(lib.function("pid_step"))
+        self._pvec = params.vector()
+        self._state: np.ndarray | None = None
+
+    def reset(self, y0: Measurement, ref: Reference) -> None:
+        """Start at reading ``y0`` at rest (``pid_init``)."""
+        (st,) = self._c_init(np.asarray(y0.y, dtype=float), self._pvec)
+        if not np.all(np.isfinite(st)):
+            raise hover_error(float(y0.y[0]), float(y0.y[1]))
+        self._state = st.copy()
+
+    def step(self, y: Measurement, ref: Reference) -> ControlOutput:
+        """Observer update, gain schedule and both regulators in one compiled call (``pid_step``)."""
+        if self._state is None:
+            raise RuntimeError("call reset() before step()")
+        r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
+        u, st, xh, ueq, flags = self._c_step(self._state, y.y, r, self._pvec)
+        self._state = st.copy()
+        stats = {
+            "i_q_eq": float(ueq[0]),
+            "i_d_eq": float(ueq[1]),
+            "saturated": bool(flags[0]),
+            "kernel_us": self._c_step.last_us,
+            "kernel_cpu_us": self._c_step.last_cpu_us,
+        }
+        if flags[1]:
+            stats["fallback"] = 1
+        return ControlOutput(u=u.copy(), x_hat=xh.copy(), stats=stats)
+
+
 class CompiledObserver:
     """The high-gain observer's update as compiled C, with :class:`HighGainObserver`'s interface.
 
@@ -228,9 +279,9 @@ def build_c_controller(ctype: str, settings: Any, params: Params, cflags: str | 
 
     Parameters
     ----------
-    ctype : {"nmpc", "fl"}
-        Controller type (``pid`` has no CasADi step Function, hence no C backend).
-    settings : NMPCSettings or FLSettings
+    ctype : {"nmpc", "fl", "pid"}
+        Controller type.
+    settings : NMPCSettings, FLSettings or PIDSettings
         The controller's validated settings.
     params : Params
         What the controller's model believes.
@@ -244,10 +295,9 @@ def build_c_controller(ctype: str, settings: Any, params: Params, cflags: str | 
         return NMPC(settings, params, evaluators=c_evaluators(cflags, progress))
     if ctype == "fl":
         return CompiledFL(settings, params, cflags=cflags, progress=progress)
-    raise UserError(
-        f"controller.backend: 'c' is available for nmpc and fl, not for {ctype!r} "
-        "(its law is numeric Python, not a CasADi Function)"
-    )
+    if ctype == "pid":
+        return CompiledPID(params, settings, cflags=cflags, progress=progress)
+    raise UserError(f"controller.backend: 'c' is available for nmpc, fl and pid, not for {ctype!r}")
 
 
 def compile_controller(ctrl, cflags: str | None = None, progress: bool = True):
@@ -255,7 +305,7 @@ def compile_controller(ctrl, cflags: str | None = None, progress: bool = True):
     if getattr(ctrl, "backend", None) == "c":
         return ctrl
     name = getattr(ctrl, "name", type(ctrl).__name__)
-    if name not in ("nmpc", "fl"):
+    if name not in ("nmpc", "fl", "pid"):
         raise UserError(f"no C backend for controller {name!r}")
     return build_c_controller(name, ctrl.settings, ctrl.params, cflags=cflags, progress=progress)
 
@@ -269,6 +319,7 @@ __all__ = [
     "CEvaluators",
     "CompiledFL",
     "CompiledObserver",
+    "CompiledPID",
     "build_c_controller",
     "c_evaluators",
     "compile_codes",

@@ -13,6 +13,7 @@ sources, the header ``maglev_controller.h``, the harness and the build files.
   state ports documented by the NMPC's own layout table
   (:meth:`controllers.nmpc.layout.StateLayout.table`);
 * ``fl``: ``fl_init``/``fl_step`` (:mod:`maglev_ocp.codegen.fl_fn`);
+* ``pid``: ``pid_init``/``pid_step`` (:mod:`maglev_ocp.codegen.pid_fn`);
 * ``observer``: ``observer_step`` (:mod:`maglev_ocp.codegen.observer_fn`).
 """
 
@@ -36,8 +37,9 @@ from ..params import Params
 from ..signals import INPUTS, MEASUREMENTS, PARAMETERS, REF_FIELDS, REFERENCE, STATES, Signal
 from .fl_fn import fl_functions, fl_state
 from .observer_fn import observer_step_function
+from .pid_fn import PID_FLAGS, PID_STATE, PID_STATE_SIZE, pid_functions
 
-#: Controllers that can be generated.
+#: Controllers the standalone harness (`maglev codegen`) generates (``pid_code`` serves backend: c and the C loop).
 KINDS: tuple[str, ...] = ("nmpc", "fl", "observer")
 
 
@@ -128,7 +130,7 @@ class ControllerCode:
     Attributes
     ----------
     kind : str
-        ``nmpc``, ``fl`` or ``observer``.
+        ``nmpc``, ``fl``, ``pid`` or ``observer``.
     init, step : CodeUnit or None
         Initialization (no init for the observer) and per-period step.
     constants : dict of str to (ndarray, str)
@@ -377,6 +379,60 @@ def fl_code(settings, params: Params) -> ControllerCode:
     )
 
 
+# ----------------------------------------------------------------------------- PID
+def pid_code(settings, params: Params) -> ControllerCode:
+    """Code units of :class:`controllers.pid.PIDController` (observer + schedule + regulators in one step)."""
+    init, step = pid_functions(settings, k.Ts)
+    pieces = tuple(Piece(*q) for q in PID_STATE)
+    ref_units = dict(REF_ROW_UNITS)
+    ref = Port(
+        "ref",
+        len(REF_FIELDS),
+        1,
+        "m, m/s, m/s^2",
+        "reference at this sample",
+        tuple(Piece(r, 1, ref_units[r], "reference " + r) for r in REF_FIELDS),
+    )
+    p_port = params_port(len(params.vector()))
+    init_unit = CodeUnit(
+        init,
+        "state at rest at the reading (integrators cleared, previous current the clipped hover current there)",
+        (_meas2_port(), p_port),
+        (Port("state", PID_STATE_SIZE, 1, "mixed", "initial controller memory", pieces),),
+    )
+    step_unit = CodeUnit(
+        step,
+        "one PID period: observer update, gain schedule at the reference, both regulators, limits with anti-windup",
+        (Port("state_in", PID_STATE_SIZE, 1, "mixed", "controller memory", pieces), _meas2_port(), ref, p_port),
+        (
+            _u_port(),
+            Port("state_out", PID_STATE_SIZE, 1, "mixed", "controller memory for the next call", pieces),
+            _xhat_port(),
+            Port("u_eq", 2, 1, "A", "hover currents (i_q, i_d) used as feedforward"),
+            Port(
+                "flags",
+                len(PID_FLAGS),
+                1,
+                "-",
+                "0/1 flags: " + ", ".join(PID_FLAGS),
+                tuple(Piece(f, 1, "-", f) for f in PID_FLAGS),
+            ),
+        ),
+    )
+    for u in (init_unit, step_unit):
+        u.check()
+    return ControllerCode(
+        "pid",
+        init_unit,
+        step_unit,
+        constants={"PARAMS": (params.vector(), "model parameters p, " + _unit_list(PARAMETERS))},
+        defines={"STATE_SIZE": PID_STATE_SIZE},
+        settings=_design(settings),
+        notes=f"Tuning and observer time constant eps = {settings.observer_eps} s baked in; p is an input. "
+        "pid_init gives a non-finite state where the model has no hover current at the reading: check it.",
+    )
+
+
 # ----------------------------------------------------------------------------- observer
 def observer_code(eps: float, disturbance: bool, params: Params) -> ControllerCode:
     """Code unit of the high-gain observer update alone."""
@@ -418,5 +474,6 @@ __all__ = [
     "nmpc_code",
     "observer_code",
     "params_port",
+    "pid_code",
     "resolve_nmpc_mode",
 ]

@@ -7,15 +7,20 @@ noise, limits, stops, delay, disturbances) and the controller's reference
 input of every step are prepared in Python as arrays; then ``run_loop``
 (:mod:`.loop_c_source`) steps the plant's code-generated step Function
 (:func:`maglev_ocp.plant.plant.build_step`, CasADi's code generator) and the
-controller's compiled step (the ``nmpc``/``fl`` code of :mod:`.functions`)
+controller's compiled step (the ``nmpc``/``fl``/``pid`` code of :mod:`.functions`)
 ``n`` times, logging into preallocated arrays; the trace, columns and
 metrics are then computed by the runner's own stages. The result equals the
 Python loop's with the same compiled controller (``tests/test_compiled_loop.py``).
 
+:func:`run_closed_loop_compiled` is the same for a rig-log run
+(:func:`maglev_ocp.loop.run_closed_loop`'s signature and log) of the PID
+regulators on a reference function, e.g. the diagnosis datasets'; :func:`rig_loop`
+picks it or the Python loop (``loop: auto/python/compiled``).
+
 Three shared libraries, each built once per machine in the code-generation
 cache and loaded by each process:
 
-* the controller's (``nmpc_init/nmpc_step`` or ``fl_init/fl_step``): the very
+* the controller's (``nmpc_init/nmpc_step``, ``fl_init/fl_step`` or ``pid_init/pid_step``): the very
   library ``backend: c`` uses (:func:`.backend.compile_codes`), found through a
   *design index* keyed by controller type, settings, believed parameters,
   reference mode, flags and a hash of the code that generates it, so a process
@@ -31,11 +36,13 @@ from __future__ import annotations
 import ctypes
 import functools
 import hashlib
+import logging
 import os
 import shutil
 import subprocess
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -46,27 +53,34 @@ import numpy as np
 from controllers.fl import fl_delay_samples
 from controllers.nmpc.layout import STATS_NAMES, STATUS_TEXT
 from controllers.nmpc.reference import resolve_mode
+from controllers.pid import PIDController, hover_error
 
 from .. import constants as k
+from ..blocks import Reference
 from ..effects import EffectSet
 from ..errors import UserError
+from ..loop import run_closed_loop
 from ..loop.compiled import PlantInputs, compiled_trace, plant_inputs, stop_events
+from ..loop.drive import _events, _n_steps
+from ..loop.recorders import RigLogRecorder
 from ..plant import Plant
 from ..plant.plant import build_step
 from ..runner import RunPlan, RunResult, finish_run, plan_run
 from ..scenario import Scenario
 from .backend import compile_codes, default_cflags
 from .build import cache_root, compiler_id, find_compiler
-from .functions import fl_code, nmpc_code
+from .functions import fl_code, nmpc_code, pid_code
 from .loader import CompiledFunction, CompiledLibrary
 from .loop_c_source import LOOP_FIELDS, loop_c_source
 from .sources import generate_function_source
 
 #: Controller types the compiled loop runs (their steps are CasADi Functions).
-COMPILED_TYPES = ("nmpc", "fl")
+COMPILED_TYPES = ("nmpc", "fl", "pid")
 
 #: Flags of the loop + plant library: no FMA contraction, no fast-math (same rounding as CasADi's VM).
 LOOP_CFLAGS = "-O2 -fno-math-errno -ffp-contract=off -fPIC"
+
+_log = logging.getLogger(__name__)
 
 _FT = {"i": ctypes.c_longlong, "d": ctypes.c_double, "p": ctypes.c_void_p}
 
@@ -175,6 +189,10 @@ def _controller_library(ctype: str, settings_json: str, pvec: tuple[float, ...],
             from controllers.nmpc import NMPCSettings
 
             code = nmpc_code(NMPCSettings.model_validate_json(settings_json), params, mode)
+        elif ctype == "pid":
+            from controllers.pid import PIDSettings
+
+            code = pid_code(PIDSettings.model_validate_json(settings_json), params)
         else:
             from controllers.fl import FLSettings
 
@@ -265,6 +283,22 @@ def _fl_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> Co
     return ControllerRun(step, st0.copy(), consts, 2, np.ascontiguousarray(refs), np.zeros(rp.n), step.out_sizes)
 
 
+def _pid_controller_run(settings: Any, params: Any, y0: np.ndarray, refs: np.ndarray, cflags: str | None):
+    """The PID's part of a compiled run on ``refs`` (``n x 6``, ``signals.REF_FIELDS`` order)."""
+    lib = controller_library("pid", settings, params, "", cflags)
+    init, step = lib.function("pid_init"), lib.function("pid_step")
+    p = params.vector()
+    (st0,) = init(np.asarray(y0, dtype=float), p)
+    if not np.all(np.isfinite(st0)):  # as PIDController.reset
+        raise hover_error(float(y0[0]), float(y0[1]))
+    n = len(refs)
+    return ControllerRun(step, st0.copy(), {3: p}, 2, np.ascontiguousarray(refs), np.zeros(n), step.out_sizes)
+
+
+def _pid_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> ControllerRun:
+    return _pid_controller_run(sc.controller.settings, sc.controller_model_params(), y0, rp.refs, cflags)
+
+
 def fl_refs(rp: RunPlan, delay: int) -> np.ndarray:
     """FL's ``ref`` input of every step (``n x 6``): the runner's rows, or with a delay of ``N`` samples the plan
     ``N`` samples ahead, as :meth:`controllers.fl.FeedbackLinearization.set_reference_plan` makes it read."""
@@ -314,6 +348,15 @@ def _fl_stats(log: np.ndarray, t_us: np.ndarray) -> tuple[np.ndarray, dict, dict
     }
     timings = {"kernel_us": t_us, "kernel_cpu_us": np.full(len(t_us), np.nan)}
     return log[:, 2:6], stats, timings
+
+
+def _pid_stats(log: np.ndarray, t_us: np.ndarray) -> tuple[np.ndarray, dict, dict]:
+    """x_hat, statistics and timings of the PID's logged outputs ``[u(2), x_hat(4), u_eq(2), flags(2)]``
+    (as :meth:`controllers.pid.PIDController.step` reports them; ``fallback`` only if it happened)."""
+    stats = {"i_q_eq": log[:, 6], "i_d_eq": log[:, 7], "saturated": (log[:, 8] != 0).astype(float)}
+    if np.any(log[:, 9] != 0):
+        stats["fallback"] = np.where(log[:, 9] != 0, 1.0, np.nan)
+    return log[:, 2:6], stats, {}
 
 
 # ------------------------------------------------------------------------------ loop
@@ -485,11 +528,11 @@ def run_scenario_compiled(
     ss_plant, _ = sc.seed_sequences()
     plant = Plant(sc.plant_config(), params=sc.plant_params(), seed=ss_plant, Ts=k.Ts)
     pi = plant_inputs(plant, rp.n, np.array([sc.start.g, 0.0, sc.start.d, 0.0]))
-    make = _nmpc_run if sc.controller.type == "nmpc" else _fl_run
+    make = {"nmpc": _nmpc_run, "fl": _fl_run, "pid": _pid_run}[sc.controller.type]
     cr = make(sc, rp, pi.y0, cflags)
     r = run_compiled_loop(pi, plant, cr)
     done = r["done"]
-    split = _nmpc_stats if sc.controller.type == "nmpc" else _fl_stats
+    split = {"nmpc": _nmpc_stats, "fl": _fl_stats, "pid": _pid_stats}[sc.controller.type]
     x_hat, stats, timings = split(r["LOG"], r["t_us"])
     arrays = {key: r[key] for key in ("Y", "X", "U", "UA", "limited")}
     arrays["step_time_us"] = r["t_us"]
@@ -497,6 +540,108 @@ def run_scenario_compiled(
     plant.events = stop_events(r["IMP"], done, k.Ts)
     error = _error_text(r["error"], done, r["u_last"])
     return finish_run(sc, rp, trace, done, plant, error, t_wall, out_dir, figures)
+
+
+# ------------------------------------------------------------------------- rig-log runs
+def run_closed_loop_compiled(
+    plant: Plant,
+    controller: PIDController,
+    reference: Callable[[float], Reference],
+    duration: float,
+    *,
+    x0: np.ndarray | None = None,
+    lock: str | None = None,
+    file: str = "run.csv",
+    progress: bool = False,
+    desc: str | None = None,
+    cflags: str | None = None,
+):
+    """:func:`maglev_ocp.loop.run_closed_loop` in one C call: the same log for the same plant and seeds.
+
+    The PID regulators ``controller`` (its settings and believed parameters) run on their compiled step
+    (``pid_step``); the plant's run is decided beforehand (:func:`maglev_ocp.loop.compiled.plant_inputs`:
+    its next seed stream, pre-drawn noise, lock, limits, stops) and the reference is sampled in
+    Python at every step exactly as the Python loop asks for it (a reference with a ``sample(t)`` method,
+    rows ``(g, g_dot, g_ddot, d, d_dot, d_ddot)`` equal to its calls, is sampled at once). A failed step raises (as
+    ``on_error="raise"``). ``progress`` and ``desc`` are accepted for the same signature (one C call
+    of well under a second per run has no progress to show).
+
+    Returns
+    -------
+    RunLog
+        As :func:`maglev_ocp.loop.run_closed_loop`.
+    """
+    if not isinstance(controller, PIDController) or type(plant) is not Plant:
+        raise UserError(
+            f"the compiled rig-log loop runs PIDController on Plant, not {type(controller).__name__} "
+            f"on {type(plant).__name__}"
+        )
+    Ts = plant.Ts
+    if abs(Ts - k.Ts) > 1e-15 or abs(controller.Ts - k.Ts) > 1e-15:
+        raise UserError(f"the compiled loop is generated for Ts = {k.Ts} s, got {Ts} / {controller.Ts}")
+    n = _n_steps(duration, Ts)
+    r0 = reference(0.0)
+    if x0 is None:
+        x0 = np.array([r0.g, 0.0, r0.d, 0.0])
+    pi = plant_inputs(plant, n, np.asarray(x0, dtype=float), lock=lock)
+    if hasattr(reference, "sample"):  # vectorized, equal to the calls (e.g. SumOfSines.sample)
+        refs = np.asarray(reference.sample(np.arange(n) * Ts), dtype=float).reshape(n, 6)
+    else:  # the Python loop's reference(i * Ts) if i else r0
+        rows = [r0] + [reference(i * Ts) for i in range(1, n)]
+        refs = np.array([(r.g, r.g_dot, r.g_ddot, r.d, r.d_dot, r.d_ddot) for r in rows], dtype=float)
+    cr = _pid_controller_run(controller.settings, controller.params, pi.y0, refs, cflags)
+    r = run_compiled_loop(pi, plant, cr, timing=False)
+    done = r["done"]
+    if r["error"]:
+        raise RuntimeError(f"{file}: " + str(_error_text(r["error"], done, r["u_last"])))
+    # the plant's log of the run (Plant.step's rows: reading, command after the limiter, true state)
+    cmd = r["U"].copy()
+    fl = pi.flags
+    if fl["lim_on"]:  # Plant.limit where it can act (elsewhere it returns the command unchanged)
+        U = r["U"]
+        act = (np.abs(U) > fl["i_axis"]).any(axis=1) | (np.hypot(U[:, 0], U[:, 1]) > fl["i_amp"])
+        for i in np.nonzero(act)[0]:
+            cmd[i] = plant.limit(U[i])[0]
+    plant._rows = np.column_stack([np.arange(done) * Ts, r["Y"], cmd, r["X"]])
+    plant.events = stop_events(r["IMP"], done, Ts)
+    rec = RigLogRecorder(n)
+    rec.extra[:] = np.column_stack([refs[:, 0], refs[:, 3], r["LOG"][:, 3], r["LOG"][:, 5]])
+    return rec.log(plant, file, controller=controller.name, stop_events=_events(plant))
+
+
+def rig_loop(loop: str, plant: Plant, controller: Any = None) -> Callable[..., Any]:
+    """The rig-log runner for ``loop``: :func:`run_closed_loop_compiled` or :func:`maglev_ocp.loop.run_closed_loop`.
+
+    Parameters
+    ----------
+    loop : {"auto", "compiled", "python"}
+        ``auto``: compiled where it can run (a :class:`Plant` - not a subclass with its own step -,
+        the PID regulators, a C compiler), else Python with a logged note; ``compiled``: compiled or
+        a :class:`UserError` saying why not.
+    plant : Plant
+        The plant the runs use.
+    controller : optional
+        A controller of the runs (default: the PID regulators).
+    """
+    if loop not in ("auto", "compiled", "python"):
+        raise UserError(f"loop: {loop!r} is not one of auto, compiled, python")
+    if loop == "python":
+        return run_closed_loop
+    reason = None
+    if type(plant) is not Plant:
+        reason = f"the plant is a {type(plant).__name__}, whose step is Python"
+    elif controller is not None and not isinstance(controller, PIDController):
+        reason = f"the controller {type(controller).__name__} has no compiled rig-log loop"
+    elif find_compiler() is None:
+        reason = "no C compiler found (set CC or install cc/gcc/clang)"
+    if reason is None:
+        return run_closed_loop_compiled
+    if loop == "compiled":
+        raise UserError(f"loop: compiled is not possible: {reason}")
+    # a missing compiler is worth a warning; a plant or controller without a compiled step is by design
+    level = logging.WARNING if reason.startswith("no C compiler") else logging.INFO
+    _log.log(level, "loop: auto runs the Python closed loop: %s", reason)
+    return run_closed_loop
 
 
 __all__ = [
@@ -510,6 +655,8 @@ __all__ = [
     "fl_refs",
     "nmpc_refs",
     "plant_library",
+    "rig_loop",
+    "run_closed_loop_compiled",
     "run_compiled_loop",
     "run_scenario_compiled",
 ]

@@ -206,7 +206,8 @@ int run_loop(loop_t *s) {
             if (!s->lock_g) g += std[4] * nm[2 * k];
             if (!s->lock_d) d += std[5] * nm[2 * k + 1];
         }
-        if (s->q != 0.0) { g = nearbyint(g / s->q) * s->q; d = nearbyint(d / s->q) * s->q; }
+        /* + 0.0: a reading rounded to zero is +0.0, as Python's round() (an int) times q gives */
+        if (s->q != 0.0) { g = nearbyint(g / s->q) * s->q + 0.0; d = nearbyint(d / s->q) * s->q + 0.0; }
         y[0] = g; y[1] = d;
         ia[0] = iapp[0]; ia[1] = iapp[1];
         D(s->limited)[k] = (double)limited;

@@ -164,7 +164,7 @@ def header_text(codes: list[ControllerCode], sources: dict[str, str] | None = No
 
 def main_text(codes: list[ControllerCode]) -> str:
     """The harness ``main.c`` for the controllers in ``codes``."""
-    blocks = {"nmpc": tpl.NMPC_C, "fl": tpl.FL_C, "observer": tpl.OBSERVER_C}
+    blocks = {"nmpc": tpl.NMPC_C, "fl": tpl.FL_C, "pid": tpl.PID_C, "observer": tpl.OBSERVER_C}
     kinds = [c.kind for c in codes]
     code = "".join(blocks[kd] for kd in kinds)
     dispatch = "".join(

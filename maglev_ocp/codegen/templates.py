@@ -455,6 +455,30 @@ static void fl_wire_step(const Table *t, const Refs *rf, int k, int jg, int jd) 
 RUN_STATEFUL(fl, FL)
 """
 
+PID_C = r"""
+/* ---------------------------------------------------------------- PID regulators */
+WORK_ARRAYS(pid, PID_STEP);
+WORK_ARRAYS(pid_init, PID_INIT);
+static casadi_real pid_state[PID_STATE_SIZE], pid_state_next[PID_STATE_SIZE];
+static casadi_real pid_meas[2], pid_ref[6], pid_u[2], pid_xhat[4], pid_ueq[2], pid_flags[2];
+
+static void pid_wire_init(const Table *t, const Refs *rf, int jg, int jd) {
+  (void)rf;
+  pid_meas[0] = AT(t, 0, jg); pid_meas[1] = AT(t, 0, jd);
+  pid_init_arg[0] = pid_meas; pid_init_arg[1] = PID_PARAMS; pid_init_res[0] = pid_state;
+}
+
+static void pid_wire_step(const Table *t, const Refs *rf, int k, int jg, int jd) {
+  pid_meas[0] = AT(t, k, jg); pid_meas[1] = AT(t, k, jd);
+  ref_at(t, rf, k, pid_ref);
+  pid_arg[0] = pid_state; pid_arg[1] = pid_meas; pid_arg[2] = pid_ref; pid_arg[3] = PID_PARAMS;
+  pid_res[0] = pid_u; pid_res[1] = pid_state_next; pid_res[2] = pid_xhat; pid_res[3] = pid_ueq;
+  pid_res[4] = pid_flags;
+}
+
+RUN_STATEFUL(pid, PID)
+"""
+
 OBSERVER_C = r"""
 /* ---------------------------------------------------------------- observer */
 WORK_ARRAYS(obs, OBSERVER_STEP);

@@ -20,6 +20,7 @@ import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from pydantic import Field
@@ -29,7 +30,6 @@ from controllers.pid import PIDController
 from .. import constants as k
 from ..blocks import Reference
 from ..config import Strict
-from ..loop import run_closed_loop
 from ..params import NOMINAL, Params
 from ..plant import Plant, PlantConfig
 from ..plant.excitation import AxisExcitation, ExcitationSettings, SumOfSines
@@ -53,6 +53,12 @@ class GeneratorSettings(Strict):
         Peak horizontal excursion [m].
     dither_g, dither_d : float
         Peak amplitude of the fast dither on each axis [m].
+    loop : {"auto", "compiled", "python"}
+        Closed loop of the runs: ``compiled`` (each run in one C call,
+        :func:`maglev_ocp.codegen.loop_c.run_closed_loop_compiled`; equal to the
+        Python loop), ``python`` (:func:`maglev_ocp.loop.run_closed_loop`),
+        ``auto`` (compiled where possible, else Python with a logged note). Not
+        part of the dataset's truth: both loops give the same data.
     """
 
     n_runs: int = Field(6, ge=2, le=100)
@@ -61,6 +67,7 @@ class GeneratorSettings(Strict):
     d_amplitude: float = Field(45e-3, ge=0.0, le=55e-3)
     dither_g: float = Field(0.4e-3, ge=0.0, le=3e-3)
     dither_d: float = Field(2e-3, ge=0.0, le=10e-3)
+    loop: Literal["auto", "compiled", "python"] = "auto"
 
 
 class _Composite:
@@ -68,6 +75,10 @@ class _Composite:
 
     def __init__(self, a: SumOfSines, b: SumOfSines):
         self.a, self.b = a, b
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Rows ``(g, g_dot, g_ddot, d, d_dot, d_ddot)`` at the times ``t``, equal to the calls (for the C loop)."""
+        return self.a.sample(t) + self.b.sample(t)
 
     def __call__(self, t: float) -> Reference:
         ra, rb = self.a(t), self.b(t)
@@ -253,11 +264,14 @@ def generate_dataset(
         ForcedPlant(extra_force, config, params, seed=s_plant) if extra_force else Plant(config, params, seed=s_plant)
     )
     cparams = controller_params or params.without_cogging()
+    from ..codegen.loop_c import rig_loop  # the loop choice (codegen is heavy to import)
+
+    run = rig_loop(settings.loop, plant, PIDController(cparams))
     runs: list[RunLog] = []
     for i, s_run in enumerate(s_ref.spawn(settings.n_runs)):
         ref = run_reference(i, settings, s_run)
         ctrl = PIDController(cparams)
-        log = run_closed_loop(
+        log = run(
             plant,
             ctrl,
             ref,
@@ -271,7 +285,7 @@ def generate_dataset(
         "true_params": plant.true_params.as_dict(),
         "effects": config.effect_values(),
         "extra_force": extra_info,
-        "generator": settings.model_dump(),
+        "generator": settings.model_dump(exclude={"loop"}),
     }
     ds = Dataset(
         k.Ts,

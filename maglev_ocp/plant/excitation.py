@@ -96,6 +96,30 @@ class SumOfSines:
         fw, dfw, ddfw = self._fade(t)
         return c + fw * s0, dfw * s0 + fw * s1, ddfw * s0 + 2 * dfw * s1 + fw * s2
 
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """The reference at every time of ``t`` as rows ``(g, g_dot, g_ddot, d, d_dot, d_ddot)`` (``n x 6``).
+
+        The same operations as :meth:`axis` on whole arrays (the fade-in per sample with :meth:`_fade`),
+        so the rows equal the calls ``self(t_k)`` (``tests/test_compiled_loop.py`` checks it).
+        """
+        t = np.asarray(t, dtype=float).reshape(-1)
+        fade = np.array([self._fade(float(tk)) for tk in t[t < self.settings.fade_in]]).reshape(-1, 3)
+        fw, dfw, ddfw = (np.ones(len(t)), np.zeros(len(t)), np.zeros(len(t)))
+        early = np.nonzero(t < self.settings.fade_in)[0]
+        fw[early], dfw[early], ddfw[early] = fade[:, 0], fade[:, 1], fade[:, 2]
+        out = np.empty((len(t), 6))
+        for i in range(2):
+            c, a, w, phi = self._axes[i]
+            arg = w[None, :] * t[:, None] + phi[None, :]
+            sn, cs = np.sin(arg), np.cos(arg)
+            s0 = a * sn.sum(axis=1)
+            s1 = a * (w * cs).sum(axis=1)
+            s2 = -a * (w**2 * sn).sum(axis=1)
+            out[:, 3 * i] = c + fw * s0
+            out[:, 3 * i + 1] = dfw * s0 + fw * s1
+            out[:, 3 * i + 2] = ddfw * s0 + 2 * dfw * s1 + fw * s2
+        return out
+
     def __call__(self, t: float) -> Reference:
         g, gd, gdd = self.axis(0, t)
         d, dd, ddd = self.axis(1, t)

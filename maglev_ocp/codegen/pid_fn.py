@@ -1,0 +1,97 @@
+"""The whole PID step (observer + gain schedule + the two regulators + limits) as CasADi Functions.
+
+:class:`controllers.pid.PIDController` runs its high-gain observer and its law
+numerically. For the C backend and the compiled closed loop the step is one
+self-contained function, composed here from the controller's own pieces (never
+retyped): the observer's symbolic update (:func:`maglev_ocp.observers.observer_update`,
+the gain of :class:`~maglev_ocp.observers.HighGainObserver`), the controller's
+gain-schedule Function (:func:`controllers.pid.schedule_function`) and its law
+(:func:`controllers.pid.pid_law` evaluated with :data:`controllers.pid.SYMBOLIC`):
+
+``pid_step(state_in, meas, ref, p) -> (u, state_out, x_hat, u_eq, flags)``
+
+``pid_init(meas, p) -> state``: at rest at the reading, the previous current the
+(clipped) hover current there, as ``PIDController.reset``.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from controllers.pid import SYMBOLIC, clip_currents, pid_law, schedule_function
+
+from .. import constants as k
+from ..model import get_model
+from ..observers import ObserverSettings, observer_update
+from ..signals import REF_FIELDS
+from .observer_fn import observer_gain
+
+#: Pieces of the PID controller's state vector: name, size, unit, meaning.
+PID_STATE: tuple[tuple[str, int, str, str], ...] = (
+    ("x_hat", 4, "m, m/s, m, m/s", "observer estimate (g, g_dot, d, d_dot)"),
+    ("dist", 2, "m/s^2", "acceleration disturbance estimate (gap, horizontal)"),
+    ("z", 2, "m s", "integrals of the position errors (gap, horizontal)"),
+    ("u_prev", 2, "A", "currents commanded at the previous step (i_q, i_d)"),
+    ("ueq_good", 2, "A", "last finite hover current (i_q, i_d), held where the model cannot hover"),
+)
+PID_STATE_SIZE = sum(n for _, n, _, _ in PID_STATE)
+#: 0/1 flags of ``pid_step``.
+PID_FLAGS: tuple[str, ...] = ("saturated", "fallback")
+
+
+def pid_state_slices() -> dict[str, slice]:
+    """Slice of each piece of :data:`PID_STATE`."""
+    out, i = {}, 0
+    for name, n, _, _ in PID_STATE:
+        out[name] = slice(i, i + n)
+        i += n
+    return out
+
+
+def pid_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
+    """``pid_init`` and ``pid_step`` for :class:`controllers.pid.PIDSettings` ``settings``.
+
+    The tuning and the observer gain (``settings.observer_eps``, disturbance
+    estimate on, as the controller builds its observer) are baked in; the model
+    parameters ``p`` are an input.
+    """
+    L = observer_gain(ObserverSettings(eps=settings.observer_eps), Ts)
+    sched = schedule_function()
+    np_ = get_model().np_
+    sl = pid_state_slices()
+
+    meas0, p0 = ca.SX.sym("meas", 2), ca.SX.sym("p", np_)
+    u_eq0 = sched(meas0[0], meas0[1], p0)[0]
+    iq0, id0, _, _ = clip_currents(SYMBOLIC, settings, u_eq0[0], u_eq0[1])
+    state0 = ca.vertcat(meas0[0], 0, meas0[1], 0, ca.SX.zeros(4), iq0, id0, u_eq0)
+    pid_init = ca.Function("pid_init", [meas0, p0], [state0], ["meas", "p"], ["state"])
+
+    st, meas = ca.SX.sym("state_in", PID_STATE_SIZE), ca.SX.sym("meas", 2)
+    ref, p = ca.SX.sym("ref", len(REF_FIELDS)), ca.SX.sym("p", np_)
+    x_hat, dist = observer_update(st[sl["x_hat"]], st[sl["dist"]], st[sl["u_prev"]], meas, p, L, Ts, True)
+    u_eq, b_v, a21, L1 = sched(ref[0], ref[3], p)
+    z, good = st[sl["z"]], st[sl["ueq_good"]]
+    out = pid_law(
+        SYMBOLIC,
+        settings,
+        Ts,
+        [x_hat[i] for i in range(4)],
+        (u_eq[0], u_eq[1], b_v, a21, L1),
+        [ref[i] for i in range(len(REF_FIELDS))],
+        (z[0], z[1]),
+        (good[0], good[1]),
+    )
+    u = ca.vertcat(*out.u)
+    state = ca.vertcat(x_hat, dist, *out.z, u, *out.ueq_good)
+    flags = ca.vertcat(ca.logic_or(out.q_sat, out.d_sat), out.fallback)
+    pid_step = ca.Function(
+        "pid_step",
+        [st, meas, ref, p],
+        [u, state, x_hat, ca.vertcat(*out.ueq_good), flags],
+        ["state_in", "meas", "ref", "p"],
+        ["u", "state_out", "x_hat", "u_eq", "flags"],
+    )
+    return pid_init, pid_step
+
+
+__all__ = ["PID_FLAGS", "PID_STATE", "PID_STATE_SIZE", "pid_functions", "pid_state_slices"]
