@@ -84,13 +84,26 @@ def register(sub) -> None:
         help="self-check: draw only these truths (library effects and/or none; default all)",
     )
     p.add_argument("--generate", metavar="DIR", help="write a diagnosis dataset from the plant into DIR")
-    p.add_argument("--effect", metavar="NAME", help="library effect for --generate / --scenario")
+    p.add_argument(
+        "--plant",
+        choices=("library", "independent"),
+        default="library",
+        help="--generate / --selftest: the suite's plant with the library's effects (default), or the independent "
+        "rig simulator maglev_ocp.rigsim with its own law families and effects outside the library",
+    )
+    p.add_argument(
+        "--effect",
+        metavar="NAME",
+        help="effect for --generate / --scenario (library plant: one library effect or none; independent plant: "
+        "comma-separated rigsim effects, e.g. cogging,friction, or none)",
+    )
     p.add_argument(
         "--effect-param",
         nargs="+",
         default=[],
         metavar="KEY=VALUE",
-        help="effect parameters in the plant (e.g. xi0=5 ell=0.004)",
+        help="effect parameters in the plant (e.g. xi0=5 ell=0.004; independent plant: EFFECT.KEY=VALUE, "
+        "EFFECT.family=NAME, or KEY=VALUE with one effect)",
     )
     p.add_argument(
         "--extra",
@@ -126,6 +139,69 @@ def _kv(items: list[str]) -> dict[str, float]:
             raise UserError(f"--effect-param: {key}: must be finite")
         out[key.strip()] = v
     return out
+
+
+def independent_effects(names: str | None, items: list[str]) -> dict[str, dict]:
+    """``{effect: {"family": ..., param: value}}`` for the independent rig from ``--effect`` / ``--effect-param``.
+
+    Effects, families and parameters are checked against the catalogue of
+    :mod:`maglev_ocp.rigsim.laws`; anything else is a :class:`UserError` naming what is allowed.
+    """
+    from ..rigsim.laws import LAWS
+
+    chosen = [n.strip() for n in (names or "").split(",") if n.strip()]
+    if chosen == ["none"]:
+        chosen = []
+    bad = [n for n in chosen if n not in LAWS]
+    if bad:
+        raise UserError(
+            f"--effect: unknown effect(s) {bad} of the independent rig; choose from {', '.join(LAWS)}, none"
+        )
+    if len(set(chosen)) != len(chosen):
+        raise UserError(f"--effect: each effect at most once, got {chosen}")
+    spec: dict[str, dict] = {n: {} for n in chosen}
+    for it in items:
+        if "=" not in it:
+            raise UserError(f"--effect-param: expected [EFFECT.]KEY=VALUE, got {it!r}")
+        key, val = (x.strip() for x in it.split("=", 1))
+        eff, _, name = key.rpartition(".")
+        if not eff:
+            if len(chosen) != 1:
+                raise UserError(f"--effect-param: {key}: name the effect (EFFECT.{key}=...) when there is not one")
+            eff = chosen[0]
+        if eff not in spec:
+            raise UserError(f"--effect-param: {key}: {eff!r} is not among the effects given ({', '.join(chosen)})")
+        spec[eff][name] = val
+    return {n: _independent_law(n, kv) for n, kv in spec.items()}
+
+
+def _independent_law(n: str, kv: dict[str, str]) -> dict:
+    """One effect of the independent rig: family and numeric parameters checked against its catalogue."""
+    from ..rigsim.laws import LAWS
+
+    law = LAWS[n]
+    fam = kv.pop("family", law.families[0])
+    if fam not in law.families:
+        raise UserError(
+            f"--effect-param: {n}.family: {fam!r} is not a law of {n}; choose from {', '.join(law.families)}"
+        )
+    allowed = law.DEFAULTS[fam]
+    params: dict[str, float] = {}
+    for q, v in kv.items():
+        if q not in allowed:
+            raise UserError(f"--effect-param: {n} ({fam}) has no parameter {q!r}; known: {', '.join(sorted(allowed))}")
+        try:
+            x = float(v)
+        except ValueError:
+            raise UserError(f"--effect-param: {n}.{q}: not a number: {v!r}") from None
+        if not math.isfinite(x):
+            raise UserError(f"--effect-param: {n}.{q}: must be finite")
+        params[q] = x
+    try:
+        law(fam, **params)
+    except ValueError as e:
+        raise UserError(f"--effect-param: {n}: {e}") from None
+    return {"family": fam, **params}
 
 
 def _check_effect(name: str | None, allow_none: bool = False) -> None:
@@ -247,6 +323,8 @@ def _generate(args) -> int:
     from ..params import NOMINAL
     from ..riglog import read_dataset
 
+    if args.plant == "independent":
+        return _generate_independent(args)
     _check_effect(args.effect, allow_none=True)
     check_output_dir(args.generate, "--generate", expect=("dataset.yaml",))
     eff = _kv(args.effect_param)
@@ -281,6 +359,28 @@ def _generate(args) -> int:
         gen.save(tmp)
     print(read_dataset(args.generate).table())
     print(f"written: {args.generate}")
+    return 0
+
+
+def _generate_independent(args) -> int:
+    """``--generate DIR --plant independent``: a dataset (and its truth.json) from the independent rig."""
+    import json
+
+    from ..config import check_output_dir, replace_dir
+    from ..riglog import read_dataset
+    from ..rigsim import RigSettings, generate
+
+    if args.extra:
+        raise UserError("--extra: the independent rig names its effects outside the library in --effect "
+                        "(resonance, encoder_error, temperature_drift, cable)")  # fmt: skip
+    effects = independent_effects(args.effect, args.effect_param)
+    _generator(args)  # the same checks of --runs and --duration
+    check_output_dir(args.generate, "--generate", expect=("dataset.yaml",))
+    with replace_dir(args.generate) as tmp:
+        generate(tmp, effects, args.seed, RigSettings(n_runs=args.runs, duration=args.duration))
+    truth = json.loads((Path(args.generate) / "truth.json").read_text())
+    print(read_dataset(args.generate).table())
+    print(f"written: {args.generate} (independent rig; expected verdict: {truth['expected_verdict']})")
     return 0
 
 
