@@ -13,8 +13,9 @@ DESCRIPTION = """\
 Diagnose the sim-to-real gap of a rig-log dataset (maglev-rig-log/1, closed- or
 open-loop, any controller, locked axes allowed):
 
-  baseline      the nominal model without cogging, C1..C4 calibrated on the training
-                runs (or --params as given); whole runs are held out for scoring
+  baseline      the nominal model with its cogging law (seed eq. 9), C1..C4, xi0 and ell
+                calibrated on the training runs with a prior at nominal (or --params as
+                given); whole runs are held out for scoring
   residuals     filtered equation error: the same zero-phase FIR on the measured
                 accelerations and on the model's (every current-carrying regressor),
                 noise floor from the data (held-out runs, circular-shift null)
@@ -29,8 +30,12 @@ Writes DIR/report.json, DIR/report.md and figures.
 
 Other modes:
   --selftest N --seed S   blind self-check on N generated datasets (confusion matrix,
-                          localization accuracy, reduction vs the ideal one)
-  --generate DIR          write a diagnosis dataset from the plant (--effect, --seed)
+                          localization accuracy, reduction vs the ideal one); with
+                          --plant independent on the independent rig (maglev_ocp.rigsim:
+                          none, 1-3 effects with laws other than the library's, effects
+                          outside the library)
+  --generate DIR          write a diagnosis dataset from the plant (--effect, --seed);
+                          --plant independent: from the independent rig (truth.json beside)
   --scenario FILE --effect NAME
                           closed-loop view: the scenario on the model, on the rig with
                           the effect, and with the controller's model carrying the
@@ -288,6 +293,8 @@ def _selftest(args) -> int:
 
     if args.selftest < 1:
         raise UserError(f"--selftest: N must be >= 1, got {args.selftest}")
+    if args.plant == "independent":
+        return _selftest_independent(args)
     if args.truths:
         bad = [t for t in args.truths if t not in DRAWS]
         if bad:
@@ -314,6 +321,31 @@ def _selftest(args) -> int:
     return 0
 
 
+def _selftest_independent(args) -> int:
+    """``--selftest N --plant independent``: the blind self-check on datasets of the independent rig."""
+    from ..config import check_output_dir, replace_dir
+    from ..diagnosis.selftest import SelftestSettings
+    from ..diagnosis.selftest_rig import run_rig_selftest
+
+    if args.truths:
+        raise UserError("--truths: the independent rig draws its own scenarios (none, 1-3 effects, out of library)")
+    if args.baseline != "calibrated":
+        raise UserError("--baseline given: the independent rig's constants are off nominal; only 'calibrated' applies")
+    st = SelftestSettings(
+        n=args.selftest, seed=args.seed, generator=_generator(args), diagnose=_settings(args, simulate=False)
+    )
+    if args.out:
+        check_output_dir(args.out, expect=("selftest.json", "selftest.md"))
+        with replace_dir(args.out) as tmp:
+            res = run_rig_selftest(st, progress=True, out_dir=tmp, keep_reports=args.keep_reports)
+    else:
+        res = run_rig_selftest(st, progress=True, out_dir=None, keep_reports=args.keep_reports)
+    print(res.table())
+    if args.out:
+        print(f"written: {Path(args.out) / 'selftest.md'}")
+    return 0
+
+
 def _generate(args) -> int:
     import numpy as np
 
@@ -328,18 +360,20 @@ def _generate(args) -> int:
     _check_effect(args.effect, allow_none=True)
     check_output_dir(args.generate, "--generate", expect=("dataset.yaml",))
     eff = _kv(args.effect_param)
-    params = NOMINAL.without_cogging()
+    # The plant has the shared model's cogging (seed eq. (9), MODEL.md) at nominal, as a rig does; an effect adds
+    # to it (``cogging``: slot harmonics and another decay beyond eq. (9)).
+    params = NOMINAL
     effects: dict = {}
     if args.effect and args.effect != "none":
-        if args.effect == "cogging" and set(eff) <= {"xi0", "ell"}:
-            params = params.with_(xi0=eff.get("xi0", 4.0), ell=eff.get("ell", 3.6e-3))
-        else:
-            from ..effects import EFFECTS
+        from ..effects import EFFECTS
 
-            bad = set(eff) - set(EFFECTS[args.effect].param_names())
-            if bad:
-                raise UserError(f"--effect-param: {args.effect} has no parameters {sorted(bad)}")
-            effects = {args.effect: {"enabled": True, **eff}}
+        bad = set(eff) - set(EFFECTS[args.effect].param_names())
+        if bad:
+            raise UserError(
+                f"--effect-param: {args.effect} has no parameters {sorted(bad)}; "
+                f"known: {', '.join(EFFECTS[args.effect].param_names())}"
+            )
+        effects = {args.effect: {"enabled": True, **eff}}
     cfg = selftest_plant("given", effects)
     force, info = None, None
     if args.extra:
