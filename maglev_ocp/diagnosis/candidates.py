@@ -955,7 +955,14 @@ def _fit_lag(
         if key not in cache:
             th = lag_theta(key, Ts)
             Z = lag_Z(data, u_runs, th["bandwidth_hz"], int(th["delay_samples"]))
-            cache[key] = fitter.solve(Z=Z, starts=starts)
+            # Every start at the first delay; then from the best fit so far (the profile over the delay is
+            # smooth, and the other parameters move little with it), with the given starts as a fallback.
+            done = [c for c in cache.values() if c.success]
+            here = starts if not done else [min(done, key=lambda c_: c_.sse).w]
+            fr = fitter.solve(Z=Z, starts=here)
+            if done and not fr.success:
+                fr = fitter.solve(Z=Z, starts=starts)
+            cache[key] = fr
         return cache[key].sse
 
     # A warm start (the single fit's delay) searches around it only; otherwise a grid over [0, t_max].
