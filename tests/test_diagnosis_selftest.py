@@ -10,6 +10,7 @@ from maglev_ocp.diagnosis.generate import GeneratorSettings
 from maglev_ocp.diagnosis.selftest import COMBOS, SelftestSettings, run_case, run_selftest
 
 
+@pytest.mark.slow
 @pytest.mark.xfail(
     strict=False,
     reason=(
