@@ -59,7 +59,7 @@ def kinds_order(n: int, rng: np.random.Generator) -> list[str]:
 def run_rig_case(index: int, kind: str, seed: int, settings: SelftestSettings, keep: Path | None = None) -> Case:
     """Draw one scenario of ``kind`` on the independent rig, generate its dataset and diagnose it blind."""
     scen = draw(seed, kind)
-    truth = expected_verdict(build_laws(scen["effects"]))
+    truth = canonical(expected_verdict(build_laws(scen["effects"])))  # a set in library order, as verdicts are
     gs = settings.generator
     rs = RigSettings(n_runs=gs.n_runs, duration=gs.run_duration)
     with tempfile.TemporaryDirectory(prefix="rigsim_") as tmp:
@@ -161,11 +161,13 @@ class RigSelftestResult(SelftestResult):
         return "\n".join([*lines, "", *self._lines()])
 
     def markdown(self) -> str:
-        """Markdown view (confusion matrix as a table, rows the truth)."""
+        """Markdown view: the confusion matrix over sets, one row per true set with the verdicts it got."""
         rows, cols, m = self.confusion()
-        md = ["| truth \\ verdict | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+        md = ["| truth | datasets | right | verdicts (count) |", "|---|---|---|---|"]
         for i, r in enumerate(rows):
-            md.append(f"| {r} | " + " | ".join(str(v) if v else "." for v in m[i]) + " |")
+            got = ", ".join(f"`{cols[j]}` {m[i, j]}" for j in np.argsort(-m[i], kind="stable") if m[i, j])
+            right = sum(1 for c in self.cases if c.truth == r and c.right)
+            md.append(f"| `{r}` | {int(m[i].sum())} | {right} | {got} |")
         return "\n".join([*md, "", *(f"- {x}" for x in self._lines())])
 
     def save(self, out_dir: str | os.PathLike) -> Path:
