@@ -340,11 +340,14 @@ class AmplifierLag(Effect):
         w = 2 * math.pi * theta["bandwidth_hz"]
         a = math.exp(-w * Ts)
         mean_gain = 1 - (1 - a) / (w * Ts)  # weight of the new command in the period mean
-        out = np.empty_like(u)
-        for n in range(len(u)):
-            out[n] = i + mean_gain * (u[n] - i)
-            i = u[n] + (i - u[n]) * a
-        return out
+        if len(u) == 0:
+            return np.empty_like(u)
+        # i[n+1] = a i[n] + (1 - a) u[n] (exact ZOH step), as one IIR filter per channel from i[0] = i
+        from scipy.signal import lfilter
+
+        nxt = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=(a * i)[None, :])[0]
+        i_n = np.vstack([i[None, :], nxt[:-1]])
+        return i_n + mean_gain * (u - i_n)
 
 
 class Saturation(Effect):

@@ -13,8 +13,9 @@ DESCRIPTION = """\
 Diagnose the sim-to-real gap of a rig-log dataset (maglev-rig-log/1, closed- or
 open-loop, any controller, locked axes allowed):
 
-  baseline      the nominal model without cogging, C1..C4 calibrated on the training
-                runs (or --params as given); whole runs are held out for scoring
+  baseline      the nominal model with its cogging law (seed eq. 9), C1..C4, xi0 and ell
+                calibrated on the training runs with a prior at nominal (or --params as
+                given); whole runs are held out for scoring
   residuals     filtered equation error: the same zero-phase FIR on the measured
                 accelerations and on the model's (every current-carrying regressor),
                 noise floor from the data (held-out runs, circular-shift null)
@@ -29,8 +30,12 @@ Writes DIR/report.json, DIR/report.md and figures.
 
 Other modes:
   --selftest N --seed S   blind self-check on N generated datasets (confusion matrix,
-                          localization accuracy, reduction vs the ideal one)
-  --generate DIR          write a diagnosis dataset from the plant (--effect, --seed)
+                          localization accuracy, reduction vs the ideal one); with
+                          --plant independent on the independent rig (maglev_ocp.rigsim:
+                          none, 1-3 effects with laws other than the library's, effects
+                          outside the library)
+  --generate DIR          write a diagnosis dataset from the plant (--effect, --seed);
+                          --plant independent: from the independent rig (truth.json beside)
   --scenario FILE --effect NAME
                           closed-loop view: the scenario on the model, on the rig with
                           the effect, and with the controller's model carrying the
@@ -91,13 +96,26 @@ def register(sub) -> None:
         help="self-check: draw only these truths (library effects and/or none; default all)",
     )
     p.add_argument("--generate", metavar="DIR", help="write a diagnosis dataset from the plant into DIR")
-    p.add_argument("--effect", metavar="NAME", help="library effect for --generate / --scenario")
+    p.add_argument(
+        "--plant",
+        choices=("library", "independent"),
+        default="library",
+        help="--generate / --selftest: the suite's plant with the library's effects (default), or the independent "
+        "rig simulator maglev_ocp.rigsim with its own law families and effects outside the library",
+    )
+    p.add_argument(
+        "--effect",
+        metavar="NAME",
+        help="effect for --generate / --scenario (library plant: one library effect or none; independent plant: "
+        "comma-separated rigsim effects, e.g. cogging,friction, or none)",
+    )
     p.add_argument(
         "--effect-param",
         nargs="+",
         default=[],
         metavar="KEY=VALUE",
-        help="effect parameters in the plant (e.g. xi0=5 ell=0.004)",
+        help="effect parameters in the plant (e.g. xi0=5 ell=0.004; independent plant: EFFECT.KEY=VALUE, "
+        "EFFECT.family=NAME, or KEY=VALUE with one effect)",
     )
     p.add_argument(
         "--extra",
@@ -133,6 +151,69 @@ def _kv(items: list[str]) -> dict[str, float]:
             raise UserError(f"--effect-param: {key}: must be finite")
         out[key.strip()] = v
     return out
+
+
+def independent_effects(names: str | None, items: list[str]) -> dict[str, dict]:
+    """``{effect: {"family": ..., param: value}}`` for the independent rig from ``--effect`` / ``--effect-param``.
+
+    Effects, families and parameters are checked against the catalogue of
+    :mod:`maglev_ocp.rigsim.laws`; anything else is a :class:`UserError` naming what is allowed.
+    """
+    from ..rigsim.laws import LAWS
+
+    chosen = [n.strip() for n in (names or "").split(",") if n.strip()]
+    if chosen == ["none"]:
+        chosen = []
+    bad = [n for n in chosen if n not in LAWS]
+    if bad:
+        raise UserError(
+            f"--effect: unknown effect(s) {bad} of the independent rig; choose from {', '.join(LAWS)}, none"
+        )
+    if len(set(chosen)) != len(chosen):
+        raise UserError(f"--effect: each effect at most once, got {chosen}")
+    spec: dict[str, dict] = {n: {} for n in chosen}
+    for it in items:
+        if "=" not in it:
+            raise UserError(f"--effect-param: expected [EFFECT.]KEY=VALUE, got {it!r}")
+        key, val = (x.strip() for x in it.split("=", 1))
+        eff, _, name = key.rpartition(".")
+        if not eff:
+            if len(chosen) != 1:
+                raise UserError(f"--effect-param: {key}: name the effect (EFFECT.{key}=...) when there is not one")
+            eff = chosen[0]
+        if eff not in spec:
+            raise UserError(f"--effect-param: {key}: {eff!r} is not among the effects given ({', '.join(chosen)})")
+        spec[eff][name] = val
+    return {n: _independent_law(n, kv) for n, kv in spec.items()}
+
+
+def _independent_law(n: str, kv: dict[str, str]) -> dict:
+    """One effect of the independent rig: family and numeric parameters checked against its catalogue."""
+    from ..rigsim.laws import LAWS
+
+    law = LAWS[n]
+    fam = kv.pop("family", law.families[0])
+    if fam not in law.families:
+        raise UserError(
+            f"--effect-param: {n}.family: {fam!r} is not a law of {n}; choose from {', '.join(law.families)}"
+        )
+    allowed = law.DEFAULTS[fam]
+    params: dict[str, float] = {}
+    for q, v in kv.items():
+        if q not in allowed:
+            raise UserError(f"--effect-param: {n} ({fam}) has no parameter {q!r}; known: {', '.join(sorted(allowed))}")
+        try:
+            x = float(v)
+        except ValueError:
+            raise UserError(f"--effect-param: {n}.{q}: not a number: {v!r}") from None
+        if not math.isfinite(x):
+            raise UserError(f"--effect-param: {n}.{q}: must be finite")
+        params[q] = x
+    try:
+        law(fam, **params)
+    except ValueError as e:
+        raise UserError(f"--effect-param: {n}: {e}") from None
+    return {"family": fam, **params}
 
 
 def _check_effect(name: str | None, allow_none: bool = False) -> None:
@@ -219,6 +300,8 @@ def _selftest(args) -> int:
 
     if args.selftest < 1:
         raise UserError(f"--selftest: N must be >= 1, got {args.selftest}")
+    if args.plant == "independent":
+        return _selftest_independent(args)
     if args.truths:
         bad = [t for t in args.truths if t not in DRAWS]
         if bad:
@@ -245,6 +328,31 @@ def _selftest(args) -> int:
     return 0
 
 
+def _selftest_independent(args) -> int:
+    """``--selftest N --plant independent``: the blind self-check on datasets of the independent rig."""
+    from ..config import check_output_dir, replace_dir
+    from ..diagnosis.selftest import SelftestSettings
+    from ..diagnosis.selftest_rig import run_rig_selftest
+
+    if args.truths:
+        raise UserError("--truths: the independent rig draws its own scenarios (none, 1-3 effects, out of library)")
+    if args.baseline != "calibrated":
+        raise UserError("--baseline given: the independent rig's constants are off nominal; only 'calibrated' applies")
+    st = SelftestSettings(
+        n=args.selftest, seed=args.seed, generator=_generator(args), diagnose=_settings(args, simulate=False)
+    )
+    if args.out:
+        check_output_dir(args.out, expect=("selftest.json", "selftest.md"))
+        with replace_dir(args.out) as tmp:
+            res = run_rig_selftest(st, progress=True, out_dir=tmp, keep_reports=args.keep_reports)
+    else:
+        res = run_rig_selftest(st, progress=True, out_dir=None, keep_reports=args.keep_reports)
+    print(res.table())
+    if args.out:
+        print(f"written: {Path(args.out) / 'selftest.md'}")
+    return 0
+
+
 def _generate(args) -> int:
     import numpy as np
 
@@ -254,21 +362,25 @@ def _generate(args) -> int:
     from ..params import NOMINAL
     from ..riglog import read_dataset
 
+    if args.plant == "independent":
+        return _generate_independent(args)
     _check_effect(args.effect, allow_none=True)
     check_output_dir(args.generate, "--generate", expect=("dataset.yaml",))
     eff = _kv(args.effect_param)
-    params = NOMINAL.without_cogging()
+    # The plant has the shared model's cogging (seed eq. (9), MODEL.md) at nominal, as a rig does; an effect adds
+    # to it (``cogging``: slot harmonics and another decay beyond eq. (9)).
+    params = NOMINAL
     effects: dict = {}
     if args.effect and args.effect != "none":
-        if args.effect == "cogging" and set(eff) <= {"xi0", "ell"}:
-            params = params.with_(xi0=eff.get("xi0", 4.0), ell=eff.get("ell", 3.6e-3))
-        else:
-            from ..effects import EFFECTS
+        from ..effects import EFFECTS
 
-            bad = set(eff) - set(EFFECTS[args.effect].param_names())
-            if bad:
-                raise UserError(f"--effect-param: {args.effect} has no parameters {sorted(bad)}")
-            effects = {args.effect: {"enabled": True, **eff}}
+        bad = set(eff) - set(EFFECTS[args.effect].param_names())
+        if bad:
+            raise UserError(
+                f"--effect-param: {args.effect} has no parameters {sorted(bad)}; "
+                f"known: {', '.join(EFFECTS[args.effect].param_names())}"
+            )
+        effects = {args.effect: {"enabled": True, **eff}}
     cfg = selftest_plant("given", effects)
     force, info = None, None
     if args.extra:
@@ -288,6 +400,28 @@ def _generate(args) -> int:
         gen.save(tmp)
     print(read_dataset(args.generate).table())
     print(f"written: {args.generate}")
+    return 0
+
+
+def _generate_independent(args) -> int:
+    """``--generate DIR --plant independent``: a dataset (and its truth.json) from the independent rig."""
+    import json
+
+    from ..config import check_output_dir, replace_dir
+    from ..riglog import read_dataset
+    from ..rigsim import RigSettings, generate
+
+    if args.extra:
+        raise UserError("--extra: the independent rig names its effects outside the library in --effect "
+                        "(resonance, encoder_error, temperature_drift, cable)")  # fmt: skip
+    effects = independent_effects(args.effect, args.effect_param)
+    _generator(args)  # the same checks of --runs and --duration
+    check_output_dir(args.generate, "--generate", expect=("dataset.yaml",))
+    with replace_dir(args.generate) as tmp:
+        generate(tmp, effects, args.seed, RigSettings(n_runs=args.runs, duration=args.duration))
+    truth = json.loads((Path(args.generate) / "truth.json").read_text())
+    print(read_dataset(args.generate).table())
+    print(f"written: {args.generate} (independent rig; expected verdict: {truth['expected_verdict']})")
     return 0
 
 

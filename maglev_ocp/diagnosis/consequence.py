@@ -144,9 +144,9 @@ def effect_force(
         if f.key.startswith("p."):
             pv[PARAM_NAMES.index(f.key[2:])] = v
     # Constants the candidate moves belong to the model, not to the effect: keep them on both sides,
-    # except the cogging law's (xi0, ell), which *is* the effect.
+    # except the cogging law's (xi0, ell) against a cogging-blind baseline (xi0 = 0), where it *is* the effect.
     p_off = pv.copy()
-    if any(f.key in ("p.xi0",) for f in spec.free):
+    if p[PARAM_NAMES.index("xi0")] == 0.0 and any(f.key in ("p.xi0",) for f in spec.free):
         p_off[PARAM_NAMES.index("xi0")] = 0.0
     base = CandidateSpec("baseline")
     out = []
@@ -323,8 +323,9 @@ def effect_size(
     params, effects, dropped = plant_effects(spec, fit, p)
     size.dropped = dropped
     if simulate:
-        # Without the effect: the same fitted constants, but the cogging law (xi0) as the baseline had it.
-        p0 = dict(params, xi0=float(pv[PARAM_NAMES.index("xi0")]))
+        # Without the effect: the same fitted constants; against a cogging-blind baseline, no cogging law.
+        xi_base = float(pv[PARAM_NAMES.index("xi0")])
+        p0 = dict(params, xi0=xi_base) if xi_base == 0.0 else params
         size.closed_loop = closed_loop_consequence(params, effects, p0)
         # What the goal bounds is the tracking error: the effect matters if it adds a tenth of the goal to it.
         added = max(v["added_max_m"] for v in size.closed_loop.values())

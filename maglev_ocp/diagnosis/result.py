@@ -67,7 +67,12 @@ class DiagnoseSettings(Strict):
         controllers (only with ``simulate``).
     prior_sd : float
         Sd of the Gaussian prior at nominal on C1..C3 of a calibrated baseline,
-        relative to nominal (C4 five times looser; 0: no prior).
+        relative to nominal (C4, xi0 and ell five times looser; 0: no prior).
+    baseline_cogging : bool
+        The calibrated baseline carries the shared model's cogging law (seed
+        eq. (9), MODEL.md) with xi0 and ell calibrated, so that cogging that
+        follows eq. (9) is part of the baseline and only cogging that differs
+        is an effect (default); off: the cogging-blind seed eq. (2).
     clean_min : float
         Smallest fraction of the training samples outside the regions with a
         gap for the baseline to be recalibrated on them.
@@ -101,10 +106,11 @@ class DiagnoseSettings(Strict):
     consequence: bool = True
     prior_sd: float = Field(0.1, ge=0.0, le=10.0)
     clean_min: float = Field(0.3, ge=0.0, le=1.0)
+    baseline_cogging: bool = True
     max_effects: int = Field(3, ge=1, le=8)
     forward_pool: int = Field(3, ge=0, le=10)
     forward_z: float = Field(0.0, ge=-100.0)
-    family_top: int = Field(2, ge=0, le=10)
+    family_top: int = Field(4, ge=0, le=10)
     z_enter: float = Field(2.0, ge=0.0)
 
     def rules(self) -> VerdictRules:

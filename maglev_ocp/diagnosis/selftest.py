@@ -10,12 +10,14 @@ the table below and in ``selftest.json``), the plant seed is drawn too, a
 diagnosis dataset is generated (:mod:`.generate`) and diagnosed by
 :func:`~.diagnose.diagnose`, which sees only the rig log.
 
-By default (``baseline="calibrated"``) the diagnosis calibrates C1..C4 itself
-and the plant's constants carry the default profile's random mismatch
-(``parameter_error``, which a calibration absorbs, is left out). With
-``baseline="given"`` the engineer's model handed to the diagnosis is the
-nominal one without cogging (``--params``) and the plant's constants equal
-it, so that a ``parameter_error`` dataset is a gap. Single-effect draws
+By default (``baseline="calibrated"``) the diagnosis calibrates C1..C4 and the
+cogging law's xi0, ell itself and the plant's constants carry the default
+profile's random mismatch (``parameter_error``, which a calibration absorbs,
+is left out). The plant always has the shared model's cogging (seed eq. (9),
+MODEL.md) as a real rig does; a ``cogging`` truth is cogging beyond it (slot
+harmonics, another decay). With ``baseline="given"`` the engineer's model
+handed to the diagnosis is the nominal one (``--params``) and the plant's
+constants equal it, so that a ``parameter_error`` dataset is a gap. Single-effect draws
 include laws other than the library's default member (saturation of the
 magnet field or of the current terms only, other cogging decays and normal
 ratios, other overhang losses), so the law families are exercised. A verdict
@@ -75,32 +77,34 @@ def _signed(rng: np.random.Generator, lo: float, hi: float) -> float:
 
 
 def _draw_cogging(rng):
-    params = {"xi0": _u(rng, 1.5, 6.0), "ell": _u(rng, 2.5e-3, 6e-3)}
-    effects = {}
+    """Cogging beyond the shared model's law (seed eq. (9), which the plant always has at its own constants and
+    a calibrated baseline carries): slot harmonics with their own decay, or another decay law altogether."""
     if rng.uniform() < 0.5:  # harmonics of the slot pitch on top of the seed's law
-        effects = {
-            "cogging": {
-                "enabled": True,
-                "xi0": params["xi0"],
-                "ell": params["ell"] * _u(rng, 0.8, 1.25),
-                "power": 0.0,
-                "h1": 0.0,
-                "h2": _u(rng, -0.4, 0.4),
-                "h3": _u(rng, -0.3, 0.3),
-                "phi2": _u(rng, -math.pi, math.pi),
-                "phi3": _u(rng, -math.pi, math.pi),
-                "kn": _u(rng, 0.6, 1.5),
-            }
+        eff = {
+            "xi0": _u(rng, 2.0, 6.0),
+            "ell": NOMINAL.ell * _u(rng, 0.8, 1.25),
+            "power": 0.0,
+            "h1": 0.0,
+            "h2": _signed(rng, 0.15, 0.4),
+            "h3": _u(rng, -0.3, 0.3),
+            "phi2": _u(rng, -math.pi, math.pi),
+            "phi3": _u(rng, -math.pi, math.pi),
+            "kn": _u(rng, 0.6, 1.5),
         }
-        if rng.uniform() < 0.5:  # a decay law other than the seed's: power law and log-curvature, all in the effect
-            effects["cogging"].update(
-                {"ell": params["ell"] * _u(rng, 1.2, 2.0), "power": _u(rng, 0.5, 2.0), "curv": _u(rng, -1.0, 1.0),
-                 "h1": 1.0, "h2": _u(rng, -0.3, 0.3), "kn": _u(rng, 0.5, 2.0)}
-            )  # fmt: skip
-            params = {}
-    else:
-        effects = {"cogging": {"enabled": False}}
-    return params, effects
+    else:  # a fundamental with a decay law other than the seed's (power law and log-curvature) and a harmonic
+        eff = {
+            "xi0": _u(rng, 1.5, 4.0),
+            "ell": NOMINAL.ell * _u(rng, 1.2, 2.0),
+            "power": _u(rng, 0.5, 2.0),
+            "curv": _u(rng, -1.0, 1.0),
+            "h1": 1.0,
+            "h2": _u(rng, -0.3, 0.3),
+            "h3": 0.0,
+            "phi2": _u(rng, -math.pi, math.pi),
+            "phi3": 0.0,
+            "kn": _u(rng, 0.5, 2.0),
+        }
+    return {}, {"cogging": {"enabled": True, **eff}}
 
 
 def _draw_friction(rng):
@@ -578,7 +582,8 @@ def run_case(
     s_draw, s_gen, s_diag = seed.spawn(3)
     rng = np.random.default_rng(s_draw)
     p_over, eff = DRAWS[truth](rng) if truth in DRAWS else ({}, {})
-    base = NOMINAL.without_cogging()
+    # The engineer's nominal model: with the shared cogging law (seed eq. (9)) when the diagnosis's baseline has it.
+    base = NOMINAL if settings.diagnose.baseline_cogging else NOMINAL.without_cogging()
     true_nominal = base.with_(**p_over) if p_over else base
     cfg = selftest_plant(settings.baseline, eff)
     force, extra_info = None, None
