@@ -353,8 +353,10 @@ def decide(
 
 
 def rank(scores: Sequence[EffectScore]) -> list[EffectScore]:
-    """Best first: significant before not, then by held-out reduction, then by the information criterion."""
-    return sorted(scores, key=lambda s: (not s.significant, -s.reduction, s.delta_bic))
+    """Best first: the verdict's (selected) scores, then significant before not, then by held-out reduction,
+    then by the information criterion (a joint candidate the selection refused, e.g. ``cogging+saturation``
+    with the same reduction as ``cogging``, ranks after the verdict it did not improve)."""
+    return sorted(scores, key=lambda s: (not s.selected, not s.significant, -s.reduction, s.delta_bic))
 
 
 __all__ = [
