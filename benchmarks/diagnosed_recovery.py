@@ -45,7 +45,6 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
 
 from maglev_ocp.cli import main as maglev  # noqa: E402
 from maglev_ocp.config import atomic_write_text, dump_yaml, load_yaml  # noqa: E402
-from maglev_ocp.effects import EFFECTS  # noqa: E402
 from maglev_ocp.params import NOMINAL  # noqa: E402
 
 #: Strong settings of each library effect (top of the self-check's draw ranges,
@@ -90,30 +89,19 @@ CONTROLLERS: tuple[str, ...] = ("fl", "nmpc")
 
 
 # ------------------------------------------------------------------ plant and model files
-def plant_block(effect: str) -> dict[str, Any]:
-    """The scenario's ``plant:`` of the strong-``effect`` rig: the plant ``maglev diagnose --generate`` simulates.
+def rig_of_dataset(data: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The rig a generated dataset ran on: its ``plant:`` block and its true model file.
 
-    Default profile's noise, quantization, limits and stops, no random mismatch
-    (:func:`maglev_ocp.diagnosis.selftest.selftest_plant` with ``given`` constants),
-    only ``effect`` switched on; the rig's constants are the nominal ones without
-    cogging (cogging: the spec's law with :data:`STRONG` ``xi0``, ``ell``).
+    Read from the dataset's own metadata (``meta.plant``, the plant file the
+    generator simulated, and ``meta.diagnosis_truth.true_params``), so the tours
+    run on exactly the plant the diagnosis saw, whatever the generator puts in
+    it (e.g. the spec's eq. (9) cogging at nominal plus the effect).
     """
-    eff: dict[str, Any] = {n: {"enabled": False} for n in EFFECTS}
-    consts = {"xi0": 0.0}
-    if effect == "cogging":
-        consts = dict(STRONG["cogging"])
-    else:
-        eff[effect] = {"enabled": True, **STRONG[effect]}
-    relative = {n: 0.0 for n in ("C1", "C2", "C3", "C4", "xi0", "ell", "Mh", "Mv")}
-    return {"profile": "default", "mismatch": {"relative": relative, "overrides": consts}, "effects": eff}
-
-
-def true_model(effect: str) -> dict[str, Any]:
-    """The true model as a model file: the rig's constants and its effect with its true law."""
-    blk = plant_block(effect)
-    consts = {n: float(getattr(NOMINAL, n)) for n in ("C1", "C2", "C3", "C4", "Mh", "Mv", "xi0", "ell")}
-    consts.update(blk["mismatch"]["overrides"])
-    return {**consts, "effects": {n: v for n, v in blk["effects"].items() if v.get("enabled")}}
+    meta = load_yaml(data / "dataset.yaml")["meta"]
+    plant = meta["plant"]
+    truth = meta["diagnosis_truth"]["true_params"]
+    on = {n: v for n, v in (plant.get("effects") or {}).items() if v.get("enabled")}
+    return plant, {**{n: float(v) for n, v in truth.items()}, "effects": on}
 
 
 def law_only(model_file: dict[str, Any]) -> dict[str, Any]:
@@ -134,24 +122,30 @@ def blind_model() -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------ diagnosis
-def generate_and_diagnose(effect: str, work: Path, seed: int, reuse: bool) -> tuple[Path, dict[str, Any]]:
+def generate_and_diagnose(effect: str, work: Path, seed: int, reuse: bool) -> tuple[Path, Path, dict[str, Any]]:
     """Steps 1-2: ``maglev diagnose --generate``, then ``maglev diagnose`` with default settings.
 
-    Returns the diagnosed ``model.yaml`` and ``{"verdict", "commands"}``.
+    Returns the dataset folder, the diagnosed ``model.yaml`` and ``{"verdict", "commands"}``.
     """
     data, rep = work / effect / "dataset", work / effect / "diagnosis"
-    gen = ["diagnose", "--generate", str(data), "--effect", effect, "--seed", str(seed), "--effect-param"]
-    gen += [f"{kk}={v!r}" for kk, v in STRONG[effect].items()]
+    gen = generate_command(effect, data, seed)
     diag = ["diagnose", str(data), "--out", str(rep), "--no-figures"]
     if not (reuse and (rep / "model.yaml").is_file()):
         for args in (gen, diag):
             if maglev(args) != 0:
                 raise RuntimeError(f"maglev {' '.join(args)} failed")
     report = json.loads((rep / "report.json").read_text())
-    return rep / "model.yaml", {
-        "verdict": verdict_text(report),
-        "commands": [f"maglev {' '.join(a)}" for a in (gen, diag)],
-    }
+    return (
+        data,
+        rep / "model.yaml",
+        {"verdict": verdict_text(report), "commands": [f"maglev {' '.join(a)}" for a in (gen, diag)]},
+    )
+
+
+def generate_command(effect: str, data: Path, seed: int) -> list[str]:
+    """``maglev`` arguments that generate the strong-``effect`` dataset into ``data``."""
+    gen = ["diagnose", "--generate", str(data), "--effect", effect, "--seed", str(seed), "--effect-param"]
+    return gen + [f"{kk}={v!r}" for kk, v in STRONG[effect].items()]
 
 
 def verdict_text(report: dict[str, Any]) -> str:
@@ -165,13 +159,15 @@ def verdict_text(report: dict[str, Any]) -> str:
 
 
 # ------------------------------------------------------------------ closed loop
-def tour_scenario(effect: str, ctype: str, model_file: Path, seed: int = 7, backend: str = "python") -> dict[str, Any]:
-    """The tour on the strong-``effect`` rig with controller ``ctype`` on the model file ``model_file``."""
+def tour_scenario(
+    effect: str, ctype: str, model_file: Path, plant: dict[str, Any], seed: int = 7, backend: str = "python"
+) -> dict[str, Any]:
+    """The tour on the rig ``plant`` (:func:`rig_of_dataset`) with controller ``ctype`` on ``model_file``."""
     return {
         "name": f"recovery_{effect}_{ctype}_{model_file.stem}",
         "seed": seed,
         "controller": {"type": ctype, "backend": backend, "model": str(model_file)},
-        "plant": plant_block(effect),
+        "plant": plant,
         "targets": [{"g": g, "d": d, "hold": h} for g, d, h in TOUR],
     }
 
@@ -207,19 +203,22 @@ def run_effect(effect: str, work: Path, seed: int, reuse: bool, backend: str, ba
     """Steps 1-4 for one effect: the diagnosis and the six tours, with the RMS and recovered fractions."""
     from maglev_ocp.runner import run_scenario
 
-    diagnosed, info = generate_and_diagnose(effect, work, seed, reuse)
+    data, diagnosed, info = generate_and_diagnose(effect, work, seed, reuse)
+    plant, true = rig_of_dataset(data)
     mdir = work / effect / "models"
     mdir.mkdir(parents=True, exist_ok=True)
     files = {m: mdir / f"{m}.yaml" for m in (*MODELS, ABLATION)}
     dump_yaml(files["blind"], blind_model())
-    dump_yaml(files["true"], true_model(effect))
+    dump_yaml(files["true"], true)
     shutil.copyfile(diagnosed, files["diagnosed"])
     dump_yaml(files[ABLATION], law_only(load_yaml(diagnosed)))
     row: dict[str, Any] = {"effect": effect, "strong": STRONG[effect], **info, "controllers": {}}
     for ctype in CONTROLLERS:
         res: dict[str, Any] = {}
         for model in (*MODELS, ABLATION):
-            r = run_scenario(tour_scenario(effect, ctype, files[model], backend=backend), progress=False, figures=False)
+            r = run_scenario(
+                tour_scenario(effect, ctype, files[model], plant, backend=backend), progress=False, figures=False
+            )
             m = r.metrics
             res[model] = {
                 **tour_rms(m),

@@ -20,13 +20,15 @@ from benchmarks.diagnosed_recovery import (
     MIN_GAIN_M,
     STRONG,
     blind_model,
+    generate_command,
     main,
     recovered,
+    rig_of_dataset,
     tour_rms,
     tour_scenario,
-    true_model,
 )
 from controllers.model_file import load_controller_model
+from maglev_ocp.cli import main as cli_main
 from maglev_ocp.config import dump_yaml
 from maglev_ocp.effects import EffectSet
 from maglev_ocp.plant import Plant
@@ -56,22 +58,23 @@ def test_tour_rms_combines_axes_and_targets():
 
 @pytest.mark.parametrize("effect", list(STRONG))
 def test_true_model_file_is_the_rig_of_the_tours(effect, tmp_path):
-    """The true model file holds the rig's own constants and effect law; the blind one the nominal without cogging."""
+    """The tours run on the very rig the dataset came from; the true model file holds its constants and effect law."""
+    data = tmp_path / "data"
+    assert cli_main(generate_command(effect, data, seed=3)) == 0
+    plant, true = rig_of_dataset(data)
     f, fb = tmp_path / "true.yaml", tmp_path / "blind.yaml"
-    dump_yaml(f, true_model(effect))
+    dump_yaml(f, true)
     dump_yaml(fb, blind_model())
-    sc = scenario_from_dict(tour_scenario(effect, "fl", f))
+    sc = scenario_from_dict(tour_scenario(effect, "fl", f, plant))
     cfg = sc.plant_config()
     rig = Plant(cfg, sc.plant_params(), seed=np.random.SeedSequence(0)).true_params
     cm, blind = load_controller_model(f), load_controller_model(fb)
     np.testing.assert_allclose(cm.params.vector(), rig.vector(), rtol=1e-12)
     assert blind.params.xi0 == 0.0 and blind.effects == () and blind.delay_samples == 0
     on = cfg.effect_values()
-    assert set(on) == ({effect} if effect != "cogging" else set())
+    assert set(on) == {effect}  # the strong effect, and only it, is on in the tours' rig
     if effect == "amplifier_lag":  # dynamic: its transport delay is what a controller takes
         assert cm.effects == () and cm.delay_samples == STRONG[effect]["delay_samples"]
-    elif effect == "cogging":  # the spec's law, in the constants
-        assert cm.effects == () and cm.params.xi0 == STRONG["cogging"]["xi0"] > 0
     else:
         assert cm.effects == (effect,)
         np.testing.assert_allclose(cm.theta, EffectSet([effect]).vector(on))
