@@ -212,6 +212,35 @@ def _dist_port(name: str = "dist") -> Port:
     )
 
 
+def _ref_row_port(what: str = "reference at this sample") -> Port:
+    """The one-sample reference row (:data:`~maglev_ocp.signals.REF_FIELDS`) of the FL and PID steps."""
+    units = dict(REF_ROW_UNITS)
+    return Port(
+        "ref",
+        len(REF_FIELDS),
+        1,
+        "m, m/s, m/s^2",
+        what,
+        tuple(Piece(r, 1, units[r], "reference " + r) for r in REF_FIELDS),
+    )
+
+
+def _flags_port(fields: tuple[str, ...]) -> Port:
+    """A step's 0/1 status flags, one piece each."""
+    return Port(
+        "flags", len(fields), 1, "-", "0/1 flags: " + ", ".join(fields), tuple(Piece(f, 1, "-", f) for f in fields)
+    )
+
+
+def _state_ports(size: int, pieces: tuple[Piece, ...]) -> tuple[Port, Port, Port]:
+    """``(state, state_in, state_out)``: the controller memory as the init's output and the step's in/out."""
+    return (
+        Port("state", size, 1, "mixed", "initial controller memory", pieces),
+        Port("state_in", size, 1, "mixed", "controller memory", pieces),
+        Port("state_out", size, 1, "mixed", "controller memory for the next call", pieces),
+    )
+
+
 REF_ROW_UNITS: tuple[tuple[str, str], ...] = tuple((r.name, r.unit) for r in REFERENCE)
 
 
@@ -303,17 +332,11 @@ def fl_code(settings, params: Params) -> ControllerCode:
     delay = fl_delay_samples(settings)
     pieces = tuple(Piece(*q) for q in fl_state(delay))
     state_size = sum(q.size for q in pieces)
-    state_in = Port("state_in", state_size, 1, "mixed", "controller memory", pieces)
-    ref_units = dict(REF_ROW_UNITS)
-    ref = Port(
-        "ref",
-        len(REF_FIELDS),
-        1,
-        "m, m/s, m/s^2",
+    state0, state_in, state_out = _state_ports(state_size, pieces)
+    ref = _ref_row_port(
         f"reference {delay} samples ahead (when the command computed now takes effect)"
         if delay
-        else "reference at this sample",
-        tuple(Piece(r, 1, ref_units[r], "reference " + r) for r in REF_FIELDS),
+        else "reference at this sample"
     )
     gain_units = {
         "kp_g": "1/s^2",
@@ -339,7 +362,7 @@ def fl_code(settings, params: Params) -> ControllerCode:
         init,
         "state at rest at the reading (integrators cleared)",
         (_meas2_port(),),
-        (Port("state", state_size, 1, "mixed", "initial controller memory", pieces),),
+        (state0,),
     )
     step_unit = CodeUnit(
         step,
@@ -347,18 +370,11 @@ def fl_code(settings, params: Params) -> ControllerCode:
         (state_in, _meas2_port(), ref, p_port, gains),
         (
             _u_port(),
-            Port("state_out", state_size, 1, "mixed", "controller memory for the next call", pieces),
+            state_out,
             _xhat_port(),
             _dist_port(),
             Port("v", 2, 1, "m/s^2", "demanded output accelerations (gap, horizontal)"),
-            Port(
-                "flags",
-                len(FLAG_FIELDS),
-                1,
-                "-",
-                "0/1 flags: " + ", ".join(FLAG_FIELDS),
-                tuple(Piece(f, 1, "-", f) for f in FLAG_FIELDS),
-            ),
+            _flags_port(FLAG_FIELDS),
         ),
     )
     for u in (init_unit, step_unit):
@@ -384,39 +400,25 @@ def pid_code(settings, params: Params) -> ControllerCode:
     """Code units of :class:`controllers.pid.PIDController` (observer + schedule + regulators in one step)."""
     init, step = pid_functions(settings, k.Ts)
     pieces = tuple(Piece(*q) for q in PID_STATE)
-    ref_units = dict(REF_ROW_UNITS)
-    ref = Port(
-        "ref",
-        len(REF_FIELDS),
-        1,
-        "m, m/s, m/s^2",
-        "reference at this sample",
-        tuple(Piece(r, 1, ref_units[r], "reference " + r) for r in REF_FIELDS),
-    )
+    state0, state_in, state_out = _state_ports(PID_STATE_SIZE, pieces)
+    ref = _ref_row_port()
     p_port = params_port(len(params.vector()))
     init_unit = CodeUnit(
         init,
         "state at rest at the reading (integrators cleared, previous current the clipped hover current there)",
         (_meas2_port(), p_port),
-        (Port("state", PID_STATE_SIZE, 1, "mixed", "initial controller memory", pieces),),
+        (state0,),
     )
     step_unit = CodeUnit(
         step,
         "one PID period: observer update, gain schedule at the reference, both regulators, limits with anti-windup",
-        (Port("state_in", PID_STATE_SIZE, 1, "mixed", "controller memory", pieces), _meas2_port(), ref, p_port),
+        (state_in, _meas2_port(), ref, p_port),
         (
             _u_port(),
-            Port("state_out", PID_STATE_SIZE, 1, "mixed", "controller memory for the next call", pieces),
+            state_out,
             _xhat_port(),
             Port("u_eq", 2, 1, "A", "hover currents (i_q, i_d) used as feedforward"),
-            Port(
-                "flags",
-                len(PID_FLAGS),
-                1,
-                "-",
-                "0/1 flags: " + ", ".join(PID_FLAGS),
-                tuple(Piece(f, 1, "-", f) for f in PID_FLAGS),
-            ),
+            _flags_port(PID_FLAGS),
         ),
     )
     for u in (init_unit, step_unit):
