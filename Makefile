@@ -18,7 +18,7 @@ PEER_ARGS  ?=
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,campaign]'
+	$(BIN)/python -m pip install --quiet -e '.[test,campaign,bench]'
 	touch $(STAMP)
 
 run: $(STAMP)
