@@ -295,7 +295,6 @@ def _dataset(args) -> int:
 
 
 def _selftest(args) -> int:
-    from ..config import check_output_dir, replace_dir
     from ..diagnosis.selftest import DRAWS, SelftestSettings, run_selftest
 
     if args.selftest < 1:
@@ -316,12 +315,19 @@ def _selftest(args) -> int:
         diagnose=_settings(args, simulate=False),
         truths=args.truths,
     )
+    return _run_and_write(run_selftest, st, args)
+
+
+def _run_and_write(run_fn, st, args) -> int:
+    """Run a self-check (``run_fn``: library or independent rig) and print its table; ``--out`` is replaced whole."""
+    from ..config import check_output_dir, replace_dir
+
     if args.out:
         check_output_dir(args.out, expect=("selftest.json", "selftest.md"))
         with replace_dir(args.out) as tmp:
-            res = run_selftest(st, progress=True, out_dir=tmp, keep_reports=args.keep_reports)
+            res = run_fn(st, progress=True, out_dir=tmp, keep_reports=args.keep_reports)
     else:
-        res = run_selftest(st, progress=True, out_dir=None, keep_reports=args.keep_reports)
+        res = run_fn(st, progress=True, out_dir=None, keep_reports=args.keep_reports)
     print(res.table())
     if args.out:
         print(f"written: {Path(args.out) / 'selftest.md'}")
@@ -330,7 +336,6 @@ def _selftest(args) -> int:
 
 def _selftest_independent(args) -> int:
     """``--selftest N --plant independent``: the blind self-check on datasets of the independent rig."""
-    from ..config import check_output_dir, replace_dir
     from ..diagnosis.selftest import SelftestSettings
     from ..diagnosis.selftest_rig import run_rig_selftest
 
@@ -341,16 +346,7 @@ def _selftest_independent(args) -> int:
     st = SelftestSettings(
         n=args.selftest, seed=args.seed, generator=_generator(args), diagnose=_settings(args, simulate=False)
     )
-    if args.out:
-        check_output_dir(args.out, expect=("selftest.json", "selftest.md"))
-        with replace_dir(args.out) as tmp:
-            res = run_rig_selftest(st, progress=True, out_dir=tmp, keep_reports=args.keep_reports)
-    else:
-        res = run_rig_selftest(st, progress=True, out_dir=None, keep_reports=args.keep_reports)
-    print(res.table())
-    if args.out:
-        print(f"written: {Path(args.out) / 'selftest.md'}")
-    return 0
+    return _run_and_write(run_rig_selftest, st, args)
 
 
 def _generate(args) -> int:
