@@ -80,8 +80,9 @@ def _random_moves(n: int, seed: int) -> list[tuple[tuple[float, float], tuple[fl
 
 @pytest.mark.slow
 @pytest.mark.xfail(
-    reason="issue 12 target not met: the default jerk-limited plan at 0.85 of the limits settles at 1.15-1.19 x "
-    "the minimum time, 1.07-1.11 x when planned at 0.97 (an option: infeasible on rigs weaker than the model); "
+    reason="issue 12 target not met: the default jerk-limited plan at 0.85 of the limits settles at 1.13 x median, "
+    "1.18 x worst, the minimum time (python -m benchmarks.min_time_moves), 1.05 / 1.11 x when planned at 0.97 "
+    "(an option: infeasible on rigs weaker than the model); "
     "settle = plan duration - 3 ms; the straight synchronized (g, d) path costs up to 10 % on moves with 4-7 mm "
     "gap changes and the acceleration ramps 5 %; min-time shaping reaches 1.04 but rings after arrival",
     strict=False,
