@@ -34,7 +34,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import json
-import logging
 import os
 import shutil
 import socket
@@ -49,8 +48,9 @@ from typing import Any
 
 import yaml
 
-from ..config import atomic_write_text, load_yaml, sigint_ignored
+from ..config import atomic_write_text, load_yaml
 from ..errors import UserError
+from ..parallel import local_client
 from .config import Campaign, SaveSettings
 from .expand import RunSpec, apply_overrides, expand
 
@@ -441,7 +441,7 @@ class _WarmUp:
 def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
     """A ``dask.distributed`` client on a LocalCluster or a remote scheduler."""
     try:
-        from dask.distributed import Client, LocalCluster, WorkerPlugin
+        from dask.distributed import Client, WorkerPlugin
     except ImportError:
         raise UserError("dask.distributed is not installed: pip install 'maglev-ocp[campaign]'") from None
 
@@ -457,17 +457,8 @@ def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
         finally:
             client.close()
         return
-    with sigint_ignored():  # the worker processes inherit SIG_IGN: Ctrl-C is the client's (no worker tracebacks)
-        cluster = LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR
-        )
-    client = Client(cluster)
-    try:
-        client.register_plugin(plugin_cls())
+    with local_client(workers, plugin_cls()) as client:
         yield client
-    finally:
-        client.close()
-        cluster.close()
 
 
 def _run_on_dask(

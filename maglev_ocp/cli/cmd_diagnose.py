@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from pathlib import Path
 
 from ..errors import UserError
@@ -89,6 +90,14 @@ def register(sub) -> None:
         "python, or auto (compiled where a C compiler is found, default)",
     )
     p.add_argument("--keep-reports", action="store_true", help="self-check: write every dataset's report")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="self-check: local worker processes (Dask) the datasets are spread over; 1 runs in-process; the "
+        "result does not depend on it (default: CPU count)",
+    )
     p.add_argument(
         "--truths",
         nargs="+",
@@ -299,6 +308,8 @@ def _selftest(args) -> int:
 
     if args.selftest < 1:
         raise UserError(f"--selftest: N must be >= 1, got {args.selftest}")
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers: must be >= 1, got {args.workers}")
     if args.plant == "independent":
         return _selftest_independent(args)
     if args.truths:
@@ -322,12 +333,13 @@ def _run_and_write(run_fn, st, args) -> int:
     """Run a self-check (``run_fn``: library or independent rig) and print its table; ``--out`` is replaced whole."""
     from ..config import check_output_dir, replace_dir
 
+    workers = args.workers or os.cpu_count() or 1
     if args.out:
         check_output_dir(args.out, expect=("selftest.json", "selftest.md"))
         with replace_dir(args.out) as tmp:
-            res = run_fn(st, progress=True, out_dir=tmp, keep_reports=args.keep_reports)
+            res = run_fn(st, progress=True, out_dir=tmp, keep_reports=args.keep_reports, workers=workers)
     else:
-        res = run_fn(st, progress=True, out_dir=None, keep_reports=args.keep_reports)
+        res = run_fn(st, progress=True, out_dir=None, keep_reports=args.keep_reports, workers=workers)
     print(res.table())
     if args.out:
         print(f"written: {Path(args.out) / 'selftest.md'}")

@@ -51,10 +51,10 @@ from pathlib import Path
 
 import numpy as np
 from pydantic import Field
-from tqdm import tqdm
 
 from ..config import Strict, atomic_write_text, make_dir
 from ..effects import EFFECTS
+from ..parallel import map_ordered
 from ..params import NOMINAL, Params
 from ..plant import PlantConfig
 from .attribution import raw_rms
@@ -642,11 +642,21 @@ def same_set(verdict: str, truth: str) -> bool:
     return canonical(verdict) == canonical(truth)
 
 
+def _library_job(job: tuple[int, str, np.random.SeedSequence, SelftestSettings, Path | None]) -> Case:
+    """One library self-check case (a worker's job): run it, write its report when kept, return the case."""
+    i, truth, seed, settings, keep = job
+    case, diag = run_case(i, truth, seed, settings)
+    if keep is not None:
+        write_report(diag, keep / f"case_{i:02d}")
+    return case
+
+
 def run_selftest(
     settings: SelftestSettings,
     progress: bool = True,
     out_dir: str | os.PathLike | None = None,
     keep_reports: bool = False,
+    workers: int = 1,
 ) -> SelftestResult:
     """Run the blind self-check.
 
@@ -660,6 +670,9 @@ def run_selftest(
         Where to write ``selftest.json`` / ``selftest.md`` (after every case, so a long run can be watched).
     keep_reports : bool
         Also write each dataset's diagnosis report into ``out_dir/case_NN``.
+    workers : int
+        Local worker processes (Dask) the datasets are spread over; every case has its own seed, so the
+        result does not depend on it.
     """
     truths = list(settings.truths or ["none", *LIBRARY, *COMBOS])
     if settings.baseline == "calibrated":
@@ -674,18 +687,22 @@ def run_selftest(
     while len(order) < settings.n:
         order += list(rng.permutation(truths))
     order = order[: settings.n]
-    cases = []
-    for i, (truth, s) in enumerate(
-        tqdm(list(zip(order, s_cases.spawn(settings.n), strict=True)), desc="self-check", disable=not progress)
-    ):
-        case, diag = run_case(i, str(truth), s, settings)
-        cases.append(case)
-        if out_dir is not None:
-            res = SelftestResult(settings, cases)
-            res.save(out_dir)
-            if keep_reports:
-                write_report(diag, Path(out_dir) / f"case_{i:02d}")
-    return SelftestResult(settings, cases)
+    keep = Path(out_dir) if (keep_reports and out_dir is not None) else None
+    seeds = s_cases.spawn(settings.n)
+    jobs = [(i, str(t), s, settings, keep) for i, (t, s) in enumerate(zip(order, seeds, strict=True))]
+    save = save_partial(SelftestResult, settings, out_dir)
+    return SelftestResult(settings, map_ordered(_library_job, jobs, workers, "self-check", progress, save))
+
+
+def save_partial(result_cls: type, settings: SelftestSettings, out_dir: str | os.PathLike | None):
+    """A :func:`maglev_ocp.parallel.map_ordered` callback saving the cases finished so far (or ``None``)."""
+    if out_dir is None:
+        return None
+
+    def save(done: dict[int, Case]) -> None:
+        result_cls(settings, [done[i] for i in sorted(done)]).save(out_dir)
+
+    return save
 
 
 __all__ = [
@@ -698,6 +715,7 @@ __all__ = [
     "run_case",
     "run_selftest",
     "same_set",
+    "save_partial",
     "selftest_plant",
     "truth_residuals",
 ]

@@ -33,15 +33,15 @@ import time
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from ..config import atomic_write_text
+from ..parallel import map_ordered
 from ..riglog import read_dataset
 from ..rigsim import RigSettings, draw, generate
 from ..rigsim.generate import build_laws, expected_verdict
 from .diagnose import diagnose
 from .report import write_report
-from .selftest import Case, SelftestResult, SelftestSettings, canonical, same_set
+from .selftest import Case, SelftestResult, SelftestSettings, canonical, same_set, save_partial
 
 #: One block of kinds (cycled in random order): the proportions of :data:`maglev_ocp.rigsim.draw.KINDS`.
 BLOCK: dict[str, int] = {"none": 3, "single": 7, "pair": 4, "triple": 2, "out_of_library": 4}
@@ -190,11 +190,17 @@ class RigSelftestResult(SelftestResult):
         return out
 
 
+def _rig_job(job: tuple[int, str, int, SelftestSettings, Path | None]) -> Case:
+    """One independent-rig case (a worker's job)."""
+    return run_rig_case(*job)
+
+
 def run_rig_selftest(
     settings: SelftestSettings,
     progress: bool = True,
     out_dir: str | os.PathLike | None = None,
     keep_reports: bool = False,
+    workers: int = 1,
 ) -> RigSelftestResult:
     """Run the blind self-check on the independent rig (see the module docstring).
 
@@ -208,20 +214,17 @@ def run_rig_selftest(
         Where ``selftest.json`` / ``selftest.md`` are written after every case.
     keep_reports : bool
         Also write each dataset's diagnosis report into ``out_dir/case_NN``.
+    workers : int
+        Local worker processes (Dask); the result does not depend on it (every case has its own seed).
     """
     root = np.random.SeedSequence([int(settings.seed), 0x51D])
     s_order, s_cases = root.spawn(2)
     order = kinds_order(settings.n, np.random.default_rng(s_order))
     seeds = [int(s.generate_state(1)[0]) for s in s_cases.spawn(settings.n)]
-    cases: list[Case] = []
     keep = Path(out_dir) if (keep_reports and out_dir is not None) else None
-    for i, (kind, sd) in enumerate(
-        tqdm(list(zip(order, seeds, strict=True)), desc="rig self-check", disable=not progress)
-    ):
-        cases.append(run_rig_case(i, kind, sd, settings, keep))
-        if out_dir is not None:
-            RigSelftestResult(settings, cases).save(out_dir)
-    return RigSelftestResult(settings, cases)
+    jobs = [(i, kind, sd, settings, keep) for i, (kind, sd) in enumerate(zip(order, seeds, strict=True))]
+    save = save_partial(RigSelftestResult, settings, out_dir)
+    return RigSelftestResult(settings, map_ordered(_rig_job, jobs, workers, "rig self-check", progress, save))
 
 
 __all__ = ["BLOCK", "RigSelftestResult", "kinds_order", "run_rig_case", "run_rig_selftest"]
