@@ -31,6 +31,7 @@ read ahead with :meth:`ReferencePlan.sample` (the runner calls a controller's
 from __future__ import annotations
 
 import functools
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -49,6 +50,8 @@ from .fastcall import BufferedFunction
 from .model import get_model, model_inverse_function
 from .ocp.min_time import MinTimeSettings, solve_min_time
 from .params import NOMINAL, Params
+
+_log = logging.getLogger(__name__)
 
 
 class ReferenceSettings(Strict):
@@ -427,13 +430,16 @@ def plan_min_time_move(
             settings.axis_limit_fraction,
             settings.i_d_fraction,
         )
-        if tab is not None:
+        if tab is None:
+            _log.warning("minimum-time move %s -> %s m not solved: planned as a trajectory", a, b)
+        else:
             mv = TabulatedMove(t0, tab[0], a, b, tab[1], tab[2])
             lim_axes = np.array([settings.axis_limit_fraction, settings.i_d_limit_fraction]) * k.i_axis_max
             if effects is None or _limits_ok(
                 tab[2], params, lim_axes, settings.current_fraction * k.i_amp_max, effects
             ):
                 return mv
+            _log.info("minimum-time move %s -> %s m exceeds the limits with the model's effects: trajectory", a, b)
     return plan_move(a, b, params, settings, t0=t0, effects=effects)
 
 
@@ -482,11 +488,12 @@ def planning_inverse_function(effects: tuple[str, ...] = ()) -> ca.Function:
         us = ca.SX.sym("u", 2)
         f = m.f(x, us, p)
         acc = ca.vertcat(f[1], f[3]) + effect_delta_function(effects)(x, us, p, theta[: es.n_theta])
-        newton = ca.Function("newton", [x, us, p, theta], [us - ca.mtimes(ca.inv(ca.jacobian(acc, us)), acc - a)])
-        residual = ca.Function("residual", [x, us, p, theta], [acc - a])
+        step = us - ca.mtimes(ca.inv(ca.jacobian(acc, us)), acc - a)
+        newton = ca.Function("newton", [x, a, us, p, theta], [step])
+        residual = ca.Function("residual", [x, a, us, p, theta], [acc - a])
         for _ in range(INVERSE_NEWTON_STEPS):
-            u = newton(x, u, p, theta)
-        r = residual(x, u, p, theta)
+            u = newton(x, a, u, p, theta)
+        r = residual(x, a, u, p, theta)
         off = ca.fmax(
             ca.fabs(r[0]) - INVERSE_TOLERANCE * (1 + ca.fabs(a[0])),
             ca.fabs(r[1]) - INVERSE_TOLERANCE * (1 + ca.fabs(a[1])),

@@ -306,7 +306,12 @@ def solve_min_time(
     uh = 0.5 * (_hover(g0, d0, p) + _hover(g1, d1, p))
     opti.set_initial(U, np.tile(uh[:, None], (1, N)))
     opti.set_initial(T, T0)
-    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "max_iter": st.max_iter, "tol": 1e-9, "sb": "yes"})
+    # evaluation warnings off: IPOPT steps through points where the model is not defined and backs off
+    opti.solver(
+        "ipopt",
+        {"print_time": False, "show_eval_warnings": False},
+        {"print_level": 0, "max_iter": st.max_iter, "tol": 1e-9, "sb": "yes"},
+    )
     t0 = time.perf_counter()
     try:
         sol = opti.solve()
