@@ -10,10 +10,16 @@ currents stay within a fraction of the limits along the whole path:
   ``ramp_fraction`` of the move spent ramping; 0 gives pure bang-bang, the
   time-optimal profile of a double integrator);
 - both axes share one duration ``T`` (a straight line in the ``(g, d)`` plane);
+  with ``d_timing: free`` the horizontal axis may accelerate for less or more
+  than half of it (:func:`split_profile`), with ``gap_timing: free`` the gap may
+  change in a part of it, each placed where the move is shortest (a move that
+  changes the gap by several mm is then a few per cent shorter: it accelerates
+  at the smaller gap, where the thrust per ampere is larger);
 - ``T`` is the smallest duration (bisection) for which the currents of the
-  shared model's exact inverse (cogging included, see
-  :func:`maglev_ocp.model.model_inverse_function`) along the planned states and
-  accelerations satisfy ``|i_q|, |i_d| <= f * 8 A`` and
+  controller's model's exact inverse (cogging included, see
+  :func:`maglev_ocp.model.model_inverse_function`; with the static effects of
+  the controller's model file, :func:`planning_inverse_function`) along the
+  planned states and accelerations satisfy ``|i_q|, |i_d| <= f * 8 A`` and
   ``sqrt(i_q^2 + i_d^2) <= f * 8 A`` with ``f = current_fraction``. So the
   acceleration is the one the limits allow *at the gaps the move passes*
   (larger at small gaps, where ``L1 = C1 f1`` is larger, and less when the
