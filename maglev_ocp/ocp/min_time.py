@@ -61,6 +61,8 @@ class MinTimeSettings:
         Weight of the current-change penalty relative to ``T`` [s/A^2].
     max_iter : int
         IPOPT iteration limit.
+    tol : float
+        IPOPT's convergence tolerance.
     """
 
     n_intervals: int = 150
@@ -72,6 +74,7 @@ class MinTimeSettings:
     gap_margin: float = 2e-3
     smooth: float = 1e-7
     max_iter: int = 500
+    tol: float = 1e-9
 
 
 @dataclass
@@ -310,7 +313,7 @@ def solve_min_time(
     opti.solver(
         "ipopt",
         {"print_time": False, "show_eval_warnings": False},
-        {"print_level": 0, "max_iter": st.max_iter, "tol": 1e-9, "sb": "yes"},
+        {"print_level": 0, "max_iter": st.max_iter, "tol": st.tol, "sb": "yes"},
     )
     t0 = time.perf_counter()
     try:
