@@ -40,7 +40,7 @@ import functools
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import casadi as ca
@@ -353,6 +353,8 @@ MIN_TIME_SMOOTHING = 3e-3
 #: IPOPT tolerance of a planned minimum-time move: its duration within 0.02 % of the 1e-9 solution
 #: (measured on four moves), in about half the iterations' time.
 MIN_TIME_TOL = 1e-6
+#: IPOPT iterations of the first attempt (from the straight move's duration) before the default start.
+MIN_TIME_GUESSED_ITER = 150
 #: Shooting intervals of a planned minimum-time move: 1.5 ms for a 75 ms move gives its duration within
 #: 0.01 % of the 150-interval solution (measured on three moves) in a tenth of the solve time.
 MIN_TIME_INTERVALS = 50
@@ -376,11 +378,15 @@ def _min_time_table(
         i_d_max=None if frac_id is None else frac_id * k.i_axis_max,
         tol=MIN_TIME_TOL,
     )
-    try:  # the straight jerk-limited move's duration: a close first guess of T (a third of the solve time)
+    # First with the straight bang-bang move's duration as the guess of T (a third of the solve time on
+    # long moves) and few iterations; moves mostly of the gap converge from it poorly: then from the default.
+    try:
         guess = plan_move(p0, p1, params, ReferenceSettings(current_fraction=frac, ramp_fraction=0.0)).T
+        res = solve_min_time(p0, p1, params, replace(st, max_iter=MIN_TIME_GUESSED_ITER), T_guess=guess)
     except ConfigError:
-        guess = None
-    res = solve_min_time(p0, p1, params, st, T_guess=guess)
+        res = None
+    if res is None or not res.success:
+        res = solve_min_time(p0, p1, params, st)
     if not res.success:
         return None
     tau = np.linspace(0.0, res.T, max(math.ceil(res.T / MIN_TIME_TABLE_STEP), 2) + 1)
