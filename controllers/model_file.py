@@ -20,7 +20,7 @@ the delay, and the keys that only describe the rig (noise, quantization,
 limits, stops, integrator, disturbances) are ignored.
 
 The static effects (everything but the amplifier lag) enter the controller
-through :func:`effect_delta_function`: the effect library's own CasADi
+through :func:`maglev_ocp.effects.effect_delta_function` (re-exported here): the effect library's own CasADi
 expressions (:meth:`maglev_ocp.effects.EffectSet.accel`, not retyped) minus
 the shared model's accelerations, i.e. what the effects add at a state and a
 current. The amplifier lag's transport delay is reported as ``delay_samples``
@@ -29,18 +29,15 @@ current. The amplifier lag's transport delay is reported as ``delay_samples``
 
 from __future__ import annotations
 
-import functools
 import math
 import os
 from dataclasses import dataclass, fields
 
-import casadi as ca
 import numpy as np
 
 from maglev_ocp.config import load_yaml, parse_model
-from maglev_ocp.effects import EFFECTS, EffectSet
+from maglev_ocp.effects import EFFECTS, EffectSet, effect_delta_function
 from maglev_ocp.errors import ConfigError
-from maglev_ocp.model import get_model
 from maglev_ocp.params import Params, ParamsFile
 
 #: Plant-file keys that describe the rig, not its model (ignored when a plant file is loaded as a model file).
@@ -155,23 +152,6 @@ def _mismatch_constants(path: str | os.PathLike, block: object) -> dict:
     if not isinstance(over, dict):
         raise ConfigError(f"{path}: mismatch.overrides: a mapping of constants")
     return dict(over)
-
-
-@functools.lru_cache(maxsize=32)
-def effect_delta_function(names: tuple[str, ...]) -> ca.Function:
-    """``effect_delta(x, u, p, theta) -> (dg_ddot, dd_ddot)``: what the effects add to the model's accelerations.
-
-    The effect library's accelerations (currents transformed, terms scaled,
-    forces added, :meth:`maglev_ocp.effects.EffectSet.accel`) minus the shared
-    model's at the same state and currents.
-    """
-    m = get_model()
-    es = EffectSet(names)
-    x, u, p = ca.SX.sym("x", 4), ca.SX.sym("u", 2), ca.SX.sym("p", m.np_)
-    theta = ca.SX.sym("theta", es.n_theta)
-    f = m.f(x, u, p)
-    delta = es.accel(x, u, p, theta) - ca.vertcat(f[1], f[3])
-    return ca.Function("effect_delta", [x, u, p, theta], [delta], ["x", "u", "p", "theta"], ["delta"])
 
 
 __all__ = [

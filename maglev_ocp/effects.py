@@ -607,6 +607,25 @@ def _accel_function(names: tuple[str, ...]) -> ca.Function:
     return ca.Function(f"accel_{label}", [m.x, m.u, m.p, theta], [a], ["x", "u", "p", "theta"], ["a"])
 
 
+@functools.lru_cache(maxsize=32)
+def effect_delta_function(names: tuple[str, ...]) -> ca.Function:
+    """``effect_delta(x, u, p, theta) -> (dg_ddot, dd_ddot)``: what the effects add to the model's accelerations.
+
+    The effect library's accelerations (currents transformed, terms scaled,
+    forces added, :meth:`EffectSet.accel`) minus the shared model's at the
+    same state and currents: how a controller's model file
+    (:mod:`controllers.model_file`) and the reference planner
+    (:mod:`maglev_ocp.reference`) add fitted effects to the shared model.
+    """
+    m = get_model()
+    es = EffectSet(names)
+    x, u, p = ca.SX.sym("x", 4), ca.SX.sym("u", 2), ca.SX.sym("p", m.np_)
+    theta = ca.SX.sym("theta", es.n_theta)
+    f = m.f(x, u, p)
+    delta = es.accel(x, u, p, theta) - ca.vertcat(f[1], f[3])
+    return ca.Function("effect_delta", [x, u, p, theta], [delta], ["x", "u", "p", "theta"], ["delta"])
+
+
 __all__ = [
     "EFFECTS",
     "EFFECT_ORDER",
@@ -624,4 +643,5 @@ __all__ = [
     "Saturation",
     "Terms",
     "effect",
+    "effect_delta_function",
 ]

@@ -10,10 +10,16 @@ currents stay within a fraction of the limits along the whole path:
   ``ramp_fraction`` of the move spent ramping; 0 gives pure bang-bang, the
   time-optimal profile of a double integrator);
 - both axes share one duration ``T`` (a straight line in the ``(g, d)`` plane);
+  with ``d_timing: free`` the horizontal axis may accelerate for less or more
+  than half of it (:func:`split_profile`), with ``gap_timing: free`` the gap may
+  change in a part of it, each placed where the move is shortest (a move that
+  changes the gap by several mm is then a few per cent shorter: it accelerates
+  at the smaller gap, where the thrust per ampere is larger);
 - ``T`` is the smallest duration (bisection) for which the currents of the
-  shared model's exact inverse (cogging included, see
-  :func:`maglev_ocp.model.model_inverse_function`) along the planned states and
-  accelerations satisfy ``|i_q|, |i_d| <= f * 8 A`` and
+  controller's model's exact inverse (cogging included, see
+  :func:`maglev_ocp.model.model_inverse_function`; with the static effects of
+  the controller's model file, :func:`planning_inverse_function`) along the
+  planned states and accelerations satisfy ``|i_q|, |i_d| <= f * 8 A`` and
   ``sqrt(i_q^2 + i_d^2) <= f * 8 A`` with ``f = current_fraction``. So the
   acceleration is the one the limits allow *at the gaps the move passes*
   (larger at small gaps, where ``L1 = C1 f1`` is larger, and less when the
@@ -31,9 +37,10 @@ read ahead with :meth:`ReferencePlan.sample` (the runner calls a controller's
 from __future__ import annotations
 
 import functools
+import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import casadi as ca
@@ -43,11 +50,14 @@ from pydantic import Field
 from . import constants as k
 from .blocks import Reference
 from .config import Strict
+from .effects import EffectSet, effect_delta_function
 from .errors import ConfigError
 from .fastcall import BufferedFunction
-from .model import model_inverse_function
+from .model import get_model, model_inverse_function
 from .ocp.min_time import MinTimeSettings, solve_min_time
 from .params import NOMINAL, Params
+
+_log = logging.getLogger(__name__)
 
 
 class ReferenceSettings(Strict):
@@ -59,7 +69,8 @@ class ReferenceSettings(Strict):
         ``trajectory``: plan a current-feasible move to each target (default);
         ``step``: jump the set-point to the target at its switch time;
         ``min_time``: the minimum-time move of the controller's model within
-        ``current_fraction`` of the current limits
+        ``current_fraction`` of the current limits (``i_d`` within
+        ``i_d_fraction`` of its axis limit if given)
         (:func:`maglev_ocp.ocp.min_time.solve_min_time`, gap kept between the
         start and target gaps), a move at the limits for a controller that
         handles them itself (an option of the NMPC, see
@@ -82,6 +93,14 @@ class ReferenceSettings(Strict):
         ``current_fraction``): ``i_d`` holds the open-loop unstable gap, whose
         feedback needs headroom when a fast gap move drives ``i_d`` to its limit,
         while the thrust's ``i_q`` is only bounded by the amplitude.
+    d_timing : {"symmetric", "free"}
+        ``symmetric``: the horizontal axis accelerates for half of the move and
+        brakes for the other half; ``free``: it accelerates for a share
+        (:data:`D_SPLITS`) of the move and brakes, harder or softer, for the
+        rest, whichever gives the shortest feasible move. The minimum-time moves
+        show why: a move that changes the gap accelerates at the smaller gap,
+        where the thrust per ampere ``L1 = C1 f1`` is larger, harder and for a
+        shorter time than it brakes at the larger gap (or the other way round).
     gap_timing : {"with_d", "free"}
         ``with_d``: both axes share the move's duration (a straight line in the
         ``(g, d)`` plane); ``free``: the gap changes in a part of the move (a
@@ -99,6 +118,7 @@ class ReferenceSettings(Strict):
     axis_fraction: float | None = Field(None, gt=0.05, le=1.0)
     i_d_fraction: float | None = Field(None, gt=0.05, le=1.0)
     gap_timing: Literal["with_d", "free"] = "with_d"
+    d_timing: Literal["symmetric", "free"] = "symmetric"
 
     @property
     def axis_limit_fraction(self) -> float:
@@ -111,6 +131,10 @@ class ReferenceSettings(Strict):
         return self.axis_limit_fraction if self.i_d_fraction is None else self.i_d_fraction
 
 
+#: Shares of the move the horizontal axis may spend accelerating with ``d_timing: free`` (0.5: symmetric).
+D_SPLITS: tuple[float, ...] = (0.5, 0.45, 0.55, 0.4, 0.6, 0.35, 0.65)
+#: Shares of the gap's part of the move the gap may spend accelerating with ``gap_timing: free``.
+GAP_SPLITS: tuple[float, ...] = (0.5, 0.35, 0.65, 0.2, 0.8)
 #: Shares of the move's duration the gap may take with ``gap_timing: free`` (the fastest move is kept).
 GAP_SHARES: tuple[float, ...] = (1.0, 0.75, 0.55, 0.4)
 #: Where the gap's part of the move starts, as a fraction of the time left beside it (0: at the start, 1: at the end).
@@ -187,6 +211,41 @@ def peak_acceleration_factor(ramp: float) -> float:
     return 4.0 / (1.0 - 2.0 * float(ramp))
 
 
+def split_profile(tau, ramp, split: float = 0.5):
+    """:func:`unit_profile` with the acceleration phase taking ``split`` of the unit time, braking the rest.
+
+    Both phases are the halves of the jerk-limited unit profile, each stretched
+    to its own duration: the peak velocity (2, as for the symmetric profile)
+    is reached at ``tau = split``, the acceleration is ``1 / (2 split)`` times
+    the unit profile's before and ``1 / (2 (1 - split))`` times it after, so
+    the move is rest to rest over the same distance (each phase covers its
+    share of it). ``split = 0.5`` is :func:`unit_profile` itself.
+
+    Parameters
+    ----------
+    tau : ndarray
+        Normalized time ``t / T``.
+    ramp : float
+        Ramp fraction of each phase's stretched unit time.
+    split : float
+        Share of the move spent accelerating, in (0, 1).
+
+    Returns
+    -------
+    s, s', s'' : ndarray
+        Position, velocity and acceleration of the unit move in unit time.
+    """
+    if split == 0.5:
+        return unit_profile(tau, ramp)
+    tau = np.asarray(tau, dtype=float)
+    a, b = 2.0 * split, 2.0 * (1.0 - split)
+    s1, v1, a1 = unit_profile(tau / a, ramp)
+    s2, v2, a2 = unit_profile(1.0 - (1.0 - tau) / b, ramp)
+    first = tau < split
+    s = np.where(first, a * s1, 1.0 - b * (1.0 - s2))
+    return s, np.where(first, v1, v2), np.where(first, a1 / a, a2 / b)
+
+
 @dataclass(frozen=True)
 class Move:
     """One planned rest-to-rest move from ``p0`` to ``p1`` starting at ``t0``.
@@ -205,6 +264,10 @@ class Move:
         Duration of the gap's part of the move [s] (``None``: the whole ``T``).
     gap_start : float
         When the gap's part starts, from ``t0`` [s].
+    split : float
+        Share of the move the horizontal axis spends accelerating (see :func:`split_profile`).
+    gap_split : float
+        Share of the gap's part of the move the gap spends accelerating.
     """
 
     t0: float
@@ -214,6 +277,8 @@ class Move:
     ramp: float = 0.1
     gap_T: float | None = None
     gap_start: float = 0.0
+    split: float = 0.5
+    gap_split: float = 0.5
 
     def sample(self, t: np.ndarray) -> np.ndarray:
         """Reference at times ``t``: array (len(t), 6) ordered g, g_dot, g_ddot, d, d_dot, d_ddot."""
@@ -228,7 +293,7 @@ class Move:
             t0, T = self.t0, self.T
             if j == 0 and self.gap_T is not None:
                 t0, T = self.t0 + self.gap_start, self.gap_T
-            s, v, a = unit_profile((t - t0) / T, self.ramp)
+            s, v, a = split_profile((t - t0) / T, self.ramp, self.split if j == 1 else self.gap_split)
             out[:, col] = p0[j] + delta[j] * s
             out[:, col + 1] = delta[j] * v / T
             out[:, col + 2] = delta[j] * a / T**2
@@ -240,9 +305,9 @@ class Move:
         The gap's part starts at ``place`` (0..1) of the time left beside it.
         """
         if share >= 1.0:
-            return Move(self.t0, self.T, self.p0, self.p1, self.ramp)
+            return Move(self.t0, self.T, self.p0, self.p1, self.ramp, split=self.split, gap_split=self.gap_split)
         gT = share * self.T
-        return Move(self.t0, self.T, self.p0, self.p1, self.ramp, gT, place * (self.T - gT))
+        return Move(self.t0, self.T, self.p0, self.p1, self.ramp, gT, place * (self.T - gT), self.split, self.gap_split)
 
 
 @dataclass(frozen=True)
@@ -285,6 +350,11 @@ MIN_TIME_TABLE_STEP = 1e-4
 #: Moving-average width applied to a minimum-time move [s]: jerk-limits its bang-bang accelerations
 #: (3 ms: measured on the tours, 2 ms leaves overshoots, 4 ms slower moves).
 MIN_TIME_SMOOTHING = 3e-3
+#: IPOPT tolerance of a planned minimum-time move: its duration within 0.02 % of the 1e-9 solution
+#: (measured on four moves), in about half the iterations' time.
+MIN_TIME_TOL = 1e-6
+#: IPOPT iterations of the first attempt (from the straight move's duration) before the default start.
+MIN_TIME_GUESSED_ITER = 150
 #: Shooting intervals of a planned minimum-time move: 1.5 ms for a 75 ms move gives its duration within
 #: 0.01 % of the 150-interval solution (measured on three moves) in a tenth of the solve time.
 MIN_TIME_INTERVALS = 50
@@ -292,12 +362,31 @@ MIN_TIME_INTERVALS = 50
 
 @functools.lru_cache(maxsize=256)
 def _min_time_table(
-    p0: tuple[float, float], p1: tuple[float, float], pvec: tuple[float, ...], frac: float, frac_axis: float
+    p0: tuple[float, float],
+    p1: tuple[float, float],
+    pvec: tuple[float, ...],
+    frac: float,
+    frac_axis: float,
+    frac_id: float | None = None,
 ):
     """``(T, tau, rows)`` of the minimum-time move within the fractions of the limits, or ``None`` if not solved."""
     params = Params.from_vector(np.asarray(pvec))
-    st = MinTimeSettings(n_intervals=MIN_TIME_INTERVALS, i_axis=frac_axis * k.i_axis_max, i_amp=frac * k.i_amp_max)
-    res = solve_min_time(p0, p1, params, st)
+    st = MinTimeSettings(
+        n_intervals=MIN_TIME_INTERVALS,
+        i_axis=frac_axis * k.i_axis_max,
+        i_amp=frac * k.i_amp_max,
+        i_d_max=None if frac_id is None else frac_id * k.i_axis_max,
+        tol=MIN_TIME_TOL,
+    )
+    # First with the straight bang-bang move's duration as the guess of T (a third of the solve time on
+    # long moves) and few iterations; moves mostly of the gap converge from it poorly: then from the default.
+    try:
+        guess = plan_move(p0, p1, params, ReferenceSettings(current_fraction=frac, ramp_fraction=0.0)).T
+        res = solve_min_time(p0, p1, params, replace(st, max_iter=MIN_TIME_GUESSED_ITER), T_guess=guess)
+    except ConfigError:
+        res = None
+    if res is None or not res.success:
+        res = solve_min_time(p0, p1, params, st)
     if not res.success:
         return None
     tau = np.linspace(0.0, res.T, max(math.ceil(res.T / MIN_TIME_TABLE_STEP), 2) + 1)
@@ -333,34 +422,122 @@ def _smoothed(T: float, rows: np.ndarray, width: float) -> tuple[float, np.ndarr
 
 
 def plan_min_time_move(
-    p0: Sequence[float], p1: Sequence[float], params: Params, settings: ReferenceSettings, t0: float = 0.0
+    p0: Sequence[float],
+    p1: Sequence[float],
+    params: Params,
+    settings: ReferenceSettings,
+    t0: float = 0.0,
+    effects: PlanEffects | None = None,
 ) -> Move | TabulatedMove:
     """The minimum-time move from ``p0`` to ``p1`` within ``current_fraction`` of the limits (``shaping: min_time``).
 
-    Solved on the controller's model (:func:`maglev_ocp.ocp.min_time.solve_min_time`,
+    Solved on the controller's model constants (:func:`maglev_ocp.ocp.min_time.solve_min_time`,
     cached per move); a move of less than 1 mm or one the solver does not
-    converge on is planned as ``trajectory`` (:func:`plan_move`).
+    converge on is planned as ``trajectory`` (:func:`plan_move`). The
+    minimum-time problem is solved on the shared model; with ``effects`` (the
+    static effects of the controller's model file) the solved move's currents
+    are checked on the model with them (:func:`planning_inverse_function`,
+    the same fractions of the limits) and a move that does not fit is planned
+    as ``trajectory`` on that model instead.
     """
     a, b = (float(p0[0]), float(p0[1])), (float(p1[0]), float(p1[1]))
     if max(abs(b[0] - a[0]), abs(b[1] - a[1])) >= 1e-3:
         tab = _min_time_table(
-            a, b, tuple(params.vector().tolist()), settings.current_fraction, settings.axis_limit_fraction
+            a,
+            b,
+            tuple(params.vector().tolist()),
+            settings.current_fraction,
+            settings.axis_limit_fraction,
+            settings.i_d_fraction,
         )
-        if tab is not None:
-            return TabulatedMove(t0, tab[0], a, b, tab[1], tab[2])
-    return plan_move(a, b, params, settings, t0=t0)
+        if tab is None:
+            _log.warning("minimum-time move %s -> %s m not solved: planned as a trajectory", a, b)
+        else:
+            mv = TabulatedMove(t0, tab[0], a, b, tab[1], tab[2])
+            lim_axes = np.array([settings.axis_limit_fraction, settings.i_d_limit_fraction]) * k.i_axis_max
+            if effects is None or _limits_ok(
+                tab[2], params, lim_axes, settings.current_fraction * k.i_amp_max, effects
+            ):
+                return mv
+            _log.info("minimum-time move %s -> %s m exceeds the limits with the model's effects: trajectory", a, b)
+    return plan_move(a, b, params, settings, t0=t0, effects=effects)
 
 
-def _limits_ok(samples: np.ndarray, params: Params, lim_axes: np.ndarray, lim_amp: float) -> bool:
+@dataclass(frozen=True)
+class PlanEffects:
+    """Static effects of the controller's model file, for the planner's feasibility check.
+
+    Attributes
+    ----------
+    names : tuple of str
+        Effect names (:class:`maglev_ocp.effects.EffectSet`).
+    theta : tuple of float
+        Their parameters in the effect set's order.
+    """
+
+    names: tuple[str, ...]
+    theta: tuple[float, ...]
+
+
+#: Newton steps of the effect-aware inverse (from the shared model's inverse; quadratic convergence).
+INVERSE_NEWTON_STEPS = 4
+#: Residual of the effect-aware inverse beyond which a point counts as out of reach [m/s^2, + relative].
+INVERSE_TOLERANCE = 1e-3
+
+
+@functools.lru_cache(maxsize=16)
+def planning_inverse_function(effects: tuple[str, ...] = ()) -> ca.Function:
+    """``planning_inverse(x, a, p, theta) -> (u, unreachable)``: currents for accelerations ``a`` with the effects.
+
+    Without effects it is the shared model's exact inverse
+    (:func:`maglev_ocp.model.model_inverse_function`, ``theta`` unused). With
+    effects, the shared inverse is the first guess and Newton's method on the
+    model-plus-effects accelerations (the shared model's ``f`` plus
+    :func:`maglev_ocp.effects.effect_delta_function`) refines it
+    (:data:`INVERSE_NEWTON_STEPS`); a point counts as unreachable when the
+    shared inverse says so or the residual stays beyond
+    :data:`INVERSE_TOLERANCE` ``(1 + |a|)``, so a move the model cannot follow is
+    never declared feasible.
+    """
+    m = get_model()
+    x, a, p = ca.SX.sym("x", 4), ca.SX.sym("a", 2), ca.SX.sym("p", m.np_)
+    es = EffectSet(effects)
+    theta = ca.SX.sym("theta", max(es.n_theta, 1))
+    u, unr = model_inverse_function()(x, a, p)
+    if effects:
+        us = ca.SX.sym("u", 2)
+        f = m.f(x, us, p)
+        acc = ca.vertcat(f[1], f[3]) + effect_delta_function(effects)(x, us, p, theta[: es.n_theta])
+        step = us - ca.mtimes(ca.inv(ca.jacobian(acc, us)), acc - a)
+        newton = ca.Function("newton", [x, a, us, p, theta], [step])
+        residual = ca.Function("residual", [x, a, us, p, theta], [acc - a])
+        for _ in range(INVERSE_NEWTON_STEPS):
+            u = newton(x, a, u, p, theta)
+        r = residual(x, a, u, p, theta)
+        off = ca.fmax(
+            ca.fabs(r[0]) - INVERSE_TOLERANCE * (1 + ca.fabs(a[0])),
+            ca.fabs(r[1]) - INVERSE_TOLERANCE * (1 + ca.fabs(a[1])),
+        )
+        unr = ca.logic_or(unr, off > 0)
+    return ca.Function("planning_inverse", [x, a, p, theta], [u, unr], ["x", "a", "p", "theta"], ["u", "unreachable"])
+
+
+def _limits_ok(
+    samples: np.ndarray, params: Params, lim_axes: np.ndarray, lim_amp: float, effects: PlanEffects | None = None
+) -> bool:
     """Do the model-inverse currents along ``samples`` (rows of :meth:`Move.sample`) fit the limits?
 
-    ``lim_axes``: bounds of ``|i_q|`` and ``|i_d|`` [A]; ``lim_amp``: bound of the amplitude [A].
+    ``lim_axes``: bounds of ``|i_q|`` and ``|i_d|`` [A]; ``lim_amp``: bound of the amplitude [A];
+    ``effects``: the model file's static effects (:func:`planning_inverse_function`).
     """
     n = samples.shape[0]
-    inv = _mapped_inverse(n)
+    names = effects.names if effects is not None else ()
+    theta = np.asarray(effects.theta if effects is not None and effects.theta else (0.0,), dtype=float)
+    inv = _mapped_inverse(n, names)
     x = np.vstack([samples[:, 0], samples[:, 1], samples[:, 3], samples[:, 4]])
     a = np.vstack([samples[:, 2], samples[:, 5]])
-    u, unr = inv(x, a, np.tile(params.vector()[:, None], (1, n)))  # buffer API: no DM conversions
+    P = np.tile(params.vector()[:, None], (1, n))
+    u, unr = inv(x, a, P, np.tile(theta[:, None], (1, n)))  # buffer API: no DM conversions
     u = u.reshape(n, 2).T
     if np.any(np.asarray(unr) > 0) or not np.all(np.isfinite(u)):
         return False
@@ -368,15 +545,22 @@ def _limits_ok(samples: np.ndarray, params: Params, lim_axes: np.ndarray, lim_am
     return bool(np.all(np.abs(u) <= np.asarray(lim_axes)[:, None]) and np.all(amp <= lim_amp))
 
 
-def _limits_ok_st(samples: np.ndarray, params: Params, st: ReferenceSettings, i_axis: float, i_amp: float) -> bool:
+def _limits_ok_st(
+    samples: np.ndarray,
+    params: Params,
+    st: ReferenceSettings,
+    i_axis: float,
+    i_amp: float,
+    effects: PlanEffects | None = None,
+) -> bool:
     """:func:`_limits_ok` with the settings' fractions of the axis limit ``i_axis`` and the amplitude ``i_amp``."""
     lim_axes = np.array([st.axis_limit_fraction, st.i_d_limit_fraction]) * i_axis
-    return _limits_ok(samples, params, lim_axes, st.current_fraction * i_amp)
+    return _limits_ok(samples, params, lim_axes, st.current_fraction * i_amp, effects)
 
 
-@functools.lru_cache(maxsize=8)
-def _mapped_inverse(n: int) -> BufferedFunction:
-    return BufferedFunction(model_inverse_function().map(n))
+@functools.lru_cache(maxsize=16)
+def _mapped_inverse(n: int, effects: tuple[str, ...] = ()) -> BufferedFunction:
+    return BufferedFunction(planning_inverse_function(effects).map(n))
 
 
 def plan_move(
@@ -388,6 +572,7 @@ def plan_move(
     n_check: int = 161,
     i_axis: float = k.i_axis_max,
     i_amp: float = k.i_amp_max,
+    effects: PlanEffects | None = None,
 ) -> Move:
     """Plan the shortest current-feasible move from ``p0`` to ``p1`` (see the module docstring).
 
@@ -405,6 +590,9 @@ def plan_move(
         Number of points along the move at which the currents are checked.
     i_axis, i_amp : float
         Current limits [A].
+    effects : PlanEffects, optional
+        The static effects of the controller's model file: the currents are
+        checked on the model with them (:func:`planning_inverse_function`).
 
     Returns
     -------
@@ -421,7 +609,7 @@ def plan_move(
     frac, ramp = st.current_fraction, st.ramp_fraction
     for pt in (p0, p1):
         hold = Move(0.0, 0.0, pt, pt, ramp).sample(np.zeros(1))
-        if not _limits_ok_st(hold, params, st, i_axis, i_amp):
+        if not _limits_ok_st(hold, params, st, i_axis, i_amp, effects):
             raise ConfigError(
                 f"holding g = {pt[0] * 1e3:.2f} mm, d = {pt[1] * 1e3:.2f} mm needs more than "
                 f"{frac:.2f} x the current limits"
@@ -430,23 +618,67 @@ def plan_move(
     if dist < 1e-12:
         return Move(t0, 0.0, p0, p1, ramp)
     tau = np.linspace(0.0, 1.0, n_check)
-    timings = [(1.0, 0.0)]
-    if st.gap_timing == "free" and abs(p1[0] - p0[0]) > 1e-12:
-        timings += [(sh, pl) for sh in GAP_SHARES if sh < 1.0 for pl in GAP_PLACES]
-    best: Move | None = None
-    for share, place in timings:
 
-        def feasible(T: float, share: float = share, place: float = place) -> bool:
-            mv = Move(0.0, T, p0, p1, ramp).with_gap_share(share, place)
-            return _limits_ok_st(mv.sample(tau * T), params, st, i_axis, i_amp)
+    def shortest(split: float, share: float, place: float, gap_split: float) -> Move | None:
+        def move(T: float, t_0: float = 0.0) -> Move:
+            return Move(t_0, T, p0, p1, ramp, split=split, gap_split=gap_split).with_gap_share(share, place)
+
+        def feasible(T: float) -> bool:
+            return _limits_ok_st(move(T).sample(tau * T), params, st, i_axis, i_amp, effects)
 
         T = _shortest_duration(feasible, dist, ramp)
-        if T is None:
-            continue
-        if best is None or T < best.T - 1e-6:
-            best = Move(t0, T, p0, p1, ramp).with_gap_share(share, place)
+        return None if T is None else move(T, t0)
+
+    splits = D_SPLITS if st.d_timing == "free" and abs(p1[1] - p0[1]) > 1e-12 else (0.5,)
+    timings, gap_splits = [(1.0, 0.0)], (0.5,)
+    if st.gap_timing == "free" and abs(p1[0] - p0[0]) > 1e-12:
+        timings += [(sh, pl) for sh in GAP_SHARES if sh < 1.0 for pl in GAP_PLACES]
+        gap_splits = GAP_SPLITS
+    best = _coordinate_search(shortest, splits, timings, gap_splits)
     if best is None:
         raise ConfigError(f"no feasible move from {p0} to {p1} m within the current limits")
+    return best
+
+
+def _coordinate_search(
+    shortest, splits: Sequence[float], timings: Sequence[tuple[float, float]], gap_splits: Sequence[float]
+) -> Move | None:
+    """The shortest of the moves ``shortest(split, share, place, gap_split)`` over the candidates.
+
+    Coordinate search, one parameter group at a time from the best move so far:
+    the horizontal splits (gap over the whole move), the gap's timings, the
+    gap's splits, then the horizontal splits and the gap's timings once more
+    (every candidate is a feasible move; the search only decides which are tried).
+    """
+    best: Move | None = None
+    tried: set[tuple[float, float, float, float]] = set()
+
+    def at() -> tuple[float, float, float, float]:
+        if best is None:
+            return (0.5, 1.0, 0.0, 0.5)
+        if best.gap_T is None:
+            return (best.split, 1.0, 0.0, best.gap_split)
+        free = best.T - best.gap_T
+        return (best.split, best.gap_T / best.T, best.gap_start / free if free > 0 else 0.0, best.gap_split)
+
+    def consider(cands: list[tuple[float, float, float, float]]) -> None:
+        nonlocal best
+        for c in cands:
+            if c in tried:
+                continue
+            tried.add(c)
+            mv = shortest(*c)
+            if mv is not None and (best is None or mv.T < best.T - 1e-6):
+                best = mv
+
+    for group in ("split", "timing", "gap_split", "split", "timing"):
+        sp, sh, pl, gs = at()
+        if group == "split":
+            consider([(s2, sh, pl, gs) for s2 in splits])
+        elif group == "timing":
+            consider([(sp, s2, p2, gs) for s2, p2 in timings])
+        else:
+            consider([(sp, sh, pl, g2) for g2 in gap_splits])
     return best
 
 
@@ -573,6 +805,7 @@ def plan_targets(
     settings: ReferenceSettings | None = None,
     t_start: float = 0.0,
     source: str = "targets",
+    effects: PlanEffects | None = None,
 ) -> ReferencePlan:
     """Plan the reference of a scenario: from ``start`` through every target in order.
 
@@ -590,6 +823,9 @@ def plan_targets(
         Switch time of the first target [s].
     source : str
         Name used in error messages (e.g. ``scenario.yaml: targets``).
+    effects : PlanEffects, optional
+        The static effects of the controller's model file (the moves' currents
+        are checked on the model with them).
 
     Raises
     ------
@@ -608,7 +844,7 @@ def plan_targets(
         else:
             plan = plan_min_time_move if st.shaping == "min_time" else plan_move
             try:
-                mv = plan(prev, (tg.g, tg.d), params, st, t0=t)
+                mv = plan(prev, (tg.g, tg.d), params, st, t0=t, effects=effects)
             except ConfigError as err:
                 raise ConfigError(f"{source}[{i}]: {err}") from None
             if mv.T >= tg.hold:
@@ -624,10 +860,13 @@ def plan_targets(
 
 
 __all__ = [
+    "D_SPLITS",
     "GAP_PLACES",
     "GAP_SHARES",
+    "GAP_SPLITS",
     "MIN_TIME_TABLE_STEP",
     "Move",
+    "PlanEffects",
     "ReferencePlan",
     "ReferenceSettings",
     "TabulatedMove",
@@ -636,5 +875,7 @@ __all__ = [
     "plan_min_time_move",
     "plan_move",
     "plan_targets",
+    "planning_inverse_function",
+    "split_profile",
     "unit_profile",
 ]

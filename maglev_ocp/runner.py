@@ -263,14 +263,17 @@ def build_run(
 
 
 def plan_run(sc: Scenario) -> RunPlan:
-    """Plan stage: plan the scenario's targets on the controller's model and sample the reference per step."""
+    """Plan stage: plan the scenario's targets on the controller's model (its model file's constants and
+    effects, :meth:`~maglev_ocp.scenario.Scenario.planning_model`) and sample the reference per step."""
     Ts = k.Ts
+    params, effects = sc.planning_model()
     plan = plan_targets(
         (sc.start.g, sc.start.d),
         sc.target_list(),
-        sc.controller_model_params(),
+        params,
         sc.reference,
         source=f"{sc.source}: targets",
+        effects=effects,
     )
     n = round(plan.duration / Ts)
     tgrid = np.arange(n) * Ts

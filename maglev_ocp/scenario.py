@@ -82,7 +82,7 @@ from .model import get_model
 from .params import NOMINAL, ParamOverrides, Params, load_params
 from .plant.config import check_hover_envelope
 from .plant.disturbances import persistent_loads, with_payload
-from .reference import ReferenceSettings, Target
+from .reference import PlanEffects, ReferenceSettings, Target
 
 #: Controller types: module, settings class, controller class (imported lazily).
 CONTROLLERS: dict[str, tuple[str, str, str]] = {
@@ -412,6 +412,24 @@ class Scenario(Strict):
     def controller_model_params(self) -> Params:
         """What the controller's model believes (:class:`ControllerParams`)."""
         return self.controller_params.resolve(self.root_dir)
+
+    def planning_model(self) -> tuple[Params, PlanEffects | None]:
+        """The model the moves are planned on: the one the controller loads.
+
+        With a model file (``controller: {model: FILE}``,
+        :mod:`controllers.model_file`) its constants and its static effects (the
+        planner checks the moves' currents on the model with them, so a plan
+        near the limits stays within them on the model the controller predicts
+        with); else :meth:`controller_model_params` and no effects.
+        """
+        path = getattr(self.controller.settings, "model", None)
+        if not path:
+            return self.controller_model_params(), None
+        from controllers.model_file import load_controller_model  # the controllers' format, loaded lazily
+
+        cm = load_controller_model(path)
+        effects = PlanEffects(cm.effects, tuple(float(v) for v in cm.theta)) if cm.effects else None
+        return cm.params, effects
 
     def plant_config(self):
         """The plant's :class:`~maglev_ocp.plant.PlantConfig`."""

@@ -1,10 +1,12 @@
 """Moves at the limit by default (issue 12, item 4): the NMPC plans minimum-time moves and tracks them.
 
 Fast: the tabulated minimum-time move is rest to rest and consistent; the
-NMPC's planning defaults fill only the ``reference:`` keys a scenario leaves
-open (FL keeps the suite's defaults). Slow: default settings, default plant,
-random start and end points (seeded, not the shipped ones): every move of
->= 60 mm settles within 1.05 x the minimum time of the same move
+asymmetric profile is rest to rest and free timing is never slower; the
+planner's feasibility check uses the controller's model file (constants and
+effects); the NMPC's planning defaults fill only the ``reference:`` keys a
+scenario leaves open (FL keeps the suite's defaults). Slow: default settings,
+default plant, random start and end points (seeded, not the shipped ones):
+every move of >= 60 mm settles within 1.05 x the minimum time of the same move
 (:func:`maglev_ocp.ocp.min_time.solve_min_time`).
 """
 
@@ -13,10 +15,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from maglev_ocp import constants as k
+from maglev_ocp.config import dump_yaml
+from maglev_ocp.effects import EffectSet
+from maglev_ocp.model import get_model
 from maglev_ocp.ocp.min_time import solve_min_time
 from maglev_ocp.params import NOMINAL
-from maglev_ocp.reference import ReferenceSettings, TabulatedMove, plan_min_time_move
-from maglev_ocp.runner import run_scenario
+from maglev_ocp.reference import (
+    ReferenceSettings,
+    TabulatedMove,
+    plan_min_time_move,
+    plan_move,
+    planning_inverse_function,
+    split_profile,
+    unit_profile,
+)
+from maglev_ocp.runner import plan_run, run_scenario
 from maglev_ocp.scenario import scenario_from_dict
 
 
@@ -55,15 +69,88 @@ def test_scenario_reference_settings_reach_the_plan():
     assert nm.reference.axis_fraction == 0.87
     fl = scenario_from_dict(_scenario({"type": "fl"}, (0.02, -0.03), (0.02, 0.03)))
     assert fl.reference == ReferenceSettings()
-    # the NMPC's defaults: FL's jerk-limited plan with its headroom (robust to rigs weaker than the model)
+    # the NMPC's defaults: minimum-time moves at 0.97 of the limits, FL's headroom kept on i_d
     dflt = scenario_from_dict(_scenario({"type": "nmpc"}, (0.02, -0.03), (0.02, 0.03))).reference
-    assert dflt == ReferenceSettings()
-    # the near-limit option: amplitude at 0.97, FL's headroom kept on i_d only
-    near = {"current_fraction": 0.97, "i_d_fraction": 0.85}
-    opt = scenario_from_dict(_scenario({"type": "nmpc"}, (0.02, -0.03), (0.02, 0.03), near)).reference
-    assert opt.current_fraction == 0.97 and opt.i_d_limit_fraction == 0.85 and opt.axis_limit_fraction == 0.97
-    own = scenario_from_dict(_scenario({"type": "nmpc"}, (0.02, -0.03), (0.02, 0.03), {"current_fraction": 0.8}))
-    assert own.reference.current_fraction == 0.8 and own.reference.i_d_limit_fraction == 0.8
+    assert dflt.shaping == "min_time" and dflt.current_fraction == 0.97 and dflt.i_d_limit_fraction == 0.85
+    assert dflt.gap_timing == "free" and dflt.d_timing == "free"
+    # keys a scenario sets win: FL's plan on request
+    own = scenario_from_dict(
+        _scenario({"type": "nmpc"}, (0.02, -0.03), (0.02, 0.03), {"shaping": "trajectory", "current_fraction": 0.8})
+    )
+    assert own.reference.shaping == "trajectory" and own.reference.current_fraction == 0.8
+
+
+@pytest.mark.parametrize("split", [0.3, 0.5, 0.62])
+def test_split_profile_is_rest_to_rest_and_consistent(split):
+    tau = np.linspace(-0.1, 1.1, 24001)
+    s, v, a = split_profile(tau, 0.02, split)
+    assert s[0] == 0 and s[-1] == 1 and v[0] == v[-1] == 0 and a[0] == a[-1] == 0
+    # velocity integrates to the position, acceleration to the velocity (to the grid's accuracy)
+    np.testing.assert_allclose(np.concatenate([[0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(tau))]), s, atol=1e-6)
+    np.testing.assert_allclose(np.concatenate([[0], np.cumsum(0.5 * (a[1:] + a[:-1]) * np.diff(tau))]), v, atol=1e-3)
+    # the peak velocity at the split, the accelerations of the two phases in the ratio (1 - split) / split
+    assert tau[np.argmax(v)] == pytest.approx(split, abs=1e-3)
+    assert a.max() / -a.min() == pytest.approx((1 - split) / split, rel=1e-9)
+    if split == 0.5:
+        np.testing.assert_array_equal(np.stack(split_profile(tau, 0.02, 0.5)), np.stack(unit_profile(tau, 0.02)))
+
+
+def test_free_timing_plans_gap_changing_moves_faster():
+    """A move that opens the gap 6.5 mm: accelerate harder at the small gap, open it late (the minimum-time shape)."""
+    st = {"current_fraction": 0.97, "i_d_fraction": 0.85, "ramp_fraction": 0.02}
+    p0, p1 = (0.0176, -0.023), (0.0241, 0.0385)
+    sym = plan_move(p0, p1, NOMINAL, ReferenceSettings(**st))
+    free = plan_move(p0, p1, NOMINAL, ReferenceSettings(**st, gap_timing="free", d_timing="free"))
+    assert free.T < 0.985 * sym.T  # measured: 2.9 % shorter
+    assert free.split < 0.5 and free.gap_T is not None and free.gap_start > 0  # accelerates first, gap later
+    r = free.sample(np.linspace(0, free.T, 4001))
+    assert r[:, 5].max() > 1.05 * -r[:, 5].min()  # harder acceleration than braking (thrust is larger at 17.6 mm)
+    np.testing.assert_allclose(free.sample(np.array([free.T + 1e-3]))[0], [p1[0], 0, 0, p1[1], 0, 0], atol=1e-12)
+
+
+def _model_file(tmp_path, effects: dict) -> str:
+    path = tmp_path / "model.yaml"
+    consts = {n: float(getattr(NOMINAL, n)) for n in ("C1", "C2", "C3", "C4", "xi0", "ell", "Mh", "Mv")}
+    dump_yaml(path, {**consts, "effects": {n: {"enabled": True, **v} for n, v in effects.items()}})
+    return str(path)
+
+
+def test_planning_inverse_solves_the_model_with_effects():
+    """Newton on the model plus effects: the currents give the asked accelerations (commutation offset rotates them)."""
+    names = ("commutation_offset", "saturation")
+    es = EffectSet(names)
+    theta = es.vector({"commutation_offset": {"delta": 0.15}, "saturation": {"loss_8mm": 0.3, "ell_sat": 5e-3}})
+    inv = planning_inverse_function(names)
+    acc = es.accel_function()
+    p = NOMINAL.vector()
+    for x, a in (([0.016, 0.0, -0.02, 0.5], [3.0, 40.0]), ([0.024, -0.1, 0.03, 1.0], [-5.0, -35.0])):
+        u, unr = inv(x, a, p, theta)
+        assert float(unr) == 0
+        np.testing.assert_allclose(np.asarray(acc(x, u, p, theta)).ravel(), a, atol=1e-6)
+        u0 = np.asarray(get_model().u_eq(x[0], x[2], p)).ravel()  # sanity: not the hover currents
+        assert np.linalg.norm(np.asarray(u).ravel() - u0) > 1.0
+    # beyond the field's reach: flagged
+    assert float(inv([0.02, 0, 0, 0], [400.0, 0.0], p, theta)[1]) == 1
+
+
+def test_plan_uses_the_controllers_model_file(tmp_path):
+    """A model file whose thrust is weaker (saturation) gives longer moves whose currents fit on that model."""
+    start, end = (0.018, -0.04), (0.02, 0.04)
+    weak = {"saturation": {"loss_8mm": 0.3, "ell_sat": 5e-3}}
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    files = (_model_file(tmp_path / "a", {}), _model_file(tmp_path / "b", weak))
+    plain, sat = (plan_run(scenario_from_dict(_scenario({"type": "nmpc", "model": f}, start, end))) for f in files)
+    T0, T1 = plain.plan.moves[0].T, sat.plan.moves[0].T
+    assert T1 > 1.02 * T0  # the loss at 16-20 mm is about 4-7 %: measured 1.04
+    # the weaker model's move: currents within 0.97 of the limits on the model with the effect
+    es = EffectSet(("saturation",))
+    theta = es.vector(weak)
+    inv = planning_inverse_function(("saturation",))
+    r = sat.refs[: round(sat.plan.moves[0].T / k.Ts)]
+    for row in r[::5]:
+        u, unr = inv([row[0], row[1], row[3], row[4]], [row[2], row[5]], NOMINAL.vector(), theta)
+        assert float(unr) == 0 and np.hypot(*np.asarray(u).ravel()) <= 0.97 * k.i_amp_max + 0.05
 
 
 def _random_moves(n: int, seed: int) -> list[tuple[tuple[float, float], tuple[float, float]]]:
@@ -79,15 +166,12 @@ def _random_moves(n: int, seed: int) -> list[tuple[tuple[float, float], tuple[fl
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    reason="issue 12 target not met: the default jerk-limited plan at 0.85 of the limits settles at 1.13 x median, "
-    "1.18 x worst, the minimum time (python -m benchmarks.min_time_moves), 1.05 / 1.11 x when planned at 0.97 "
-    "(an option: infeasible on rigs weaker than the model); "
-    "settle = plan duration - 3 ms; the straight synchronized (g, d) path costs up to 10 % on moves with 4-7 mm "
-    "gap changes and the acceleration ramps 5 %; min-time shaping reaches 1.04 but rings after arrival",
-    strict=False,
-)
 def test_random_moves_settle_within_105_percent_of_the_minimum_time():
+    """Issue 12: default NMPC settings, default plant, random 60-100 mm moves (seed 2026): settle <= 1.05 T_min.
+
+    Measured 1.011-1.024 x on these moves; ``python -m benchmarks.min_time_moves --seeds 2026 99 7 31``
+    (32 moves): 1.014 x median, 1.025 x worst.
+    """
     for start, end in _random_moves(8, 2026):
         t_min = solve_min_time(start, end).T
         res = run_scenario(_scenario({"type": "nmpc"}, start, end), progress=False)

@@ -227,19 +227,32 @@ class NMPCSettings(Strict):
     def reference_defaults() -> dict[str, object]:
         """How the NMPC wants a scenario's moves planned when the scenario's ``reference:`` leaves it open.
 
-        Empty: the suite's jerk-limited trajectory at FL's 0.85 of the current
-        limits (:func:`maglev_ocp.reference.plan_move`). Planning at 0.97 with
-        ``i_d_fraction: 0.85`` (the QP has the limits as constraints) settles
-        random 60-100 mm moves on the default plant at 1.07-1.11 x the minimum
-        time (1.15-1.19 x here) and the tour 6 % sooner, but a plan that close to
-        the limits is infeasible on a rig whose force is weaker than the model's:
-        on the strong-effect rigs of ``benchmarks/diagnosed_recovery.py`` the
-        NMPC's tracking RMS went from 42 to 483 um (end effects, blind model) and
-        from 7 to 256 um with the true model, whose effects the planner's
-        feasibility check does not see. So it is an option
-        (``reference: {current_fraction: 0.97, i_d_fraction: 0.85}``), not the default.
+        Minimum-time moves at 0.97 of the current limits on the controller's
+        model (``shaping: min_time``, :func:`maglev_ocp.reference.plan_min_time_move`):
+        the QP has the limits as constraints and closes the rest. With a model
+        file the solved move's currents are checked on the model with its
+        effects, and a move that does not fit there, or one the solver does not
+        converge on, is the suite's jerk-limited trajectory at the same
+        fractions (``i_d`` at FL's 0.85 for the unstable gap's feedback), its
+        horizontal acceleration phase and the gap's part of the move placed
+        freely (``d_timing``, ``gap_timing: free``). Random 60-100 mm moves on the
+        default plant settle at 1.014 x median, 1.025 x at worst, their minimum
+        time (``python -m benchmarks.min_time_moves``; 1.136 / 1.210 x with FL's
+        plan). A plan this close to the limits needs a model that is not weaker
+        than the rig: with the blind model on a rig whose force is 10-15 %
+        weaker the targets still settle, but the tracking RMS against the plan
+        rises ten- to twentyfold; load the diagnosed model file there, or set
+        ``reference: {shaping: trajectory, current_fraction: 0.85}`` (FL's plan).
+        A scenario that sets a key keeps its value.
         """
-        return {}
+        return {
+            "shaping": "min_time",
+            "current_fraction": 0.97,
+            "i_d_fraction": 0.85,
+            "ramp_fraction": 0.02,
+            "gap_timing": "free",
+            "d_timing": "free",
+        }
 
     # ------------------------------------------------------------- derived (read by the step builder)
     @property

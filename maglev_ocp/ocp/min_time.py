@@ -45,6 +45,10 @@ class MinTimeSettings:
         RK4 sub-steps per interval.
     i_axis, i_amp : float
         Current limits [A] (per axis and amplitude).
+    i_d_max : float or None
+        A tighter bound of ``|i_d|`` [A] if given: ``i_d`` holds the open-loop
+        unstable gap, whose feedback needs headroom when a planned move is
+        tracked (:func:`maglev_ocp.reference.plan_min_time_move`).
     gap_band : float or None
         If given, the gap stays within ``band`` of the segment between the
         start and end gaps [m] (a traverse "at 20 mm" holds the gap to the
@@ -57,16 +61,20 @@ class MinTimeSettings:
         Weight of the current-change penalty relative to ``T`` [s/A^2].
     max_iter : int
         IPOPT iteration limit.
+    tol : float
+        IPOPT's convergence tolerance.
     """
 
     n_intervals: int = 150
     n_sub: int = 2
     i_axis: float = k.i_axis_max
     i_amp: float = k.i_amp_max
+    i_d_max: float | None = None
     gap_band: float | None = k.position_tolerance
     gap_margin: float = 2e-3
     smooth: float = 1e-7
     max_iter: int = 500
+    tol: float = 1e-9
 
 
 @dataclass
@@ -279,6 +287,8 @@ def solve_min_time(
     opti.subject_to(X[:, N] == ca.DM([g1, 0, d1, 0]))
     opti.subject_to(opti.bounded(-st.i_axis, ca.vec(U), st.i_axis))
     opti.subject_to(ca.sum1(U**2) <= st.i_amp**2)
+    if st.i_d_max is not None:
+        opti.subject_to(opti.bounded(-st.i_d_max, U[1, :], st.i_d_max))
     if st.gap_band is not None:
         g_lo, g_hi = min(g0, g1) - st.gap_band, max(g0, g1) + st.gap_band
     else:
@@ -299,7 +309,12 @@ def solve_min_time(
     uh = 0.5 * (_hover(g0, d0, p) + _hover(g1, d1, p))
     opti.set_initial(U, np.tile(uh[:, None], (1, N)))
     opti.set_initial(T, T0)
-    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "max_iter": st.max_iter, "tol": 1e-9, "sb": "yes"})
+    # evaluation warnings off: IPOPT steps through points where the model is not defined and backs off
+    opti.solver(
+        "ipopt",
+        {"print_time": False, "show_eval_warnings": False},
+        {"print_level": 0, "max_iter": st.max_iter, "tol": st.tol, "sb": "yes"},
+    )
     t0 = time.perf_counter()
     try:
         sol = opti.solve()
