@@ -52,12 +52,15 @@ class StateLayout:
     ``nfail`` (1) consecutive fallbacks and, with a computation delay of
     ``n_delay`` periods, ``u_flight`` (n_delay x 2) the commands sent but not
     yet applied, oldest first (then ``u_prev`` is the command applied over the
-    last period, the one sent ``n_delay + 1`` periods ago).
+    last period, the one sent ``n_delay + 1`` periods ago); with ``n_adapt``
+    adapted constants, ``theta`` their relative errors and ``ups`` the
+    observer's sensitivities to them.
     """
 
     N: int
     n_gap: int
     n_delay: int = 0
+    n_adapt: int = 0
 
     @property
     def pieces(self) -> tuple[tuple[str, int], ...]:
@@ -92,6 +95,19 @@ class StateLayout:
                 ),
             )
             if self.n_delay
+            else ()
+        ) + (
+            (
+                ("theta", self.n_adapt, "-", "relative errors of the adapted model constants (settings.adapt)"),
+                (
+                    "ups",
+                    6 * self.n_adapt,
+                    "m, m/s, m/s^2",
+                    "sensitivities of (g, g_dot, a_g, d, d_dot, a_d) estimates to them, one column each",
+                ),
+                ("cov", self.n_adapt**2, "-", "covariance of their estimate (recursive least squares)"),
+            )
+            if self.n_adapt
             else ()
         )
 

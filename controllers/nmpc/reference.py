@@ -138,7 +138,7 @@ class HorizonReference:
         c = self._cache
         if c is None or not (c[0] <= kk and kk + N < c[0] + len(c[1])):
             grid = (kk + np.arange(self.CHUNK + N + 1)) * Ts
-            c = self._cache = (kk, plan.sample(grid))
+            c = self._cache = (kk, plan.sample(grid, zoh=Ts))
         cols = c[1][kk - c[0] : kk - c[0] + N + 1].copy()
         sw = np.asarray(getattr(plan, "switch_times", []), dtype=float)
         later = sw[sw > t + 1e-9]
