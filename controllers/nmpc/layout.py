@@ -106,6 +106,7 @@ class StateLayout:
                     "sensitivities of (g, g_dot, a_g, d, d_dot, a_d) estimates to them, one column each",
                 ),
                 ("cov", self.n_adapt**2, "-", "covariance of their estimate (recursive least squares)"),
+                ("since", 1, "periods", "periods since the reference last moved (the update's window)"),
             )
             if self.n_adapt
             else ()

@@ -95,11 +95,16 @@ def _adapt(d: StepDesign, S: dict, p: ca.SX, e: ca.SX, ok_update: ca.SX) -> tupl
     return dtheta, ups_plus, S["theta"] + dtheta, cov
 
 
-def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX) -> tuple[ca.SX, ...]:
+def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = None) -> tuple[ca.SX, ...]:
     """Observer update from the state pieces ``S`` and the reading ``y = (g, d)``.
 
     Right after reset (``fresh``) the estimate is kept (no prediction over a
     period that has not passed); a non-finite reading is skipped (prediction only).
+    ``moving`` (1 while the reference moves) opens the constants' update for the
+    move and ``adapt_window`` after it: the excitation is the planned move's
+    currents; a push while holding, or the quantization's limit cycle at rest,
+    moves the current too but would bias the constants (a 100 N pull drove
+    C3 and C4 to -18 % and +25 % without the window).
 
     Returns
     -------
@@ -108,9 +113,8 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX) -> tuple[ca.SX, ...]:
         the prediction uses (``dist``, or zero without ``offset_free``).
     p_hat : casadi.SX
         The parameter vector with the adapted constants corrected (``p`` without ``adapt``).
-    theta, ups : casadi.SX
-        The constants' relative errors and the sensitivities after the update
-        (empty without ``adapt``).
+    pieces : casadi.SX
+        The new ``theta``, ``ups``, ``cov`` and ``since`` state pieces (empty without ``adapt``).
     """
     fresh = S["fresh"][0] > 0.5
     adapt = bool(adapted(d.settings))
@@ -124,19 +128,22 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX) -> tuple[ca.SX, ...]:
     )
     if eff is not None:
         do = do - eff
-    theta, ups = ca.SX(0, 1), ca.SX(0, 1)
+    theta, pieces = S["theta"], ca.SX(0, 1)
     if adapt:
-        ok = ca.logic_not(fresh)
+        moving = ca.SX(1) if moving is None else moving
+        since = ca.if_else(moving, 0, ca.fmin(S["since"][0] + 1, 1e6))
+        window = round(d.settings.adapt_window / d.Ts)
+        ok = ca.logic_and(ca.logic_not(fresh), since <= window)
         dtheta, ups_plus, theta, cov = _adapt(d, S, p, e, ok)
         corr = ca.mtimes(ups_plus, dtheta)  # the estimate moves with the constants: eps = eta + Ups theta_err
         xo = xo + ca.vertcat(corr[0], corr[1], corr[3], corr[4])
         do = do + ca.vertcat(corr[2], corr[5])
-        ups = ca.vertcat(ca.if_else(fresh, S["ups"], ca.vec(ups_plus)), cov)
+        pieces = ca.vertcat(theta, ca.if_else(fresh, S["ups"], ca.vec(ups_plus)), cov, since)
     xhat = ca.if_else(fresh, S["xhat"], xo)
     dist = ca.if_else(fresh, S["dist"], do)
     w = dist if d.settings.offset_free else ca.SX.zeros(2)
     p_hat = corrected_params(d, p, theta) if adapt else p
-    return fresh, xhat, dist, w, p_hat, theta, ups
+    return fresh, xhat, dist, w, p_hat, pieces
 
 
 __all__ = ["corrected_params", "observe"]

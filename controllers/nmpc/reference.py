@@ -129,6 +129,15 @@ class HorizonReference:
     def _preview(self, t: float) -> np.ndarray:
         """The runner's plan at ``t + j Ts``, held at its value just before the next target switch.
 
+        The accelerations are the plan's mean over each period
+        (:meth:`maglev_ocp.reference.ReferencePlan.sample` with ``zoh``), as the
+        runner hands them to every controller: the feed-forward current held
+        over stage ``j`` must produce the mean acceleration of ``[t_j, t_j + Ts]``
+        for the node velocities to be met. The instantaneous acceleration at
+        ``t_j`` lags that by half a period: during a move's jerk phases the QP's
+        input reference then contradicts its state reference and the mover
+        trails the plan by tens of micrometres (40 um at the acceleration
+        ramps of the tour's 100 mm moves, 24 um left at their end).
         No preview across a target switch: the current target is held until it
         comes. The plan is sampled on the period grid in blocks (cached), so a
         step costs a slice, not a plan evaluation.

@@ -207,7 +207,7 @@ class NMPCSettings(Strict):
     )
     offset_free: bool = True
     adapt: list[Literal["C1", "C2", "C3", "C4"]] = Field(
-        default_factory=lambda: ["C1", "C4"],
+        default_factory=lambda: ["C1", "C3", "C4"],
         description="model constants whose relative error the observer estimates online (adaptive observer, "
         "controllers.nmpc.observer): the prediction, the feed-forward and the observer use the corrected "
         "constants, so the disturbance estimate no longer carries a move's current-proportional mismatch into "
@@ -218,6 +218,12 @@ class NMPCSettings(Strict):
     )
     adapt_noise: float = Field(
         1e-5, gt=0, description="standard deviation of the encoder innovation the constants' estimate assumes [m]"
+    )
+    adapt_window: float = Field(
+        0.05,
+        ge=0,
+        description="the constants are updated only while the reference moves and this long after [s]: a "
+        "planned move's currents are the excitation; a push, or the quantization at rest, would bias them",
     )
     adapt_bound: float = Field(
         0.25, gt=0, lt=0.9, description="largest relative correction of an adapted constant (projection)"

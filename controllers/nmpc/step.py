@@ -48,32 +48,36 @@ from .settings import NMPCSettings
 def fn_head(d: StepDesign) -> ca.Function:
     """Observer update, delay predictor and planner (SX).
 
-    ``(state, meas, target, p) -> (xhat, dist, plan, w, x0, p_hat, adapt)``:
+    ``(state, meas, target, p, moving) -> (xhat, dist, plan, w, x0, p_hat, adapt)``
+    (``moving``: 1 while the previewed reference moves; ``plan`` mode reads its own planner):
     ``x0`` is the state the QP starts from: the estimate predicted through the
     commands in flight (``delay_samples > 0``), else the estimate itself; the
     planner plans from it (the plan's clock runs ``delay_samples`` periods ahead).
     ``p_hat`` is the parameter vector with the observer's online corrections of
     the adapted constants (``settings.adapt``; ``p`` without), which the
-    prediction and the feed-forward use; ``adapt`` the new ``theta`` and ``ups``
-    state pieces (empty without ``adapt``).
+    prediction and the feed-forward use; ``adapt`` the new ``theta``, ``ups``,
+    ``cov`` and ``since`` state pieces (empty without ``adapt``).
     """
     lay, m = d.layout, d.model
-    st, meas, tgt, p = (
+    st, meas, tgt, p, moving = (
         ca.SX.sym("state", lay.size),
         ca.SX.sym("meas", N_MEAS),
         ca.SX.sym("target", 2),
         ca.SX.sym("p", m.np_),
+        ca.SX.sym("moving"),
     )
     S = lay.split(st)
-    fresh, xhat, dist, w, p_hat, theta, ups = observe(d, S, meas[:2], p)
+    if d.mode == "plan":  # the internal planner's move is under way (its clock before the move's end)
+        moving = S["plan"][4] < 2 * S["plan"][5]
+    fresh, xhat, dist, w, p_hat, adapt = observe(d, S, meas[:2], p, moving)
     x0 = predict_through_delay(d, xhat, S["u_flight"], p_hat, w) if lay.n_delay else xhat
     # the planner keeps the controller's constants (its moves do not change with the online corrections)
     plan = advance_plan(d, S["plan"], fresh, x0, tgt, p, w)
     return ca.Function(
         "nmpc_head",
-        [st, meas, tgt, p],
-        [xhat, dist, plan, w, x0, p_hat, ca.vertcat(theta, ups)],
-        ["state", "meas", "target", "p"],
+        [st, meas, tgt, p, moving],
+        [xhat, dist, plan, w, x0, p_hat, adapt],
+        ["state", "meas", "target", "p", "moving"],
         ["xhat", "dist", "plan", "w", "x0", "p_hat", "adapt"],
         {"cse": True},
     )
@@ -106,7 +110,11 @@ def build_init(d: StepDesign) -> ca.Function:
         ca.MX.zeros(lay.N * NU + lay.n_gap),
         0,
         *([ca.repmat(u_prev, lay.n_delay, 1)] if lay.n_delay else []),
-        *([ca.MX.zeros(7 * lay.n_adapt), ca.DM(np.ravel(np.eye(lay.n_adapt) * s.adapt_prior**2))] if lay.n_adapt else []),
+        *(
+            [ca.MX.zeros(7 * lay.n_adapt), ca.DM(np.ravel(np.eye(lay.n_adapt) * s.adapt_prior**2)), 1e6]
+            if lay.n_adapt
+            else []
+        ),
     )
     assert state.shape[0] == lay.size
     return ca.Function("nmpc_init", [meas, ref, p], [state], ["meas", "ref", "p"], ["state"])
@@ -116,7 +124,9 @@ def _front(d: StepDesign, st, meas, ref, p) -> dict:
     """Stages 1-3: observer, planner, references and RTI linearization (MX calls of the SX pieces)."""
     lay, N = d.layout, d.settings.horizon
     S = lay.split(st)
-    xhat, dist, plan, w, x0, p_hat, adapt = fn_head(d)(st, meas, ca.vertcat(ref[0, 0], ref[3, 0]), p)
+    # the previewed reference moves (rows 1 and 4: its velocities) somewhere over the horizon
+    moving = ca.sum2(ca.fabs(ref[1, :]) + ca.fabs(ref[4, :])) > 0
+    xhat, dist, plan, w, x0, p_hat, adapt = fn_head(d)(st, meas, ca.vertcat(ref[0, 0], ref[3, 0]), p, moving)
     dts = ca.DM(np.arange(N + 1) * d.Ts).T
     R, Uref = fn_node(d).map(N + 1, "serial")(dts, plan, ref, p_hat, w)
     Uref = Uref[:, :N]
