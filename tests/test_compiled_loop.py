@@ -169,8 +169,17 @@ def test_nmpc_compiled_loop_equals_python_loop(shaping):
 
 
 @needs_cc
-def test_nmpc_reference_input_is_what_the_nmpc_reads():
-    """The pre-computed ``ref`` input of every step equals the NMPC's own read-ahead (preview mode)."""
+def test_nmpc_compiled_loop_equals_python_loop_with_delay():
+    """A one-period delay predicted by the NMPC: the compiled loop reads the plan ``delay`` periods ahead too."""
+    d = _scenario("nmpc", plant={"delay_samples": 1})
+    d["controller"] = {"type": "nmpc", "backend": "c", "delay_samples": 1}
+    assert _compare(d) <= TOL
+
+
+@pytest.mark.parametrize("ahead", [0, 2])
+def test_nmpc_reference_input_is_what_the_nmpc_reads(ahead):
+    """The pre-computed ``ref`` input of every step equals the NMPC's own read-ahead (preview mode), with and
+    without a computation delay; its accelerations are the period means the runner hands the controllers."""
     from controllers.nmpc.reference import HorizonReference
 
     sc = scenario_from_dict(_scenario("nmpc"))
@@ -178,10 +187,12 @@ def test_nmpc_reference_input_is_what_the_nmpc_reads():
     N = 20
     hr = HorizonReference(N, 1e-3)
     hr.set_plan(rp.plan)
-    refs = nmpc_refs("preview", rp, N)
+    refs = nmpc_refs("preview", rp, N, ahead)
     for i in range(rp.n):
-        m = hr.matrix("preview", i * 1e-3, rp.reference(i))
+        m = hr.matrix("preview", i * 1e-3, rp.reference(i), ahead)
         assert np.array_equal(refs[i], np.ravel(m, order="F")), i
+    # node 0 of step k is the runner's reference of period k + ahead (ZOH-mean accelerations): never held
+    np.testing.assert_array_equal(refs[: rp.n - ahead, :6], rp.refs[ahead:])
 
 
 def _campaign(loop: str) -> dict:

@@ -128,7 +128,7 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = N
     )
     if eff is not None:
         do = do - eff
-    theta, pieces = S["theta"], ca.SX(0, 1)
+    theta, pieces = (S["theta"] if adapt else ca.SX(0, 1)), ca.SX(0, 1)
     if adapt:
         moving = ca.SX(1) if moving is None else moving
         since = ca.if_else(moving, 0, ca.fmin(S["since"][0] + 1, 1e6))

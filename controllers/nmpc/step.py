@@ -67,9 +67,9 @@ def fn_head(d: StepDesign) -> ca.Function:
         ca.SX.sym("moving"),
     )
     S = lay.split(st)
-    if d.mode == "plan":  # the internal planner's move is under way (its clock before the move's end)
-        moving = S["plan"][4] < 2 * S["plan"][5]
-    fresh, xhat, dist, w, p_hat, adapt = observe(d, S, meas[:2], p, moving)
+    # plan mode: the internal planner's move is under way (its clock before the move's end)
+    mv = S["plan"][4] < 2 * S["plan"][5] if d.mode == "plan" else moving
+    fresh, xhat, dist, w, p_hat, adapt = observe(d, S, meas[:2], p, mv)
     x0 = predict_through_delay(d, xhat, S["u_flight"], p_hat, w) if lay.n_delay else xhat
     # the planner keeps the controller's constants (its moves do not change with the online corrections)
     plan = advance_plan(d, S["plan"], fresh, x0, tgt, p, w)
