@@ -154,7 +154,9 @@ def observer_update(x_hat, dist, u_prev, y, p, L, Ts: float, disturbance: bool, 
     return x_next, d_next
 
 
-def observer_update_innovation(x_hat, dist, u_prev, y, p, L, Ts: float, disturbance: bool, skip_nonfinite: bool = False):
+def observer_update_innovation(
+    x_hat, dist, u_prev, y, p, L, Ts: float, disturbance: bool, skip_nonfinite: bool = False
+):
     """Symbolic predictor-corrector update of :class:`HighGainObserver` (SX or MX).
 
     The one symbolic form of the observer, used by the code generator, the

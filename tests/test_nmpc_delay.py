@@ -123,9 +123,14 @@ def test_riccati_and_dense_steps_share_the_scheduled_terminal_weight():
 def _thrust_scenario(adapt: list[str], move: bool, push: bool = False) -> dict:
     """Default rig with a known +4 % thrust constant (no random mismatch): hold, then a 40 mm move."""
     over = {"C1": 1.04 * NOMINAL.C1}
-    plant = {"profile": "default", "mismatch": {"relative": dict.fromkeys(("C1", "C2", "C3", "C4"), 0.0), "overrides": over}}
+    plant = {
+        "profile": "default",
+        "mismatch": {"relative": dict.fromkeys(("C1", "C2", "C3", "C4"), 0.0), "overrides": over},
+    }
     if push:
-        plant["disturbances"] = [{"type": "force_pulse", "axis": "g", "amplitude": -60.0, "start": 0.1, "duration": 0.02}]
+        plant["disturbances"] = [
+            {"type": "force_pulse", "axis": "g", "amplitude": -60.0, "start": 0.1, "duration": 0.02}
+        ]
     targets = [{"g": 0.020, "d": 0.0, "hold": 0.25}]
     if move:
         targets.append({"g": 0.020, "d": 0.040, "hold": 0.3})
@@ -162,7 +167,7 @@ def test_adaptive_observer_learns_the_thrust_constant_from_a_move():
     estimate no longer carries the move's mismatch into the hold (smaller steady error after the move)."""
     res, th = _run_with_theta(_thrust_scenario(["C1", "C3", "C4"], move=True))
     t_move = res.metrics.targets[1].t_switch
-    k = int(round(t_move / 1e-3))
+    k = round(t_move / 1e-3)
     assert np.all(th[: k - 25] == 0.0)  # nothing learnt while holding (the update waits for a move)
     assert abs(th[-1][0] - 0.04) < 0.01, th[-1]
     blind = run_scenario(_thrust_scenario([], move=True), progress=False, figures=False)
