@@ -206,6 +206,15 @@ class NMPCSettings(Strict):
         "which 3 ms holds",
     )
     offset_free: bool = True
+    feedforward: Literal["instant", "period_mean"] = Field(
+        "instant",
+        description="accelerations of the previewed reference the feed-forward currents are computed from: "
+        "the plan's at each node (instant) or its mean over the node's period (period_mean, what a "
+        "zero-order-held current must produce; the runner hands FL these). period_mean removes the half-period "
+        "lag of the feed-forward (tour tracking RMS about halved, delay tour steady d <= 5.7 um on seeds 1-8) "
+        "but on the default rig its unmodelled 2 kHz amplifier lag then leaves ~1 um more steady gap RMS "
+        "after the 25 mm gap move, which the half-period-late feed-forward happened to offset",
+    )
     adapt: list[Literal["C1", "C2", "C3", "C4"]] = Field(
         default_factory=lambda: ["C1", "C3", "C4"],
         description="model constants whose relative error the observer estimates online (adaptive observer, "
