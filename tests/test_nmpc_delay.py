@@ -205,20 +205,25 @@ def test_adapted_step_compiled_equals_python():
 
 @pytest.mark.slow
 @pytest.mark.xfail(
-    reason="issue 12 target not met with the robust defaults: measured 5.6 / 6.2 um (g / d); observer_eps 2 ms "
-    "and moves planned at 0.97 of the limits give 5.0 / 4.5 um but lose robustness on rigs with unmodelled lag "
-    "or weaker force (see NMPCSettings.reference_defaults)",
+    reason="issue 12 target not met with the defaults: scenario seed 5.3 / 6.1 um (g / d), seeds 1-8 worst 6.1 / 6.5; "
+    "with feedforward: period_mean d <= 5.7 um on seeds 1-8 but g up to 7.0 um (see the docstring)",
     strict=False,
 )
 def test_one_period_delay_tour_holds_6um():
     """Issue 12: with a one-period delay, every tour target settles and its steady RMS is <= 6 um.
 
-    The d-axis RMS was not the delay's (the tour without delay had the same): after a move
-    the observer's disturbance estimate still held the thrust-gain mismatch of the move
-    (about -1.3 m/s^2, proportional to i_q) and pushed the mover 30 um past the target
-    while it decayed; a faster estimate (``observer_eps`` 2 ms) removes most of it
-    (seeds 1-8: mean 6.9 -> 4.8 um in d) but loses the loop on a rig with an unmodelled
-    300 Hz amplifier lag and a one-period delay, so the default stays 3 ms.
+    Two causes of the d-axis RMS were found, neither the delay's (the tour without delay had the same):
+
+    1. after a move the constant-acceleration disturbance estimate held the move's thrust-gain mismatch
+       (C1 off by up to 2 % on the default rig: ~1 m/s^2 at the move's 50 m/s^2) and pushed the mover
+       ~30 um past the target while it decayed. The observer now estimates the relative errors of C1, C3
+       and C4 (``NMPCSettings.adapt``, recursive least squares on the move's currents): seeds 1-8 worst
+       d 8.1 -> 6.5 um, the estimate within 0.1 % of the rig's C1 after the first move;
+    2. the feed-forward took the plan's acceleration at each node, half a period late for a
+       zero-order-held current: 24 um of error left at the end of each 100 mm move.
+       ``feedforward: period_mean`` removes it (d <= 5.7 um on seeds 1-8), but the default rig's
+       unmodelled 2 kHz amplifier lag then leaves a ~15 um gap error after the 15 -> 25 mm move that the
+       late feed-forward happened to offset (g up to 7.0 um; 5.1 mean without the lag), so it is an option.
     """
     res = run_scenario(SCENARIOS / "tour_nmpc_delay1.yaml", progress=False)
     m = res.metrics
