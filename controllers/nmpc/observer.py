@@ -101,8 +101,9 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = N
     Right after reset (``fresh``) the estimate is kept (no prediction over a
     period that has not passed); a non-finite reading is skipped (prediction only).
     ``moving`` (1 while the reference moves) opens the constants' update for the
-    move and ``adapt_window`` after it: the excitation is the planned move's
-    currents; a push while holding, or the quantization's limit cycle at rest,
+    move and ``adapt_window`` after it (but not within ``adapt_window`` of the
+    reset): the excitation is the planned move's currents; a push while
+    holding, or the quantization's limit cycle at rest,
     moves the current too but would bias the constants (a 100 N pull drove
     C3 and C4 to -18 % and +25 % without the window).
 
@@ -114,7 +115,7 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = N
     p_hat : casadi.SX
         The parameter vector with the adapted constants corrected (``p`` without ``adapt``).
     pieces : casadi.SX
-        The new ``theta``, ``ups``, ``cov`` and ``since`` state pieces (empty without ``adapt``).
+        The new ``theta``, ``ups``, ``cov``, ``since`` and ``age`` state pieces (empty without ``adapt``).
     """
     fresh = S["fresh"][0] > 0.5
     adapt = bool(adapted(d.settings))
@@ -132,13 +133,15 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = N
     if adapt:
         moving = ca.SX(1) if moving is None else moving
         since = ca.if_else(moving, 0, ca.fmin(S["since"][0] + 1, 1e6))
+        age = ca.fmin(S["age"][0] + 1, 1e6)
         window = round(d.settings.adapt_window / d.Ts)
-        ok = ca.logic_and(ca.logic_not(fresh), since <= window)
+        # not during the observer's own start-up either: its converging estimate is no model error
+        ok = ca.logic_and(ca.logic_and(ca.logic_not(fresh), since <= window), age > window)
         dtheta, ups_plus, theta, cov = _adapt(d, S, p, e, ok)
         corr = ca.mtimes(ups_plus, dtheta)  # the estimate moves with the constants: eps = eta + Ups theta_err
         xo = xo + ca.vertcat(corr[0], corr[1], corr[3], corr[4])
         do = do + ca.vertcat(corr[2], corr[5])
-        pieces = ca.vertcat(theta, ca.if_else(fresh, S["ups"], ca.vec(ups_plus)), cov, since)
+        pieces = ca.vertcat(theta, ca.if_else(fresh, S["ups"], ca.vec(ups_plus)), cov, since, age)
     xhat = ca.if_else(fresh, S["xhat"], xo)
     dist = ca.if_else(fresh, S["dist"], do)
     w = dist if d.settings.offset_free else ca.SX.zeros(2)
