@@ -143,6 +143,22 @@ class HighGainObserver:
 def observer_update(x_hat, dist, u_prev, y, p, L, Ts: float, disturbance: bool, skip_nonfinite: bool = False):
     """Symbolic predictor-corrector update of :class:`HighGainObserver` (SX or MX).
 
+    :func:`observer_update_innovation` without the innovation (see there for the parameters).
+
+    Returns
+    -------
+    x_next, dist_next : casadi.SX
+        Updated estimate and disturbance.
+    """
+    x_next, d_next, _ = observer_update_innovation(x_hat, dist, u_prev, y, p, L, Ts, disturbance, skip_nonfinite)
+    return x_next, d_next
+
+
+def observer_update_innovation(
+    x_hat, dist, u_prev, y, p, L, Ts: float, disturbance: bool, skip_nonfinite: bool = False
+):
+    """Symbolic predictor-corrector update of :class:`HighGainObserver` (SX or MX).
+
     The one symbolic form of the observer, used by the code generator, the
     NMPC step Function and the vectorized offline observer of the estimator.
     The arithmetic is in the same order as :meth:`HighGainObserver.step`, so
@@ -173,6 +189,8 @@ def observer_update(x_hat, dist, u_prev, y, p, L, Ts: float, disturbance: bool, 
     -------
     x_next, dist_next : casadi.SX
         Updated estimate and disturbance.
+    innovation : casadi.SX, shape (2,)
+        The readings minus the predicted positions ``(e_g, e_d)`` [m] (zero for a skipped reading).
     """
     xp = get_model().step(Ts, 1)(x_hat, u_prev, p)
     if disturbance:
@@ -189,4 +207,4 @@ def observer_update(x_hat, dist, u_prev, y, p, L, Ts: float, disturbance: bool, 
         d_next = ca.vertcat(dist[0] + L[2] * e_g, dist[1] + L[2] * e_d)
     else:
         d_next = dist * 0 if isinstance(dist, ca.MX) else ca.SX.zeros(2)
-    return x_next, d_next
+    return x_next, d_next, ca.vertcat(e_g, e_d)

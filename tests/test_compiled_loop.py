@@ -169,19 +169,37 @@ def test_nmpc_compiled_loop_equals_python_loop(shaping):
 
 
 @needs_cc
-def test_nmpc_reference_input_is_what_the_nmpc_reads():
-    """The pre-computed ``ref`` input of every step equals the NMPC's own read-ahead (preview mode)."""
+def test_nmpc_compiled_loop_equals_python_loop_with_delay():
+    """A one-period delay predicted by the NMPC: the compiled loop reads the plan ``delay`` periods ahead too."""
+    d = _scenario("nmpc", plant={"delay_samples": 1})
+    d["controller"] = {"type": "nmpc", "backend": "c", "delay_samples": 1, "feedforward": "period_mean"}
+    assert _compare(d) <= TOL
+
+
+@pytest.mark.parametrize("ahead", [0, 2])
+@pytest.mark.parametrize("period_mean", [False, True])
+def test_nmpc_reference_input_is_what_the_nmpc_reads(ahead, period_mean):
+    """The pre-computed ``ref`` input of every step equals the NMPC's own read-ahead (preview mode), with and
+    without a computation delay; with ``period_mean`` its accelerations are the period means the runner hands
+    the controllers."""
     from controllers.nmpc.reference import HorizonReference
 
     sc = scenario_from_dict(_scenario("nmpc"))
     rp = plan_run(sc)
     N = 20
-    hr = HorizonReference(N, 1e-3)
+    hr = HorizonReference(N, 1e-3, period_mean=period_mean)
     hr.set_plan(rp.plan)
-    refs = nmpc_refs("preview", rp, N)
+    refs = nmpc_refs("preview", rp, N, ahead, period_mean)
     for i in range(rp.n):
-        m = hr.matrix("preview", i * 1e-3, rp.reference(i))
+        m = hr.matrix("preview", i * 1e-3, rp.reference(i), ahead)
         assert np.array_equal(refs[i], np.ravel(m, order="F")), i
+    # node 0 of step k is the runner's reference of period k + ahead (never held at a switch)
+    col0 = refs[: rp.n - ahead, :6]
+    if period_mean:
+        np.testing.assert_array_equal(col0, rp.refs[ahead:])
+    else:
+        np.testing.assert_array_equal(col0[:, [0, 1, 3, 4]], rp.refs[ahead:][:, [0, 1, 3, 4]])
+        assert np.max(np.abs(col0[:, [2, 5]] - rp.refs[ahead:][:, [2, 5]])) > 1.0  # instantaneous, not means
 
 
 def _campaign(loop: str) -> dict:

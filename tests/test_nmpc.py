@@ -103,8 +103,12 @@ def test_offset_free_under_parameter_mismatch():
 
 
 def test_observer_inside_step_matches_high_gain_observer():
-    """The symbolic observer of the step is the HighGainObserver of maglev_ocp.observers."""
-    st = NMPCSettings(observer_eps=4e-3)
+    """The symbolic observer of the step is the HighGainObserver of maglev_ocp.observers.
+
+    Without the constants' adaptation (``adapt: []``), which adds to it during moves
+    (``tests/test_nmpc_delay.py``).
+    """
+    st = NMPCSettings(observer_eps=4e-3, adapt=[])
     ctrl = NMPC(st, NOMINAL)
     obs = HighGainObserver(ctrl_params := NOMINAL, ObserverSettings(eps=4e-3, disturbance=True))
     del ctrl_params

@@ -132,7 +132,9 @@ class NMPC:
         model_params = params if self.settings.use_cogging else params.without_cogging()
         self.model_params = model_params
         self.p = model_params.vector()
-        self.reference = HorizonReference(self.settings.horizon, k.Ts)
+        self.reference = HorizonReference(
+            self.settings.horizon, k.Ts, period_mean=self.settings.feedforward == "period_mean"
+        )
         self._prepared: dict[str, tuple[StepFunctions, Evaluator, Evaluator]] = {}
         self._mode: str | None = None
         self._k = 0

@@ -259,6 +259,11 @@ def observer_gain(s: NMPCSettings, Ts: float = k.Ts) -> np.ndarray:
     return L
 
 
+def adapted(s: NMPCSettings) -> tuple[str, ...]:
+    """The constants the observer adapts (none without the disturbance estimate it works with)."""
+    return tuple(s.adapt) if s.offset_free else ()
+
+
 def make_design(settings: NMPCSettings, mode: str, params: Params | None = None) -> StepDesign:
     """The :class:`StepDesign` of ``settings`` for reference mode ``mode`` (``plan`` or ``preview``).
 
@@ -285,7 +290,7 @@ def make_design(settings: NMPCSettings, mode: str, params: Params | None = None)
     return StepDesign(
         settings=settings,
         mode=mode,
-        layout=StateLayout(settings.horizon, settings.n_gap, settings.delay_samples),
+        layout=StateLayout(settings.horizon, settings.n_gap, settings.delay_samples, len(adapted(settings))),
         model=get_model(),
         F=F,
         FJ=FJ,
@@ -303,6 +308,7 @@ __all__ = [
     "LQR_GAP_GRID",
     "MODES",
     "StepDesign",
+    "adapted",
     "effect_accel",
     "effect_substeps",
     "fn_terminal_weight",

@@ -52,12 +52,15 @@ class StateLayout:
     ``nfail`` (1) consecutive fallbacks and, with a computation delay of
     ``n_delay`` periods, ``u_flight`` (n_delay x 2) the commands sent but not
     yet applied, oldest first (then ``u_prev`` is the command applied over the
-    last period, the one sent ``n_delay + 1`` periods ago).
+    last period, the one sent ``n_delay + 1`` periods ago); with ``n_adapt``
+    adapted constants, ``theta`` their relative errors and ``ups`` the
+    observer's sensitivities to them.
     """
 
     N: int
     n_gap: int
     n_delay: int = 0
+    n_adapt: int = 0
 
     @property
     def pieces(self) -> tuple[tuple[str, int], ...]:
@@ -68,31 +71,50 @@ class StateLayout:
         """The port table: ``(name, size, unit, meaning)`` of every piece, in order."""
         N = self.N
         return (
-            ("xhat", NX, "m, m/s", "observer estimate (g, g_dot, d, d_dot)"),
-            ("dist", 2, "m/s^2", "acceleration disturbance estimate (gap, horizontal)"),
-            ("u_prev", NU, "A", "currents applied over the last period (i_q, i_d)"),
-            ("fresh", 1, "-", "1 right after nmpc_init (the observer skips one prediction), else 0"),
-            ("plan", 7, "m, m, m, m, s, s, s", "move planner (g_start, d_start, g_target, d_target, t, h, tj)"),
-            ("X", (N + 1) * NX, "m, m/s", f"shooting nodes, {N + 1} columns of (g, g_dot, d, d_dot), column-major"),
-            ("U", N * NU, "A", f"planned currents, {N} columns of (i_q, i_d), column-major"),
             (
-                "y",
-                N * NU + self.n_gap,
-                "A / mm scaled",
-                f"ADMM duals: {NU * N} current rows, then {self.n_gap} soft gap rows",
-            ),
-            ("nfail", 1, "-", "consecutive fallbacks"),
-        ) + (
-            (
+                ("xhat", NX, "m, m/s", "observer estimate (g, g_dot, d, d_dot)"),
+                ("dist", 2, "m/s^2", "acceleration disturbance estimate (gap, horizontal)"),
+                ("u_prev", NU, "A", "currents applied over the last period (i_q, i_d)"),
+                ("fresh", 1, "-", "1 right after nmpc_init (the observer skips one prediction), else 0"),
+                ("plan", 7, "m, m, m, m, s, s, s", "move planner (g_start, d_start, g_target, d_target, t, h, tj)"),
+                ("X", (N + 1) * NX, "m, m/s", f"shooting nodes, {N + 1} columns of (g, g_dot, d, d_dot), column-major"),
+                ("U", N * NU, "A", f"planned currents, {N} columns of (i_q, i_d), column-major"),
                 (
-                    "u_flight",
-                    self.n_delay * NU,
-                    "A",
-                    f"{self.n_delay} commands sent but not yet applied (computation delay), oldest first",
+                    "y",
+                    N * NU + self.n_gap,
+                    "A / mm scaled",
+                    f"ADMM duals: {NU * N} current rows, then {self.n_gap} soft gap rows",
                 ),
+                ("nfail", 1, "-", "consecutive fallbacks"),
             )
-            if self.n_delay
-            else ()
+            + (
+                (
+                    (
+                        "u_flight",
+                        self.n_delay * NU,
+                        "A",
+                        f"{self.n_delay} commands sent but not yet applied (computation delay), oldest first",
+                    ),
+                )
+                if self.n_delay
+                else ()
+            )
+            + (
+                (
+                    ("theta", self.n_adapt, "-", "relative errors of the adapted model constants (settings.adapt)"),
+                    (
+                        "ups",
+                        6 * self.n_adapt,
+                        "m, m/s, m/s^2",
+                        "sensitivities of (g, g_dot, a_g, d, d_dot, a_d) estimates to them, one column each",
+                    ),
+                    ("cov", self.n_adapt**2, "-", "covariance of their estimate (recursive least squares)"),
+                    ("since", 1, "periods", "periods since the reference last moved (the update's window)"),
+                    ("age", 1, "periods", "periods since nmpc_init (no update during the observer's start-up)"),
+                )
+                if self.n_adapt
+                else ()
+            )
         )
 
     @property

@@ -77,8 +77,9 @@ class HorizonReference:
 
     CHUNK = 512  #: periods of the runner's plan sampled at once (the plan is read ahead in blocks)
 
-    def __init__(self, horizon: int, Ts: float):
+    def __init__(self, horizon: int, Ts: float, period_mean: bool = False):
         self.N, self.Ts = horizon, Ts
+        self.period_mean = period_mean
         self.plan = None
         self._cache: tuple[int, np.ndarray] | None = None
 
@@ -129,6 +130,16 @@ class HorizonReference:
     def _preview(self, t: float) -> np.ndarray:
         """The runner's plan at ``t + j Ts``, held at its value just before the next target switch.
 
+        The accelerations are the plan's instantaneous ones at ``t_j``, or with
+        ``period_mean`` (``NMPCSettings.feedforward: period_mean``) its mean over
+        each period (:meth:`maglev_ocp.reference.ReferencePlan.sample` with
+        ``zoh``), as the runner hands them to every controller: the feed-forward
+        current held over stage ``j`` must produce the mean acceleration of
+        ``[t_j, t_j + Ts]`` for the node velocities to be met. The instantaneous
+        acceleration lags that by half a period: during a move's jerk phases the
+        QP's input reference then contradicts its state reference and the mover
+        trails the plan by tens of micrometres (40 um at the acceleration ramps
+        of the tour's 100 mm moves, 24 um left at their end).
         No preview across a target switch: the current target is held until it
         comes. The plan is sampled on the period grid in blocks (cached), so a
         step costs a slice, not a plan evaluation.
@@ -138,7 +149,7 @@ class HorizonReference:
         c = self._cache
         if c is None or not (c[0] <= kk and kk + N < c[0] + len(c[1])):
             grid = (kk + np.arange(self.CHUNK + N + 1)) * Ts
-            c = self._cache = (kk, plan.sample(grid))
+            c = self._cache = (kk, plan.sample(grid, zoh=Ts if self.period_mean else None))
         cols = c[1][kk - c[0] : kk - c[0] + N + 1].copy()
         sw = np.asarray(getattr(plan, "switch_times", []), dtype=float)
         later = sw[sw > t + 1e-9]

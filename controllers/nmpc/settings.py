@@ -147,6 +147,15 @@ class NMPCSettings(Strict):
         Cogging in the controller's model (else the seed's eq. (2)).
     offset_free : bool
         Use the observer's disturbance estimate in the prediction.
+    adapt : list of str
+        Constants (of C1..C4, which enter the model linearly) whose relative
+        error the observer estimates online from the encoder innovation (an
+        adaptive observer with the constants' sensitivities as regressors,
+        :func:`controllers.nmpc.observer.observe`). The default ``C1, C4``:
+        the thrust and the current-squared attraction, whose errors scale with
+        the move's currents. A constant's error is only learnt while its
+        regressor is excited (during moves); the constant-acceleration
+        disturbance keeps what is left.
     delay_samples : int
         The loop's computation delay [control periods] (``plant.delay_samples``
         plus the amplifier's transport delay in a scenario). The step keeps the
@@ -197,6 +206,37 @@ class NMPCSettings(Strict):
         "which 3 ms holds",
     )
     offset_free: bool = True
+    feedforward: Literal["instant", "period_mean"] = Field(
+        "instant",
+        description="accelerations of the previewed reference the feed-forward currents are computed from: "
+        "the plan's at each node (instant) or its mean over the node's period (period_mean, what a "
+        "zero-order-held current must produce; the runner hands FL these). period_mean removes the half-period "
+        "lag of the feed-forward (tour tracking RMS about halved, delay tour steady d <= 5.7 um on seeds 1-8) "
+        "but on the default rig its unmodelled 2 kHz amplifier lag then leaves ~1 um more steady gap RMS "
+        "after the 25 mm gap move, which the half-period-late feed-forward happened to offset",
+    )
+    adapt: list[Literal["C1", "C2", "C3", "C4"]] = Field(
+        default_factory=lambda: ["C1", "C3", "C4"],
+        description="model constants whose relative error the observer estimates online (adaptive observer, "
+        "controllers.nmpc.observer): the prediction, the feed-forward and the observer use the corrected "
+        "constants, so the disturbance estimate no longer carries a move's current-proportional mismatch into "
+        "the hold ([]: off)",
+    )
+    adapt_prior: float = Field(
+        0.1, gt=0, le=1, description="prior standard deviation of an adapted constant's relative error"
+    )
+    adapt_noise: float = Field(
+        1e-5, gt=0, description="standard deviation of the encoder innovation the constants' estimate assumes [m]"
+    )
+    adapt_window: float = Field(
+        0.05,
+        ge=0,
+        description="the constants are updated only while the reference moves and this long after [s]: a "
+        "planned move's currents are the excitation; a push, or the quantization at rest, would bias them",
+    )
+    adapt_bound: float = Field(
+        0.25, gt=0, lt=0.9, description="largest relative correction of an adapted constant (projection)"
+    )
     use_cogging: bool = True
     reference: Literal["auto", "preview", "plan"] = "auto"
     plan: PlanOptions = Field(default_factory=PlanOptions)
@@ -216,6 +256,13 @@ class NMPCSettings(Strict):
     )
     model: str | None = Field(None, description="model file with constants and effects (controllers.model_file)")
     force_failure_steps: list[int] = Field(default_factory=list)
+
+    @field_validator("adapt")
+    @classmethod
+    def _adapt_unique(cls, v: list[str]) -> list[str]:
+        if len(set(v)) != len(v):
+            raise ValueError(f"adapt lists a constant twice: {v}; allowed: each of C1, C2, C3, C4 at most once")
+        return v
 
     @field_validator("model")
     @classmethod

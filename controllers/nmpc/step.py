@@ -46,29 +46,39 @@ from .settings import NMPCSettings
 
 
 def fn_head(d: StepDesign) -> ca.Function:
-    """Observer update, delay predictor and planner (SX): ``(state, meas, target, p) -> (xhat, dist, plan, w, x0)``.
+    """Observer update, delay predictor and planner (SX).
 
+    ``(state, meas, target, p, moving) -> (xhat, dist, plan, w, x0, p_hat, adapt)``
+    (``moving``: 1 while the previewed reference moves; ``plan`` mode reads its own planner):
     ``x0`` is the state the QP starts from: the estimate predicted through the
     commands in flight (``delay_samples > 0``), else the estimate itself; the
     planner plans from it (the plan's clock runs ``delay_samples`` periods ahead).
+    ``p_hat`` is the parameter vector with the observer's online corrections of
+    the adapted constants (``settings.adapt``; ``p`` without), which the
+    prediction and the feed-forward use; ``adapt`` the new ``theta``, ``ups``,
+    ``cov``, ``since`` and ``age`` state pieces (empty without ``adapt``).
     """
     lay, m = d.layout, d.model
-    st, meas, tgt, p = (
+    st, meas, tgt, p, moving = (
         ca.SX.sym("state", lay.size),
         ca.SX.sym("meas", N_MEAS),
         ca.SX.sym("target", 2),
         ca.SX.sym("p", m.np_),
+        ca.SX.sym("moving"),
     )
     S = lay.split(st)
-    fresh, xhat, dist, w = observe(d, S, meas[:2], p)
-    x0 = predict_through_delay(d, xhat, S["u_flight"], p, w) if lay.n_delay else xhat
+    # plan mode: the internal planner's move is under way (its clock before the move's end)
+    mv = S["plan"][4] < 2 * S["plan"][5] if d.mode == "plan" else moving
+    fresh, xhat, dist, w, p_hat, adapt = observe(d, S, meas[:2], p, mv)
+    x0 = predict_through_delay(d, xhat, S["u_flight"], p_hat, w) if lay.n_delay else xhat
+    # the planner keeps the controller's constants (its moves do not change with the online corrections)
     plan = advance_plan(d, S["plan"], fresh, x0, tgt, p, w)
     return ca.Function(
         "nmpc_head",
-        [st, meas, tgt, p],
-        [xhat, dist, plan, w, x0],
-        ["state", "meas", "target", "p"],
-        ["xhat", "dist", "plan", "w", "x0"],
+        [st, meas, tgt, p, moving],
+        [xhat, dist, plan, w, x0, p_hat, adapt],
+        ["state", "meas", "target", "p", "moving"],
+        ["xhat", "dist", "plan", "w", "x0", "p_hat", "adapt"],
         {"cse": True},
     )
 
@@ -100,6 +110,11 @@ def build_init(d: StepDesign) -> ca.Function:
         ca.MX.zeros(lay.N * NU + lay.n_gap),
         0,
         *([ca.repmat(u_prev, lay.n_delay, 1)] if lay.n_delay else []),
+        *(
+            [ca.MX.zeros(7 * lay.n_adapt), ca.DM(np.ravel(np.eye(lay.n_adapt) * s.adapt_prior**2)), 1e6, 0]
+            if lay.n_adapt
+            else []
+        ),
     )
     assert state.shape[0] == lay.size
     return ca.Function("nmpc_init", [meas, ref, p], [state], ["meas", "ref", "p"], ["state"])
@@ -109,13 +124,15 @@ def _front(d: StepDesign, st, meas, ref, p) -> dict:
     """Stages 1-3: observer, planner, references and RTI linearization (MX calls of the SX pieces)."""
     lay, N = d.layout, d.settings.horizon
     S = lay.split(st)
-    xhat, dist, plan, w, x0 = fn_head(d)(st, meas, ca.vertcat(ref[0, 0], ref[3, 0]), p)
+    # the previewed reference moves (rows 1 and 4: its velocities) somewhere over the horizon
+    moving = ca.sum2(ca.fabs(ref[1, :]) + ca.fabs(ref[4, :])) > 0
+    xhat, dist, plan, w, x0, p_hat, adapt = fn_head(d)(st, meas, ca.vertcat(ref[0, 0], ref[3, 0]), p, moving)
     dts = ca.DM(np.arange(N + 1) * d.Ts).T
-    R, Uref = fn_node(d).map(N + 1, "serial")(dts, plan, ref, p, w)
+    R, Uref = fn_node(d).map(N + 1, "serial")(dts, plan, ref, p_hat, w)
     Uref = Uref[:, :N]
     Xb = ca.reshape(S["X"], NX, N + 1)
     Ub = ca.reshape(S["U"], NU, N)
-    As, Bs, cs = fn_stage(d).map(N, "serial")(Xb[:, :N], Ub, Xb[:, 1:], p, w)
+    As, Bs, cs = fn_stage(d).map(N, "serial")(Xb[:, :N], Ub, Xb[:, 1:], p_hat, w)
     return {
         "ubar": ca.vec(Ub),
         "Ubar": Ub,
@@ -133,6 +150,8 @@ def _front(d: StepDesign, st, meas, ref, p) -> dict:
         "Xref": R,
         "Uref": Uref,
         "w": w,
+        "p_hat": p_hat,
+        "adapt": adapt,
     }
 
 
@@ -163,6 +182,7 @@ def build_prep(d: StepDesign) -> ca.Function:
     s = d.settings
     (st, meas, ref, p), o = _front_inputs(d)
     names = ["ubar", "y0", "xhat", "dist", "plan", "As", "Bs", "cs", "dx0", "Xbar", "Xref", "Uref", "w", "x0"]
+    names += ["p_hat", "adapt"]
     outs = [o[n] for n in names]
     if s.qp == "dense":
         H, q, G, glb, gub = _condensed(d, o, meas[2])
@@ -233,7 +253,7 @@ def build_step(d: StepDesign) -> ca.Function:
         Xref=o["Xref"],
         Uref=o["Uref"],
         w=o["w"],
-        p=p,
+        p=o["p_hat"],
         r_prim=tr["rp"],
         r_dual=tr["rd"],
         iters_to_tol=tr["iters"],
@@ -242,6 +262,8 @@ def build_step(d: StepDesign) -> ca.Function:
     state_out, x_hat = r["state"], r["x_hat"]
     if lay.n_delay:
         state_out, x_hat = _delay_state(d, st, r["state"], o["xhat"], r["u"]), o["xhat"]
+    if lay.n_adapt:
+        state_out = ca.vertcat(state_out, o["adapt"])
     return ca.Function(
         "nmpc_step",
         [st, meas, ref, p],

@@ -224,11 +224,13 @@ class ControllerRun:
     out_sizes: list[int]
 
 
-def nmpc_refs(mode: str, rp: RunPlan, N: int) -> np.ndarray:
+def nmpc_refs(mode: str, rp: RunPlan, N: int, ahead: int = 0, period_mean: bool = False) -> np.ndarray:
     """The NMPC's ``ref`` input of every step (``n x 6(N+1)``, column-major per step), as its reference reads it.
 
     ``plan``: the active target on every node; ``preview``: the runner's plan at
-    ``t + j Ts``, held at its value just before the next target switch
+    ``t + (ahead + j) Ts`` (``ahead``: the NMPC's computation delay; with
+    ``period_mean`` the accelerations averaged over each period), held at its
+    value just before the next target switch
     (:meth:`controllers.nmpc.reference.HorizonReference.matrix`).
     """
     n, Ts, plan = rp.n, k.Ts, rp.plan
@@ -239,16 +241,16 @@ def nmpc_refs(mode: str, rp: RunPlan, N: int) -> np.ndarray:
         out[:, :, 0] = tgt[idx, 0][:, None]
         out[:, :, 3] = tgt[idx, 1][:, None]
         return out.reshape(n, -1)
-    S = plan.sample(np.arange(n + N + 1) * Ts)
+    S = plan.sample(np.arange(n + ahead + N + 1) * Ts, zoh=Ts if period_mean else None)
     j = np.arange(N + 1)
-    out[:] = S[np.arange(n)[:, None] + j[None, :]]
+    out[:] = S[np.arange(n)[:, None] + ahead + j[None, :]]
     sw = np.asarray(plan.switch_times, dtype=float)
-    t = np.arange(n) * Ts
+    t = (np.arange(n) + ahead) * Ts
     nxt = np.searchsorted(sw, t + 1e-9, side="right")  # first switch strictly after t + 1e-9
     held = {}  # the plan just before each switch, sampled once per switch
     for i in np.nonzero(nxt < len(sw))[0]:
         later = float(sw[nxt[i]])
-        cut = (i + j) * Ts >= later - 1e-9
+        cut = (i + ahead + j) * Ts >= later - 1e-9
         if cut.any():
             if later not in held:
                 held[later] = plan.sample(np.array([later - 1e-9]))[0]
@@ -263,7 +265,7 @@ def _nmpc_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> 
     lib = controller_library("nmpc", s, params, mode, cflags)
     init, step = lib.function("nmpc_init"), lib.function("nmpc_step")
     p = (params if s.use_cogging else params.without_cogging()).vector()
-    refs = nmpc_refs(mode, rp, s.horizon)
+    refs = nmpc_refs(mode, rp, s.horizon, s.delay_samples, s.feedforward == "period_mean")
     (st0,) = init(np.array([y0[0], y0[1], 0.0]), refs[0], p)
     fault = np.zeros(rp.n)
     for i in s.force_failure_steps:
