@@ -17,6 +17,7 @@ and feed-forward currents at any time.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -241,6 +242,61 @@ def _hover(g: float, d: float, p: np.ndarray) -> np.ndarray:
     return u
 
 
+@dataclass(frozen=True)
+class _Problem:
+    """One minimum-time NLP (CasADi Opti) with its decision variables and parameters, built once per shape."""
+
+    opti: ca.Opti
+    X: ca.MX
+    U: ca.MX
+    T: ca.MX
+    x_start: ca.MX
+    x_end: ca.MX
+    p: ca.MX
+    i_axis: ca.MX
+    i_amp: ca.MX
+    i_d_max: ca.MX
+    g_band: ca.MX
+
+
+@functools.lru_cache(maxsize=8)
+def _problem(N: int, n_sub: int, smooth: float, max_iter: int, tol: float, n_p: int) -> _Problem:
+    """The minimum-time NLP of ``N`` intervals, the end points, constants and limits as parameters.
+
+    Built (and its IPOPT instance created) once per shape: Opti keeps its solver
+    while only parameter values and initial guesses change, so a planner that
+    solves one move per target pays the symbolic construction once.
+    """
+    m = get_model()
+    opti = ca.Opti()
+    X = opti.variable(4, N + 1)
+    U = opti.variable(2, N)
+    T = opti.variable()
+    x_start, x_end, p = opti.parameter(4), opti.parameter(4), opti.parameter(n_p)
+    i_axis, i_amp, i_d_max, g_band = opti.parameter(), opti.parameter(), opti.parameter(), opti.parameter(2)
+    # RK4 with n_sub sub-steps, built on the shared model's f (the same expressions)
+    xs, us, ps, hs = ca.SX.sym("x", 4), ca.SX.sym("u", 2), ca.SX.sym("p", n_p), ca.SX.sym("h")
+    xk = rk4(lambda xx: m.f(xx, us, ps), xs, hs / n_sub, n_sub)
+    F = ca.Function("F", [xs, us, ps, hs], [xk]).map(N)
+    opti.subject_to(X[:, 1:] == F(X[:, :-1], U, ca.repmat(p, 1, N), T / N))
+    opti.subject_to(X[:, 0] == x_start)
+    opti.subject_to(X[:, N] == x_end)
+    opti.subject_to(opti.bounded(-i_axis, ca.vec(U), i_axis))
+    opti.subject_to(ca.sum1(U**2) <= i_amp**2)
+    opti.subject_to(opti.bounded(-i_d_max, U[1, :], i_d_max))  # = i_axis when the settings leave i_d free
+    opti.subject_to(opti.bounded(g_band[0], X[0, :], g_band[1]))
+    opti.subject_to(opti.bounded(1e-3, T, 10.0))
+    dU = U[:, 1:] - U[:, :-1]
+    opti.minimize(T + smooth * ca.sumsqr(dU))
+    # evaluation warnings off: IPOPT steps through points where the model is not defined and backs off
+    opti.solver(
+        "ipopt",
+        {"print_time": False, "show_eval_warnings": False},
+        {"print_level": 0, "max_iter": max_iter, "tol": tol, "sb": "yes"},
+    )
+    return _Problem(opti, X, U, T, x_start, x_end, p, i_axis, i_amp, i_d_max, g_band)
+
+
 def solve_min_time(
     start: tuple[float, float],
     end: tuple[float, float],
@@ -266,38 +322,27 @@ def solve_min_time(
     MinTimeResult
     """
     st = settings or MinTimeSettings()
-    m = get_model()
     p = params.vector()
     N = st.n_intervals
     g0, d0 = map(float, start)
     g1, d1 = map(float, end)
     dist = max(abs(d1 - d0), 1e-4)
     T0 = T_guess if T_guess is not None else max(2 * math.sqrt(dist / 50.0), 0.01)
-
-    opti = ca.Opti()
-    X = opti.variable(4, N + 1)
-    U = opti.variable(2, N)
-    T = opti.variable()
-    # RK4 with n_sub sub-steps, built on the shared model's f (the same expressions)
-    xs, us, hs = ca.SX.sym("x", 4), ca.SX.sym("u", 2), ca.SX.sym("h")
-    xk = rk4(lambda xx: m.f(xx, us, p), xs, hs / st.n_sub, st.n_sub)
-    F = ca.Function("F", [xs, us, hs], [xk]).map(N)
-    opti.subject_to(X[:, 1:] == F(X[:, :-1], U, T / N))
-    opti.subject_to(X[:, 0] == ca.DM([g0, 0, d0, 0]))
-    opti.subject_to(X[:, N] == ca.DM([g1, 0, d1, 0]))
-    opti.subject_to(opti.bounded(-st.i_axis, ca.vec(U), st.i_axis))
-    opti.subject_to(ca.sum1(U**2) <= st.i_amp**2)
-    if st.i_d_max is not None:
-        opti.subject_to(opti.bounded(-st.i_d_max, U[1, :], st.i_d_max))
     if st.gap_band is not None:
         g_lo, g_hi = min(g0, g1) - st.gap_band, max(g0, g1) + st.gap_band
     else:
         g_lo, g_hi = min(k.g_envelope[0], g0, g1), max(k.g_envelope[1], g0, g1)
     g_lo, g_hi = max(g_lo, k.g_stop[0] + st.gap_margin), min(g_hi, k.g_stop[1] - st.gap_margin)
-    opti.subject_to(opti.bounded(g_lo, X[0, :], g_hi))
-    opti.subject_to(opti.bounded(1e-3, T, 10.0))
-    dU = U[:, 1:] - U[:, :-1]
-    opti.minimize(T + st.smooth * ca.sumsqr(dU))
+
+    prob = _problem(N, st.n_sub, st.smooth, st.max_iter, st.tol, len(p))
+    opti, X, U, T = prob.opti, prob.X, prob.U, prob.T
+    opti.set_value(prob.x_start, [g0, 0, d0, 0])
+    opti.set_value(prob.x_end, [g1, 0, d1, 0])
+    opti.set_value(prob.p, p)
+    opti.set_value(prob.i_axis, st.i_axis)
+    opti.set_value(prob.i_amp, st.i_amp)
+    opti.set_value(prob.i_d_max, st.i_axis if st.i_d_max is None else min(st.i_d_max, st.i_axis))
+    opti.set_value(prob.g_band, [g_lo, g_hi])
 
     # initial guess: straight line at rest-to-rest speed, hover currents
     s = np.linspace(0, 1, N + 1)
@@ -309,12 +354,6 @@ def solve_min_time(
     uh = 0.5 * (_hover(g0, d0, p) + _hover(g1, d1, p))
     opti.set_initial(U, np.tile(uh[:, None], (1, N)))
     opti.set_initial(T, T0)
-    # evaluation warnings off: IPOPT steps through points where the model is not defined and backs off
-    opti.solver(
-        "ipopt",
-        {"print_time": False, "show_eval_warnings": False},
-        {"print_level": 0, "max_iter": st.max_iter, "tol": st.tol, "sb": "yes"},
-    )
     t0 = time.perf_counter()
     try:
         sol = opti.solve()
