@@ -111,6 +111,7 @@ class StateLayout:
                     ("cov", self.n_adapt**2, "-", "covariance of their estimate (recursive least squares)"),
                     ("since", 1, "periods", "periods since the reference last moved (the update's window)"),
                     ("age", 1, "periods", "periods since nmpc_init (no update during the observer's start-up)"),
+                    ("noise", 2, "m^2", "mean square of the innovation per axis while the constants are not updated"),
                 )
                 if self.n_adapt
                 else ()

@@ -26,6 +26,7 @@ model's linear-in-parameters split, :meth:`maglev_ocp.model.MaglevModel.linear_s
 times its value). The innovation is then ``e = H Ups^- theta_err`` plus a
 decaying term, a linear regression on ``phi = H Ups^-`` solved by recursive least
 squares (``K = P phi^T (phi P phi^T + R)^-1``, ``R`` the innovation's noise,
+measured online at rest (:func:`innovation_noise`),
 ``P`` starting at the prior ``adapt_prior^2 I``) with projection onto
 ``|theta| <= adapt_bound``; the estimate moves by ``Ups^+ dtheta``. ``phi`` is
 only non-zero for a few observer time constants after the current changes (the
@@ -54,11 +55,38 @@ def corrected_params(d: StepDesign, p: ca.SX, theta: ca.SX) -> ca.SX:
     return p * ca.vertcat(*scale)
 
 
-def _adapt(d: StepDesign, S: dict, p: ca.SX, e: ca.SX, ok_update: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
+def innovation_noise(d: StepDesign, S: dict, e: ca.SX, measure: ca.SX) -> tuple[ca.SX, ca.SX]:
+    """The innovation's variance per axis the update assumes, and the new ``noise`` state piece.
+
+    With ``adapt_noise`` set, its square. Else measured: the running mean
+    square of the innovation over the periods ``measure`` (the constants not
+    updated, the observer past its start-up, a finite reading), an average
+    over the first periods and an exponential one of time constant
+    ``adapt_noise_time`` after; the update takes it no lower than
+    ``adapt_noise_floor^2``. The innovation there is the encoders' noise and
+    quantization plus the rig's unmodelled forces at rest, which are what the
+    least squares must weigh each period's evidence against: an assumed noise
+    three times too large keeps a weakly excited constant (C4 on a gap move)
+    at a fraction of its error for many moves (the prior's pull to zero).
+    """
+    s = d.settings
+    if s.adapt_noise is not None:
+        return ca.DM.ones(2) * s.adapt_noise**2, S["noise"]
+    window = round(s.adapt_window / d.Ts)
+    n_rest = ca.fmax(S["age"][0] - window, 1)  # a bound on the periods measured so far
+    a = ca.fmax(1 / n_rest, d.Ts / s.adapt_noise_time)
+    noise = ca.if_else(measure, S["noise"] + a * (e**2 - S["noise"]), S["noise"])
+    return ca.fmax(S["noise"], s.adapt_noise_floor**2), noise
+
+
+def _adapt(
+    d: StepDesign, S: dict, p: ca.SX, e: ca.SX, ok_update: ca.SX, r2: ca.SX
+) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
     """Sensitivity propagation and the constants' update; ``(dtheta, ups_plus, theta_new, cov_new)``.
 
     ``ups`` columns are the sensitivities of ``(g, g_dot, a_g, d, d_dot, a_d)``
-    to each constant's relative error; ``e`` the innovation ``(e_g, e_d)``.
+    to each constant's relative error; ``e`` the innovation ``(e_g, e_d)``,
+    ``r2`` its noise variance per axis (:func:`innovation_noise`).
     """
     s, Ts, L = d.settings, d.Ts, d.L_obs
     names = adapted(s)
@@ -85,7 +113,7 @@ def _adapt(d: StepDesign, S: dict, p: ca.SX, e: ca.SX, ok_update: ca.SX) -> tupl
     # recursive least squares (a Kalman filter on constant parameters): the innovation's noise
     # (quantization, process noise) weighs each period's evidence; P shrinks as the moves inform theta
     P = ca.reshape(S["cov"], n, n)
-    Sm = ca.mtimes(ca.mtimes(Phi, P), Phi.T) + s.adapt_noise**2 * ca.SX.eye(2)
+    Sm = ca.mtimes(ca.mtimes(Phi, P), Phi.T) + ca.diag(r2)
     K = ca.mtimes(ca.mtimes(P, Phi.T), ca.inv(Sm))
     P_new = P - ca.mtimes(ca.mtimes(K, Phi), P)
     P_new = 0.5 * (P_new + P_new.T)
@@ -115,7 +143,8 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = N
     p_hat : casadi.SX
         The parameter vector with the adapted constants corrected (``p`` without ``adapt``).
     pieces : casadi.SX
-        The new ``theta``, ``ups``, ``cov``, ``since`` and ``age`` state pieces (empty without ``adapt``).
+        The new ``theta``, ``ups``, ``cov``, ``since``, ``age`` and ``noise`` state pieces (empty without
+        ``adapt``).
     """
     fresh = S["fresh"][0] > 0.5
     adapt = bool(adapted(d.settings))
@@ -136,12 +165,15 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = N
         age = ca.fmin(S["age"][0] + 1, 1e6)
         window = round(d.settings.adapt_window / d.Ts)
         # not during the observer's own start-up either: its converging estimate is no model error
-        ok = ca.logic_and(ca.logic_and(ca.logic_not(fresh), since <= window), age > window)
-        dtheta, ups_plus, theta, cov = _adapt(d, S, p, e, ok)
+        started = ca.logic_and(ca.logic_not(fresh), age > window)
+        ok = ca.logic_and(started, since <= window)
+        finite = ca.fabs(y[0]) + ca.fabs(y[1]) < 1e3  # as observer_update_innovation's skip
+        r2, noise = innovation_noise(d, S, e, ca.logic_and(ca.logic_and(started, ca.logic_not(ok)), finite))
+        dtheta, ups_plus, theta, cov = _adapt(d, S, p, e, ok, r2)
         corr = ca.mtimes(ups_plus, dtheta)  # the estimate moves with the constants: eps = eta + Ups theta_err
         xo = xo + ca.vertcat(corr[0], corr[1], corr[3], corr[4])
         do = do + ca.vertcat(corr[2], corr[5])
-        pieces = ca.vertcat(theta, ca.if_else(fresh, S["ups"], ca.vec(ups_plus)), cov, since, age)
+        pieces = ca.vertcat(theta, ca.if_else(fresh, S["ups"], ca.vec(ups_plus)), cov, since, age, noise)
     xhat = ca.if_else(fresh, S["xhat"], xo)
     dist = ca.if_else(fresh, S["dist"], do)
     w = dist if d.settings.offset_free else ca.SX.zeros(2)
@@ -149,4 +181,4 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = N
     return fresh, xhat, dist, w, p_hat, pieces
 
 
-__all__ = ["corrected_params", "observe"]
+__all__ = ["corrected_params", "innovation_noise", "observe"]

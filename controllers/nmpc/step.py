@@ -56,7 +56,7 @@ def fn_head(d: StepDesign) -> ca.Function:
     ``p_hat`` is the parameter vector with the observer's online corrections of
     the adapted constants (``settings.adapt``; ``p`` without), which the
     prediction and the feed-forward use; ``adapt`` the new ``theta``, ``ups``,
-    ``cov``, ``since`` and ``age`` state pieces (empty without ``adapt``).
+    ``cov``, ``since``, ``age`` and ``noise`` state pieces (empty without ``adapt``).
     """
     lay, m = d.layout, d.model
     st, meas, tgt, p, moving = (
@@ -111,7 +111,13 @@ def build_init(d: StepDesign) -> ca.Function:
         0,
         *([ca.repmat(u_prev, lay.n_delay, 1)] if lay.n_delay else []),
         *(
-            [ca.MX.zeros(7 * lay.n_adapt), ca.DM(np.ravel(np.eye(lay.n_adapt) * s.adapt_prior**2)), 1e6, 0]
+            [
+                ca.MX.zeros(7 * lay.n_adapt),
+                ca.DM(np.ravel(np.eye(lay.n_adapt) * s.adapt_prior**2)),
+                1e6,
+                0,
+                ca.DM.ones(2) * (s.adapt_noise or s.adapt_noise_floor) ** 2,
+            ]
             if lay.n_adapt
             else []
         ),
