@@ -37,62 +37,15 @@ from __future__ import annotations
 
 import casadi as ca
 
-from maglev_ocp.observers import observer_update_innovation
-from maglev_ocp.signals import PARAM_NAMES
+from maglev_ocp.observers import adapt_constants, adapt_gate, adapt_shift, observer_update_innovation
+from maglev_ocp.observers import corrected_params as shared_corrected_params
 
 from .design import StepDesign, adapted
 
 
 def corrected_params(d: StepDesign, p: ca.SX, theta: ca.SX) -> ca.SX:
-    """The parameter vector with the adapted constants corrected: ``p_j (1 + theta_j)``."""
-    names = adapted(d.settings)
-    if not names:
-        return p
-    scale = [1] * p.shape[0]
-    for j, n in enumerate(names):
-        scale[PARAM_NAMES.index(n)] = 1 + theta[j]
-    return p * ca.vertcat(*scale)
-
-
-def _adapt(d: StepDesign, S: dict, p: ca.SX, e: ca.SX, ok_update: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
-    """Sensitivity propagation and the constants' update; ``(dtheta, ups_plus, theta_new, cov_new)``.
-
-    ``ups`` columns are the sensitivities of ``(g, g_dot, a_g, d, d_dot, a_d)``
-    to each constant's relative error; ``e`` the innovation ``(e_g, e_d)``.
-    """
-    s, Ts, L = d.settings, d.Ts, d.L_obs
-    names = adapted(s)
-    n = len(names)
-    # acceleration per unit relative error of each constant, at the prior estimate and the applied current
-    A, _ = d.model.linear_split(names)(S["xhat"], S["u_prev"], p)
-    pj = ca.vertcat(*[p[PARAM_NAMES.index(nm)] for nm in names])
-    ups = ca.reshape(S["ups"], 6, n)
-    cols, phis = [], []
-    for j in range(n):
-        col = []
-        for axis, row in ((0, 1), (1, 3)):
-            b = A[row, j] * pj[j]
-            u_pos, u_vel, u_w = ups[3 * axis, j], ups[3 * axis + 1, j], ups[3 * axis + 2, j]
-            # Ups^- = F Ups + G b (double integrator with the disturbance state, as the observer's gain design)
-            m_pos = u_pos + Ts * u_vel + Ts**2 / 2 * (u_w + b)
-            m_vel = u_vel + Ts * (u_w + b)
-            phis.append(m_pos)
-            # Ups^+ = (I - L H) Ups^-
-            col += [m_pos - L[0] * m_pos, m_vel - L[1] * m_pos, u_w - L[2] * m_pos]
-        cols.append(ca.vertcat(*col))
-    ups_plus = ca.horzcat(*cols)
-    Phi = ca.reshape(ca.vertcat(*phis), 2, n)  # rows (g, d), one column per constant
-    # recursive least squares (a Kalman filter on constant parameters): the innovation's noise
-    # (quantization, process noise) weighs each period's evidence; P shrinks as the moves inform theta
-    P = ca.reshape(S["cov"], n, n)
-    Sm = ca.mtimes(ca.mtimes(Phi, P), Phi.T) + s.adapt_noise**2 * ca.SX.eye(2)
-    K = ca.mtimes(ca.mtimes(P, Phi.T), ca.inv(Sm))
-    P_new = P - ca.mtimes(ca.mtimes(K, Phi), P)
-    P_new = 0.5 * (P_new + P_new.T)
-    theta_new = ca.fmin(ca.fmax(S["theta"] + ca.mtimes(K, e), -s.adapt_bound), s.adapt_bound)
-    dtheta = ca.if_else(ok_update, theta_new - S["theta"], ca.SX.zeros(n))
-    cov = ca.if_else(ok_update, ca.vec(P_new), S["cov"])
-    return dtheta, ups_plus, S["theta"] + dtheta, cov
+    """The parameter vector with the adapted constants corrected: ``p_j (1 + theta_j)`` (:func:`maglev_ocp.observers.corrected_params`)."""
+    return shared_corrected_params(p, theta, adapted(d.settings))
 
 
 def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = None) -> tuple[ca.SX, ...]:
@@ -132,15 +85,14 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = N
     theta, pieces = (S["theta"] if adapt else ca.SX(0, 1)), ca.SX(0, 1)
     if adapt:
         moving = ca.SX(1) if moving is None else moving
-        since = ca.if_else(moving, 0, ca.fmin(S["since"][0] + 1, 1e6))
-        age = ca.fmin(S["age"][0] + 1, 1e6)
-        window = round(d.settings.adapt_window / d.Ts)
-        # not during the observer's own start-up either: its converging estimate is no model error
-        ok = ca.logic_and(ca.logic_and(ca.logic_not(fresh), since <= window), age > window)
-        dtheta, ups_plus, theta, cov = _adapt(d, S, p, e, ok)
-        corr = ca.mtimes(ups_plus, dtheta)  # the estimate moves with the constants: eps = eta + Ups theta_err
-        xo = xo + ca.vertcat(corr[0], corr[1], corr[3], corr[4])
-        do = do + ca.vertcat(corr[2], corr[5])
+        s = d.settings
+        ok, since, age = adapt_gate(S["since"][0], S["age"][0], moving, fresh, round(s.adapt_window / d.Ts))
+        dtheta, ups_plus, theta, cov = adapt_constants(
+            S["xhat"], S["u_prev"], p, S["ups"], S["theta"], S["cov"], e, ok, adapted(s), d.L_obs, d.Ts,
+            s.adapt_noise, s.adapt_bound,
+        )  # fmt: skip
+        dx, dd = adapt_shift(ups_plus, dtheta)  # the estimate moves with the constants: eps = eta + Ups theta_err
+        xo, do = xo + dx, do + dd
         pieces = ca.vertcat(theta, ca.if_else(fresh, S["ups"], ca.vec(ups_plus)), cov, since, age)
     xhat = ca.if_else(fresh, S["xhat"], xo)
     dist = ca.if_else(fresh, S["dist"], do)
