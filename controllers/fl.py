@@ -224,10 +224,13 @@ def fl_adaptive_observer(settings: FLSettings, L, Ts: float = k.Ts) -> ca.Functi
     )
 
 
-def ref_moving(r) -> float:
-    """1 while the reference row ``r`` (order of :data:`REF_FIELDS`) moves (a rate or acceleration is not 0)."""
-    R = dict(zip(REF_FIELDS, r, strict=True))
-    return float(abs(R["g_dot"]) + abs(R["g_ddot"]) + abs(R["d_dot"]) + abs(R["d_ddot"]) > 0)
+def ref_moving(r):
+    """1 while the reference row ``r`` (order of :data:`REF_FIELDS`) moves: a rate or acceleration is not 0.
+
+    Numeric rows give a bool, symbolic (SX) rows an expression (the compiled FL's step).
+    """
+    R = dict(zip(REF_FIELDS, (r[i] for i in range(len(REF_FIELDS))), strict=True))
+    return abs(R["g_dot"]) + abs(R["g_ddot"]) + abs(R["d_dot"]) + abs(R["d_ddot"]) > 0
 
 
 class FLSettings(Strict):
@@ -467,7 +470,7 @@ class FeedbackLinearization:
             finite = math.isfinite(y.y[0]) and math.isfinite(y.y[1])
             if self._adapt_fn is not None:  # a non-finite reading is skipped inside (prediction only)
                 x_hat, dist, self._ad, self._p_hat = self._adapt_fn(
-                    self.observer.x_hat, self.observer.dist, u_applied, y.y, self._p, self._ad, ref_moving(r)
+                    self.observer.x_hat, self.observer.dist, u_applied, y.y, self._p, self._ad, float(ref_moving(r))
                 )
                 self.observer.x_hat, self.observer.dist = x_hat.copy(), dist.copy()
             elif finite:
