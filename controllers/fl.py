@@ -508,6 +508,12 @@ class FeedbackLinearization:
         stats = law_stats(fl, v, dist, law_failed, fallback)
         return ControlOutput(u=u, x_hat=x_hat, stats=stats)
 
+    @property
+    def adapted_constants(self) -> dict[str, float]:
+        """The adaptive observer's estimate of each adapted constant's relative error (empty without ``adapt``)."""
+        names = fl_adapted(self.settings) if self._adapt_fn is not None else ()
+        return {n: float(self._ad[j]) for j, n in enumerate(names)}
+
     def _effect(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Accelerations the model file's effects add at state ``x`` and currents ``u`` (zeros without effects)."""
         if self._delta is None or not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
