@@ -39,11 +39,10 @@ from __future__ import annotations
 import functools
 import math
 from collections import deque
+from typing import Literal
 
 import casadi as ca
 import numpy as np
-from typing import Literal
-
 from pydantic import Field, field_validator
 
 from maglev_ocp import constants as k
@@ -563,12 +562,12 @@ __all__ = [
     "GAIN_FIELDS",
     "FLSettings",
     "FeedbackLinearization",
-    "fl_delay_samples",
-    "fl_law_function",
     "fl_adapt_state",
+    "fl_adapted",
     "fl_adaptive_observer",
     "fl_adaptive_observer_function",
-    "fl_adapted",
+    "fl_delay_samples",
+    "fl_law_function",
     "fl_predictor_function",
     "law_stats",
     "ref_moving",

@@ -44,7 +44,7 @@ from .design import StepDesign, adapted
 
 
 def corrected_params(d: StepDesign, p: ca.SX, theta: ca.SX) -> ca.SX:
-    """The parameter vector with the adapted constants corrected: ``p_j (1 + theta_j)`` (:func:`maglev_ocp.observers.corrected_params`)."""
+    """``p`` with the adapted constants corrected (:func:`maglev_ocp.observers.corrected_params`)."""
     return shared_corrected_params(p, theta, adapted(d.settings))
 
 
