@@ -32,6 +32,19 @@ as the runner does), so the mover follows the plan on time; without a plan,
 the reference handed in is used as it is, so the mover follows it N samples
 late, with the delay-free loop's response (extrapolating it instead would
 put the feedforward acceleration N samples late, which costs more than the lag).
+
+Adaptive observer (``adapt``, default ``[C1, C3, C4]``, the NMPC's): a constant
+acceleration disturbance cannot follow an error of a constant that multiplies
+the currents (the rig's C1, C3, C4 are off their nominal values): it learns a
+move's mismatch (2 % of a 50 m/s^2 thrust) and carries it into the hold, pushing
+the mover past the target while it decays. The observer also estimates the
+relative errors of those constants by recursive least squares on the encoder
+innovation (:func:`maglev_ocp.observers.adapt_constants`, regressors from
+``model.linear_split``), updated only while the reference moves and
+``adapt_window`` after (a push while holding teaches nothing), bounded by
+``adapt_bound``; the observer's prediction, the predictor and the inversion then
+use the corrected constants (:func:`fl_adaptive_observer_function`, the same
+Function in the compiled step).
 """
 
 from __future__ import annotations
@@ -264,6 +277,14 @@ class FLSettings(Strict):
         the controller's parameters; its static effects enter the observer's
         prediction and the inversion (see :meth:`FeedbackLinearization.step`);
         an amplifier lag's transport delay adds to ``delay_samples``.
+    adapt : list of str
+        Constants (of C1..C4) whose relative error the observer estimates from
+        the moves (see the module docstring); ``[]`` turns it off, and it is
+        off without ``disturbance``.
+    adapt_prior, adapt_noise, adapt_window, adapt_bound : float
+        Prior standard deviation of the relative errors, the innovation's
+        standard deviation [m], how long after a move they are still updated [s],
+        and their bound.
     """
 
     omega_g: float = Field(120.0, gt=0, le=400)
