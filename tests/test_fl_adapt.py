@@ -155,3 +155,25 @@ def test_tours_hold_6um_on_nine_seeds(name):
         for t in m.targets:
             worst = np.maximum(worst, [t.rms_error_g_m, t.rms_error_d_m])
     assert np.all(worst <= 6e-6), worst
+
+
+def test_backend_c_fl_learns_what_the_python_fl_learns():
+    """``backend: c``: the compiled FL's constants (read from its C state) equal the Python FL's after a move."""
+    from maglev_ocp.codegen.build import find_compiler
+
+    if find_compiler() is None:
+        pytest.skip("no C compiler")
+    got = {}
+    for backend in ("python", "c"):
+        sc = _scenario(None, move=True)
+        sc["controller"]["backend"] = backend
+        sc["targets"][0]["hold"] = 0.06
+        sc["targets"][1]["hold"] = 0.12
+        scn = _as_scenario(sc)
+        ctrl, _ = build_run(scn, None, {})
+        res = run_scenario(scn, progress=False, controller=ctrl, figures=False)
+        got[backend] = (np.array(list(ctrl.adapted_constants.values())), res.columns)
+    np.testing.assert_allclose(got["c"][0], got["python"][0], rtol=0, atol=1e-9)
+    assert abs(got["c"][0][0] - C1_ERR) < 0.015  # it learnt C1
+    for col in ("i_q", "i_d", "d_hat", "dist_d"):
+        np.testing.assert_allclose(got["c"][1][col], got["python"][1][col], rtol=0, atol=1e-6, err_msg=col)
