@@ -32,6 +32,19 @@ as the runner does), so the mover follows the plan on time; without a plan,
 the reference handed in is used as it is, so the mover follows it N samples
 late, with the delay-free loop's response (extrapolating it instead would
 put the feedforward acceleration N samples late, which costs more than the lag).
+
+Adaptive observer (``adapt``, default ``[C1, C3, C4]``, the NMPC's): a constant
+acceleration disturbance cannot follow an error of a constant that multiplies
+the currents (the rig's C1, C3, C4 are off their nominal values): it learns a
+move's mismatch (2 % of a 50 m/s^2 thrust) and carries it into the hold, pushing
+the mover past the target while it decays. The observer also estimates the
+relative errors of those constants by recursive least squares on the encoder
+innovation (:func:`maglev_ocp.observers.adapt_constants`, regressors from
+``model.linear_split``), updated only while the reference moves and
+``adapt_window`` after (a push while holding teaches nothing), bounded by
+``adapt_bound``; the observer's prediction, the predictor and the inversion then
+use the corrected constants (:func:`fl_adaptive_observer_function`, the same
+Function in the compiled step).
 """
 
 from __future__ import annotations
@@ -39,6 +52,7 @@ from __future__ import annotations
 import functools
 import math
 from collections import deque
+from typing import Literal
 
 import casadi as ca
 import numpy as np
@@ -49,7 +63,15 @@ from maglev_ocp.blocks import ControlOutput, Measurement, Reference
 from maglev_ocp.config import Strict
 from maglev_ocp.fastcall import BufferedFunction
 from maglev_ocp.model import get_model, inverse_expressions
-from maglev_ocp.observers import HighGainObserver, ObserverSettings
+from maglev_ocp.observers import (
+    HighGainObserver,
+    ObserverSettings,
+    adapt_constants,
+    adapt_gate,
+    adapt_shift,
+    corrected_params,
+    observer_update_innovation,
+)
 from maglev_ocp.params import NOMINAL, Params
 from maglev_ocp.signals import REF_FIELDS
 
@@ -152,6 +174,77 @@ def fl_predictor_function(n: int, Ts: float = k.Ts) -> ca.Function:
     )
 
 
+@functools.lru_cache(maxsize=16)
+def fl_adaptive_observer_function(
+    names: tuple[str, ...], L: tuple[float, ...], Ts: float, noise: float, bound: float, window: int
+) -> ca.Function:
+    """The FL's adaptive observer update as one CasADi Function (the NMPC's, :mod:`maglev_ocp.observers`).
+
+    ``fl_adaptive_observer(x_hat, dist, u_prev, y, p, adapt, moving) -> (x_next, dist_next, adapt_next, p_hat)``
+
+    The extended-state observer update (:func:`maglev_ocp.observers.observer_update_innovation`,
+    a non-finite reading skipped) with the model's constants ``names`` corrected
+    by their estimated relative errors ``theta``, which are learnt from the
+    innovation while the reference moves and ``window`` periods after
+    (:func:`maglev_ocp.observers.adapt_gate`, :func:`maglev_ocp.observers.adapt_constants`).
+    ``adapt`` is the adaptation's memory (:func:`fl_adapt_state`: ``theta``,
+    ``ups``, ``cov``, ``since``, ``age``); ``moving`` 1 while the reference moves;
+    ``p_hat`` the corrected parameter vector with the new ``theta``, which the
+    law inverts (seed ref. [3]) and the predictor integrates.
+    """
+    n = len(names)
+    np_ = get_model().np_
+    x, dist, u, y = ca.SX.sym("x_hat", 4), ca.SX.sym("dist", 2), ca.SX.sym("u_prev", 2), ca.SX.sym("y", 2)
+    p, ad, moving = ca.SX.sym("p", np_), ca.SX.sym("adapt", 7 * n + n * n + 2), ca.SX.sym("moving")
+    theta, ups, cov = ad[:n], ad[n : 7 * n], ad[7 * n : 7 * n + n * n]
+    since, age = ad[7 * n + n * n], ad[7 * n + n * n + 1]
+    p_obs = corrected_params(p, theta, names)
+    xo, do, e = observer_update_innovation(x, dist, u, y, p_obs, L, Ts, disturbance=True, skip_nonfinite=True)
+    ok, since, age = adapt_gate(since, age, moving > 0.5, ca.SX(0), window)
+    dtheta, ups_plus, theta, cov = adapt_constants(x, u, p, ups, theta, cov, e, ok, names, L, Ts, noise**2, bound)
+    dx, dd = adapt_shift(ups_plus, dtheta)  # the estimate moves with the constants: eps = eta + Ups theta_err
+    ad_next = ca.vertcat(theta, ca.vec(ups_plus), cov, since, age)
+    return ca.Function(
+        "fl_adaptive_observer",
+        [x, dist, u, y, p, ad, moving],
+        [xo + dx, do + dd, ad_next, corrected_params(p, theta, names)],
+        ["x_hat", "dist", "u_prev", "y", "p", "adapt", "moving"],
+        ["x_next", "dist_next", "adapt_next", "p_hat"],
+        {"cse": True},
+    )
+
+
+def fl_adapted(settings: FLSettings) -> tuple[str, ...]:
+    """The constants the FL's observer adapts (none without the disturbance estimate it works with)."""
+    return tuple(settings.adapt) if settings.disturbance else ()
+
+
+def fl_adapt_state(settings: FLSettings) -> np.ndarray:
+    """The adaptation's memory at reset: ``theta = 0``, ``ups = 0``, ``cov = adapt_prior^2 I``, ``since``, ``age``."""
+    n = len(fl_adapted(settings))
+    return np.concatenate([np.zeros(7 * n), np.ravel(np.eye(n) * settings.adapt_prior**2), [1e6, 0.0]])
+
+
+def fl_adaptive_observer(settings: FLSettings, L, Ts: float = k.Ts) -> ca.Function | None:
+    """:func:`fl_adaptive_observer_function` for ``settings`` and observer gain ``L`` (None without ``adapt``)."""
+    names = fl_adapted(settings)
+    if not names:
+        return None
+    window = round(settings.adapt_window / Ts)
+    return fl_adaptive_observer_function(
+        names, tuple(float(v) for v in L), Ts, settings.adapt_noise, settings.adapt_bound, window
+    )
+
+
+def ref_moving(r):
+    """1 while the reference row ``r`` (order of :data:`REF_FIELDS`) moves: a rate or acceleration is not 0.
+
+    Numeric rows give a bool, symbolic (SX) rows an expression (the compiled FL's step).
+    """
+    R = dict(zip(REF_FIELDS, (r[i] for i in range(len(REF_FIELDS))), strict=True))
+    return abs(R["g_dot"]) + abs(R["g_ddot"]) + abs(R["d_dot"]) + abs(R["d_ddot"]) > 0
+
+
 class FLSettings(Strict):
     """Tuning of :class:`FeedbackLinearization` (the scenario's ``controller:`` block for ``type: fl``).
 
@@ -184,6 +277,14 @@ class FLSettings(Strict):
         the controller's parameters; its static effects enter the observer's
         prediction and the inversion (see :meth:`FeedbackLinearization.step`);
         an amplifier lag's transport delay adds to ``delay_samples``.
+    adapt : list of str
+        Constants (of C1..C4) whose relative error the observer estimates from
+        the moves (see the module docstring); ``[]`` turns it off, and it is
+        off without ``disturbance``.
+    adapt_prior, adapt_noise, adapt_window, adapt_bound : float
+        Prior standard deviation of the relative errors, the innovation's
+        standard deviation [m], how long after a move they are still updated [s],
+        and their bound.
     """
 
     omega_g: float = Field(120.0, gt=0, le=400)
@@ -198,6 +299,38 @@ class FLSettings(Strict):
         0, ge=0, le=10, description="computation delay compensated by the predictor [control periods]"
     )
     model: str | None = Field(None, description="model file with constants and effects (controllers.model_file)")
+    adapt: list[Literal["C1", "C2", "C3", "C4"]] = Field(
+        default_factory=lambda: ["C1", "C3", "C4"],
+        description="model constants whose relative error the observer estimates online (the NMPC's adaptive "
+        "observer, maglev_ocp.observers.adapt_constants): the inversion, the predictor and the observer use the "
+        "corrected constants, so the disturbance estimate no longer carries a move's current-proportional "
+        "mismatch into the hold ([]: off; needs disturbance)",
+    )
+    adapt_prior: float = Field(
+        0.1, gt=0, le=1, description="prior standard deviation of an adapted constant's relative error"
+    )
+    adapt_noise: float = Field(
+        4e-6,
+        gt=0,
+        description="standard deviation of the encoder innovation the constants' estimate assumes [m]: a 10 um "
+        "quantization (10 / sqrt(12) = 2.9 um) and 2 um encoder noise give 3.5 um on the default rig",
+    )
+    adapt_window: float = Field(
+        0.05,
+        ge=0,
+        description="the constants are updated only while the reference moves and this long after [s]: a "
+        "planned move's currents are the excitation; a push, or the quantization at rest, would bias them",
+    )
+    adapt_bound: float = Field(
+        0.25, gt=0, lt=0.9, description="largest relative correction of an adapted constant (projection)"
+    )
+
+    @field_validator("adapt")
+    @classmethod
+    def _adapt_unique(cls, v: list[str]) -> list[str]:
+        if len(set(v)) != len(v):
+            raise ValueError(f"adapt lists a constant twice: {v}; allowed: each of C1, C2, C3, C4 at most once")
+        return v
 
     @field_validator("model")
     @classmethod
@@ -288,6 +421,11 @@ class FeedbackLinearization:
         self.observer = HighGainObserver(
             params, ObserverSettings(eps=self.settings.observer_eps, disturbance=self.settings.disturbance), Ts
         )
+        # adaptive observer (settings.adapt): the constants' relative errors, learnt from the moves
+        self._adapt_fn = fl_adaptive_observer(self.settings, self.observer.L, Ts)
+        self._adapt_fn = BufferedFunction(self._adapt_fn) if self._adapt_fn is not None else None
+        self._ad = fl_adapt_state(self.settings)
+        self._p_hat = self._p  # the parameters the law inverts: p with the adapted constants corrected
         self._z = np.zeros(2)
         self._u_prev = np.zeros(2)
         self._u_good: np.ndarray | None = None  # last finite command of the law
@@ -313,6 +451,8 @@ class FeedbackLinearization:
     def reset(self, y0: Measurement, ref: Reference) -> None:
         """Start a run at reading ``y0`` (mover assumed at rest); clear integrators."""
         self.observer.reset(np.asarray(y0.y, dtype=float))
+        self._ad = fl_adapt_state(self.settings)
+        self._p_hat = self._p
         self._z = np.zeros(2)
         self._u_prev = np.zeros(2)
         self._u_good = None
@@ -338,6 +478,9 @@ class FeedbackLinearization:
         law also ``solver_failure = 1``), which the run's metrics count.
         """
         fallback = 0
+        r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
+        if self._pred is not None and self._plan is not None:  # the reference when the command computed now acts
+            r = self._plan_ahead(y.t)
         if not self._started:
             x_hat = self.observer.x_hat.copy()
             self._started = True
@@ -347,29 +490,32 @@ class FeedbackLinearization:
             # the effects the model file knows are part of the observer's prediction over the period
             d_eff = self._effect(self.observer.x_hat, u_applied)
             self.observer.dist += d_eff
-            if math.isfinite(y.y[0]) and math.isfinite(y.y[1]):
+            finite = math.isfinite(y.y[0]) and math.isfinite(y.y[1])
+            if self._adapt_fn is not None:  # a non-finite reading is skipped inside (prediction only)
+                x_hat, dist, self._ad, self._p_hat = self._adapt_fn(
+                    self.observer.x_hat, self.observer.dist, u_applied, y.y, self._p, self._ad, float(ref_moving(r))
+                )
+                self.observer.x_hat, self.observer.dist = x_hat.copy(), dist.copy()
+            elif finite:
                 x_hat = self.observer.step(y.y, u_applied)
             else:  # a reading that cannot be used: prediction only (as the NMPC's observer does)
                 x_hat = self.observer.predict(u_applied)
                 self.observer.x_hat = x_hat.copy()
-                fallback = 1
+            fallback = int(not finite)
             self.observer.dist -= d_eff  # what is left is the residual disturbance
-        r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
         dist = self.observer.disturbance
-        x_law = x_hat
+        x_law, p = x_hat, self._p_hat
         if self._pred is not None:
             u_seq = np.concatenate(list(self._sent)[1:])
-            (x_law,) = self._pred(x_hat, dist, u_seq, self._p)
-            if self._plan is not None:  # the reference when the command computed now takes effect
-                r = self._plan_ahead(y.t)
-        u, z_next, v, fl = self._law(x_law, dist, r, self._z, self._p, self._gains)
+            (x_law,) = self._pred(x_hat, dist, u_seq, p)
+        u, z_next, v, fl = self._law(x_law, dist, r, self._z, p, self._gains)
         if self._delta is not None:
             # invert the model with the effects: the law's model must give v minus the residual disturbance
             # minus what the effects add at the current it commands (fixed point, exact for state-only effects)
             for _ in range(2):
                 if not np.all(np.isfinite(u)):
                     break
-                u, z_next, v, fl = self._law(x_law, dist + self._effect(x_law, u), r, self._z, self._p, self._gains)
+                u, z_next, v, fl = self._law(x_law, dist + self._effect(x_law, u), r, self._z, p, self._gains)
         law_failed = not (math.isfinite(u[0]) and math.isfinite(u[1]))
         if law_failed:
             u, fallback = self._safe_current(x_hat), 1
@@ -381,6 +527,12 @@ class FeedbackLinearization:
             self._sent.append(np.asarray(u, dtype=float).copy())
         stats = law_stats(fl, v, dist, law_failed, fallback)
         return ControlOutput(u=u, x_hat=x_hat, stats=stats)
+
+    @property
+    def adapted_constants(self) -> dict[str, float]:
+        """The adaptive observer's estimate of each adapted constant's relative error (empty without ``adapt``)."""
+        names = fl_adapted(self.settings) if self._adapt_fn is not None else ()
+        return {n: float(self._ad[j]) for j, n in enumerate(names)}
 
     def _effect(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Accelerations the model file's effects add at state ``x`` and currents ``u`` (zeros without effects)."""
@@ -431,8 +583,13 @@ __all__ = [
     "GAIN_FIELDS",
     "FLSettings",
     "FeedbackLinearization",
+    "fl_adapt_state",
+    "fl_adapted",
+    "fl_adaptive_observer",
+    "fl_adaptive_observer_function",
     "fl_delay_samples",
     "fl_law_function",
     "fl_predictor_function",
     "law_stats",
+    "ref_moving",
 ]

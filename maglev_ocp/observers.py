@@ -23,6 +23,7 @@ from . import constants as k
 from .fastcall import BufferedFunction
 from .model import get_model
 from .params import NOMINAL, Params
+from .signals import PARAM_NAMES
 
 
 @dataclass
@@ -208,3 +209,149 @@ def observer_update_innovation(
     else:
         d_next = dist * 0 if isinstance(dist, ca.MX) else ca.SX.zeros(2)
     return x_next, d_next, ca.vertcat(e_g, e_d)
+
+
+# ----------------------------------------------------------------------------- adaptive observer
+#: Constants an adaptive observer can estimate (they enter the model linearly, ``model.linear_split``).
+ADAPTABLE: tuple[str, ...] = ("C1", "C2", "C3", "C4")
+
+
+def corrected_params(p, theta, names: tuple[str, ...]):
+    """The parameter vector with the adapted constants corrected: ``p_j (1 + theta_j)`` (SX or MX).
+
+    ``names`` are the adapted constants (of :data:`ADAPTABLE`), ``theta`` their
+    relative errors in that order; ``p`` itself without ``names``.
+    """
+    if not names:
+        return p
+    scale = [1] * p.shape[0]
+    for j, n in enumerate(names):
+        scale[PARAM_NAMES.index(n)] = 1 + theta[j]
+    return p * ca.vertcat(*scale)
+
+
+def adapt_gate(since, age, moving, fresh, window: int):
+    """When an adaptive observer may update its constants; ``(ok, since_next, age_next)`` (SX).
+
+    ``since`` counts the periods since the reference last moved (``moving`` 1
+    while it moves), ``age`` those since the reset; the constants are updated
+    only within ``window`` periods of a move (the planned move's currents are
+    the excitation: a push while holding, or the quantization's limit cycle at
+    rest, moves the current too but would bias the constants, e.g. a 100 N pull
+    drove C3 and C4 to -18 % and +25 % without the window), not right after the
+    reset (``fresh``) and not within ``window`` of it (the observer's own
+    start-up transient is no model error).
+    """
+    since_next = ca.if_else(moving, 0, ca.fmin(since + 1, 1e6))
+    age_next = ca.fmin(age + 1, 1e6)
+    ok = ca.logic_and(ca.logic_and(ca.logic_not(fresh), since_next <= window), age_next > window)
+    return ok, since_next, age_next
+
+
+def adapt_constants(x_prior, u_prev, p, ups, theta, cov, e, ok, names: tuple[str, ...], L, Ts: float, r2, bound):
+    """One update of an adaptive observer's constants (SX); ``(dtheta, ups_plus, theta_next, cov_next)``.
+
+    The discrete form of the adaptive observer of Q. Zhang (IEEE TAC 47(3),
+    2002) on the extended-state observer of :func:`observer_update_innovation`:
+    per axis the error of ``(pos, vel, a_dist)`` is ``eps = eta + Ups theta_err``
+    with ``eta`` decaying by the observer's error dynamics ``(I - L H) F`` and the
+    sensitivity ``Ups`` propagated as ``Ups^- = F Ups + G b``, ``Ups^+ = (I - L H) Ups^-``,
+    ``b`` the acceleration per unit relative error (the constant's column of
+    :meth:`maglev_ocp.model.MaglevModel.linear_split` times its value). The
+    innovation ``e = H Ups^- theta_err`` (plus a decaying term) is a linear
+    regression on ``phi = H Ups^-``, solved by recursive least squares
+    (``K = P phi^T (phi P phi^T + R)^-1``) with projection onto ``|theta| <= bound``.
+
+    Parameters
+    ----------
+    x_prior : casadi.SX, shape (4,)
+        The estimate before the update (where the regressors are taken).
+    u_prev : casadi.SX, shape (2,)
+        Currents applied over the last period [A].
+    p : casadi.SX
+        Model parameter vector (uncorrected).
+    ups : casadi.SX, shape (6 n,)
+        Sensitivities, column-major ``6 x n``: rows ``(g, g_dot, a_g, d, d_dot, a_d)``.
+    theta, cov : casadi.SX
+        Relative errors (n) and their covariance (``n x n``, flattened).
+    e : casadi.SX, shape (2,)
+        Innovation ``(e_g, e_d)`` [m].
+    ok : casadi.SX
+        Update allowed (:func:`adapt_gate`); else ``dtheta = 0`` and ``cov`` kept.
+    names : tuple of str
+        The adapted constants.
+    L : array_like
+        Observer gain (position, velocity, disturbance).
+    Ts : float
+        Sample period [s].
+    r2 : casadi.SX or float
+        Variance of the innovation per axis [m^2] (shape 2, or one value for both; :func:`innovation_noise`).
+    bound : float
+        Largest ``|theta|``.
+
+    Returns
+    -------
+    dtheta, ups_plus, theta_next, cov_next : casadi.SX
+        The step of ``theta`` (the estimate moves by ``ups_plus dtheta``), the
+        propagated sensitivities (``6 x n``), the new ``theta`` and ``cov`` (flattened).
+    """
+    n = len(names)
+    A, _ = get_model().linear_split(names)(x_prior, u_prev, p)
+    pj = ca.vertcat(*[p[PARAM_NAMES.index(nm)] for nm in names])
+    ups = ca.reshape(ups, 6, n)
+    cols, phis = [], []
+    for j in range(n):
+        col = []
+        for axis, row in ((0, 1), (1, 3)):
+            b = A[row, j] * pj[j]
+            u_pos, u_vel, u_w = ups[3 * axis, j], ups[3 * axis + 1, j], ups[3 * axis + 2, j]
+            # Ups^- = F Ups + G b (double integrator with the disturbance state, as the observer's gain design)
+            m_pos = u_pos + Ts * u_vel + Ts**2 / 2 * (u_w + b)
+            m_vel = u_vel + Ts * (u_w + b)
+            phis.append(m_pos)
+            # Ups^+ = (I - L H) Ups^-
+            col += [m_pos - L[0] * m_pos, m_vel - L[1] * m_pos, u_w - L[2] * m_pos]
+        cols.append(ca.vertcat(*col))
+    ups_plus = ca.horzcat(*cols)
+    Phi = ca.reshape(ca.vertcat(*phis), 2, n)  # rows (g, d), one column per constant
+    # recursive least squares (a Kalman filter on constant parameters): the innovation's noise
+    # (quantization, process noise) weighs each period's evidence; P shrinks as the moves inform theta
+    P = ca.reshape(cov, n, n)
+    Sm = ca.mtimes(ca.mtimes(Phi, P), Phi.T) + ca.diag(r2 * ca.DM.ones(2))
+    K = ca.mtimes(ca.mtimes(P, Phi.T), ca.inv(Sm))
+    P_new = P - ca.mtimes(ca.mtimes(K, Phi), P)
+    P_new = 0.5 * (P_new + P_new.T)
+    theta_new = ca.fmin(ca.fmax(theta + ca.mtimes(K, e), -bound), bound)
+    dtheta = ca.if_else(ok, theta_new - theta, ca.SX.zeros(n))
+    cov_next = ca.if_else(ok, ca.vec(P_new), cov)
+    return dtheta, ups_plus, theta + dtheta, cov_next
+
+
+def innovation_noise(
+    noise, age, e, measure, fixed: float | None, window: int, Ts: float, time_const: float, floor: float
+):
+    """The innovation's variance per axis an adaptive update assumes, and the next ``noise`` state (SX).
+
+    With ``fixed`` (a standard deviation [m]) its square. Else measured: the
+    running mean square of the innovation ``e`` over the periods ``measure``
+    (the constants not updated, the observer past its start-up, a finite
+    reading), an average over the first periods and an exponential one of time
+    constant ``time_const`` after; the update takes it no lower than
+    ``floor^2``. The innovation there is the encoders' noise and quantization
+    plus the rig's unmodelled forces at rest, which are what the least squares
+    must weigh each period's evidence against: an assumed noise three times too
+    large keeps a weakly excited constant (C4 on a gap move) at a fraction of
+    its error for many moves (the prior's pull to zero).
+    """
+    if fixed is not None:
+        return ca.DM.ones(2) * fixed**2, noise
+    n_rest = ca.fmax(age - window, 1)  # a bound on the periods measured so far
+    a = ca.fmax(1 / n_rest, Ts / time_const)
+    noise_next = ca.if_else(measure, noise + a * (e**2 - noise), noise)
+    return ca.fmax(noise, floor**2), noise_next
+
+
+def adapt_shift(ups_plus, dtheta):
+    """How the estimate moves with the constants' step: ``eps = eta + Ups theta_err``; ``(dx (4), ddist (2))``."""
+    corr = ca.mtimes(ups_plus, dtheta)
+    return ca.vertcat(corr[0], corr[1], corr[3], corr[4]), ca.vertcat(corr[2], corr[5])

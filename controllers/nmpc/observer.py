@@ -38,89 +38,29 @@ from __future__ import annotations
 
 import casadi as ca
 
-from maglev_ocp.observers import observer_update_innovation
-from maglev_ocp.signals import PARAM_NAMES
+from maglev_ocp.observers import adapt_constants, adapt_gate, adapt_shift, observer_update_innovation
+from maglev_ocp.observers import corrected_params as shared_corrected_params
+from maglev_ocp.observers import innovation_noise as shared_innovation_noise
 
 from .design import StepDesign, adapted
 
 
 def corrected_params(d: StepDesign, p: ca.SX, theta: ca.SX) -> ca.SX:
-    """The parameter vector with the adapted constants corrected: ``p_j (1 + theta_j)``."""
-    names = adapted(d.settings)
-    if not names:
-        return p
-    scale = [1] * p.shape[0]
-    for j, n in enumerate(names):
-        scale[PARAM_NAMES.index(n)] = 1 + theta[j]
-    return p * ca.vertcat(*scale)
+    """``p`` with the adapted constants corrected (:func:`maglev_ocp.observers.corrected_params`)."""
+    return shared_corrected_params(p, theta, adapted(d.settings))
 
 
 def innovation_noise(d: StepDesign, S: dict, e: ca.SX, measure: ca.SX) -> tuple[ca.SX, ca.SX]:
-    """The innovation's variance per axis the update assumes, and the new ``noise`` state piece.
+    """The innovation's variance per axis and the next ``noise`` piece.
 
-    With ``adapt_noise`` set, its square. Else measured: the running mean
-    square of the innovation over the periods ``measure`` (the constants not
-    updated, the observer past its start-up, a finite reading), an average
-    over the first periods and an exponential one of time constant
-    ``adapt_noise_time`` after; the update takes it no lower than
-    ``adapt_noise_floor^2``. The innovation there is the encoders' noise and
-    quantization plus the rig's unmodelled forces at rest, which are what the
-    least squares must weigh each period's evidence against: an assumed noise
-    three times too large keeps a weakly excited constant (C4 on a gap move)
-    at a fraction of its error for many moves (the prior's pull to zero).
+    See :func:`maglev_ocp.observers.innovation_noise`; the settings give the
+    fixed value (``adapt_noise``) or the measurement's time constant and floor.
     """
     s = d.settings
-    if s.adapt_noise is not None:
-        return ca.DM.ones(2) * s.adapt_noise**2, S["noise"]
-    window = round(s.adapt_window / d.Ts)
-    n_rest = ca.fmax(S["age"][0] - window, 1)  # a bound on the periods measured so far
-    a = ca.fmax(1 / n_rest, d.Ts / s.adapt_noise_time)
-    noise = ca.if_else(measure, S["noise"] + a * (e**2 - S["noise"]), S["noise"])
-    return ca.fmax(S["noise"], s.adapt_noise_floor**2), noise
-
-
-def _adapt(
-    d: StepDesign, S: dict, p: ca.SX, e: ca.SX, ok_update: ca.SX, r2: ca.SX
-) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
-    """Sensitivity propagation and the constants' update; ``(dtheta, ups_plus, theta_new, cov_new)``.
-
-    ``ups`` columns are the sensitivities of ``(g, g_dot, a_g, d, d_dot, a_d)``
-    to each constant's relative error; ``e`` the innovation ``(e_g, e_d)``,
-    ``r2`` its noise variance per axis (:func:`innovation_noise`).
-    """
-    s, Ts, L = d.settings, d.Ts, d.L_obs
-    names = adapted(s)
-    n = len(names)
-    # acceleration per unit relative error of each constant, at the prior estimate and the applied current
-    A, _ = d.model.linear_split(names)(S["xhat"], S["u_prev"], p)
-    pj = ca.vertcat(*[p[PARAM_NAMES.index(nm)] for nm in names])
-    ups = ca.reshape(S["ups"], 6, n)
-    cols, phis = [], []
-    for j in range(n):
-        col = []
-        for axis, row in ((0, 1), (1, 3)):
-            b = A[row, j] * pj[j]
-            u_pos, u_vel, u_w = ups[3 * axis, j], ups[3 * axis + 1, j], ups[3 * axis + 2, j]
-            # Ups^- = F Ups + G b (double integrator with the disturbance state, as the observer's gain design)
-            m_pos = u_pos + Ts * u_vel + Ts**2 / 2 * (u_w + b)
-            m_vel = u_vel + Ts * (u_w + b)
-            phis.append(m_pos)
-            # Ups^+ = (I - L H) Ups^-
-            col += [m_pos - L[0] * m_pos, m_vel - L[1] * m_pos, u_w - L[2] * m_pos]
-        cols.append(ca.vertcat(*col))
-    ups_plus = ca.horzcat(*cols)
-    Phi = ca.reshape(ca.vertcat(*phis), 2, n)  # rows (g, d), one column per constant
-    # recursive least squares (a Kalman filter on constant parameters): the innovation's noise
-    # (quantization, process noise) weighs each period's evidence; P shrinks as the moves inform theta
-    P = ca.reshape(S["cov"], n, n)
-    Sm = ca.mtimes(ca.mtimes(Phi, P), Phi.T) + ca.diag(r2)
-    K = ca.mtimes(ca.mtimes(P, Phi.T), ca.inv(Sm))
-    P_new = P - ca.mtimes(ca.mtimes(K, Phi), P)
-    P_new = 0.5 * (P_new + P_new.T)
-    theta_new = ca.fmin(ca.fmax(S["theta"] + ca.mtimes(K, e), -s.adapt_bound), s.adapt_bound)
-    dtheta = ca.if_else(ok_update, theta_new - S["theta"], ca.SX.zeros(n))
-    cov = ca.if_else(ok_update, ca.vec(P_new), S["cov"])
-    return dtheta, ups_plus, S["theta"] + dtheta, cov
+    return shared_innovation_noise(
+        S["noise"], S["age"][0], e, measure, s.adapt_noise, round(s.adapt_window / d.Ts), d.Ts,
+        s.adapt_noise_time, s.adapt_noise_floor,
+    )  # fmt: skip
 
 
 def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = None) -> tuple[ca.SX, ...]:
@@ -161,18 +101,19 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = N
     theta, pieces = (S["theta"] if adapt else ca.SX(0, 1)), ca.SX(0, 1)
     if adapt:
         moving = ca.SX(1) if moving is None else moving
-        since = ca.if_else(moving, 0, ca.fmin(S["since"][0] + 1, 1e6))
-        age = ca.fmin(S["age"][0] + 1, 1e6)
-        window = round(d.settings.adapt_window / d.Ts)
+        s = d.settings
+        window = round(s.adapt_window / d.Ts)
+        ok, since, age = adapt_gate(S["since"][0], S["age"][0], moving, fresh, window)
         # not during the observer's own start-up either: its converging estimate is no model error
         started = ca.logic_and(ca.logic_not(fresh), age > window)
-        ok = ca.logic_and(started, since <= window)
         finite = ca.fabs(y[0]) + ca.fabs(y[1]) < 1e3  # as observer_update_innovation's skip
         r2, noise = innovation_noise(d, S, e, ca.logic_and(ca.logic_and(started, ca.logic_not(ok)), finite))
-        dtheta, ups_plus, theta, cov = _adapt(d, S, p, e, ok, r2)
-        corr = ca.mtimes(ups_plus, dtheta)  # the estimate moves with the constants: eps = eta + Ups theta_err
-        xo = xo + ca.vertcat(corr[0], corr[1], corr[3], corr[4])
-        do = do + ca.vertcat(corr[2], corr[5])
+        dtheta, ups_plus, theta, cov = adapt_constants(
+            S["xhat"], S["u_prev"], p, S["ups"], S["theta"], S["cov"], e, ok, adapted(s), d.L_obs, d.Ts,
+            r2, s.adapt_bound,
+        )  # fmt: skip
+        dx, dd = adapt_shift(ups_plus, dtheta)  # the estimate moves with the constants: eps = eta + Ups theta_err
+        xo, do = xo + dx, do + dd
         pieces = ca.vertcat(theta, ca.if_else(fresh, S["ups"], ca.vec(ups_plus)), cov, since, age, noise)
     xhat = ca.if_else(fresh, S["xhat"], xo)
     dist = ca.if_else(fresh, S["dist"], do)

@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from controllers.fl import FeedbackLinearization, law_stats
+from controllers.fl import FeedbackLinearization, fl_adapted, law_stats
 from controllers.nmpc import NMPC, StepFunctions
 from controllers.pid import PIDController, hover_error
 
@@ -43,6 +43,7 @@ from ..errors import UserError
 from ..params import NOMINAL, Params
 from ..runner import register_backend
 from .build import BuildResult, build_cached
+from .fl_fn import fl_state_slices
 from .functions import ControllerCode, fl_code, nmpc_code, observer_code, pid_code
 from .loader import CompiledFunction, CompiledLibrary
 from .sources import generate_sources
@@ -148,6 +149,15 @@ class CompiledFL(FeedbackLinearization):
         super().reset(y0, ref)
         (st,) = self._c_init(np.asarray(y0.y, dtype=float))
         self._state = st.copy()
+
+    @property
+    def adapted_constants(self) -> dict[str, float]:
+        """The compiled step's estimate of each adapted constant's relative error (from its state)."""
+        names = fl_adapted(self.settings)
+        if not names or self._state is None:
+            return dict.fromkeys(names, 0.0)
+        theta = self._state[fl_state_slices(self.delay, len(names))["adapt"]][: len(names)]
+        return {n: float(v) for n, v in zip(names, theta, strict=True)}
 
     def step(self, y: Measurement, ref: Reference) -> ControlOutput:
         """Observer update and control law in one compiled call (``fl_step``)."""

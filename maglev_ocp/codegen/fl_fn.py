@@ -26,7 +26,16 @@ from __future__ import annotations
 
 import casadi as ca
 
-from controllers.fl import GAIN_FIELDS, fl_delay_samples, fl_law_function, fl_predictor_function
+from controllers.fl import (
+    GAIN_FIELDS,
+    fl_adapt_state,
+    fl_adapted,
+    fl_adaptive_observer,
+    fl_delay_samples,
+    fl_law_function,
+    fl_predictor_function,
+    ref_moving,
+)
 
 from .. import constants as k
 from ..model import get_model
@@ -45,24 +54,39 @@ FL_STATE: tuple[tuple[str, int, str, str], ...] = (
 FL_STATE_SIZE = sum(n for _, n, _, _ in FL_STATE)
 
 
-def fl_state(delay: int = 0) -> tuple[tuple[str, int, str, str], ...]:
-    """The state's pieces for a computation delay of ``delay`` samples (:data:`FL_STATE`, then the queue)."""
-    if delay <= 0:
-        return FL_STATE
-    sent = (
-        "sent",
-        2 * (delay + 1),
-        "A",
-        f"the {delay + 1} commands sent (i_q, i_d pairs), oldest first: the first was applied over the "
-        "last period, the others are still in flight",
-    )
-    return (*FL_STATE, sent)
+def fl_state(delay: int = 0, n_adapt: int = 0) -> tuple[tuple[str, int, str, str], ...]:
+    """The state's pieces for a computation delay of ``delay`` samples and ``n_adapt`` adapted constants.
+
+    :data:`FL_STATE`, then the queue of commands sent (``delay > 0``), then the
+    adaptive observer's memory (``n_adapt > 0``, :func:`controllers.fl.fl_adapt_state`).
+    """
+    out = FL_STATE
+    if delay > 0:
+        sent = (
+            "sent",
+            2 * (delay + 1),
+            "A",
+            f"the {delay + 1} commands sent (i_q, i_d pairs), oldest first: the first was applied over the "
+            "last period, the others are still in flight",
+        )
+        out = (*out, sent)
+    if n_adapt > 0:
+        n = n_adapt
+        adapt = (
+            "adapt",
+            7 * n + n * n + 2,
+            "-, m, m/s, m/s^2, -, periods",
+            f"adaptive observer: relative errors of the {n} adapted constants, their sensitivities (6 x {n}), "
+            "covariance, periods since the reference moved and since reset",
+        )
+        out = (*out, adapt)
+    return out
 
 
-def fl_state_slices(delay: int = 0) -> dict[str, slice]:
-    """Slice of each piece of :func:`fl_state` ``(delay)``."""
+def fl_state_slices(delay: int = 0, n_adapt: int = 0) -> dict[str, slice]:
+    """Slice of each piece of :func:`fl_state` ``(delay, n_adapt)``."""
     out, i = {}, 0
-    for name, n, _, _ in fl_state(delay):
+    for name, n, _, _ in fl_state(delay, n_adapt):
         out[name] = slice(i, i + n)
         i += n
     return out
@@ -86,12 +110,17 @@ def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
     L = observer_gain(osettings, Ts)
     m = get_model()
     delay = fl_delay_samples(settings)
-    sl = fl_state_slices(delay)
-    size = sum(n for _, n, _, _ in fl_state(delay))
+    n_adapt = len(fl_adapted(settings))
+    sl = fl_state_slices(delay, n_adapt)
+    size = sum(n for _, n, _, _ in fl_state(delay, n_adapt))
 
     meas0 = ca.SX.sym("meas", 2)
     # the queue of commands sent is filled with the hover current on the first step (it needs p)
-    state0 = ca.vertcat(meas0[0], 0, meas0[1], 0, ca.SX.zeros(2 + 2 + 2), 0, ca.SX.zeros(size - FL_STATE_SIZE))
+    n_sent = 2 * (delay + 1) if delay else 0
+    state0 = ca.vertcat(
+        meas0[0], 0, meas0[1], 0, ca.SX.zeros(2 + 2 + 2), 0, ca.SX.zeros(n_sent),
+        ca.DM(fl_adapt_state(settings)) if n_adapt else ca.SX(0, 1),
+    )  # fmt: skip
     fl_init = ca.Function("fl_init", [meas0], [state0], ["meas"], ["state"])
 
     st, meas, ref = ca.SX.sym("state_in", size), ca.SX.sym("meas", 2), ca.SX.sym("ref", len(REF_FIELDS))
@@ -105,17 +134,26 @@ def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
         u_hover = ca.if_else(ca.fabs(u_hover[0]) + ca.fabs(u_hover[1]) < ca.inf, u_hover, ca.SX.zeros(2))
         sent = ca.if_else(started, st[sl["sent"]], ca.repmat(u_hover, delay + 1))
         u_applied = sent[:2]  # the command sent N + 1 samples ago: applied over the last period
-    x_obs, d_obs = observer_update(x_old, d_old, u_applied, meas, p, L, Ts, settings.disturbance)
+    p_law, ad_next = p, []
+    if n_adapt:  # the adaptive observer (the Python FL's Function); the law inverts the corrected constants
+        ad_old = st[sl["adapt"]]
+        x_obs, d_obs, ad_new, p_hat = fl_adaptive_observer(settings, L, Ts)(
+            x_old, d_old, u_applied, meas, p, ad_old, ref_moving(ref)
+        )
+        p_law = ca.if_else(started, p_hat, p)
+        ad_next = [ca.if_else(started, ad_new, ad_old)]
+    else:
+        x_obs, d_obs = observer_update(x_old, d_old, u_applied, meas, p, L, Ts, settings.disturbance)
     # first step after reset: the estimate is the reset reading (no prediction), as in the Python class
     x_hat = ca.if_else(started, x_obs, x_old)
     dist = ca.if_else(started, d_obs, d_old)
     x_law = x_hat
     if delay:  # the FL's own predictor: the estimate N samples ahead through the commands in flight
-        x_law = fl_predictor_function(delay, Ts)(x_hat, dist, sent[2:], p)
-    u, z_next, v, flags = law(x_law, dist, ref, z, p, gains)
+        x_law = fl_predictor_function(delay, Ts)(x_hat, dist, sent[2:], p_law)
+    u, z_next, v, flags = law(x_law, dist, ref, z, p_law, gains)
     finite = ca.fabs(u[0]) + ca.fabs(u[1]) < ca.inf  # never command NaN/inf (NaN compares false)
     u = ca.if_else(finite, u, ca.SX.zeros(2))
-    state = ca.vertcat(x_hat, dist, z_next, u, 1, *([sent[2:], u] if delay else []))
+    state = ca.vertcat(x_hat, dist, z_next, u, 1, *([sent[2:], u] if delay else []), *ad_next)
     fl_step = ca.Function(
         "fl_step",
         [st, meas, ref, p, gains],

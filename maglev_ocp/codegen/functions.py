@@ -25,7 +25,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from controllers.fl import FLAG_FIELDS, GAIN_FIELDS, fl_delay_samples
+from controllers.fl import FLAG_FIELDS, GAIN_FIELDS, fl_adapted, fl_delay_samples
 from controllers.nmpc import step_functions
 from controllers.nmpc.layout import MEAS_TABLE, N_MEAS, STATS_TABLE
 from controllers.nmpc.reference import resolve_mode
@@ -330,7 +330,7 @@ def fl_code(settings, params: Params) -> ControllerCode:
     """Code units of :class:`controllers.fl.FeedbackLinearization` (observer + law in one step)."""
     init, step = fl_functions(settings, k.Ts)
     delay = fl_delay_samples(settings)
-    pieces = tuple(Piece(*q) for q in fl_state(delay))
+    pieces = tuple(Piece(*q) for q in fl_state(delay, len(fl_adapted(settings))))
     state_size = sum(q.size for q in pieces)
     state0, state_in, state_out = _state_ports(state_size, pieces)
     ref = _ref_row_port(
