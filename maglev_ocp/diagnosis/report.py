@@ -348,8 +348,15 @@ def _noise_markdown(d: Diagnosis) -> list[str]:
         if g.peaks_hz:
             md.append(
                 f"\nResonance guard `{n}`: {g.fraction_in_peaks:.0%} of its improvement in the peaks, "
-                f"{g.peak_left:.0%} of the peaks' power left: "
-                + ("**absorbs a resonance, not counted**" if g.absorbs_resonance else "not a resonance")
+                f"{g.peak_left:.0%} of the peaks' power left, {g.outside_reduction:.0%} of the residual outside "
+                "them removed: "
+                + (
+                    "**absorbs a resonance, not counted**"
+                    if g.absorbs_resonance
+                    else "the lag's model of the peaks (a closed-loop mode of the lag)"
+                    if g.explains_peaks
+                    else "not a resonance"
+                )
             )
     return md
 

@@ -87,6 +87,14 @@ class DiagnoseSettings(Strict):
     z_enter : float
         Held-out z for the forward selection to admit an effect (the
         backward check then asks ``z_min`` of each one in the full model).
+    resolved_share : float
+        The final model's constants and effects are refitted on the training
+        samples whose model acceleration the measured velocities determine:
+        those where a change of the velocities by their resolution moves it by
+        less than this share of the channel's floor (0: no such refit).
+    resolved_min : float
+        Smallest fraction of a channel's training samples that must be
+        resolved for that channel to be restricted to them.
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -112,6 +120,8 @@ class DiagnoseSettings(Strict):
     forward_z: float = Field(0.0, ge=-100.0)
     family_top: int = Field(4, ge=0, le=10)
     z_enter: float = Field(2.0, ge=0.0)
+    resolved_share: float = Field(0.5, ge=0.0, le=10.0)
+    resolved_min: float = Field(0.1, ge=0.0, le=1.0)
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""
