@@ -1041,6 +1041,7 @@ def resolution_spread(
     p: np.ndarray,
     dv: float,
     u_runs: Sequence[np.ndarray] | None = None,
+    wide: float = 10.0,
 ) -> list[np.ndarray]:
     """How much each filtered residual sample's model acceleration can change within the velocity resolution.
 
@@ -1050,8 +1051,10 @@ def resolution_spread(
     sign and Stribeck terms: the force of a guide that sticks is anything up to
     the breakaway force, NOTES.md) is not determined by the data. Per period,
     the largest change of the model acceleration when either velocity moves by
-    ``+-dv``; through the absolute filter rows, its bound on each residual
-    sample (same shape as the residual, ``(n_c, 2)`` per run, m/s^2).
+    ``+-dv``, beyond what the law's slope over ``+-wide dv`` gives (a law linear
+    in the velocity, viscous friction or eddy drag, is resolved: a velocity
+    error only adds noise) and at most the change itself; through the absolute filter rows, its bound on each
+    residual sample (same shape as the residual, ``(n_c, 2)`` per run, m/s^2).
     """
     out = []
     w = fit.w if fit is not None else np.zeros(len(spec.free))
@@ -1066,10 +1069,17 @@ def resolution_spread(
         a0 = accel_series(spec, Z, p, w)
         s = np.zeros_like(a0)
         for col in (Z_NAMES.index("g_dot"), Z_NAMES.index("d_dot")):
-            for sign in (-1.0, 1.0):
+            at = {}
+            for m in (-wide, -1.0, 1.0, wide):
                 Zp = np.array(Z, float)
-                Zp[:, col] += sign * dv
-                s = np.maximum(s, np.abs(accel_series(spec, Zp, p, w) - a0))
+                Zp[:, col] += m * dv
+                at[m] = accel_series(spec, Zp, p, w)
+            slope_dv = (at[wide] - at[-wide]) / (2.0 * wide)  # the law's slope over +-wide resolutions, times dv
+            for m in (-1.0, 1.0):
+                step = at[m] - a0
+                # The change beyond the slope, and never more than the change itself (a wide chord across a
+                # sign change has a slope that the law away from it does not have).
+                s = np.maximum(s, np.minimum(np.abs(step), np.abs(step - m * slope_dv)))
         out.append(np.asarray(abs(run.W) @ s))
     return out
 
