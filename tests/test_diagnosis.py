@@ -346,7 +346,7 @@ def test_two_effects_are_named_with_their_shares():
 
 
 @pytest.mark.slow
-def test_friction_that_sticks_does_not_drag_the_constants():
+def test_friction_that_sticks_does_not_drag_the_constants(tmp_path):
     """Strong friction (Coulomb + Stribeck with a sign sharper than the velocity resolution), baseline
     calibrated: while a guide sticks the controller's current produces no acceleration, which a fit over all
     samples explains by a smaller thrust constant; the final model is refitted on the samples whose velocities
@@ -371,6 +371,9 @@ def test_friction_that_sticks_does_not_drag_the_constants():
         assert _close(getattr(d.baseline_params, n), getattr(gen.true_params, n), tol), (n, rr)
     assert d.consequences.model_file["mismatch"]["overrides"]["C1"] == pytest.approx(d.baseline_params.C1)
     assert 0 < d.constants_moved["C1"]["stderr"] < 0.01 * gen.true_params.C1
+    write_report(d, tmp_path, figures=False)
+    md = (tmp_path / "report.md").read_text()
+    assert "Resolved refit: constants and effects refitted" in md and "Constants of the final model" in md
 
 
 def test_a_saturation_whose_law_differs_is_still_named():

@@ -27,7 +27,10 @@ any controller, locked axes allowed) and returns a :class:`Diagnosis`, whose
    score and the criterion; the single-effect verdict; then forward
    selection of further effects with a joint refit and a held-out test at
    each step, a backward drop-one check, and each effect's share of the gap.
-   The report's constants are those of the joint refit with the effects found.
+   The report's constants (and ``model.yaml``) are those of the joint refit
+   with the effects found, on the samples whose velocities the encoder
+   resolves where an effect's law is steep below that resolution (a sticking
+   guide otherwise drags the thrust constant, :func:`_resolved_refit`).
 5. **Quantification**: held-out residual rms before/after, short-window
    simulated trajectories of the baseline and the augmented model against the
    held-out runs (:mod:`.simulate_compare`), fitted parameters with standard
@@ -40,7 +43,9 @@ Stages on the noise model (:mod:`.noise`) and the consequences
   cannot inflate, whiteness, spectral peaks with frequency and damping; peaks
   both halves of the data show count as evidence of a gap;
 - :func:`lag_guards` and :func:`apply_resonance_guard` (after the verdict): a lag
-  whose improvement lies in a narrow resonance is not counted;
+  whose improvement lies in a narrow resonance is not counted, unless the lag
+  is the model of that peak (it removes the peak and the broadband residual
+  away from it on the held-out runs: a closed-loop mode the lag itself makes);
 - :func:`unexplained_stage` (after the quantification): what the final model
   leaves beyond the noise model, with channel, band, peak and region; a ``none``
   with a remaining resonance becomes ``unexplained``;

@@ -322,7 +322,9 @@ class Diagnosis:
     constants_moved : dict
         ``{C: {baseline, final, change_pct, change_in_stderr}}``: the joint refit's constants against the baseline.
     baseline_calibration : dict
-        How the calibrated baseline was obtained (clean samples, excluded regions, both passes' constants).
+        How the calibrated baseline was obtained (clean samples, excluded regions, both passes' constants) and,
+        under ``resolved_refit``, the final model's refit on the samples whose velocities are resolved (fractions
+        kept, the constants of the fit over all samples and of the refit, held-out check, adopted or why not).
     prior : dict
         The prior at nominal of the calibration (sd and weight).
     residual_baseline_params : Params or None
