@@ -1003,7 +1003,8 @@ def _resolved_refit(split: _Split, base: _Baseline, att: _Attribution, st: Diagn
     are left out of this refit, per channel, unless fewer than
     ``st.resolved_min`` of the channel's samples would remain. The refit is
     adopted for the constants and the model file (``att.model_fit``) when it
-    fits the held-out resolved samples at least as well as the final fit; the
+    fits the held-out resolved samples significantly better than the final fit
+    (paired z >= ``st.resolved_z``: where that helps); the
     verdict and its scores are those of the selection (all samples).
     """
     att.model_fit, att.resolved = None, {}
@@ -1035,28 +1036,34 @@ def _resolved_refit(split: _Split, base: _Baseline, att: _Attribution, st: Diagn
         return
     # Held-out check on the held-out runs' resolved samples (floor-normalized mean squares).
     m_test = [s_ < thr for s_ in resolution_spread(spec, fit, split.test, base.p, dv, split.u_test)]
-    ms = []
+    ms, es = [], []
     for f_ in (fit, rfit):
         res = residuals_with(spec, f_, split.test, base.p, split.u_test)
         e = [r.r[m & r.run.valid[None, :]] / np.broadcast_to(base.fvec, r.r.shape)[m & r.run.valid[None, :]]
              for r, m in zip(res, m_test, strict=True) if r.run.n]  # fmt: skip
         e = np.concatenate(e) if e else np.zeros(0)
+        es.append(e)
         ms.append(float(np.mean(e**2)) if e.size else math.nan)
+    z = paired_z(es[0], es[1])
     cal = [f.key for f in base.cal_free]
     rec.update(
         heldout_resolved_ms_all_samples_fit=ms[0],
         heldout_resolved_ms_resolved_fit=ms[1],
+        heldout_resolved_z=z,
         all_samples_fit={k_[2:]: float(v) for k_, v in zip(spec.keys, fit.w, strict=True) if k_ in cal},
         resolved_fit={k_[2:]: float(v) for k_, v in zip(spec.keys, rfit.w, strict=True) if k_ in cal},
     )
-    if not (ms[1] <= ms[0]):
-        rec["reason"] = "the refit on the resolved samples does not fit the held-out resolved samples better: not used"
+    if not z >= st.resolved_z:
+        rec["reason"] = (
+            f"the refit on the resolved samples does not fit the held-out resolved samples significantly better "
+            f"(paired z = {z:.1f} < {st.resolved_z:g}): the joint fit over all samples is kept"
+        )
         att.resolved = rec
         return
     rec["adopted"] = True
     rec["reason"] = (
         f"constants and effects refitted on the samples the velocities resolve (vertical {kept[0]:.0%}, horizontal "
-        f"{kept[1]:.0%} of the training samples; velocity resolution {dv * 1e3:.2f} mm/s)"
+        f"{kept[1]:.0%} of the training samples; velocity resolution {dv * 1e3:.2f} mm/s; held-out z = {z:.1f})"
     )
     att.model_fit, att.resolved = rfit, rec
 
