@@ -98,7 +98,8 @@ class DiagnoseSettings(Strict):
     resolved_z : float
         The refit on the resolved samples is adopted when it fits the held-out
         runs' resolved samples better than the fit over all samples by this
-        paired z.
+        paired z (one standard error: the refit adds no effect and changes no
+        verdict, it only removes samples a steep law cannot be evaluated on).
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -126,7 +127,7 @@ class DiagnoseSettings(Strict):
     z_enter: float = Field(2.0, ge=0.0)
     resolved_share: float = Field(0.5, ge=0.0, le=10.0)
     resolved_min: float = Field(0.1, ge=0.0, le=1.0)
-    resolved_z: float = Field(2.0, ge=0.0)
+    resolved_z: float = Field(1.0, ge=0.0)
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""
