@@ -58,6 +58,34 @@ def test_residual_of_exact_model_is_zero(model):
     assert np.sqrt(np.mean(res2.r**2)) > 20 * np.sqrt(np.mean(res.r**2))
 
 
+def test_resolution_spread_marks_where_friction_is_not_resolved(model):
+    """The spread of the model acceleration within the velocity resolution: large for friction where the
+    velocity is below a few times the resolution (the sign and Stribeck terms), small where the guide slides
+    fast, and zero for a law of positions only."""
+    from maglev_ocp.diagnosis.candidates import FitResult, library_specs, resolution_spread
+
+    p = BASE.vector()
+    filt = ZeroPhaseFilter(ResidualSettings())
+    pr = prepare_run(_zoh_run(model, p, n=6000), filt)
+    dv = 2 * math.pi * filt.settings.vel_fc_hz * 1e-5
+    lib = library_specs()
+    vals = {"friction.coulomb_g": 0.3, "friction.coulomb_d": 0.4, "friction.viscous_g": 1.0, "friction.viscous_d": 1.0}
+    w = np.array([vals[f.key] for f in lib["friction"].free])
+    fit = FitResult(lib["friction"], w, np.zeros(len(w)), 0.0, 1, 1.0)
+    (s,) = resolution_spread(lib["friction"], fit, [pr], p, dv)
+    v = np.abs(pr.feat["d_dot"])
+    slow, fast = v < 3 * dv, v > 15 * dv
+    assert slow.sum() > 10 and fast.sum() > 10, (slow.sum(), fast.sum())
+    # Coulomb 0.4 N on 1.594 kg: up to 0.25 m/s^2 is undetermined while the guide (nearly) sticks ...
+    assert np.median(s[slow, 1]) > 0.05, np.median(s[slow, 1])
+    # ... and a sliding guide's force is known to the viscous term's b dv / Mh (1e-3 m/s^2) and the filter's spread.
+    assert np.median(s[fast, 1]) < 0.2 * np.median(s[slow, 1])
+    cog = lib["cogging"]
+    wc = np.array([{"p.xi0": 4.0, "p.ell": 3.6e-3}.get(f.key, 0.0) for f in cog.free])
+    (sc,) = resolution_spread(cog, FitResult(cog, wc, np.zeros(len(wc)), 0.0, 1, 1.0), [pr], p, dv)
+    assert np.max(sc) < 1e-9
+
+
 def test_quantization_floor_matches_the_residual_of_quantized_data(model):
     """10 um encoders: the residual's rms is the analytic quantization floor (within a factor 2)."""
     p = BASE.vector()
@@ -315,6 +343,37 @@ def test_two_effects_are_named_with_their_shares():
     assert d.final_score is not None and d.final_score.reduction > 0.8 * ideal, (d.final_score.reduction, ideal)
     for n in ("C1", "C2", "C3"):
         assert _close(getattr(d.baseline_params, n), getattr(gen.true_params, n), 0.03), (n, d.table())
+
+
+@pytest.mark.slow
+def test_friction_that_sticks_does_not_drag_the_constants(tmp_path):
+    """Strong friction (Coulomb + Stribeck with a sign sharper than the velocity resolution), baseline
+    calibrated: while a guide sticks the controller's current produces no acceleration, which a fit over all
+    samples explains by a smaller thrust constant; the final model is refitted on the samples whose velocities
+    the encoder resolves, and its constants (those of model.yaml) land on the true ones."""
+    eff = {
+        "friction": {
+            "enabled": True, "coulomb_g": 0.3, "coulomb_d": 0.35, "stribeck_g": 0.12, "stribeck_d": 0.08,
+            "v_stribeck": 2.5e-3, "viscous_g": 1.5, "viscous_d": 2.5, "v_reg": 2e-4,
+        }
+    }  # fmt: skip
+    cfg = selftest_plant("given", eff)
+    gen = generate_dataset(cfg, NOMINAL, seed=45, settings=SMALL)
+    d = diagnose(gen.dataset, settings=DiagnoseSettings(simulate=False))
+    assert "friction" in d.verdict.verdict, d.table()
+    rr = d.baseline_calibration["resolved_refit"]
+    assert rr["adopted"], rr
+    assert 0.1 < rr["horizontal_resolved_fraction"] < 0.95, rr
+    # The fit over all samples is dragged (the old report's constants) ...
+    assert rr["all_samples_fit"]["C1"] < 0.985 * gen.true_params.C1, rr
+    # ... the resolved refit is not, and it is what the report and the model file carry, with its stderr.
+    for n, tol in (("C1", 0.01), ("C2", 0.01), ("C3", 0.01), ("Mv", 0.02), ("xi0", 0.03)):
+        assert _close(getattr(d.baseline_params, n), getattr(gen.true_params, n), tol), (n, rr)
+    assert d.consequences.model_file["mismatch"]["overrides"]["C1"] == pytest.approx(d.baseline_params.C1)
+    assert 0 < d.constants_moved["C1"]["stderr"] < 0.01 * gen.true_params.C1
+    write_report(d, tmp_path, figures=False)
+    md = (tmp_path / "report.md").read_text()
+    assert "Resolved refit: constants and effects refitted" in md and "Constants of the final model" in md
 
 
 def test_a_saturation_whose_law_differs_is_still_named():

@@ -143,6 +143,37 @@ def test_a_lag_that_only_removes_the_peak_is_flagged(resonant):
     assert not resonance_guard("amplifier_lag", res, notch, [], filt.h).absorbs_resonance
 
 
+def test_a_lag_that_models_the_peak_and_the_broadband_residual_is_not_flagged(resonant):
+    """The converse of the guard: a lag that the loop turns into a lightly damped closed-loop mode leaves a line
+    in the baseline residual that the lag model removes, together with the lag's broadband residual around it;
+    that candidate explains the peak and is named, while one that removes the peak only stays flagged."""
+    res, filt = resonant
+    nc = noise_check(res, 0, filt.w_y, filt.w_a)
+    sos = sps.butter(2, [10.0, 14.0], btype="bandstop", fs=1 / k.Ts, output="sos")
+    lp = sps.butter(2, [1.0, 6.0], btype="bandpass", fs=1 / k.Ts, output="sos")
+    rng = np.random.default_rng(5)
+    before, both, peak_only = [], [], []
+    for r in res:
+        b = r.wide.copy()
+        b[:, 0] += 0.2 * sps.sosfiltfilt(lp, rng.standard_normal(len(b)))  # the lag's broadband part
+        before.append(type(r)(r.run, r.r, r.model, b))
+        a = r.wide.copy()
+        a[:, 0] = sps.sosfiltfilt(sos, a[:, 0])
+        both.append(type(r)(r.run, r.r, r.model, a))  # peak and broadband part removed
+        c = b.copy()
+        c[:, 0] = sps.sosfiltfilt(sos, c[:, 0])
+        peak_only.append(type(r)(r.run, r.r, r.model, c))  # peak removed, broadband part left
+    g = resonance_guard("amplifier_lag", before, both, nc.peaks, filt.h)
+    # Most of the improvement is still in the peak (the old guard flagged this) ...
+    assert g.fraction_in_peaks > 0.6, g
+    # ... but the candidate removes the peak and most of the residual half an octave away from it.
+    assert g.peak_left < 0.1 and g.outside_reduction > 0.7, g
+    assert g.explains_peaks and not g.absorbs_resonance
+    # Removing the peak alone (the broadband part left in place) is still absorbing a resonance.
+    g2 = resonance_guard("amplifier_lag", before, peak_only, nc.peaks, filt.h)
+    assert g2.outside_reduction < 0.2 and g2.absorbs_resonance and not g2.explains_peaks, g2
+
+
 def _cogging_fit(xi0=4.0, ell=3.6e-3):
     spec = library_specs()["cogging"]
     vals = {"p.xi0": xi0, "p.ell": ell}

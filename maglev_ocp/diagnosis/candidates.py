@@ -43,7 +43,7 @@ from ..effects import EFFECTS, AmplifierLag, EffectSet
 from ..estimation.ident import autocorr_factor, hac_stderr
 from ..params import Params
 from ..signals import PARAM_NAMES
-from .residuals import PreparedRun, Residual, ZeroPhaseFilter, residual_of
+from .residuals import Z_NAMES, PreparedRun, Residual, ZeroPhaseFilter, residual_of
 from .sxnumpy import vectorized
 
 _DEBUG = False  # print the SQP iterations
@@ -1034,6 +1034,56 @@ def residuals_with(
     return out
 
 
+def resolution_spread(
+    spec: CandidateSpec,
+    fit: FitResult | None,
+    runs: Sequence[PreparedRun],
+    p: np.ndarray,
+    dv: float,
+    u_runs: Sequence[np.ndarray] | None = None,
+    wide: float = 10.0,
+) -> list[np.ndarray]:
+    """How much each filtered residual sample's model acceleration can change within the velocity resolution.
+
+    The velocities of the residual are differentiated, smoothed encoder
+    readings: below a resolution ``dv`` (one encoder count per smoother time
+    constant) they are not measured, and a law that is steep there (friction's
+    sign and Stribeck terms: the force of a guide that sticks is anything up to
+    the breakaway force, NOTES.md) is not determined by the data. Per period,
+    the largest change of the model acceleration when either velocity moves by
+    ``+-dv``, beyond what the law's slope over ``+-wide dv`` gives (a law linear
+    in the velocity, viscous friction or eddy drag, is resolved: a velocity
+    error only adds noise) and at most the change itself; through the absolute filter rows, its bound on each
+    residual sample (same shape as the residual, ``(n_c, 2)`` per run, m/s^2).
+    """
+    out = []
+    w = fit.w if fit is not None else np.zeros(len(spec.free))
+    for i, run in enumerate(runs):
+        if run.n == 0:
+            out.append(np.zeros((0, 2)))
+            continue
+        Z = run.Z
+        if spec.lag and fit is not None and u_runs is not None:
+            theta = {"bandwidth_hz": fit.extra["bandwidth_hz"], "delay_samples": int(fit.extra["delay_samples"])}
+            Z = lag_features(run.Z, u_runs[i], theta)
+        a0 = accel_series(spec, Z, p, w)
+        s = np.zeros_like(a0)
+        for col in (Z_NAMES.index("g_dot"), Z_NAMES.index("d_dot")):
+            at = {}
+            for m in (-wide, -1.0, 1.0, wide):
+                Zp = np.array(Z, float)
+                Zp[:, col] += m * dv
+                at[m] = accel_series(spec, Zp, p, w)
+            slope_dv = (at[wide] - at[-wide]) / (2.0 * wide)  # the law's slope over +-wide resolutions, times dv
+            for m in (-1.0, 1.0):
+                step = at[m] - a0
+                # The change beyond the slope, and never more than the change itself (a wide chord across a
+                # sign change has a slope that the law away from it does not have).
+                s = np.maximum(s, np.minimum(np.abs(step), np.abs(step - m * slope_dv)))
+        out.append(np.asarray(abs(run.W) @ s))
+    return out
+
+
 __all__ = [
     "PRIOR_SD",
     "CandidateFitter",
@@ -1049,4 +1099,5 @@ __all__ = [
     "lag_features",
     "library_specs",
     "residuals_with",
+    "resolution_spread",
 ]

@@ -27,7 +27,10 @@ any controller, locked axes allowed) and returns a :class:`Diagnosis`, whose
    score and the criterion; the single-effect verdict; then forward
    selection of further effects with a joint refit and a held-out test at
    each step, a backward drop-one check, and each effect's share of the gap.
-   The report's constants are those of the joint refit with the effects found.
+   The report's constants (and ``model.yaml``) are those of the joint refit
+   with the effects found, on the samples whose velocities the encoder
+   resolves where an effect's law is steep below that resolution (a sticking
+   guide otherwise drags the thrust constant, :func:`_resolved_refit`).
 5. **Quantification**: held-out residual rms before/after, short-window
    simulated trajectories of the baseline and the augmented model against the
    held-out runs (:mod:`.simulate_compare`), fitted parameters with standard
@@ -40,7 +43,9 @@ Stages on the noise model (:mod:`.noise`) and the consequences
   cannot inflate, whiteness, spectral peaks with frequency and damping; peaks
   both halves of the data show count as evidence of a gap;
 - :func:`lag_guards` and :func:`apply_resonance_guard` (after the verdict): a lag
-  whose improvement lies in a narrow resonance is not counted;
+  whose improvement lies in a narrow resonance is not counted, unless the lag
+  is the model of that peak (it removes the peak and the broadband residual
+  away from it on the held-out runs: a closed-loop mode the lag itself makes);
 - :func:`unexplained_stage` (after the quantification): what the final model
   leaves beyond the noise model, with channel, band, peak and region; a ``none``
   with a remaining resonance becomes ``unexplained``;
@@ -85,6 +90,7 @@ from .candidates import (
     family_specs,
     fit_candidate,
     residuals_with,
+    resolution_spread,
 )
 from .consequence import EffectSize, effect_size, plant_effects, plant_file
 from .localize import (
@@ -339,6 +345,13 @@ class _Attribution:
     models: dict[frozenset, tuple] = field(default_factory=dict)  # effect set -> (spec, fit, score)
     steps: list[dict] = field(default_factory=list)  # forward-selection trials
     shares: dict[str, dict] = field(default_factory=dict)  # drop-one shares of the selected effects
+    model_fit: FitResult | None = None  # the final model's refit on the resolved samples (constants, model file)
+    resolved: dict = field(default_factory=dict)  # how that refit was made (see _resolved_refit)
+
+    @property
+    def model(self) -> FitResult | None:
+        """The fit the constants and the model file come from: the resolved refit if adopted, else the final fit."""
+        return self.model_fit if self.model_fit is not None else self.final_fit
 
 
 def _split(dataset: RigDataset, st: DiagnoseSettings) -> _Split:
@@ -973,17 +986,100 @@ def _settle_verdict(base: _Baseline, att: _Attribution) -> None:
         )
 
 
+def _resolved_refit(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, q: float) -> None:
+    """Stage 4d: the final model refitted (constants and effects jointly, prior at nominal) on the resolved samples.
+
+    The residual's velocities are differentiated, smoothed encoder readings;
+    below their resolution ``dv = 2 pi f_v q`` (one count ``q`` per time
+    constant of the velocity smoother of cut-off ``f_v``) they are not measured.
+    Where a selected effect's law is steep there (friction's sign and Stribeck
+    terms: a guide that sticks holds any force up to breakaway, NOTES.md), the
+    law cannot be evaluated from the data, and the misfit is not random: while a
+    guide sticks, the controller's current produces no acceleration, which a
+    joint fit over all samples explains by a smaller thrust constant (C1 13.8
+    against a true 14.2 on a strong-friction plant). Samples whose filtered
+    model acceleration moves by more than ``st.resolved_share`` of the floor
+    when either velocity moves by ``dv`` (:func:`.candidates.resolution_spread`)
+    are left out of this refit, per channel, unless fewer than
+    ``st.resolved_min`` of the channel's samples would remain. The refit is
+    adopted for the constants and the model file (``att.model_fit``) when it
+    fits the held-out resolved samples significantly better than the final fit
+    (paired z >= ``st.resolved_z``: where that helps); the
+    verdict and its scores are those of the selection (all samples).
+    """
+    att.model_fit, att.resolved = None, {}
+    fit, spec = att.final_fit, att.final_spec
+    if fit is None or spec is None or base.given or st.resolved_share <= 0 or not base.cal_free:
+        return
+    dv = 2.0 * math.pi * split.filt.settings.vel_fc_hz * q
+    thr = st.resolved_share * base.fvec
+    masks = [s_ < thr for s_ in resolution_spread(spec, fit, split.train, base.p, dv, split.u_train)]
+    rec: dict = {"velocity_resolution_m_s": dv, "threshold_m_s2": thr.tolist(), "adopted": False}
+    kept = []
+    for c, ch in enumerate(CHANNELS):
+        rows = [m[:, c] for m, r in zip(masks, split.train, strict=True) if r.n and r.valid[c]]
+        frac = float(np.mean(np.concatenate(rows))) if rows else 1.0
+        if frac < st.resolved_min:  # too few resolved samples: the channel keeps all of them
+            for m in masks:
+                m[:, c] = True
+        kept.append(frac)
+        rec[f"{ch}_resolved_fraction"] = frac
+    if all(f > 0.995 or f < st.resolved_min for f in kept):
+        rec["reason"] = "the final model's terms are resolved on (almost) every sample, or on too few: no refit"
+        att.resolved = rec
+        return
+    data = Dataset(split.train, 1.0 / base.fvec, split.filt, [m.astype(float) for m in masks], base.noise_lag)
+    rfit = fit_candidate(spec, data, base.p, u_runs=split.u_train, warm=fit.params())
+    if not rfit.success:
+        rec["reason"] = f"the refit on the resolved samples did not converge ({rfit.status})"
+        att.resolved = rec
+        return
+    # Held-out check on the held-out runs' resolved samples (floor-normalized mean squares).
+    m_test = [s_ < thr for s_ in resolution_spread(spec, fit, split.test, base.p, dv, split.u_test)]
+    ms, es = [], []
+    for f_ in (fit, rfit):
+        res = residuals_with(spec, f_, split.test, base.p, split.u_test)
+        e = [r.r[m & r.run.valid[None, :]] / np.broadcast_to(base.fvec, r.r.shape)[m & r.run.valid[None, :]]
+             for r, m in zip(res, m_test, strict=True) if r.run.n]  # fmt: skip
+        e = np.concatenate(e) if e else np.zeros(0)
+        es.append(e)
+        ms.append(float(np.mean(e**2)) if e.size else math.nan)
+    z = paired_z(es[0], es[1])
+    cal = [f.key for f in base.cal_free]
+    rec.update(
+        heldout_resolved_ms_all_samples_fit=ms[0],
+        heldout_resolved_ms_resolved_fit=ms[1],
+        heldout_resolved_z=z,
+        all_samples_fit={k_[2:]: float(v) for k_, v in zip(spec.keys, fit.w, strict=True) if k_ in cal},
+        resolved_fit={k_[2:]: float(v) for k_, v in zip(spec.keys, rfit.w, strict=True) if k_ in cal},
+    )
+    if not z >= st.resolved_z:
+        rec["reason"] = (
+            f"the refit on the resolved samples does not fit the held-out resolved samples significantly better "
+            f"(paired z = {z:.1f} < {st.resolved_z:g}): the joint fit over all samples is kept"
+        )
+        att.resolved = rec
+        return
+    rec["adopted"] = True
+    rec["reason"] = (
+        f"constants and effects refitted on the samples the velocities resolve (vertical {kept[0]:.0%}, horizontal "
+        f"{kept[1]:.0%} of the training samples; velocity resolution {dv * 1e3:.2f} mm/s; held-out z = {z:.1f})"
+    )
+    att.model_fit, att.resolved = rfit, rec
+
+
 def _undragged(base: _Baseline, att: _Attribution) -> Params:
     """The baseline's constants as the effects do not drag them: those of the joint refit with the verdict's
-    effects when there are any (a calibrated baseline), else the calibration's."""
-    if base.given or att.final_fit is None:
+    effects when there are any (a calibrated baseline; on the resolved samples, :func:`_resolved_refit`), else
+    the calibration's."""
+    if base.given or att.model is None:
         return base.params
-    return Params.from_vector(_params_with(base.p, att.final_fit))
+    return Params.from_vector(_params_with(base.p, att.model))
 
 
 def _constants_moved(base: _Baseline, att: _Attribution) -> dict[str, dict]:
     """How far the joint refit with the verdict's effects moved each calibrated constant from the baseline."""
-    fit = att.final_fit
+    fit = att.model
     if fit is None or base.given:
         return {}
     cal = {f.key for f in base.cal_free}
@@ -1228,7 +1324,7 @@ def consequence_stage(split: _Split, base: _Baseline, att: _Attribution, st: Dia
             v.reasons.append(f"detectable but negligible for the 0.1 mm goal: {', '.join(negligible)}")
     p_b, e_b, _ = plant_effects(base.spec, None, base.p)
     spec = att.final_spec or base.spec
-    p_m, e_m, dropped = plant_effects(spec, att.final_fit, base.p)
+    p_m, e_m, dropped = plant_effects(spec, att.model, base.p)
     label = spec.name if att.final_fit is not None else "baseline"
     return Consequences(
         sizes,
@@ -1301,6 +1397,8 @@ def diagnose(
     noise.guards = lag_guards(split, base, att, noise)
     apply_resonance_guard(base, att, noise.guards)
     t0 = lap("forward_s", t0)
+    _resolved_refit(split, base, att, st, q_enc)
+    t0 = lap("resolved_refit_s", t0)
     q = _quantify(split, base, loc, att, st, rng)
     unexplained_stage(split, base, att, q, noise, st)
     t0 = lap("quantify_s", t0)
@@ -1340,7 +1438,9 @@ def diagnose(
         law_members=att.members,
         final_score=att.final_score if att.final_fit is not None else None,
         constants_moved=_constants_moved(base, att),
-        baseline_calibration=clean.to_dict(_undragged(base, att).vector()) if not base.given else {},
+        baseline_calibration={**clean.to_dict(_undragged(base, att).vector()), "resolved_refit": att.resolved}
+        if not base.given
+        else {},
         prior={
             "sd_relative_to_nominal": _prior_sd(st),
             "weight": f"one independent sample per {base.noise_lag} residual samples (the filter's main lobe)",

@@ -821,6 +821,15 @@ class ResonanceGuard:
         Power left in the peaks' bands after the candidate, over before (1: untouched).
     peaks_hz : list of float
         Frequencies of the peaks checked [Hz].
+    outside_reduction : float
+        Share of the (filter-weighted) residual power half an octave or more away from every peak that the
+        candidate removes (its broadband effect).
+    explains_peaks : bool
+        The candidate is the model of the peaks: it removes them (``peak_left`` at most ``explain_left``) and
+        most of the residual outside them too (``outside_reduction`` at least ``outside_min``). A lag that the
+        loop turns into a lightly damped closed-loop mode leaves a line in the baseline residual that the lag
+        model predicts, with the lag's broadband signature around it; a resonance the lag merely absorbs leaves
+        the rest of the residual untouched, or the line standing. Such a candidate is not flagged.
     """
 
     candidate: str
@@ -828,6 +837,8 @@ class ResonanceGuard:
     fraction_in_peaks: float
     peak_left: float
     peaks_hz: list[float]
+    outside_reduction: float = 0.0
+    explains_peaks: bool = False
 
     def to_dict(self) -> dict:
         """JSON-ready view."""
@@ -842,6 +853,8 @@ def resonance_guard(
     h: np.ndarray,
     Ts: float = k.Ts,
     share: float = 0.5,
+    explain_left: float = 0.25,
+    outside_min: float = 0.5,
 ) -> ResonanceGuard:
     """Check a candidate's improvement against the residual's resonance peaks (see :class:`ResonanceGuard`).
 
@@ -858,11 +871,15 @@ def resonance_guard(
     Ts : float
         Sample period [s].
     share : float
-        The candidate absorbs a resonance when more than this share of its reduction lies in the peaks.
+        The candidate absorbs a resonance when more than this share of its reduction lies in the peaks (unless
+        it explains them, see :class:`ResonanceGuard`).
+    explain_left, outside_min : float
+        The candidate explains the peaks when at most ``explain_left`` of their power is left and it removes at
+        least ``outside_min`` of the filter-weighted residual power outside them (held-out runs).
     """
     if not peaks:
         return ResonanceGuard(candidate, False, 0.0, 1.0, [])
-    tot, inside, pb, pa = 0.0, 0.0, 0.0, 0.0
+    tot, inside, pb, pa, ob, oa = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     for c, ch in enumerate(CHANNELS):
         pks = [p for p in peaks if p.channel == ch]
         if not pks:
@@ -881,9 +898,20 @@ def resonance_guard(
         inside += float(np.sum(np.maximum(red[mask], 0.0)))
         pb += float(np.sum(sb.psd[mask]))
         pa += float(np.sum(sa.psd[mask]))
+        # Outside: half an octave away from every peak (a lightly damped mode's skirts are not broadband content).
+        far = np.ones(len(sb.f), bool)
+        for p in pks:
+            far &= (sb.f < min(p.band_hz[0], p.freq_hz) / math.sqrt(2.0)) | (
+                sb.f > max(p.band_hz[1], p.freq_hz) * math.sqrt(2.0)
+            )
+        ob += float(np.sum(sb.psd[far] * H2[far]))
+        oa += float(np.sum(sa.psd[far] * H2[far]))
     frac = inside / tot if tot > 0 else 0.0
     left = pa / pb if pb > 0 else 1.0
-    return ResonanceGuard(candidate, bool(tot > 0 and frac > share), frac, left, [p.freq_hz for p in peaks])
+    outside = 1.0 - oa / ob if ob > 0 else 0.0
+    explains = bool(left <= explain_left and outside >= outside_min)
+    absorbs = bool(tot > 0 and frac > share and not explains)
+    return ResonanceGuard(candidate, absorbs, frac, left, [p.freq_hz for p in peaks], outside, explains)
 
 
 __all__ = [

@@ -255,6 +255,24 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
         f"\nBaseline ({d.baseline_mode}): "
         + ", ".join(f"{n} = {getattr(d.baseline_params, n):.5g}" for n in ("C1", "C2", "C3", "C4", "xi0"))
     )
+    if d.constants_moved:
+        md.append(
+            "\nConstants of the final model (± standard error; from the calibration): "
+            + ", ".join(
+                f"{n} = {v['final']:.5g} ± {v['stderr']:.2g} ({v['change_pct']:+.1f} %)"
+                for n, v in d.constants_moved.items()
+            )
+        )
+    rr = d.baseline_calibration.get("resolved_refit") or {}
+    if rr.get("reason"):
+        md.append(
+            f"\nResolved refit: {rr['reason']}"
+            + (
+                f" (C1 {rr['all_samples_fit']['C1']:.5g} over all samples)"
+                if rr.get("adopted") and "C1" in rr.get("all_samples_fit", {})
+                else ""
+            )
+        )
     md.append(f"\nTraining runs: {', '.join(d.train)}; held-out runs: {', '.join(d.test)}.\n")
     md.append("## Noise floor (from the data)\n")
     md.append("| channel | held-out rms [m/s²] | floor [m/s²] | quantization only [m/s²] | map gain | z | gap |")
@@ -348,8 +366,15 @@ def _noise_markdown(d: Diagnosis) -> list[str]:
         if g.peaks_hz:
             md.append(
                 f"\nResonance guard `{n}`: {g.fraction_in_peaks:.0%} of its improvement in the peaks, "
-                f"{g.peak_left:.0%} of the peaks' power left: "
-                + ("**absorbs a resonance, not counted**" if g.absorbs_resonance else "not a resonance")
+                f"{g.peak_left:.0%} of the peaks' power left, {g.outside_reduction:.0%} of the residual outside "
+                "them removed: "
+                + (
+                    "**absorbs a resonance, not counted**"
+                    if g.absorbs_resonance
+                    else "the lag's model of the peaks (a closed-loop mode of the lag)"
+                    if g.explains_peaks
+                    else "not a resonance"
+                )
             )
     return md
 

@@ -87,6 +87,19 @@ class DiagnoseSettings(Strict):
     z_enter : float
         Held-out z for the forward selection to admit an effect (the
         backward check then asks ``z_min`` of each one in the full model).
+    resolved_share : float
+        The final model's constants and effects are refitted on the training
+        samples whose model acceleration the measured velocities determine:
+        those where a change of the velocities by their resolution moves it by
+        less than this share of the channel's floor (0: no such refit).
+    resolved_min : float
+        Smallest fraction of a channel's training samples that must be
+        resolved for that channel to be restricted to them.
+    resolved_z : float
+        The refit on the resolved samples is adopted when it fits the held-out
+        runs' resolved samples better than the fit over all samples by this
+        paired z (one standard error: the refit adds no effect and changes no
+        verdict, it only removes samples a steep law cannot be evaluated on).
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -112,6 +125,9 @@ class DiagnoseSettings(Strict):
     forward_z: float = Field(0.0, ge=-100.0)
     family_top: int = Field(4, ge=0, le=10)
     z_enter: float = Field(2.0, ge=0.0)
+    resolved_share: float = Field(0.5, ge=0.0, le=10.0)
+    resolved_min: float = Field(0.1, ge=0.0, le=1.0)
+    resolved_z: float = Field(1.0, ge=0.0)
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""
@@ -312,7 +328,9 @@ class Diagnosis:
     constants_moved : dict
         ``{C: {baseline, final, change_pct, change_in_stderr}}``: the joint refit's constants against the baseline.
     baseline_calibration : dict
-        How the calibrated baseline was obtained (clean samples, excluded regions, both passes' constants).
+        How the calibrated baseline was obtained (clean samples, excluded regions, both passes' constants) and,
+        under ``resolved_refit``, the final model's refit on the samples whose velocities are resolved (fractions
+        kept, the constants of the fit over all samples and of the refit, held-out check, adopted or why not).
     prior : dict
         The prior at nominal of the calibration (sd and weight).
     residual_baseline_params : Params or None
