@@ -70,6 +70,7 @@ from maglev_ocp.observers import (
     adapt_gate,
     adapt_shift,
     corrected_params,
+    innovation_noise,
     observer_update_innovation,
 )
 from maglev_ocp.params import NOMINAL, Params
@@ -176,7 +177,14 @@ def fl_predictor_function(n: int, Ts: float = k.Ts) -> ca.Function:
 
 @functools.lru_cache(maxsize=16)
 def fl_adaptive_observer_function(
-    names: tuple[str, ...], L: tuple[float, ...], Ts: float, noise: float, bound: float, window: int
+    names: tuple[str, ...],
+    L: tuple[float, ...],
+    Ts: float,
+    noise: float | None,
+    bound: float,
+    window: int,
+    noise_time: float = 0.2,
+    noise_floor: float = k.encoder_resolution / 12**0.5,
 ) -> ca.Function:
     """The FL's adaptive observer update as one CasADi Function (the NMPC's, :mod:`maglev_ocp.observers`).
 
@@ -188,22 +196,28 @@ def fl_adaptive_observer_function(
     innovation while the reference moves and ``window`` periods after
     (:func:`maglev_ocp.observers.adapt_gate`, :func:`maglev_ocp.observers.adapt_constants`).
     ``adapt`` is the adaptation's memory (:func:`fl_adapt_state`: ``theta``,
-    ``ups``, ``cov``, ``since``, ``age``); ``moving`` 1 while the reference moves;
+    ``ups``, ``cov``, ``since``, ``age``, ``noise``); ``moving`` 1 while the reference moves;
+    the innovation's variance the update weighs is ``noise^2``, or measured online
+    (``noise`` None, :func:`maglev_ocp.observers.innovation_noise`, as the NMPC's);
     ``p_hat`` the corrected parameter vector with the new ``theta``, which the
     law inverts (seed ref. [3]) and the predictor integrates.
     """
     n = len(names)
     np_ = get_model().np_
     x, dist, u, y = ca.SX.sym("x_hat", 4), ca.SX.sym("dist", 2), ca.SX.sym("u_prev", 2), ca.SX.sym("y", 2)
-    p, ad, moving = ca.SX.sym("p", np_), ca.SX.sym("adapt", 7 * n + n * n + 2), ca.SX.sym("moving")
+    p, ad, moving = ca.SX.sym("p", np_), ca.SX.sym("adapt", 7 * n + n * n + 4), ca.SX.sym("moving")
     theta, ups, cov = ad[:n], ad[n : 7 * n], ad[7 * n : 7 * n + n * n]
-    since, age = ad[7 * n + n * n], ad[7 * n + n * n + 1]
+    since, age, msq = ad[7 * n + n * n], ad[7 * n + n * n + 1], ad[7 * n + n * n + 2 :]
     p_obs = corrected_params(p, theta, names)
     xo, do, e = observer_update_innovation(x, dist, u, y, p_obs, L, Ts, disturbance=True, skip_nonfinite=True)
     ok, since, age = adapt_gate(since, age, moving > 0.5, ca.SX(0), window)
-    dtheta, ups_plus, theta, cov = adapt_constants(x, u, p, ups, theta, cov, e, ok, names, L, Ts, noise**2, bound)
+    # the innovation's noise, measured past the start-up while the constants are not updated (a finite reading)
+    finite = ca.fabs(y[0]) + ca.fabs(y[1]) < 1e3  # as observer_update_innovation's skip
+    measure = ca.logic_and(ca.logic_and(age > window, ca.logic_not(ok)), finite)
+    r2, msq = innovation_noise(msq, age, e, measure, noise, window, Ts, noise_time, noise_floor)
+    dtheta, ups_plus, theta, cov = adapt_constants(x, u, p, ups, theta, cov, e, ok, names, L, Ts, r2, bound)
     dx, dd = adapt_shift(ups_plus, dtheta)  # the estimate moves with the constants: eps = eta + Ups theta_err
-    ad_next = ca.vertcat(theta, ca.vec(ups_plus), cov, since, age)
+    ad_next = ca.vertcat(theta, ca.vec(ups_plus), cov, since, age, msq)
     return ca.Function(
         "fl_adaptive_observer",
         [x, dist, u, y, p, ad, moving],
@@ -220,9 +234,11 @@ def fl_adapted(settings: FLSettings) -> tuple[str, ...]:
 
 
 def fl_adapt_state(settings: FLSettings) -> np.ndarray:
-    """The adaptation's memory at reset: ``theta = 0``, ``ups = 0``, ``cov = adapt_prior^2 I``, ``since``, ``age``."""
+    """The adaptation's memory at reset: ``theta = 0``, ``ups = 0``, ``cov = adapt_prior^2 I``, ``since``, ``age``,
+    ``noise`` (the innovation's mean square per axis, from the floor or the fixed value)."""
     n = len(fl_adapted(settings))
-    return np.concatenate([np.zeros(7 * n), np.ravel(np.eye(n) * settings.adapt_prior**2), [1e6, 0.0]])
+    r2 = (settings.adapt_noise or settings.adapt_noise_floor) ** 2
+    return np.concatenate([np.zeros(7 * n), np.ravel(np.eye(n) * settings.adapt_prior**2), [1e6, 0.0, r2, r2]])
 
 
 def fl_adaptive_observer(settings: FLSettings, L, Ts: float = k.Ts) -> ca.Function | None:
@@ -232,7 +248,14 @@ def fl_adaptive_observer(settings: FLSettings, L, Ts: float = k.Ts) -> ca.Functi
         return None
     window = round(settings.adapt_window / Ts)
     return fl_adaptive_observer_function(
-        names, tuple(float(v) for v in L), Ts, settings.adapt_noise, settings.adapt_bound, window
+        names,
+        tuple(float(v) for v in L),
+        Ts,
+        settings.adapt_noise,
+        settings.adapt_bound,
+        window,
+        settings.adapt_noise_time,
+        settings.adapt_noise_floor,
     )
 
 
@@ -281,7 +304,7 @@ class FLSettings(Strict):
         Constants (of C1..C4) whose relative error the observer estimates from
         the moves (see the module docstring); ``[]`` turns it off, and it is
         off without ``disturbance``.
-    adapt_prior, adapt_noise, adapt_window, adapt_bound : float
+    adapt_prior, adapt_noise, adapt_noise_floor, adapt_noise_time, adapt_window, adapt_bound : float
         Prior standard deviation of the relative errors, the innovation's
         standard deviation [m], how long after a move they are still updated [s],
         and their bound.
@@ -309,11 +332,22 @@ class FLSettings(Strict):
     adapt_prior: float = Field(
         0.1, gt=0, le=1, description="prior standard deviation of an adapted constant's relative error"
     )
-    adapt_noise: float = Field(
-        4e-6,
+    adapt_noise: float | None = Field(
+        None,
         gt=0,
-        description="standard deviation of the encoder innovation the constants' estimate assumes [m]: a 10 um "
-        "quantization (10 / sqrt(12) = 2.9 um) and 2 um encoder noise give 3.5 um on the default rig",
+        description="standard deviation of the encoder innovation the constants' estimate assumes [m] (None: "
+        "measured online as the NMPC does, the running RMS of the innovation per axis while the constants are "
+        "not updated, never below adapt_noise_floor; the default rig's is about 3.5 um: a 10 um quantization, "
+        "2.9 um, and 2 um encoder noise)",
+    )
+    adapt_noise_floor: float = Field(
+        k.encoder_resolution / 12**0.5,
+        gt=0,
+        description="least innovation standard deviation the measured one may take [m]: the encoder's "
+        "quantization error (resolution / sqrt(12)); at rest a constant reading can make the innovation vanish",
+    )
+    adapt_noise_time: float = Field(
+        0.2, gt=0, description="time constant of the running mean square of the innovation (adapt_noise: None) [s]"
     )
     adapt_window: float = Field(
         0.05,

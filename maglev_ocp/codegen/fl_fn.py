@@ -74,10 +74,10 @@ def fl_state(delay: int = 0, n_adapt: int = 0) -> tuple[tuple[str, int, str, str
         n = n_adapt
         adapt = (
             "adapt",
-            7 * n + n * n + 2,
-            "-, m, m/s, m/s^2, -, periods",
+            7 * n + n * n + 4,
+            "-, m, m/s, m/s^2, -, periods, m^2",
             f"adaptive observer: relative errors of the {n} adapted constants, their sensitivities (6 x {n}), "
-            "covariance, periods since the reference moved and since reset",
+            "covariance, periods since the reference moved and since reset, the innovation's mean square per axis",
         )
         out = (*out, adapt)
     return out
