@@ -566,6 +566,7 @@ class _ScanDesign:
 
     @classmethod
     def of(cls, d: np.ndarray, periods: np.ndarray) -> _ScanDesign:
+        """The design of positions ``d`` [m] at ``periods`` [m]."""
         ph = (2 * math.pi / np.asarray(periods, float))[:, None] * np.asarray(d, float)[None, :]
         C, S = np.cos(ph), np.sin(ph)
         return cls(C, S, np.einsum("ij,ij->i", C, C), np.einsum("ij,ij->i", S, S), np.einsum("ij,ij->i", C, S))
@@ -586,11 +587,6 @@ class _ScanDesign:
             cc, ss, cs = self.cc, self.ss, self.cs
         num = ss * a * a - 2 * cs * a * b + cc * b * b
         return np.where(ok, num / np.maximum(det, 1e-300), 0.0) / np.maximum(tot, 1e-300)
-
-
-def _scan(d: np.ndarray, r: np.ndarray, periods: np.ndarray) -> np.ndarray:
-    """Explained fraction of ``r`` by a sinusoid in ``d`` of each period."""
-    return _ScanDesign.of(d, periods).explained(r)
 
 
 def gumbel_threshold(maxima: np.ndarray, false_alarm: float) -> float:
@@ -767,6 +763,7 @@ def regions_from_map(
 __all__ = [
     "FEATURES_1D",
     "KNOWN_PERIODS",
+    "PERIOD_FALSE_ALARM",
     "AdditiveMap",
     "BinStats",
     "ChannelFloor",
@@ -778,6 +775,7 @@ __all__ = [
     "channel_floor",
     "dominant_band",
     "edges_for",
+    "gumbel_threshold",
     "period_scan",
     "pool",
     "regions_from_map",
