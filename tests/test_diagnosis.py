@@ -280,8 +280,9 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
 
 
 def test_closed_loop_view_shows_the_gap_and_its_compensation(tmp_path):
-    """Cogging-blind FL on the strong-cogging tour: the rig (with cogging) tracks worse than the model predicts,
-    and carrying the fitted cogging in the controller's model brings it back."""
+    """Cogging-blind FL on the strong-cogging tour: the rig (with cogging) tracks worse than the model predicts
+    (by more than 1 um on one axis), and carrying the fitted cogging in the controller's model closes more than
+    half of that gap."""
     from maglev_ocp.diagnosis.closed_loop import closed_loop_view
 
     fitted = {"xi0": 4.0, "ell": 3.6e-3, "h2": 0.0, "h3": 0.0, "phi2": 0.0, "phi3": 0.0}
@@ -289,9 +290,12 @@ def test_closed_loop_view_shows_the_gap_and_its_compensation(tmp_path):
     rows = {r["run"]: r for r in v.rows()}
     assert set(rows) == {"model", "rig", "compensated"}
     assert all(r["all_settled"] for r in rows.values())
-    gap = rows["rig"]["max_rms_error_d_m"] - rows["model"]["max_rms_error_d_m"]
-    assert gap > 0
-    assert rows["compensated"]["max_rms_error_d_m"] < rows["rig"]["max_rms_error_d_m"] - 0.5 * gap
+    # the axis where the rig parts from the model: d before FL's adaptive observer, which now absorbs the
+    # cogging's thrust ripple while holding; g (the normal force) since (measured 5.2 -> 7.2 um)
+    key = max(("max_rms_error_g_m", "max_rms_error_d_m"), key=lambda c: rows["rig"][c] - rows["model"][c])
+    gap = rows["rig"][key] - rows["model"][key]
+    assert gap > 1e-6  # m
+    assert rows["compensated"][key] < rows["rig"][key] - 0.5 * gap
     v.save(tmp_path)
     assert (tmp_path / "closed_loop.json").is_file() and (tmp_path / "closed_loop.png").is_file()
 
