@@ -181,8 +181,10 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "saturation.w_id": _TERM_WEIGHT,
     "saturation.w_rel": _TERM_WEIGHT,
     "saturation.w_thrust": _TERM_WEIGHT,
+    "saturation.knee": (0.0, 1e4, 1.0, 10.0),  # 0: exponential; knee at 8 mm + ell_sat ln(knee)
     # one-parameter effects (the effect's own bounds)
     "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
+    "commutation_offset.drift": (*_eb("commutation_offset", "drift"), 0.0, 1.0),
     "eddy_drag.c_eddy": (*_eb("eddy_drag", "c_eddy"), 10.0, 50.0),
     # parameter error: factors on C1..C4 (C4, a small term, may be off by more)
     "parameter_error.k_C1": _FACTOR,
@@ -296,12 +298,16 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       B^2 attraction and cogging lose twice what the B-linear PM-current and
       thrust terms lose, the reluctance term nothing), ``current terms``
       (PM-current, reluctance and thrust; not the magnets' attraction) and
-      ``per term`` (a free share for each);
+      ``per term`` (a free share for each); and the loss's profile in g:
+      ``knee`` (and ``field``, ``current terms``) a logistic step whose knee is
+      free, nesting the exponential at ``knee = 0``;
+    - ``commutation_offset``: ``drift``: the offset grows linearly along the
+      stroke (a commutation encoder scale off the position encoder's);
     - ``end_effect``: ``free profile``: the overhang loss scaled and bent
       (``edge_gain``, ``edge_quad``);
     - the amplifier lag searches a continuous effective delay (whole samples
       plus a lag or a fractional delay, which act alike below the cut-off);
-      ``commutation_offset`` and ``eddy_drag`` have one law each.
+      ``eddy_drag`` has one law.
     """
     lib = library_specs()
     out = {n: (s,) for n, s in lib.items()}
@@ -349,19 +355,32 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
         ),
     )
     sat = lib["saturation"].free
+    knee = (*sat, *_free("saturation.knee"))
     w0 = (("saturation.w_pm", 1.0), ("saturation.w_id", 0.5), ("saturation.w_thrust", 0.5), ("saturation.w_rel", 0.0))
     w1 = (("saturation.w_pm", 0.0), ("saturation.w_id", 1.0), ("saturation.w_thrust", 1.0), ("saturation.w_rel", 1.0))
     per_term = _free("saturation.w_pm", "saturation.w_id", "saturation.w_rel", "saturation.w_thrust")
     out["saturation"] += (
         CandidateSpec(
-            "saturation", ("saturation",), sat, w0, note="saturation of the magnet field (B scaled)", law="field"
+            "saturation",
+            ("saturation",),
+            knee,
+            note="every magnetic term, the loss a logistic step in g (knee free; 0 is the library's exponential)",
+            law="knee",
         ),
         CandidateSpec(
             "saturation",
             ("saturation",),
-            sat,
+            knee,
+            w0,
+            note="saturation of the magnet field (B scaled), exponential or logistic loss (knee free)",
+            law="field",
+        ),
+        CandidateSpec(
+            "saturation",
+            ("saturation",),
+            knee,
             w1,
-            note="saturation of the current terms (PM-current, reluctance, thrust)",
+            note="saturation of the current terms (PM-current, reluctance, thrust), exponential or logistic loss",
             law="current terms",
         ),
         CandidateSpec(
@@ -371,6 +390,15 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             fixed=(("saturation.loss_8mm", 1.0),),
             note="a free loss at g = 8 mm for each magnetic term (w_*), one decay length",
             law="per term",
+        ),
+    )
+    out["commutation_offset"] += (
+        CandidateSpec(
+            "commutation_offset",
+            ("commutation_offset",),
+            free=_free("commutation_offset.delta", "commutation_offset.drift"),
+            note="dq-frame rotation growing along the stroke, delta + drift d",
+            law="drift",
         ),
     )
     out["end_effect"] += (
