@@ -906,6 +906,7 @@ def fit_candidate(
     u_runs: Sequence[np.ndarray] | None = None,
     max_delay: int = 3,
     warm: Mapping[str, float] | None = None,
+    hold_lag: bool = False,
 ) -> FitResult:
     """Fit one candidate on training data.
 
@@ -925,6 +926,10 @@ def fit_candidate(
         Values by key to start from (a warm start from earlier fits: the
         forward selection's joint refits start where the single fits ended);
         the lag's ``effective_delay_s`` then centres its search.
+    hold_lag : bool
+        Hold the lag's effective delay at the warm ``effective_delay_s`` (the
+        other parameters refitted; its standard error is then NaN): a cheap
+        trial refit of a model whose delay another fit has already searched.
 
     Returns
     -------
@@ -939,7 +944,7 @@ def fit_candidate(
     if u_runs is None:
         raise ValueError("the amplifier lag needs the commanded currents of each run")
     t0 = warm.get("effective_delay_s") if warm else None
-    return _fit_lag(fitter, data, u_runs, max_delay, starts, t0)
+    return _fit_lag(fitter, data, u_runs, max_delay, starts, t0, hold=hold_lag)
 
 
 def _starts(spec: CandidateSpec, x0: np.ndarray | None = None) -> list[np.ndarray]:
@@ -1001,6 +1006,7 @@ def _fit_lag(
     max_delay: int,
     starts: Sequence[np.ndarray] | None = None,
     t0: float | None = None,
+    hold: bool = False,
 ) -> FitResult:
     Ts = data.filt.Ts
     t_max = (max_delay + 1) * Ts
@@ -1022,6 +1028,14 @@ def _fit_lag(
         return cache[key].sse
 
     # A warm start (the single fit's delay) searches around it only; otherwise a grid over [0, t_max].
+    # ``hold``: the effective delay held at ``t0`` (the other parameters refitted).
+    if hold and t0 is not None:
+        key = round(float(t0), 9)
+        sse(key)
+        fr = cache[key]
+        th = lag_theta(key, Ts)
+        extra = {**th, "effective_delay_s": float(t0), "effective_delay_s_stderr": math.nan}
+        return FitResult(fitter.spec, fr.w, fr.stderr, fr.sse, fr.n, fr.inflation, extra, fr.success, fr.status)
     grid = np.linspace(max(t0 - 0.25 * Ts, 0.0), t0 + 0.25 * Ts, 3) if t0 is not None else np.linspace(0.0, t_max, 9)
     vals = [sse(t) for t in grid]
     j = int(np.argmin(vals))
