@@ -181,7 +181,9 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "saturation.w_id": _TERM_WEIGHT,
     "saturation.w_rel": _TERM_WEIGHT,
     "saturation.w_thrust": _TERM_WEIGHT,
-    "saturation.knee": (0.0, 1e4, 1.0, 10.0),  # 0: exponential; knee at 8 mm + ell_sat ln(knee)
+    # 0: exponential; knee at 8 mm + ell_sat ln(knee), at most 4.6 ell_sat above the stop: a knee far above the
+    # gaps visited makes the loss a constant factor, which the calibrated C1..C4 already are.
+    "saturation.knee": (0.0, 100.0, 1.0, 10.0),
     # one-parameter effects (the effect's own bounds)
     "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
     "commutation_offset.drift": (*_eb("commutation_offset", "drift"), 0.0, 1.0),
