@@ -151,9 +151,9 @@ def _smooth_abs(v: Expr, eps: float) -> Expr:
     return ca.sqrt(v**2 + eps**2)
 
 
-def _abs0(v: Expr, eps: float = 1e-4) -> Expr:
-    """``|v|``, smooth at 0 and exactly 0 there: ``sqrt(v^2 + eps^2) - eps``."""
-    return ca.sqrt(v**2 + eps**2) - eps
+def _abs0(v: Expr, eps: float = 1e-6) -> Expr:
+    """``|v|``, smooth at 0 and exactly 0 there: ``v^2 / sqrt(v^2 + eps^2)`` (relative error ``eps^2 / 2v^2``)."""
+    return v**2 / ca.sqrt(v**2 + eps**2)
 
 
 # --------------------------------------------------------------------------- effects

@@ -36,7 +36,7 @@ def test_cogging_harmonic_sign_is_half_a_period_and_its_normal_force_attracts():
         fx_n, fn_n = (_num(v) for v in Cogging().forces(g, d, neg))
         fx_p, fn_p = (_num(v) for v in Cogging().forces(g, d, pos))
         assert fx_n == pytest.approx(fx_p, rel=1e-9, abs=1e-12)
-        assert fn_n == pytest.approx(fn_p, rel=1e-3, abs=1e-6)  # |h| smoothed by 1e-4 at 0
+        assert fn_n == pytest.approx(fn_p, rel=1e-9, abs=1e-12)
         assert fn_n >= 0.0  # attractive (the model subtracts it from the gap's force)
 
 
