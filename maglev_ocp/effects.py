@@ -151,6 +151,11 @@ def _smooth_abs(v: Expr, eps: float) -> Expr:
     return ca.sqrt(v**2 + eps**2)
 
 
+def _abs0(v: Expr, eps: float = 1e-6) -> Expr:
+    """``|v|``, smooth at 0 and exactly 0 there: ``v^2 / sqrt(v^2 + eps^2)`` (relative error ``eps^2 / 2v^2``)."""
+    return v**2 / ca.sqrt(v**2 + eps**2)
+
+
 # --------------------------------------------------------------------------- effects
 class Cogging(Effect):
     """Cogging beyond the spec's law: harmonics in d and a different gap decay.
@@ -164,7 +169,7 @@ class Cogging(Effect):
 
         xi_e(g) = xi0 * (g_ref / g)^power * exp(-(g - g_ref) / ell - curv ((g - g_ref) / g_ref)^2)
         Fx      = xi_e(g) * sum_k h_k sin(k pi d / t1 + phi_k)            (k = 1, 2, 3; phi_1 = 0)
-        Fn      = kn * xi_e(g) * sum_k h_k sin^2(k pi d / t1 + phi_k)     (attractive, reduces g)
+        Fn      = kn * xi_e(g) * sum_k |h_k| sin^2(k pi d / t1 + phi_k)   (attractive, reduces g)
 
     With the shared model's cogging switched off (``xi0 = 0`` in ``p``) and
     ``h1 = 1, h2 = h3 = 0, power = 0, kn = 1`` this is exactly the spec's law.
@@ -192,7 +197,9 @@ class Cogging(Effect):
         arg = math.pi * d / k.t1
         s1, s2, s3 = ca.sin(arg), ca.sin(2 * arg + theta["phi2"]), ca.sin(3 * arg + theta["phi3"])
         Fx = xi * (theta["h1"] * s1 + theta["h2"] * s2 + theta["h3"] * s3)
-        Fn = theta["kn"] * xi * (theta["h1"] * s1**2 + theta["h2"] * s2**2 + theta["h3"] * s3**2)
+        # Every harmonic's normal force is attractive (Maxwell stress grows with B^2): its weight is |h_k|,
+        # so that a harmonic's sign is a phase of half its period, never a repulsive normal force.
+        Fn = theta["kn"] * xi * (_abs0(theta["h1"]) * s1**2 + _abs0(theta["h2"]) * s2**2 + _abs0(theta["h3"]) * s3**2)
         return Fx, Fn
 
     def modify(self, terms, x, u, p, theta) -> None:
@@ -357,9 +364,14 @@ class Saturation(Effect):
     saturates every magnetic force falls short of the linear model. Modelled
     as a gap-dependent factor on all magnetic terms::
 
-        k_sat(g) = 1 - loss_8mm * exp(-(g - 8 mm) / ell_sat)
+        k_sat(g) = 1 - loss_8mm * (1 + knee) / (knee + exp((g - 8 mm) / ell_sat))
 
     (``loss_8mm`` is the fractional force loss at the upper stop, g = 8 mm).
+    With ``knee = 0`` (the default) the loss decays exponentially with the gap;
+    with ``knee > 0`` it is a logistic step (an iron's B-H curve saturates above
+    a flux density: little loss above a gap, a steep rise below it) whose knee
+    lies at ``g = 8 mm + ell_sat ln(knee)`` and whose width is ``ell_sat``;
+    far above the knee both decay as ``exp(-g / ell_sat)``.
     """
 
     name = "saturation"
@@ -370,6 +382,7 @@ class Saturation(Effect):
         EffectParam("w_id", 1.0, -1.0, 3.0, "-", "share of the loss on the PM-current term (C3)"),
         EffectParam("w_rel", 1.0, -1.0, 3.0, "-", "share of the loss on the reluctance term (C4)"),
         EffectParam("w_thrust", 1.0, -1.0, 3.0, "-", "share of the loss on the thrust (C1)"),
+        EffectParam("knee", 0.0, 0.0, 1e4, "-", "logistic knee exp((g_knee - 8 mm) / ell_sat); 0: exponential"),
     )
     #: Weight of each magnetic term.
     TERM_WEIGHT: ClassVar[dict[str, str]] = {
@@ -386,7 +399,8 @@ class Saturation(Effect):
     @staticmethod
     def factor(g: Expr, theta: Mapping[str, Expr], weight: Expr = 1.0) -> Expr:
         """Force factor ``k_sat(g)`` (<= 1 for a positive weight, smallest at small gaps)."""
-        return 1 - weight * (theta["loss_8mm"] * ca.exp(-(g - k.g_stop[0]) / theta["ell_sat"]))
+        b = theta["knee"]
+        return 1 - weight * (theta["loss_8mm"] * (1 + b) / (b + ca.exp((g - k.g_stop[0]) / theta["ell_sat"])))
 
     def modify(self, terms, x, u, p, theta) -> None:
         for term in sorted(MAGNETIC_TERMS):
@@ -403,13 +417,21 @@ class CommutationOffset(Effect):
 
         i_q' = cos(delta) i_q - sin(delta) i_d
         i_d' = sin(delta) i_q + cos(delta) i_d
+
+    ``drift`` lets the offset grow along the stroke, ``delta + drift * d`` (a
+    commutation encoder whose scale differs from the position encoder's, or
+    magnets whose pitch differs from the commutation's); 0 by default.
     """
 
     name = "commutation_offset"
-    params = (EffectParam("delta", 0.035, -0.35, 0.35, "rad", "electrical angle offset"),)
+    params = (
+        EffectParam("delta", 0.035, -0.35, 0.35, "rad", "electrical angle offset (at d = 0)"),
+        EffectParam("drift", 0.0, -10.0, 10.0, "rad/m", "growth of the offset along the stroke"),
+    )
 
     def currents(self, u, x, theta):
-        c, s = ca.cos(theta["delta"]), ca.sin(theta["delta"])
+        angle = theta["delta"] + theta["drift"] * x[2]
+        c, s = ca.cos(angle), ca.sin(angle)
         return ca.vertcat(c * u[0] - s * u[1], s * u[0] + c * u[1])
 
 

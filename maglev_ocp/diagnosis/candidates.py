@@ -181,8 +181,12 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "saturation.w_id": _TERM_WEIGHT,
     "saturation.w_rel": _TERM_WEIGHT,
     "saturation.w_thrust": _TERM_WEIGHT,
+    # 0: exponential; knee at 8 mm + ell_sat ln(knee), at most 4.6 ell_sat above the stop: a knee far above the
+    # gaps visited makes the loss a constant factor, which the calibrated C1..C4 already are.
+    "saturation.knee": (0.0, 100.0, 1.0, 10.0),
     # one-parameter effects (the effect's own bounds)
     "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
+    "commutation_offset.drift": (*_eb("commutation_offset", "drift"), 0.0, 1.0),
     "eddy_drag.c_eddy": (*_eb("eddy_drag", "c_eddy"), 10.0, 50.0),
     # parameter error: factors on C1..C4 (C4, a small term, may be off by more)
     "parameter_error.k_C1": _FACTOR,
@@ -296,12 +300,16 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       B^2 attraction and cogging lose twice what the B-linear PM-current and
       thrust terms lose, the reluctance term nothing), ``current terms``
       (PM-current, reluctance and thrust; not the magnets' attraction) and
-      ``per term`` (a free share for each);
+      ``per term`` (a free share for each); and the loss's profile in g:
+      ``knee`` (and ``field``, ``current terms``) a logistic step whose knee is
+      free, nesting the exponential at ``knee = 0``;
+    - ``commutation_offset``: ``drift``: the offset grows linearly along the
+      stroke (a commutation encoder scale off the position encoder's);
     - ``end_effect``: ``free profile``: the overhang loss scaled and bent
       (``edge_gain``, ``edge_quad``);
     - the amplifier lag searches a continuous effective delay (whole samples
       plus a lag or a fractional delay, which act alike below the cut-off);
-      ``commutation_offset`` and ``eddy_drag`` have one law each.
+      ``eddy_drag`` has one law.
     """
     lib = library_specs()
     out = {n: (s,) for n, s in lib.items()}
@@ -349,19 +357,32 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
         ),
     )
     sat = lib["saturation"].free
+    knee = (*sat, *_free("saturation.knee"))
     w0 = (("saturation.w_pm", 1.0), ("saturation.w_id", 0.5), ("saturation.w_thrust", 0.5), ("saturation.w_rel", 0.0))
     w1 = (("saturation.w_pm", 0.0), ("saturation.w_id", 1.0), ("saturation.w_thrust", 1.0), ("saturation.w_rel", 1.0))
     per_term = _free("saturation.w_pm", "saturation.w_id", "saturation.w_rel", "saturation.w_thrust")
     out["saturation"] += (
         CandidateSpec(
-            "saturation", ("saturation",), sat, w0, note="saturation of the magnet field (B scaled)", law="field"
+            "saturation",
+            ("saturation",),
+            knee,
+            note="every magnetic term, the loss a logistic step in g (knee free; 0 is the library's exponential)",
+            law="knee",
         ),
         CandidateSpec(
             "saturation",
             ("saturation",),
-            sat,
+            knee,
+            w0,
+            note="saturation of the magnet field (B scaled), exponential or logistic loss (knee free)",
+            law="field",
+        ),
+        CandidateSpec(
+            "saturation",
+            ("saturation",),
+            knee,
             w1,
-            note="saturation of the current terms (PM-current, reluctance, thrust)",
+            note="saturation of the current terms (PM-current, reluctance, thrust), exponential or logistic loss",
             law="current terms",
         ),
         CandidateSpec(
@@ -371,6 +392,15 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             fixed=(("saturation.loss_8mm", 1.0),),
             note="a free loss at g = 8 mm for each magnetic term (w_*), one decay length",
             law="per term",
+        ),
+    )
+    out["commutation_offset"] += (
+        CandidateSpec(
+            "commutation_offset",
+            ("commutation_offset",),
+            free=_free("commutation_offset.delta", "commutation_offset.drift"),
+            note="dq-frame rotation growing along the stroke, delta + drift d",
+            law="drift",
         ),
     )
     out["end_effect"] += (
@@ -878,6 +908,7 @@ def fit_candidate(
     u_runs: Sequence[np.ndarray] | None = None,
     max_delay: int = 3,
     warm: Mapping[str, float] | None = None,
+    hold_lag: bool = False,
 ) -> FitResult:
     """Fit one candidate on training data.
 
@@ -897,6 +928,10 @@ def fit_candidate(
         Values by key to start from (a warm start from earlier fits: the
         forward selection's joint refits start where the single fits ended);
         the lag's ``effective_delay_s`` then centres its search.
+    hold_lag : bool
+        Hold the lag's effective delay at the warm ``effective_delay_s`` (the
+        other parameters refitted; its standard error is then NaN): a cheap
+        trial refit of a model whose delay another fit has already searched.
 
     Returns
     -------
@@ -911,7 +946,7 @@ def fit_candidate(
     if u_runs is None:
         raise ValueError("the amplifier lag needs the commanded currents of each run")
     t0 = warm.get("effective_delay_s") if warm else None
-    return _fit_lag(fitter, data, u_runs, max_delay, starts, t0)
+    return _fit_lag(fitter, data, u_runs, max_delay, starts, t0, hold=hold_lag)
 
 
 def _starts(spec: CandidateSpec, x0: np.ndarray | None = None) -> list[np.ndarray]:
@@ -973,6 +1008,7 @@ def _fit_lag(
     max_delay: int,
     starts: Sequence[np.ndarray] | None = None,
     t0: float | None = None,
+    hold: bool = False,
 ) -> FitResult:
     Ts = data.filt.Ts
     t_max = (max_delay + 1) * Ts
@@ -994,6 +1030,14 @@ def _fit_lag(
         return cache[key].sse
 
     # A warm start (the single fit's delay) searches around it only; otherwise a grid over [0, t_max].
+    # ``hold``: the effective delay held at ``t0`` (the other parameters refitted).
+    if hold and t0 is not None:
+        key = round(float(t0), 9)
+        sse(key)
+        fr = cache[key]
+        th = lag_theta(key, Ts)
+        extra = {**th, "effective_delay_s": float(t0), "effective_delay_s_stderr": math.nan}
+        return FitResult(fitter.spec, fr.w, fr.stderr, fr.sse, fr.n, fr.inflation, extra, fr.success, fr.status)
     grid = np.linspace(max(t0 - 0.25 * Ts, 0.0), t0 + 0.25 * Ts, 3) if t0 is not None else np.linspace(0.0, t_max, 9)
     vals = [sse(t) for t in grid]
     j = int(np.argmin(vals))

@@ -33,6 +33,7 @@ import numpy as np
 
 from .. import constants as k
 from ..effects import EFFECTS, EffectSet
+from ..errors import ConfigError
 from ..runner import run_scenario
 from ..signals import PARAM_NAMES
 from .candidates import CandidateSpec, FitResult, accel_series, lag_features
@@ -322,15 +323,20 @@ def effect_size(
         size.delay_stderr_us = 1e6 * float(se) if se is not None and np.isfinite(se) else None
     params, effects, dropped = plant_effects(spec, fit, p)
     size.dropped = dropped
+    note = ""
     if simulate:
         # Without the effect: the same fitted constants; against a cogging-blind baseline, no cogging law.
         xi_base = float(pv[PARAM_NAMES.index("xi0")])
         p0 = dict(params, xi0=xi_base) if xi_base == 0.0 else params
-        size.closed_loop = closed_loop_consequence(params, effects, p0)
-        # What the goal bounds is the tracking error: the effect matters if it adds a tenth of the goal to it.
-        added = max(v["added_max_m"] for v in size.closed_loop.values())
-        size.matters = bool(added >= NEGLIGIBLE_M)
-    size.summary = _summary(size, Ts)
+        try:
+            size.closed_loop = closed_loop_consequence(params, effects, p0)
+        except ConfigError as exc:  # fitted constants no shipped controller accepts: said, not simulated
+            note = f"; closed loop not simulated ({exc})"
+        if size.closed_loop:
+            # What the goal bounds is the tracking error: the effect matters if it adds a tenth of the goal to it.
+            added = max(v["added_max_m"] for v in size.closed_loop.values())
+            size.matters = bool(added >= NEGLIGIBLE_M)
+    size.summary = _summary(size, Ts) + note
     return size
 
 

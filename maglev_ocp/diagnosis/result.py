@@ -81,9 +81,11 @@ class DiagnoseSettings(Strict):
     max_effects : int
         Most effects the forward selection names.
     forward_pool, forward_z : int, float
-        Candidates tried at each forward step: the ``forward_pool`` singles
-        with the best information criterion (at least ``bic_margin`` below
-        the baseline's) whose own held-out z exceeds ``forward_z``.
+        Candidates refitted jointly with the current model at each forward
+        step: the ``forward_pool`` converged singles with the best information
+        criterion whose own held-out z exceeds ``forward_z`` (default: every
+        other library effect, no gate; a single's scores are corrupted by the
+        other effects still in its residual).
     family_top : int
         Effects (the best singles) whose whole law family is fitted.
     z_enter : float
@@ -123,8 +125,8 @@ class DiagnoseSettings(Strict):
     clean_min: float = Field(0.3, ge=0.0, le=1.0)
     baseline_cogging: bool = True
     max_effects: int = Field(3, ge=1, le=8)
-    forward_pool: int = Field(3, ge=0, le=10)
-    forward_z: float = Field(0.0, ge=-100.0)
+    forward_pool: int = Field(6, ge=0, le=10)
+    forward_z: float = Field(-100.0, ge=-100.0)
     family_top: int = Field(4, ge=0, le=10)
     z_enter: float = Field(2.0, ge=0.0)
     resolved_share: float = Field(0.5, ge=0.0, le=10.0)
