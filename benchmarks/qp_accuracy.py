@@ -76,13 +76,16 @@ class RecordingEvaluators:
         return init, rec_step
 
 
-def load_scenario(name: str, overrides: dict):
-    """A shipped NMPC scenario with its controller settings updated by ``overrides`` (nested, merged)."""
+def load_scenario(name: str, overrides: dict, reference: dict | None = None):
+    """A shipped NMPC scenario with its controller settings updated by ``overrides`` (nested, merged), and its
+    planner's settings by ``reference``."""
     from maglev_ocp.scenario import scenario_from_dict
 
     path = ROOT / "scenarios" / f"{name}.yaml"
     data = yaml.safe_load(path.read_text())
     _merge(data.setdefault("controller", {}), overrides)
+    if reference:
+        _merge(data.setdefault("reference", {}), reference)
     return scenario_from_dict(data, source=str(path), root_dir=ROOT)
 
 
@@ -94,11 +97,14 @@ def _merge(dst: dict, src: dict) -> None:
             dst[key] = val
 
 
-def record(name: str, overrides: dict, evaluators=None) -> tuple[RecordingEvaluators, object]:
-    """Run scenario ``name`` with the NMPC settings ``overrides``; the recorder and the run's result."""
+def record(
+    name: str, overrides: dict, evaluators=None, reference: dict | None = None
+) -> tuple[RecordingEvaluators, object]:
+    """Run scenario ``name`` with the NMPC settings ``overrides`` (and planner settings ``reference``); the
+    recorder and the run's result."""
     from maglev_ocp.runner import run_scenario
 
-    sc = load_scenario(name, overrides)
+    sc = load_scenario(name, overrides, reference)
     rec = RecordingEvaluators(evaluators or casadi_evaluators)
     ctrl = NMPC(sc.controller.settings, sc.controller_model_params(), evaluators=rec)
     res = run_scenario(sc, controller=ctrl, progress=False, figures=False)
