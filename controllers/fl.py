@@ -52,7 +52,6 @@ from __future__ import annotations
 import functools
 import math
 from collections import deque
-from typing import Literal
 
 import casadi as ca
 import numpy as np
@@ -60,10 +59,10 @@ from pydantic import Field, field_validator
 
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
-from maglev_ocp.config import Strict
 from maglev_ocp.fastcall import BufferedFunction
 from maglev_ocp.model import get_model, inverse_expressions
 from maglev_ocp.observers import (
+    AdaptSettings,
     HighGainObserver,
     ObserverSettings,
     adapt_constants,
@@ -71,6 +70,7 @@ from maglev_ocp.observers import (
     adapt_shift,
     corrected_params,
     innovation_noise,
+    noise_gate,
     observer_update_innovation,
 )
 from maglev_ocp.params import NOMINAL, Params
@@ -212,8 +212,7 @@ def fl_adaptive_observer_function(
     xo, do, e = observer_update_innovation(x, dist, u, y, p_obs, L, Ts, disturbance=True, skip_nonfinite=True)
     ok, since, age = adapt_gate(since, age, moving > 0.5, ca.SX(0), window)
     # the innovation's noise, measured past the start-up while the constants are not updated (a finite reading)
-    finite = ca.fabs(y[0]) + ca.fabs(y[1]) < 1e3  # as observer_update_innovation's skip
-    measure = ca.logic_and(ca.logic_and(age > window, ca.logic_not(ok)), finite)
+    measure = noise_gate(ok, age, ca.SX(0), y, window)
     r2, msq = innovation_noise(msq, age, e, measure, noise, window, Ts, noise_time, noise_floor)
     dtheta, ups_plus, theta, cov = adapt_constants(x, u, p, ups, theta, cov, e, ok, names, L, Ts, r2, bound)
     dx, dd = adapt_shift(ups_plus, dtheta)  # the estimate moves with the constants: eps = eta + Ups theta_err
@@ -268,7 +267,7 @@ def ref_moving(r):
     return abs(R["g_dot"]) + abs(R["g_ddot"]) + abs(R["d_dot"]) + abs(R["d_ddot"]) > 0
 
 
-class FLSettings(Strict):
+class FLSettings(AdaptSettings):
     """Tuning of :class:`FeedbackLinearization` (the scenario's ``controller:`` block for ``type: fl``).
 
     Attributes
@@ -322,16 +321,6 @@ class FLSettings(Strict):
         0, ge=0, le=10, description="computation delay compensated by the predictor [control periods]"
     )
     model: str | None = Field(None, description="model file with constants and effects (controllers.model_file)")
-    adapt: list[Literal["C1", "C2", "C3", "C4"]] = Field(
-        default_factory=lambda: ["C1", "C3", "C4"],
-        description="model constants whose relative error the observer estimates online (the NMPC's adaptive "
-        "observer, maglev_ocp.observers.adapt_constants): the inversion, the predictor and the observer use the "
-        "corrected constants, so the disturbance estimate no longer carries a move's current-proportional "
-        "mismatch into the hold ([]: off; needs disturbance)",
-    )
-    adapt_prior: float = Field(
-        0.1, gt=0, le=1, description="prior standard deviation of an adapted constant's relative error"
-    )
     adapt_noise: float | None = Field(
         4e-6,
         gt=0,
@@ -342,31 +331,6 @@ class FLSettings(Strict):
         "but a 46 um tracking error in the first move, where the estimate, weighed against the quieter "
         "measured noise, swings further)",
     )
-    adapt_noise_floor: float = Field(
-        k.encoder_resolution / 12**0.5,
-        gt=0,
-        description="least innovation standard deviation the measured one may take [m]: the encoder's "
-        "quantization error (resolution / sqrt(12)); at rest a constant reading can make the innovation vanish",
-    )
-    adapt_noise_time: float = Field(
-        0.2, gt=0, description="time constant of the running mean square of the innovation (adapt_noise: None) [s]"
-    )
-    adapt_window: float = Field(
-        0.05,
-        ge=0,
-        description="the constants are updated only while the reference moves and this long after [s]: a "
-        "planned move's currents are the excitation; a push, or the quantization at rest, would bias them",
-    )
-    adapt_bound: float = Field(
-        0.25, gt=0, lt=0.9, description="largest relative correction of an adapted constant (projection)"
-    )
-
-    @field_validator("adapt")
-    @classmethod
-    def _adapt_unique(cls, v: list[str]) -> list[str]:
-        if len(set(v)) != len(v):
-            raise ValueError(f"adapt lists a constant twice: {v}; allowed: each of C1, C2, C3, C4 at most once")
-        return v
 
     @field_validator("model")
     @classmethod

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from maglev_ocp.observers import adapt_constants, adapt_gate, adapt_shift, observer_update_innovation
+from maglev_ocp.observers import adapt_constants, adapt_gate, adapt_shift, noise_gate, observer_update_innovation
 from maglev_ocp.observers import corrected_params as shared_corrected_params
 from maglev_ocp.observers import innovation_noise as shared_innovation_noise
 
@@ -104,10 +104,7 @@ def observe(d: StepDesign, S: dict, y: ca.SX, p: ca.SX, moving: ca.SX | None = N
         s = d.settings
         window = round(s.adapt_window / d.Ts)
         ok, since, age = adapt_gate(S["since"][0], S["age"][0], moving, fresh, window)
-        # not during the observer's own start-up either: its converging estimate is no model error
-        started = ca.logic_and(ca.logic_not(fresh), age > window)
-        finite = ca.fabs(y[0]) + ca.fabs(y[1]) < 1e3  # as observer_update_innovation's skip
-        r2, noise = innovation_noise(d, S, e, ca.logic_and(ca.logic_and(started, ca.logic_not(ok)), finite))
+        r2, noise = innovation_noise(d, S, e, noise_gate(ok, age, fresh, y, window))
         dtheta, ups_plus, theta, cov = adapt_constants(
             S["xhat"], S["u_prev"], p, S["ups"], S["theta"], S["cov"], e, ok, adapted(s), d.L_obs, d.Ts,
             r2, s.adapt_bound,

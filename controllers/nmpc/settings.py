@@ -17,6 +17,7 @@ from pydantic import Field, field_validator, model_validator
 
 from maglev_ocp import constants as k
 from maglev_ocp.config import Strict
+from maglev_ocp.observers import AdaptSettings
 
 from ..model_file import check_model_path
 
@@ -130,7 +131,7 @@ class PlanOptions(Strict):
     jerk_time: float = Field(2e-3, ge=1e-4, le=0.05, description="acceleration ramp time [s]")
 
 
-class NMPCSettings(Strict):
+class NMPCSettings(AdaptSettings):
     """Settings of :class:`NMPC` (a scenario's ``controller:`` block with ``type: nmpc``).
 
     Attributes
@@ -215,43 +216,6 @@ class NMPCSettings(Strict):
         "but on the default rig its unmodelled 2 kHz amplifier lag then leaves ~1 um more steady gap RMS "
         "after the 25 mm gap move, which the half-period-late feed-forward happened to offset",
     )
-    adapt: list[Literal["C1", "C2", "C3", "C4"]] = Field(
-        default_factory=lambda: ["C1", "C3", "C4"],
-        description="model constants whose relative error the observer estimates online (adaptive observer, "
-        "controllers.nmpc.observer): the prediction, the feed-forward and the observer use the corrected "
-        "constants, so the disturbance estimate no longer carries a move's current-proportional mismatch into "
-        "the hold ([]: off)",
-    )
-    adapt_prior: float = Field(
-        0.1, gt=0, le=1, description="prior standard deviation of an adapted constant's relative error"
-    )
-    adapt_noise: float | None = Field(
-        None,
-        gt=0,
-        description="standard deviation of the encoder innovation the constants' estimate assumes [m] (None: "
-        "measured online, the running RMS of the innovation while the constants are not updated, per axis, "
-        "never below adapt_noise_floor). A fixed 10 um, three times the default rig's 3.3 um, shrank the "
-        "estimate of the weakly excited C4 towards zero (-3.9 % for a -9.2 % error after two moves)",
-    )
-    adapt_noise_floor: float = Field(
-        k.encoder_resolution / 12**0.5,
-        gt=0,
-        description="least innovation standard deviation the measured one may take [m]: the encoder's "
-        "quantization error during a move (resolution / sqrt(12)); at rest a constant reading can make the "
-        "innovation vanish",
-    )
-    adapt_noise_time: float = Field(
-        0.2, gt=0, description="time constant of the running mean square of the innovation (adapt_noise: None) [s]"
-    )
-    adapt_window: float = Field(
-        0.05,
-        ge=0,
-        description="the constants are updated only while the reference moves and this long after [s]: a "
-        "planned move's currents are the excitation; a push, or the quantization at rest, would bias them",
-    )
-    adapt_bound: float = Field(
-        0.25, gt=0, lt=0.9, description="largest relative correction of an adapted constant (projection)"
-    )
     use_cogging: bool = True
     reference: Literal["auto", "preview", "plan"] = "auto"
     plan: PlanOptions = Field(default_factory=PlanOptions)
@@ -271,13 +235,6 @@ class NMPCSettings(Strict):
     )
     model: str | None = Field(None, description="model file with constants and effects (controllers.model_file)")
     force_failure_steps: list[int] = Field(default_factory=list)
-
-    @field_validator("adapt")
-    @classmethod
-    def _adapt_unique(cls, v: list[str]) -> list[str]:
-        if len(set(v)) != len(v):
-            raise ValueError(f"adapt lists a constant twice: {v}; allowed: each of C1, C2, C3, C4 at most once")
-        return v
 
     @field_validator("model")
     @classmethod
