@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from benchmarks.min_time_moves import random_moves
 from maglev_ocp import constants as k
 from maglev_ocp.config import dump_yaml
 from maglev_ocp.effects import EffectSet
@@ -153,18 +154,6 @@ def test_plan_uses_the_controllers_model_file(tmp_path):
         assert float(unr) == 0 and np.hypot(*np.asarray(u).ravel()) <= 0.97 * k.i_amp_max + 0.05
 
 
-def _random_moves(n: int, seed: int) -> list[tuple[tuple[float, float], tuple[float, float]]]:
-    rng = np.random.default_rng(seed)
-    out = []
-    while len(out) < n:
-        d0, d1 = rng.uniform(-0.05, 0.05, 2)
-        if abs(d1 - d0) < 0.06:
-            continue
-        g0, g1 = rng.uniform(0.015, 0.025, 2)
-        out.append(((float(g0), float(d0)), (float(g1), float(d1))))
-    return out
-
-
 @pytest.mark.slow
 def test_random_moves_settle_within_105_percent_of_the_minimum_time():
     """Issue 12: default NMPC settings, default plant, random 60-100 mm moves (seed 2026): settle <= 1.05 T_min.
@@ -172,7 +161,7 @@ def test_random_moves_settle_within_105_percent_of_the_minimum_time():
     Measured 1.011-1.024 x on these moves; ``python -m benchmarks.min_time_moves --seeds 2026 99 7 31``
     (32 moves): 1.014 x median, 1.025 x worst.
     """
-    for start, end in _random_moves(8, 2026):
+    for start, end in random_moves(8, 2026):
         t_min = solve_min_time(start, end).T
         res = run_scenario(_scenario({"type": "nmpc"}, start, end), progress=False)
         tg = res.metrics.targets[0]

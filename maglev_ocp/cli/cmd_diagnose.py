@@ -146,19 +146,24 @@ def register(sub) -> None:
     p.set_defaults(handler=run)
 
 
+def _effect_number(key: str, text: str) -> float:
+    """The finite number of ``--effect-param KEY=TEXT`` (one-line UserError naming the key otherwise)."""
+    try:
+        x = float(text)
+    except ValueError:
+        raise UserError(f"--effect-param: {key}: not a number: {text!r}") from None
+    if not math.isfinite(x):
+        raise UserError(f"--effect-param: {key}: must be finite")
+    return x
+
+
 def _kv(items: list[str]) -> dict[str, float]:
     out = {}
     for it in items:
         if "=" not in it:
             raise UserError(f"--effect-param: expected KEY=VALUE, got {it!r}")
         key, val = it.split("=", 1)
-        try:
-            v = float(val)
-        except ValueError:
-            raise UserError(f"--effect-param: {key}: not a number: {val!r}") from None
-        if not math.isfinite(v):
-            raise UserError(f"--effect-param: {key}: must be finite")
-        out[key.strip()] = v
+        out[key.strip()] = _effect_number(key, val)
     return out
 
 
@@ -211,13 +216,7 @@ def _independent_law(n: str, kv: dict[str, str]) -> dict:
     for q, v in kv.items():
         if q not in allowed:
             raise UserError(f"--effect-param: {n} ({fam}) has no parameter {q!r}; known: {', '.join(sorted(allowed))}")
-        try:
-            x = float(v)
-        except ValueError:
-            raise UserError(f"--effect-param: {n}.{q}: not a number: {v!r}") from None
-        if not math.isfinite(x):
-            raise UserError(f"--effect-param: {n}.{q}: must be finite")
-        params[q] = x
+        params[q] = _effect_number(f"{n}.{q}", v)
     try:
         law(fam, **params)
     except ValueError as e:
