@@ -272,6 +272,7 @@ def plan_run(sc: Scenario) -> RunPlan:
         sc.target_list(),
         params,
         sc.reference,
+        t_start=sc.start.hover,
         source=f"{sc.source}: targets",
         effects=effects,
     )

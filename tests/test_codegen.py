@@ -27,6 +27,10 @@ from maglev_ocp.codegen.build import HARNESS, find_compiler
 from maglev_ocp.fastcall import BufferedFunction
 from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL
+from maglev_ocp.scenario import StartSpec
+
+#: The scenarios' default hover at the start, before the first target [s].
+HOVER = StartSpec().hover
 
 CC = find_compiler()
 needs_cc = pytest.mark.skipif(
@@ -186,7 +190,7 @@ def test_nmpc_c_backend_reproduces_python_closed_loop(nmpc_runs):
     py, c, ctrl = nmpc_runs
     assert ctrl.backend == "c" and list(ctrl.evaluators.builds) == ["plan"]  # really the compiled library
     n = len(py.columns["t"])
-    assert n == round(0.22 / k.Ts) and len(c.columns["t"]) == n
+    assert n == round((HOVER + 0.22) / k.Ts) and len(c.columns["t"]) == n
     for col in ("i_q", "i_d"):
         assert np.max(np.abs(py.columns[col] - c.columns[col])) <= I_TOL
     assert np.max(np.abs(py.columns["g_hat"] - c.columns["g_hat"])) <= 1e-9
@@ -294,7 +298,7 @@ def test_bench_reports_every_controller_and_backend(tmp_path):
     for ct in ("fl", "pid"):
         for b in ("python", "c"):
             e = d[ct][b]
-            assert e["n"] == 90 and 0 < e["median_us"] <= e["p99_us"] <= e["max_us"]
+            assert e["n"] == round((0.1 + HOVER) / k.Ts) - 10 and 0 < e["median_us"] <= e["p99_us"] <= e["max_us"]
         assert 0 < d[ct]["c"]["kernel_median_us"] <= d[ct]["c"]["median_us"]
     assert 0 < d["fl"]["c"]["kernel_cpu_median_us"] <= d["fl"]["c"]["kernel_cpu_max_us"]
     assert "controller" in res.table() and res.save(tmp_path / "b.json").exists()

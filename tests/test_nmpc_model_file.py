@@ -22,7 +22,10 @@ from maglev_ocp.config import dump_yaml
 from maglev_ocp.effects import EFFECTS
 from maglev_ocp.errors import ConfigError
 from maglev_ocp.runner import run_scenario
-from maglev_ocp.scenario import scenario_from_dict
+from maglev_ocp.scenario import StartSpec, scenario_from_dict
+
+#: The scenarios' default hover at the start, before the first target [s].
+HOVER = StartSpec().hover
 
 needs_cc = pytest.mark.skipif(
     find_compiler() is None or shutil.which("make") is None,
@@ -134,7 +137,7 @@ def test_nmpc_c_backend_with_a_model_file_matches_python(friction_file):
     )
     c = run_scenario(sc, controller=ctrl, progress=False, figures=False)
     assert ctrl.backend == "c" and ctrl.model is not None and ctrl.model.effects == ("friction",)
-    assert len(c.columns["t"]) == len(py.columns["t"]) == round(0.25 / k.Ts)
+    assert len(c.columns["t"]) == len(py.columns["t"]) == round((HOVER + 0.25) / k.Ts)
     for col in ("i_q", "i_d"):
         assert np.max(np.abs(py.columns[col] - c.columns[col])) <= I_TOL
     assert np.max(np.abs(py.columns["d_hat"] - c.columns["d_hat"])) <= 1e-9

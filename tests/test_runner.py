@@ -24,7 +24,10 @@ from maglev_ocp.params import NOMINAL
 from maglev_ocp.reference import Move, ReferencePlan, Target
 from maglev_ocp.riglog import read_dataset
 from maglev_ocp.runner import build_controller, build_run, plan_run, run_scenario, summary_table
-from maglev_ocp.scenario import Checks, scenario_from_dict
+from maglev_ocp.scenario import Checks, StartSpec, scenario_from_dict
+
+#: The scenarios' default hover at the start, before the first target [s].
+HOVER = StartSpec().hover
 
 SHORT = {
     "name": "short",
@@ -61,7 +64,7 @@ def test_files_and_columns(short_run):
     assert "step_time_us" not in header  # wall-clock time lives in timing.csv (log.csv stays reproducible)
     ds = read_dataset(out)  # the run folder is a maglev-rig-log/1 dataset
     run = ds.run("log.csv")
-    assert len(run) == round(0.25 / k.Ts)
+    assert len(run) == round((HOVER + 0.25) / k.Ts)
     m = json.loads((out / "metrics.json").read_text())
     for key in ("all_settled", "stop_hits", "solver_failures", "fallbacks", "step_time_us", "targets", "passed"):
         assert key in m
@@ -195,8 +198,9 @@ class _HoverPD:
 def test_runner_accepts_any_controller(tmp_path):
     sc = {**SHORT, "plant": {"profile": "ideal"}, "targets": [{"g": 0.02, "d": 0.0, "hold": 0.2}]}
     res = run_scenario(sc, progress=False, controller=_HoverPD(report_fallback=True))
-    assert res.metrics.error is None and len(res.columns["t"]) == 200
-    assert res.metrics.fallbacks == 20 and res.metrics.solver_failures == 20
+    assert res.metrics.error is None and len(res.columns["t"]) == round((HOVER + 0.2) / k.Ts)
+    n_fb = round((HOVER + 0.2) / k.Ts) // 10  # every 10th step reports a fallback
+    assert res.metrics.fallbacks == n_fb and res.metrics.solver_failures == n_fb
     assert "solve_us" not in res.columns  # timing-like statistics stay out of log.csv
     assert list(res.columns["status"][:2]) == ["ok", "ok"]
     res.save(tmp_path / "o", figures=False)
@@ -223,7 +227,7 @@ def test_scenario_trace_and_rig_log_come_from_the_one_loop():
     trace, riglog = TraceRecorder(rp.n), RigLogRecorder(rp.n)
     loop = ClosedLoop(plant, ctrl, [trace, riglog], on_error="stop")
     loop.reset(np.array([sc.start.g, 0.0, sc.start.d, 0.0]), rp.reference(0))
-    assert loop.run(rp.reference, rp.n) == rp.n == 100 and loop.error is None
+    assert loop.run(rp.reference, rp.n) == rp.n == round((HOVER + 0.1) / k.Ts) and loop.error is None
     log = riglog.log(plant, "r.csv")
     np.testing.assert_array_equal(log["g"], trace.Y[:, 0])  # same readings
     np.testing.assert_array_equal(log["d_true"], trace.X[:, 2])

@@ -1254,13 +1254,40 @@ def noise_stage(
 
 
 def lag_guards(split: _Split, base: _Baseline, att: _Attribution, noise: NoiseFindings) -> dict[str, ResonanceGuard]:
-    """Resonance guard of every lag-type candidate on the held-out runs (see :func:`.noise.resonance_guard`)."""
+    """Resonance guard of every lag-type candidate on the held-out runs (see :func:`.noise.resonance_guard`).
+
+    A lag named with other effects is judged by what it adds to them: ``before`` is the joint model of the
+    others (from the backward check), ``after`` the full model, and only the baseline's peaks that still stand
+    in the others' residual (training and held-out runs, :func:`.noise.confirm_peaks`) are peaks it could
+    absorb. The baseline's lines can be another effect's signature (saturation over a periodic excitation
+    leaves lines at the motion's frequencies that a lag fitted alone partly absorbs); those are not resonances.
+    """
     out = {}
+    sel = list(att.verdict.selected) if att.final_fit is not None else []
     for name, spec in att.specs.items():
         if not spec.lag or name not in att.fits:
             continue
-        after = residuals_with(spec, att.fits[name], split.test, base.p, split.u_test)
-        out[name] = resonance_guard(name, base.b_test, after, noise.peaks, split.filt.h, split.filt.Ts)
+        rest = frozenset(n for n in sel if n != name)
+        if name in sel and rest and rest in att.models:
+            r_spec, r_fit, _ = att.models[rest]
+            before = residuals_with(r_spec, r_fit, split.test, base.p, split.u_test)
+            before_train = residuals_with(r_spec, r_fit, split.train, base.p, split.u_train)
+            after = residuals_with(att.final_spec, att.final_fit, split.test, base.p, split.u_test)
+            peaks = _standing_peaks(noise, [before_train, before])
+        else:
+            before, peaks = base.b_test, noise.peaks
+            after = residuals_with(spec, att.fits[name], split.test, base.p, split.u_test)
+        out[name] = resonance_guard(name, before, after, peaks, split.filt.h, split.filt.Ts)
+    return out
+
+
+def _standing_peaks(noise: NoiseFindings, parts: Sequence[Sequence[Residual]]) -> list[SpectralPeak]:
+    """The baseline's confirmed peaks that every part of a model's residual still shows beyond the noise model."""
+    out: list[SpectralPeak] = []
+    for c, ch in enumerate(CHANNELS):
+        pks = [p for p in noise.peaks if p.channel == ch]
+        if pks and ch in noise.checks:
+            out += confirm_peaks(pks, parts, noise.checks[ch].model, c)
     return out
 
 
