@@ -44,16 +44,7 @@ def _check(res, rms_max=RMS_MAX):
     "name",
     [
         "tour_nmpc",
-        pytest.param(
-            "random_nmpc",
-            marks=pytest.mark.xfail(
-                strict=False,
-                reason="issue 12, open: with the minimum-time moves at 0.97 of the limits the NMPC now plans by "
-                "default, the first move (rest to g 16.2 mm, d -4.2 mm) leaves a transient in the settled window: "
-                "steady RMS g 10.75 um > 10 um (4.85 um with the trajectory plan at 0.85; adaptive observer on or "
-                "off: 10.72 um)",
-            ),
-        ),
+        "random_nmpc",
         "gap_steps_nmpc",
     ],
 )
