@@ -245,6 +245,23 @@ def test_model_file_loads_as_a_plant_profile(tmp_path):
     assert plant.true_params.C1 == 13.0
 
 
+def test_model_file_wraps_fitted_phases_into_the_plant_range():
+    """A fitted phase beyond the plant's one-period range is wrapped, never clamped: the fit searches two
+    periods, and cogging's 3rd harmonic fitted at 6.281 rad (= -0.002 rad) was written as pi, its sign flipped.
+    The force of the written law equals the fitted one."""
+    spec = library_specs()["cogging"]
+    vals = {"cogging.h2": -0.996, "cogging.h3": 0.499, "cogging.phi2": 3.14, "cogging.phi3": 2 * np.pi - 0.002}
+    w = np.array([vals.get(f.key, f.start) for f in spec.free])
+    fit = FitResult(spec, w, np.zeros(len(w)), 0.0, 1, 1.0)
+    _, effects, _ = plant_effects(spec, fit, NOMINAL.vector())
+    cog = effects["cogging"]
+    assert cog["phi3"] == pytest.approx(-0.002, abs=1e-12) and cog["phi2"] == pytest.approx(3.14)
+    d = np.linspace(-0.05, 0.05, 41)
+    fitted = np.sin(3 * np.pi * d / 0.01905 + vals["cogging.phi3"])
+    written = np.sin(3 * np.pi * d / 0.01905 + cog["phi3"])
+    np.testing.assert_allclose(written, fitted, atol=1e-12)
+
+
 @pytest.mark.slow
 def test_structural_resonance_end_to_end_on_the_independent_rig(tmp_path):
     """Independent rig (rigsim), a 35 Hz frame mode of 1 encoder count and nothing else the baseline lacks.

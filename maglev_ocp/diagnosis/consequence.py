@@ -101,6 +101,11 @@ def plant_effects(spec: CandidateSpec, fit: FitResult | None, p: np.ndarray) -> 
                 v = dflt[key]
             used.add(key)
             q = next(x for x in EFFECTS[name].params if f"{name}.{x.name}" == key)
+            if q.hi - q.lo == 2 * math.pi:
+                # A phase whose plant range is one period: the fit searches a wider range (two periods, so a
+                # start near the bound is not stuck there), and 6.281 rad is -0.002 rad, never the bound pi
+                # (clamped, a harmonic of cogging came out with its sign flipped in the model file).
+                v = float((float(v) - q.lo) % (2 * math.pi) + q.lo)
             # Solver round-off may step a hair outside the plant's range (e.g. -1e-12 for a bound at 0).
             v = min(max(float(v), q.lo), q.hi)
             block[key.split(".", 1)[1]] = round(v) if q.integer else v
