@@ -361,6 +361,12 @@ MIN_TIME_INTERVALS = 50
 #: IPOPT's Hessian for a planned move: L-BFGS halves the solve (the exact Hessian of the mapped RK4 is most
 #: of it); durations within 0.02 % of the exact Hessian's on 11 random moves (campaigns plan one per target).
 MIN_TIME_HESSIAN = "limited-memory"
+#: Band of ``d`` about the segment between a planned move's start and end [m]: none. With ``i_d`` held
+#: below its limit the minimum-time gap move otherwise spends the amplitude left to ``i_q`` on its
+#: reluctance pull (``C4 f4 i_q^2``, seed eq. (2)) with alternating signs, and ``d`` swings by 0.25-0.55 mm
+#: while only the gap moves (outside the 0.1 mm tolerance, and the tracked plan's d error is still tens of
+#: um when the gap arrives) to gain 0.7 % of the move (41.26 -> 41.57 ms for 15 -> 25 mm).
+MIN_TIME_D_BAND = 0.0
 
 
 @functools.lru_cache(maxsize=256)
@@ -381,6 +387,7 @@ def _min_time_table(
         i_d_max=None if frac_id is None else frac_id * k.i_axis_max,
         tol=MIN_TIME_TOL,
         hessian=MIN_TIME_HESSIAN,
+        d_band=MIN_TIME_D_BAND,
     )
     # First with the straight bang-bang move's duration as the guess of T (a third of the solve time on
     # long moves) and few iterations; moves mostly of the gap converge from it poorly: then from the default.

@@ -58,6 +58,14 @@ class MinTimeSettings:
         gives more thrust per ampere.
     gap_margin : float
         Distance kept from the gap stops when no band applies [m].
+    d_band : float or None
+        If given, ``d`` stays within ``band`` of the segment between the start
+        and end positions [m]: a move of the gap alone then leaves ``d`` where
+        it is. ``None`` lets ``d`` wander between the stops (kept
+        ``gap_margin`` away) where that is faster: on a gap move the
+        minimum-time currents use ``i_q`` for its reluctance pull (``C4 f4
+        i_q^2``, seed eq. (2)) with alternating signs, which swings ``d`` by
+        up to 0.2 mm while the gap moves.
     smooth : float
         Weight of the current-change penalty relative to ``T`` [s/A^2].
     max_iter : int
@@ -78,6 +86,7 @@ class MinTimeSettings:
     i_d_max: float | None = None
     gap_band: float | None = k.position_tolerance
     gap_margin: float = 2e-3
+    d_band: float | None = None
     smooth: float = 1e-7
     max_iter: int = 500
     tol: float = 1e-9
@@ -264,6 +273,7 @@ class _Problem:
     i_amp: ca.MX
     i_d_max: ca.MX
     g_band: ca.MX
+    d_band: ca.MX
 
 
 @functools.lru_cache(maxsize=8)
@@ -280,7 +290,8 @@ def _problem(N: int, n_sub: int, smooth: float, max_iter: int, tol: float, n_p: 
     U = opti.variable(2, N)
     T = opti.variable()
     x_start, x_end, p = opti.parameter(4), opti.parameter(4), opti.parameter(n_p)
-    i_axis, i_amp, i_d_max, g_band = opti.parameter(), opti.parameter(), opti.parameter(), opti.parameter(2)
+    i_axis, i_amp, i_d_max = opti.parameter(), opti.parameter(), opti.parameter()
+    g_band, d_band = opti.parameter(2), opti.parameter(2)
     # RK4 with n_sub sub-steps, built on the shared model's f (the same expressions)
     xs, us, ps, hs = ca.SX.sym("x", 4), ca.SX.sym("u", 2), ca.SX.sym("p", n_p), ca.SX.sym("h")
     xk = rk4(lambda xx: m.f(xx, us, ps), xs, hs / n_sub, n_sub)
@@ -292,6 +303,7 @@ def _problem(N: int, n_sub: int, smooth: float, max_iter: int, tol: float, n_p: 
     opti.subject_to(ca.sum1(U**2) <= i_amp**2)
     opti.subject_to(opti.bounded(-i_d_max, U[1, :], i_d_max))  # = i_axis when the settings leave i_d free
     opti.subject_to(opti.bounded(g_band[0], X[0, :], g_band[1]))
+    opti.subject_to(opti.bounded(d_band[0], X[2, :], d_band[1]))
     opti.subject_to(opti.bounded(1e-3, T, 10.0))
     dU = U[:, 1:] - U[:, :-1]
     opti.minimize(T + smooth * ca.sumsqr(dU))
@@ -301,7 +313,7 @@ def _problem(N: int, n_sub: int, smooth: float, max_iter: int, tol: float, n_p: 
         {"print_time": False, "show_eval_warnings": False},
         {"print_level": 0, "max_iter": max_iter, "tol": tol, "sb": "yes", "hessian_approximation": hessian},
     )
-    return _Problem(opti, X, U, T, x_start, x_end, p, i_axis, i_amp, i_d_max, g_band)
+    return _Problem(opti, X, U, T, x_start, x_end, p, i_axis, i_amp, i_d_max, g_band, d_band)
 
 
 def solve_min_time(
@@ -340,6 +352,10 @@ def solve_min_time(
     else:
         g_lo, g_hi = min(k.g_envelope[0], g0, g1), max(k.g_envelope[1], g0, g1)
     g_lo, g_hi = max(g_lo, k.g_stop[0] + st.gap_margin), min(g_hi, k.g_stop[1] - st.gap_margin)
+    d_lo, d_hi = k.d_stop[0] + st.gap_margin, k.d_stop[1] - st.gap_margin
+    if st.d_band is not None:
+        d_lo, d_hi = max(d_lo, min(d0, d1) - st.d_band), min(d_hi, max(d0, d1) + st.d_band)
+    d_lo, d_hi = min(d_lo, d0, d1), max(d_hi, d0, d1)  # the end points themselves are always allowed
 
     prob = _problem(N, st.n_sub, st.smooth, st.max_iter, st.tol, len(p), st.hessian)
     opti, X, U, T = prob.opti, prob.X, prob.U, prob.T
@@ -350,6 +366,7 @@ def solve_min_time(
     opti.set_value(prob.i_amp, st.i_amp)
     opti.set_value(prob.i_d_max, st.i_axis if st.i_d_max is None else min(st.i_d_max, st.i_axis))
     opti.set_value(prob.g_band, [g_lo, g_hi])
+    opti.set_value(prob.d_band, [d_lo, d_hi])
 
     # initial guess: straight line at rest-to-rest speed, hover currents
     s = np.linspace(0, 1, N + 1)
