@@ -128,6 +128,16 @@ def test_settle_metrics_on_a_known_trajectory():
     x2[-20, 0] += 5e-4
     tm2 = target_metrics(0, t, x2, y, u, Target(0.02, -0.01, 0.3), 0.0, 0.0, tol, 0.05, Ts)
     assert not tm2.settled and tm2.settle_time_s is None and tm2.rms_error_g_m is None
+    # a plan still arriving after the settle instant: the steady errors start where the reference arrives
+    t_arrive = 0.1
+    tm3 = target_metrics(0, t, x, y, u, Target(0.02, -0.01, 0.3), 0.0, t_arrive, tol, 0.05, Ts)
+    late = t >= t_arrive - 1e-12
+    assert tm3.settle_time_s == tm.settle_time_s  # the settle instant is the band's, not the plan's
+    assert tm3.rms_error_g_m == pytest.approx(np.sqrt(np.mean(e[late] ** 2)), rel=1e-12)
+    assert tm3.max_abs_error_g_settled_m == pytest.approx(e[late][0], rel=1e-12)
+    # a plan that never arrives within the hold: the whole settled part
+    tm4 = target_metrics(0, t, x, y, u, Target(0.02, -0.01, 0.3), 0.0, 1.0, tol, 0.05, Ts)
+    assert tm4.rms_error_g_m == pytest.approx(tm.rms_error_g_m, rel=1e-12)
 
 
 def test_overall_metrics_and_checks():
