@@ -458,3 +458,21 @@ def test_saturation_law_family_scales_the_terms_it_names():
         a0 = float(np.asarray(f0(x, u, p, np.zeros(0))).ravel()[0]) - k.G
         a1 = float(np.asarray(f1(x, u, p, th)).ravel()[0]) - k.G
         assert a1 == pytest.approx(expect * a0, rel=1e-12)
+
+
+def test_polyphase_filter_equals_the_sparse_rows(model):
+    """The fits' filter (dense polyphase form) gives the data's sparse filter rows' product, per channel, for
+    series and for Jacobian blocks, on runs of different lengths and one run without a valid g channel."""
+    from maglev_ocp.diagnosis.candidates import Dataset
+
+    filt = ZeroPhaseFilter(ResidualSettings())
+    runs = [prepare_run(_zoh_run(model, BASE.vector(), n=n, seed=s), filt) for s, n in ((1, 3000), (2, 4113))]
+    runs[1].valid = np.array([False, True])
+    data = Dataset(runs, np.array([10.0, 10.0]), filt)
+    rng = np.random.default_rng(3)
+    for X in (rng.standard_normal(len(data.Z)), rng.standard_normal((len(data.Z), 7))):
+        for c in range(2):
+            ref = data.W_c[c] @ X
+            got = data.filter(X, c)
+            assert got.shape == ref.shape
+            np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.max(np.abs(ref)))

@@ -38,6 +38,7 @@ import casadi as ca
 import numpy as np
 import scipy.optimize as spo
 import scipy.sparse as spa
+from numpy.lib.stride_tricks import as_strided
 
 from ..effects import EFFECTS, AmplifierLag, EffectSet
 from ..estimation.ident import autocorr_factor, hac_stderr
@@ -593,12 +594,61 @@ class Dataset:
         sizes = [r.n for c in range(2) for r in self.runs if r.valid[c]]
         self.block_bounds = np.cumsum([0, *sizes])
         self._poly: list[tuple] | None = None
+        self._poly_np: list[tuple] | None = None
 
     def weighted_residual(self, a: np.ndarray) -> np.ndarray:
         """Stacked weighted residual for per-period accelerations ``a`` (N_tot, 2)."""
         return np.concatenate(
-            [self.sqrt_w[c] * self.row_w_c[c] * (self.m_c[c] - self.W_c[c] @ a[:, c]) for c in range(2)]
+            [self.sqrt_w[c] * self.row_w_c[c] * (self.m_c[c] - self.filter(a[:, c], c)) for c in range(2)]
         )
+
+    def filter(self, X: np.ndarray, channel: int) -> np.ndarray:
+        """``W_c[channel] @ X`` for a per-period series ``X`` (N_tot,) or (N_tot, k), in polyphase form.
+
+        The same products as the sparse rows (401 taps, every 8th sample kept) as one dense
+        ``(n / D) x D`` by ``D x Q`` product per run and ``Q`` shifted sums (see :meth:`filter_mx`):
+        the fits spend most of their time here: 1.6-6 times faster than the sparse product on one core (k = 17
+        to 1 columns), and without streaming the 2 million stored taps of every product from memory.
+        """
+        X = np.asarray(X, float)
+        vec = X.ndim == 1
+        X2 = X[:, None] if vec else X
+        k_ = X2.shape[1]
+        parts = []
+        for (off, base, n_take, pad, nb, Q, D, wqT), run in zip(self._polyphase_np(), self.runs, strict=True):
+            if not run.valid[channel]:
+                continue
+            seg = X2[off + base : off + base + n_take]
+            if pad:
+                seg = np.vstack([seg, np.zeros((pad, k_))])
+            # P[q, :, b] = sum_r w_a[D q + r] x[base + D b + r];  (W x)_j = sum_q P[q, :, j + q], read as a
+            # strided view (element (:, j, q) at P[q, :, j + q]) summed over q
+            T = seg.reshape(nb, D, k_).transpose(1, 2, 0).reshape(D, k_ * nb)
+            P = (wqT @ T).reshape(Q, k_, nb)
+            s0, s1, s2 = P.strides
+            V = as_strided(P, shape=(k_, run.n, Q), strides=(s1, s2, s0 + s2), writeable=False)
+            parts.append(V.sum(axis=2).T)
+        res = np.vstack(parts) if parts else np.zeros((0, k_))
+        return res[:, 0] if vec else res
+
+    def _polyphase_np(self) -> list[tuple]:
+        # Per run: (offset, base, n_take, pad, nb, Q, D, wqT) with wqT[q, r] = w_a[D q + r] (numpy).
+        if self._poly_np is None:
+            D = self.filt.decimate
+            w_a = self.filt.w_a
+            Q = -(-len(w_a) // D)
+            wpad = np.zeros(D * Q)
+            wpad[: len(w_a)] = w_a
+            wqT = wpad.reshape(Q, D)
+            out = []
+            for i, r in enumerate(self.runs):
+                base = int(r.centers[0]) - self.filt.M - 1
+                nb = r.n + Q - 1
+                n_seg = D * nb
+                pad = max(0, n_seg - (len(r.Z) - base))
+                out.append((int(self.offsets[i]), base, n_seg - pad, pad, nb, Q, D, wqT))
+            self._poly_np = out
+        return self._poly_np
 
     def _polyphase(self) -> list[tuple]:
         # Per run: (offset, base, n_seg, pad, nb, Q, D, Wq, S) for the polyphase form of W (see filter_mx).
@@ -773,9 +823,13 @@ class CandidateFitter:
             if data.n_c[c] == 0:
                 continue
             sw = self._sw[c]
-            r_parts.append(sw * (data.m_c[c] - data.W_c[c] @ A[c, 0]))
             if jac:
-                j_parts.append(-(sw[:, None] * (data.W_c[c] @ dA[c].T)) * self.scale[None, :])
+                # the acceleration and its Jacobian through the filter in one product
+                F = data.filter(np.column_stack([np.ravel(A[c, 0]), dA[c].T]), c)
+                r_parts.append(sw * (data.m_c[c] - F[:, 0]))
+                j_parts.append(-(sw[:, None] * F[:, 1:]) * self.scale[None, :])
+            else:
+                r_parts.append(sw * (data.m_c[c] - data.filter(np.ravel(A[c, 0]), c)))
         r = np.concatenate(r_parts) if r_parts else np.zeros(0)
         J = (np.vstack(j_parts) if j_parts else np.zeros((0, nw))) if jac else None
         return r, J
