@@ -40,7 +40,15 @@ def local_client(workers: int, plugin: Any | None = None) -> Iterator[Any]:
         from dask.distributed import Client, LocalCluster
     except ImportError:
         raise UserError("dask.distributed is not installed: pip install 'maglev-ocp[campaign]'") from None
-    with sigint_ignored():  # the worker processes inherit SIG_IGN: Ctrl-C is the client's (no worker tracebacks)
+    import dask
+
+    # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in its workers; a fixed trim threshold turns off glibc's
+    # dynamic mmap threshold, so every array above 128 kB is mapped, page-faulted, zeroed and unmapped again:
+    # the gap diagnosis (thousands of MB-sized products) ran 4 times slower in a worker than alone (one
+    # dataset 15 -> 60 s; the same with the variable set in a plain process). Left unset; the BLAS thread
+    # limits (one thread per single-threaded worker) stay.
+    with sigint_ignored(), dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+        # the worker processes inherit SIG_IGN: Ctrl-C is the client's (no worker tracebacks)
         cluster = LocalCluster(
             n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR
         )
