@@ -11,14 +11,6 @@ from maglev_ocp.diagnosis.selftest import COMBOS, SelftestSettings, run_case, ru
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=False,
-    reason=(
-        "issue 11, open: since the calibrated baseline carries the shared cogging law (seed eq. 9), the pair "
-        "drawn here is cogging beyond eq. 9 (another decay) + friction on 28 s of data; the verdict is friction: "
-        "cogging enters the forward selection (held-out z 3.4, dBIC -429) but the backward check asks z >= 4"
-    ),
-)
 def test_small_blind_selfcheck_is_right(tmp_path):
     """Three seeded blind datasets (calibrated baseline; seed 5 draws a single, a two- and a three-effect set):
     the single and the pair named exactly; the three-effect set on 28 s of data may miss one effect (seen:
