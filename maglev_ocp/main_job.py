@@ -217,7 +217,8 @@ def summary_markdown(
         "profile (process and current noise, 10 µm encoders, ±8 A / 8 A limits, stops, guide friction, "
         "2 kHz amplifier lag, random C1..C4 mismatch). Errors are on the plant's TRUE state; the encoder "
         "versions are in each `metrics.json`. Settle time: from the target switch until both axes stay "
-        "within 0.1 mm for the rest of the hold; RMS over that settled part. Step time: the controller's "
+        "within 0.1 mm for the rest of the hold; RMS over that settled part once the planned move has arrived. "
+        "Step time: the controller's "
         "Python computation on this machine (shared, 2 cores), median / p99.",
         "",
         "| scenario | ctrl | settled | max settle [s] | max RMS g [µm] | max RMS d [µm] | stops | "
@@ -269,8 +270,8 @@ def summary_markdown(
         "",
         "## Cogging in the controller's model (g = 15..16 mm, d at odd multiples of t1/2)",
         "",
-        "Steady-state RMS over the settled part, and tracking RMS against the planned reference over "
-        "the whole hold (moves included), true state.",
+        "Steady-state RMS over the settled part once the plan has arrived, and tracking RMS against the "
+        "planned reference over the whole hold (moves included), true state.",
         "",
         "| controller | model | mean RMS g [µm] | mean RMS d [µm] | max RMS g [µm] | max RMS d [µm] | "
         "tracking RMS g [µm] | tracking RMS d [µm] |",
