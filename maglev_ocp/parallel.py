@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
@@ -23,6 +24,17 @@ from .errors import UserError
 
 T = TypeVar("T")
 R = TypeVar("R")
+
+
+@contextlib.contextmanager
+def _env_without(name: str) -> Iterator[None]:
+    """``name`` absent from ``os.environ`` inside the block (worker processes spawned there inherit that)."""
+    saved = os.environ.pop(name, None)
+    try:
+        yield
+    finally:
+        if saved is not None:
+            os.environ[name] = saved
 
 
 @contextlib.contextmanager
@@ -45,9 +57,11 @@ def local_client(workers: int, plugin: Any | None = None) -> Iterator[Any]:
     # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in its workers; a fixed trim threshold turns off glibc's
     # dynamic mmap threshold, so every array above 128 kB is mapped, page-faulted, zeroed and unmapped again:
     # the gap diagnosis (thousands of MB-sized products) ran 4 times slower in a worker than alone (one
-    # dataset 15 -> 60 s; the same with the variable set in a plain process). Left unset; the BLAS thread
-    # limits (one thread per single-threaded worker) stay.
-    with sigint_ignored(), dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+    # dataset 15 -> 60 s; the same with the variable set in a plain process). Left unset, also where an
+    # earlier cluster's nanny left it in this process's environment (Dask sets it there before spawning);
+    # the BLAS thread limits (one thread per single-threaded worker) stay.
+    no_trim = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
+    with sigint_ignored(), dask.config.set(no_trim), _env_without("MALLOC_TRIM_THRESHOLD_"):
         # the worker processes inherit SIG_IGN: Ctrl-C is the client's (no worker tracebacks)
         cluster = LocalCluster(
             n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR

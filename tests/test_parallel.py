@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 
 import numpy as np
 import pytest
@@ -61,10 +62,13 @@ def _alloc_time(_: int) -> float:
     return time.perf_counter() - t0
 
 
-def test_workers_keep_glibcs_dynamic_mmap_threshold():
+def test_workers_keep_glibcs_dynamic_mmap_threshold(monkeypatch):
     """Dask's default MALLOC_TRIM_THRESHOLD_ in the workers made every large array a fresh mapping (the gap
     diagnosis ran 4 times slower in a worker than alone): unset there, with one BLAS thread per worker."""
+    # also where an earlier nanny of this process left it in the environment (Dask sets it there)
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
     env = map_ordered(_worker_env, [0, 1], workers=2, progress=False)
+    assert os.environ["MALLOC_TRIM_THRESHOLD_"] == "65536"  # the process's own environment is left as it was
     for e in env:
         assert e["MALLOC_TRIM_THRESHOLD_"] is None, e
         assert e["OMP_NUM_THREADS"] == "1" and e["OPENBLAS_NUM_THREADS"] == "1", e
