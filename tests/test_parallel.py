@@ -74,4 +74,4 @@ def test_workers_keep_glibcs_dynamic_mmap_threshold(monkeypatch):
         assert e["OMP_NUM_THREADS"] == "1" and e["OPENBLAS_NUM_THREADS"] == "1", e
     t_worker = min(map_ordered(_alloc_time, [0, 1], workers=2, progress=False))
     t_here = min(_alloc_time(0) for _ in range(2))
-    assert t_worker < 2.0 * t_here + 0.05, (t_worker, t_here)
+    assert t_worker < 4.0 * t_here + 0.1, (t_worker, t_here)  # measured: equal; with the variable: 20x
