@@ -181,7 +181,6 @@ def target_metrics(
     min_settled_s: float,
     Ts: float = k.Ts,
     ref: np.ndarray | None = None,
-    ref_end: float | None = None,
 ) -> TargetMetrics:
     """Metrics of one target from the samples of its hold (see the module docstring).
 
@@ -202,9 +201,6 @@ def target_metrics(
         Sample period [s].
     ref : ndarray, optional
         Planned reference positions ``(g, d)`` at ``t`` (N, 2), for the tracking error.
-    ref_end : float, optional
-        When the planned reference arrives at the target [s] (default: ``t_switch + move_time``): the steady
-        errors are taken from then on, inside the settled part.
     """
     n = len(t)
     nan = math.nan
@@ -238,8 +234,8 @@ def target_metrics(
     settled = i0 < n and settled_len >= min_settled_s - 1e-12
     amp = np.hypot(u[:, 0], u[:, 1])
     if settled:
-        arrive = t_switch + move_time if ref_end is None else ref_end
-        i_ss = max(i0, int(np.searchsorted(t, arrive - 1e-9)))
+        # steady errors once the planned move (it starts at the switch) has arrived, inside the settled part
+        i_ss = max(i0, int(np.searchsorted(t, t_switch + move_time - 1e-9)))
         sl = slice(i_ss if i_ss < n else i0, n)
         eg_e, ed_e = y_enc[sl, 0] - target.g, y_enc[sl, 1] - target.d
         rms = [float(np.sqrt(np.mean(v**2))) for v in (eg[sl], ed[sl], eg_e, ed_e)]
@@ -344,7 +340,6 @@ def compute_metrics(
                 checks.min_settled_s,
                 Ts,
                 ref=ref,
-                ref_end=plan.moves[i].t0 + plan.moves[i].T,
             )
         )
     n = len(t)

@@ -46,8 +46,6 @@ def test_rig_selfcheck_gives_the_same_cases_on_one_or_two_workers(tmp_path):
 
 
 def _worker_env(_: int) -> dict:
-    import os
-
     return {k: os.environ.get(k) for k in ("MALLOC_TRIM_THRESHOLD_", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
 
 

@@ -37,7 +37,6 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 import scipy.optimize as spo
-import scipy.sparse as spa
 from numpy.lib.stride_tricks import as_strided
 
 from ..effects import EFFECTS, AmplifierLag, EffectSet
@@ -581,10 +580,8 @@ class Dataset:
         rw = [np.ones((r.n, 2)) for r in self.runs] if row_w is None else [np.asarray(row_w[i], float) for i in keep]
         self.Z = np.vstack([r.Z for r in self.runs]) if self.runs else np.zeros((0, 8))
         self.offsets = np.cumsum([0] + [len(r.Z) for r in self.runs])
-        W = spa.block_diag([r.W for r in self.runs], format="csr") if self.runs else spa.csr_matrix((0, 0))
         meas = np.vstack([r.meas for r in self.runs]) if self.runs else np.zeros((0, 2))
         mask = np.vstack([np.tile(r.valid, (r.n, 1)) for r in self.runs]) if self.runs else np.zeros((0, 2), bool)
-        self.W_c = [W[mask[:, c]] for c in range(2)]
         self.m_c = [meas[mask[:, c], c] for c in range(2)]
         rws = np.vstack(rw) if rw else np.zeros((0, 2))
         self.row_w_c = [rws[mask[:, c], c] for c in range(2)]
@@ -594,7 +591,6 @@ class Dataset:
         sizes = [r.n for c in range(2) for r in self.runs if r.valid[c]]
         self.block_bounds = np.cumsum([0, *sizes])
         self._poly: list[tuple] | None = None
-        self._poly_np: list[tuple] | None = None
 
     def weighted_residual(self, a: np.ndarray) -> np.ndarray:
         """Stacked weighted residual for per-period accelerations ``a`` (N_tot, 2)."""
@@ -603,19 +599,21 @@ class Dataset:
         )
 
     def filter(self, X: np.ndarray, channel: int) -> np.ndarray:
-        """``W_c[channel] @ X`` for a per-period series ``X`` (N_tot,) or (N_tot, k), in polyphase form.
+        """The runs' filter rows (``PreparedRun.W``, on the runs valid in ``channel``) applied to a per-period
+        series ``X`` (N_tot,) or (N_tot, k), in polyphase form.
 
-        The same products as the sparse rows (401 taps, every 8th sample kept) as one dense
-        ``(n / D) x D`` by ``D x Q`` product per run and ``Q`` shifted sums (see :meth:`filter_mx`):
-        the fits spend most of their time here: 1.6-6 times faster than the sparse product on one core (k = 17
-        to 1 columns), and without streaming the 2 million stored taps of every product from memory.
+        With ``D`` the decimation and ``w_a`` padded to ``D Q`` taps,
+        ``(W x)_j = sum_q sum_r w_a[D q + r] x[base + D (j + q) + r]``: the same products as the sparse rows
+        (401 taps, every 8th sample kept) as one dense ``Q x D`` by ``D x (k n / D)`` product per run and a
+        strided sum over ``q``. The fits spend most of their time here: 1.6-6 times faster than the sparse
+        product on one core (k = 17 to 1 columns), without streaming 2 million stored taps per product.
         """
         X = np.asarray(X, float)
         vec = X.ndim == 1
         X2 = X[:, None] if vec else X
         k_ = X2.shape[1]
         parts = []
-        for (off, base, n_take, pad, nb, Q, D, wqT), run in zip(self._polyphase_np(), self.runs, strict=True):
+        for (off, base, n_take, pad, nb, Q, D, wqT), run in zip(self._polyphase(), self.runs, strict=True):
             if not run.valid[channel]:
                 continue
             seg = X2[off + base : off + base + n_take]
@@ -631,9 +629,9 @@ class Dataset:
         res = np.vstack(parts) if parts else np.zeros((0, k_))
         return res[:, 0] if vec else res
 
-    def _polyphase_np(self) -> list[tuple]:
-        # Per run: (offset, base, n_take, pad, nb, Q, D, wqT) with wqT[q, r] = w_a[D q + r] (numpy).
-        if self._poly_np is None:
+    def _polyphase(self) -> list[tuple]:
+        # Per run: (offset, base, n_take, pad, nb, Q, D, wqT) with wqT[q, r] = w_a[D q + r].
+        if self._poly is None:
             D = self.filt.decimate
             w_a = self.filt.w_a
             Q = -(-len(w_a) // D)
@@ -647,53 +645,8 @@ class Dataset:
                 n_seg = D * nb
                 pad = max(0, n_seg - (len(r.Z) - base))
                 out.append((int(self.offsets[i]), base, n_seg - pad, pad, nb, Q, D, wqT))
-            self._poly_np = out
-        return self._poly_np
-
-    def _polyphase(self) -> list[tuple]:
-        # Per run: (offset, base, n_seg, pad, nb, Q, D, Wq, S) for the polyphase form of W (see filter_mx).
-        if self._poly is None:
-            D = self.filt.decimate
-            w_a = self.filt.w_a
-            Q = -(-len(w_a) // D)
-            wpad = np.zeros(D * Q)
-            wpad[: len(w_a)] = w_a
-            Wq = ca.DM(wpad.reshape(Q, D).T)  # Wq[r, q] = w_a[D q + r]
-            out = []
-            for i, r in enumerate(self.runs):
-                nc = r.n
-                base = int(r.centers[0]) - self.filt.M - 1
-                nb = nc + Q - 1
-                n_seg = D * nb
-                avail = len(r.Z) - base
-                pad = max(0, n_seg - avail)
-                jj = np.repeat(np.arange(nc), Q)
-                qq = np.tile(np.arange(Q), nc)
-                S = ca.DM.triplet(jj.tolist(), ((jj + qq) * Q + qq).tolist(), np.ones(nc * Q).tolist(), nc, Q * nb)
-                out.append((int(self.offsets[i]), base, n_seg - pad, pad, nb, Q, D, Wq, S))
             self._poly = out
         return self._poly
-
-    def filter_mx(self, X: ca.MX, channel: int) -> ca.MX:
-        """``W X`` for a symbolic per-period series ``X`` (N_tot x k) on the rows of ``channel``.
-
-        The decimated FIR is evaluated in polyphase form (three dense/sparse
-        products per run) instead of one large sparse matrix: with ``D`` the
-        decimation and ``w_a`` padded to ``D Q`` taps,
-        ``(W x)_j = sum_q sum_r w_a[D q + r] x[base + D (j + q) + r]``.
-        """
-        k_ = X.size2()
-        parts = []
-        for (off, base, n_take, pad, nb, Q, D, Wq, S), run in zip(self._polyphase(), self.runs, strict=True):
-            if not run.valid[channel]:
-                continue
-            seg = X[off + base : off + base + n_take, :]
-            if pad:
-                seg = ca.vertcat(seg, ca.MX.zeros(pad, k_))
-            R = ca.reshape(seg, D, nb * k_)
-            V = ca.mtimes(Wq.T, R)  # Q x (nb k)
-            parts.append(ca.mtimes(S, ca.reshape(V, Q * nb, k_)))
-        return ca.vertcat(*parts)
 
 
 @dataclass
