@@ -252,15 +252,19 @@ def score(
     stderr: dict[str, float],
     note: str = "",
     inflation: float | None = None,
+    floor_ms: float = 1.0,
 ) -> EffectScore:
     """Score one fitted candidate on the held-out residuals ``before`` (baseline) and ``after``.
 
     ``inflation``: the noise's autocorrelation inflation for the information
-    criterion (:func:`delta_bic`).
+    criterion (:func:`delta_bic`). ``floor_ms``: the mean square, in units of
+    ``floors``, that the residual would have if it were only noise (the
+    noise model's floor, :mod:`.noise`); the gap a candidate closes is the
+    baseline's mean square above it.
     """
     eb, ea = stack(before, floors), stack(after, floors)
     Rb2, Ra2 = float(np.mean(eb**2)), float(np.mean(ea**2))
-    gap = Rb2 - 1.0
+    gap = Rb2 - floor_ms
     closes = (Rb2 - Ra2) / max(gap, Rb2 - Ra2, 1e-12)
     z = paired_z(eb, ea)
     rb, ra = raw_rms(before), raw_rms(after)

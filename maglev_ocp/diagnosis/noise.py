@@ -839,10 +839,50 @@ class ResonanceGuard:
     peaks_hz: list[float]
     outside_reduction: float = 0.0
     explains_peaks: bool = False
+    forced_hz: list[float] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """JSON-ready view."""
         return dict(self.__dict__)
+
+
+def motion_spectrum(
+    residuals: Sequence[Residual], channel: int, Ts: float = k.Ts, seg_s: float = 4.0
+) -> WideSpectrum | None:
+    """Welch PSD of the wide-band *measured* acceleration ``D2(y)`` of one channel (the residual's runs)."""
+    xs = [r.run.d2[:, channel] for r in residuals if r.run.n and r.run.valid[channel] and len(r.run.d2)]
+    return _welch([x for x in xs if np.all(np.isfinite(x))], Ts, seg_s)
+
+
+def forced_peaks(
+    peaks: Sequence[SpectralPeak], residuals: Sequence[Residual], Ts: float = k.Ts, forced_max: float = 0.5
+) -> list[SpectralPeak]:
+    """The peaks that are the model's error on a line of the motion, not a mode the model lacks.
+
+    The measured acceleration ``D2(y)`` is the model's acceleration plus the
+    residual. At a structural resonance the model predicts (almost) nothing, so
+    the residual carries (almost) all of the measured power in the peak's band.
+    At a line of the excitation (a dither or the moves' own frequencies) the
+    model predicts most of the motion, and the residual's peak is the model's
+    error on that forced response, which any effect that changes the model's
+    response there (a lag, a saturation) may legitimately reduce. A peak is
+    forced when the residual holds at most ``forced_max`` of the measured
+    power in its band.
+    """
+    out = []
+    for c, ch in enumerate(CHANNELS):
+        pks = [p for p in peaks if p.channel == ch]
+        if not pks:
+            continue
+        sr, sm = wide_spectrum(residuals, c, Ts), motion_spectrum(residuals, c, Ts)
+        if sr is None or sm is None or len(sr.f) != len(sm.f):
+            continue
+        for p in pks:
+            w = max(p.damping * p.freq_hz, sr.df)
+            sel = (sr.f >= min(p.band_hz[0], p.freq_hz - w)) & (sr.f <= max(p.band_hz[1], p.freq_hz + w))
+            if sel.any() and float(np.sum(sr.psd[sel])) <= forced_max * float(np.sum(sm.psd[sel])):
+                out.append(p)
+    return out
 
 
 def resonance_guard(
@@ -877,8 +917,12 @@ def resonance_guard(
         The candidate explains the peaks when at most ``explain_left`` of their power is left and it removes at
         least ``outside_min`` of the filter-weighted residual power outside them (held-out runs).
     """
+    # Lines of the motion that the model mostly predicts are no resonance (:func:`forced_peaks`).
+    forced = forced_peaks(peaks, before, Ts)
+    f_hz = [p.freq_hz for p in forced]
+    peaks = [p for p in peaks if p not in forced]
     if not peaks:
-        return ResonanceGuard(candidate, False, 0.0, 1.0, [])
+        return ResonanceGuard(candidate, False, 0.0, 1.0, [], forced_hz=f_hz)
     tot, inside, pb, pa, ob, oa = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     for c, ch in enumerate(CHANNELS):
         pks = [p for p in peaks if p.channel == ch]
@@ -911,7 +955,7 @@ def resonance_guard(
     outside = 1.0 - oa / ob if ob > 0 else 0.0
     explains = bool(left <= explain_left and outside >= outside_min)
     absorbs = bool(tot > 0 and frac > share and not explains)
-    return ResonanceGuard(candidate, absorbs, frac, left, [p.freq_hz for p in peaks], outside, explains)
+    return ResonanceGuard(candidate, absorbs, frac, left, [p.freq_hz for p in peaks], outside, explains, f_hz)
 
 
 __all__ = [
@@ -927,6 +971,8 @@ __all__ = [
     "find_peaks",
     "fit_noise_model",
     "fit_resonance",
+    "forced_peaks",
+    "motion_spectrum",
     "noise_check",
     "noise_psd",
     "resonance_guard",
