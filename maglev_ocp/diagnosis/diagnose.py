@@ -782,7 +782,10 @@ def _forward_trials(
         # parameters are refitted jointly); the accepted model's delay is searched again (:func:`_forward`).
         jfit, js = _fit_and_score(jspec.name, jspec, split, base, rules, jspec.note, True, warm, hold_lag=spec.lag)
         _check_fit(jfit, f"joint fit {jspec.name}", warnings)
-        extra = (cur.r2_after - js.r2_after) / max(cur.r2_after - base.floor_ms, cur.r2_after - js.r2_after, 1e-12)
+        # What remains is measured above the data-based floor here (1 in its units): above the noise model's, the
+        # laws' misfit of the effects still missing weighs in, and a triple's second effect would have to close
+        # half of that before the third may enter.
+        extra = (cur.r2_after - js.r2_after) / max(cur.r2_after - 1.0, cur.r2_after - js.r2_after, 1e-12)
         zp = paired_z(cur.e_after, js.e_after)
         dbic = delta_bic(jfit, fit, base.noise_infl)
         att.models[frozenset([*names, o])] = (jspec, jfit, js)
