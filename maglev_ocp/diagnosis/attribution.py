@@ -8,8 +8,11 @@ runs, never on the data it was fitted to:
   ``reduction = 1 - after / before``;
 - ``z``: significance of the held-out improvement (:func:`paired_z` on the
   per-sample losses, residuals normalized by each channel's floor);
-- ``closes``: the fraction of the gap closed, ``(R_b^2 - R_a^2) / (R_b^2 - 1)``
-  in floor-normalized units (``R^2 = 1`` is a residual at the noise floor);
+- ``closes``: the fraction of the gap closed, ``(R_b^2 - R_a^2) / (R_b^2 - F^2)``
+  in floor-normalized units, where ``F^2`` (``floor_ms``) is the mean square
+  the residual would have if it were only noise: the noise model's floor
+  (:mod:`.noise`), at most the data-based floor (``R^2 = 1``), which a
+  dynamic effect the state maps cannot predict inflates;
 - ``delta_bic``: change of the information criterion on the training runs,
   with the effective sample size ``n / inflation`` of the fitted model's
   residual for both models (:func:`delta_bic`).

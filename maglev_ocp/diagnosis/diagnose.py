@@ -876,7 +876,10 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
     by ``bic_margin`` and it closes at least ``second_min`` of what remained;
     otherwise the selection stops. A backward check (:func:`_backward`) then
     keeps only the effects the full joint model needs (drop-one held-out z
-    >= ``z_min``). Candidates that pass at the same step and
+    >= ``z_min``); if it drops one, the forward steps resume without it
+    (stepwise selection: an effect that entered to take up another law's
+    misfit leaves its place to a candidate that a later step would have
+    added). Candidates that pass at the same step and
     fit the held-out runs as well as the chosen one form a confusable slot
     (``a|b``) unless a later step adds them as effects of their own.
     """
