@@ -39,7 +39,7 @@ the noise** instead, and checks the residual against it:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -854,6 +854,21 @@ def motion_spectrum(
     return _welch([x for x in xs if np.all(np.isfinite(x))], Ts, seg_s)
 
 
+def _channel_pairs(
+    peaks: Sequence[SpectralPeak],
+    first: Callable[[int], WideSpectrum | None],
+    second: Callable[[int], WideSpectrum | None],
+) -> Iterator[tuple[list[SpectralPeak], WideSpectrum, WideSpectrum]]:
+    """Per channel with peaks: its peaks and two spectra on the same frequency grid (channels without skipped)."""
+    for c, ch in enumerate(CHANNELS):
+        pks = [p for p in peaks if p.channel == ch]
+        if not pks:
+            continue
+        sa, sb = first(c), second(c)
+        if sa is not None and sb is not None and len(sa.f) == len(sb.f):
+            yield pks, sa, sb
+
+
 def forced_peaks(
     peaks: Sequence[SpectralPeak], residuals: Sequence[Residual], Ts: float = k.Ts, forced_max: float = 0.5
 ) -> list[SpectralPeak]:
@@ -870,13 +885,10 @@ def forced_peaks(
     power in its band.
     """
     out = []
-    for c, ch in enumerate(CHANNELS):
-        pks = [p for p in peaks if p.channel == ch]
-        if not pks:
-            continue
-        sr, sm = wide_spectrum(residuals, c, Ts), motion_spectrum(residuals, c, Ts)
-        if sr is None or sm is None or len(sr.f) != len(sm.f):
-            continue
+    pairs = _channel_pairs(
+        peaks, lambda c: wide_spectrum(residuals, c, Ts), lambda c: motion_spectrum(residuals, c, Ts)
+    )
+    for pks, sr, sm in pairs:
         for p in pks:
             w = max(p.damping * p.freq_hz, sr.df)
             sel = (sr.f >= min(p.band_hz[0], p.freq_hz - w)) & (sr.f <= max(p.band_hz[1], p.freq_hz + w))
@@ -924,13 +936,9 @@ def resonance_guard(
     if not peaks:
         return ResonanceGuard(candidate, False, 0.0, 1.0, [], forced_hz=f_hz)
     tot, inside, pb, pa, ob, oa = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    for c, ch in enumerate(CHANNELS):
-        pks = [p for p in peaks if p.channel == ch]
-        if not pks:
-            continue
-        sb, sa = wide_spectrum(before, c, Ts), wide_spectrum(after, c, Ts)
-        if sb is None or sa is None or len(sb.f) != len(sa.f):
-            continue
+    for pks, sb, sa in _channel_pairs(
+        peaks, lambda c: wide_spectrum(before, c, Ts), lambda c: wide_spectrum(after, c, Ts)
+    ):
         H2 = np.abs(np.fft.rfft(h, 2 * (len(sb.f) - 1))) ** 2
         H2 = np.interp(sb.f, np.fft.rfftfreq(2 * (len(sb.f) - 1), Ts), H2)
         red = (sb.psd - sa.psd) * H2
