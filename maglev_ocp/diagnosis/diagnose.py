@@ -867,14 +867,16 @@ def _forward_pass(
 def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]) -> None:
     """Stage 4b: forward selection of several effects.
 
-    From the best single effect, each step refits every remaining promising
-    candidate **jointly** with the effects already selected (and the
-    baseline's constants), warm-started from the earlier fits, and scores it
-    on the held-out runs against the current model. The step adds the
-    candidate that closes the most of the remaining gap, if its held-out gain
-    is significant (paired z >= ``z_enter``), the information criterion drops
-    by ``bic_margin`` and it closes at least ``second_min`` of what remained;
-    otherwise the selection stops. A backward check (:func:`_backward`) then
+    From the best single effect (or, when none is significant alone, the one
+    the information criterion favours, :func:`_attribute`), each step refits
+    every remaining promising candidate **jointly** with the effects already
+    selected (and the baseline's constants), warm-started from the earlier
+    fits, and scores it on the held-out runs against the current model. Of
+    the candidates whose held-out gain is significant (paired z >=
+    ``z_enter``), whose information criterion drops by ``bic_margin`` and
+    that close at least ``second_min`` of what remained above the data-based
+    floor, the step adds the one whose joint model fits the held-out runs
+    best; otherwise the selection stops. A backward check (:func:`_backward`) then
     keeps only the effects the full joint model needs (drop-one held-out z
     >= ``z_min``); if it drops one, the forward steps resume without it
     (stepwise selection: an effect that entered to take up another law's
