@@ -46,6 +46,9 @@ Stages on the noise model (:mod:`.noise`) and the consequences
   whose improvement lies in a narrow resonance is not counted, unless the lag
   is the model of that peak (it removes the peak and the broadband residual
   away from it on the held-out runs: a closed-loop mode the lag itself makes);
+- :func:`apply_coverage` (after the verdict): a verdict whose model leaves a
+  channel's gap mostly open, many times the noise floor, names no rig gap the
+  library accounts for: ``unexplained``, with what it explained per channel;
 - :func:`unexplained_stage` (after the quantification): what the final model
   leaves beyond the noise model, with channel, band, peak and region; a ``none``
   with a remaining resonance becomes ``unexplained``;
@@ -864,6 +867,11 @@ def _forward_pass(
     return names, slots, (spec, fit, cur)
 
 
+def _set_name(slots: Sequence[Sequence[str]]) -> str:
+    """The verdict's name of an effect set: slots joined by ``+``, each slot's confusable members by ``|``."""
+    return "+".join("|".join(sl) for sl in slots)
+
+
 def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSettings, warnings: list[str]) -> None:
     """Stage 4b: forward selection of several effects.
 
@@ -929,7 +937,7 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
         att.final_spec, att.final_fit, att.final_score = spec, fit, cur
     if len(names) > 1:
         if att.verdict.verdict != "unexplained" or (cur.closes >= rules.closes_min and cur.significant):
-            att.verdict = Verdict("+".join("|".join(sl) for sl in slots), list(names), True, att.verdict.reasons)
+            att.verdict = Verdict(_set_name(slots), list(names), True, att.verdict.reasons)
             att.final_spec, att.final_fit, att.final_score = spec, fit, cur
             _shares(split, base, att, names, st, warnings)
     elif att.verdict.verdict == "unexplained":
@@ -995,7 +1003,7 @@ def _refine_laws(split: _Split, base: _Baseline, att: _Attribution, st: Diagnose
         if kept != names:
             names = kept
             spec, fit, cur = att.models[frozenset(kept)]
-            att.verdict = Verdict("+".join("|".join(sl) for sl in slots), list(kept), True, v.reasons)
+            att.verdict = Verdict(_set_name(slots), list(kept), True, v.reasons)
             att.final_spec, att.final_fit, att.final_score = spec, fit, cur
     att.remaining = base.floors_of(spec, fit, split)
     att.shares = {}
@@ -1385,6 +1393,69 @@ def _standing_peaks(noise: NoiseFindings, parts: Sequence[Sequence[Residual]]) -
     return out
 
 
+def channel_coverage(
+    base: _Baseline, att: _Attribution, noise: NoiseFindings, rules: VerdictRules, remainder_max: float
+) -> list[dict]:
+    """What the verdict's model closes of each channel's gap, above the noise model's floor, on the held-out runs.
+
+    Per channel: the baseline's held-out rms ``b``, the final model's ``a``, the noise model's floor ``nf``
+    (:mod:`.noise`), and the fraction of the channel's gap it closes, ``(b^2 - a^2) / (b^2 - nf^2)``. A channel
+    is *short* when what remains is more than ``remainder_max`` times the floor and less than
+    ``rules.closes_min`` of its gap is closed.
+    """
+    sc = att.final_score
+    if sc is None or att.final_fit is None:
+        return []
+    rows = []
+    for ch, (b, a) in sc.per_channel.items():
+        nc = noise.checks.get(ch)
+        if nc is None or not (np.isfinite(nc.floor) and nc.floor > 0 and np.isfinite(a) and np.isfinite(b)):
+            continue
+        gap = b * b - nc.floor**2
+        closed = (b * b - a * a) / gap if gap > 0 else 1.0
+        short = bool(a > remainder_max * nc.floor and closed < rules.closes_min)
+        rows.append(dict(channel=ch, before_over_floor=b / nc.floor, after_over_floor=a / nc.floor,
+                         closes=closed, short=short))  # fmt: skip
+    return rows
+
+
+def apply_coverage(base: _Baseline, att: _Attribution, noise: NoiseFindings, st: DiagnoseSettings) -> None:
+    """A verdict names the rig's gap only if its model accounts for the gap of every channel that has one.
+
+    The verdict's "closes" pools the channels; a library effect can take up the part of an effect outside the
+    library that looks like it (a drifting commutation angle mixes the levitation current into the thrust in
+    proportion to ``d``: the linear part of a cable's spring) and close most of one channel's gap while the
+    other keeps many times the noise floor. When the final model leaves more than ``remainder_max`` times the
+    noise model's floor in a channel and closes less than ``closes_min`` of that channel's gap, the library
+    does not account for it: the verdict becomes ``unexplained``, and the reasons say what the candidate
+    explained, channel by channel (:func:`channel_coverage`).
+    """
+    v = att.verdict
+    if v.verdict in ("none", "unexplained"):
+        return
+    rows = channel_coverage(base, att, noise, st.rules(), st.remainder_max)
+    noise.coverage = rows
+    short = [r for r in rows if r["short"]]
+    if not short:
+        return
+    parts = ", ".join(f"{r['channel']} {r['closes']:.0%}" for r in rows)
+    for r in short:
+        v.reasons.append(
+            f"{v.verdict} closes {r['closes']:.0%} of the {r['channel']} gap above the noise model's floor and "
+            f"leaves {r['after_over_floor']:.1f}x that floor (at most {st.remainder_max:.0f}x, or "
+            f"{st.rules().closes_min:.0%} of the gap closed): the library does not account for the "
+            f"{r['channel']} gap"
+        )
+    v.reasons.append(f"unexplained; {v.verdict} explains part of the gap (per channel: {parts})")
+    noise.partial = {"model": v.verdict, "per_channel": rows}
+    for s_ in att.scores:
+        s_.selected = False
+    v.verdict, v.selected = "unexplained", []
+    att.final_spec, att.final_fit, att.final_score = base.spec, None, None
+    att.remaining = base.floors
+    att.shares = {}
+
+
 def apply_resonance_guard(base: _Baseline, att: _Attribution, guards: dict[str, ResonanceGuard]) -> None:
     """A lag never absorbs a resonance: drop a flagged lag from the verdict (alone, the verdict is ``unexplained``).
 
@@ -1588,6 +1659,7 @@ def diagnose(
     _settle_verdict(base, att)
     noise.guards = lag_guards(split, base, att, noise)
     apply_resonance_guard(base, att, noise.guards)
+    apply_coverage(base, att, noise, st)
     t0 = lap("forward_s", t0)
     _resolved_refit(split, base, att, st, q_enc)
     t0 = lap("resolved_refit_s", t0)
@@ -1676,7 +1748,9 @@ __all__ = [
     "DiagnoseSettings",
     "Diagnosis",
     "HeldOut",
+    "apply_coverage",
     "apply_resonance_guard",
+    "channel_coverage",
     "combine",
     "consequence_stage",
     "diagnose",

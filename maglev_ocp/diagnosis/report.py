@@ -362,6 +362,20 @@ def _noise_markdown(d: Diagnosis) -> list[str]:
     if d.noise.unexplained:
         md.append("\n**Unexplained** (left by the final model):\n")
         md += [f"- {u['what']}" for u in d.noise.unexplained]
+    if d.noise.coverage:
+        md.append("\nWhat the verdict's model closes per channel (held-out, above the model floor):\n")
+        md.append("| channel | before / floor | after / floor | gap closed | accounted for |")
+        md.append("|---|---|---|---|---|")
+        md += [
+            f"| {r['channel']} | {r['before_over_floor']:.1f} | {r['after_over_floor']:.1f} | {r['closes']:.0%} | "
+            f"{'**no**' if r['short'] else 'yes'} |"
+            for r in d.noise.coverage
+        ]
+    if d.noise.partial:
+        md.append(
+            f"\n`{d.noise.partial['model']}` explains part of the gap only; the verdict is **unexplained** "
+            "(the library does not account for the channels marked **no**)."
+        )
     for n, g in d.noise.guards.items():
         if g.peaks_hz:
             md.append(

@@ -79,7 +79,11 @@ class DiagnoseSettings(Strict):
         Smallest fraction of the training samples outside the regions with a
         gap for the baseline to be recalibrated on them.
     max_effects : int
-        Most effects the forward selection names.
+        Most effects the forward selection holds at once. One more than the
+        sets the self-checks draw (three): an effect that entered early to take
+        up another's law misfit (a saturation standing in for an end effect's
+        overhang loss) leaves through the backward check once the true effect
+        has entered as a fourth (independent rig, seed 47 #48).
     forward_pool, forward_z : int, float
         Candidates refitted jointly with the current model at each forward
         step: the ``forward_pool`` converged singles with the best information
@@ -104,6 +108,15 @@ class DiagnoseSettings(Strict):
         runs' resolved samples better than the fit over all samples by this
         paired z (one standard error: the refit adds no effect and changes no
         verdict, it only removes samples a steep law cannot be evaluated on).
+    remainder_max : float
+        A verdict stands only if, in every channel where its model leaves more
+        than this many times the noise model's floor (held-out rms), it closes
+        at least ``closes_min`` of that channel's gap; otherwise the library
+        does not account for the gap: ``unexplained``. On the independent rig,
+        right verdicts that close less than half of a channel's gap leave at
+        most 1.9x there, and where they leave more (up to 27x, a steep end
+        effect's law misfit) they close at least 66 %; a cable spring taken up
+        by a commutation drift leaves 19-32x and closes 33-47 %.
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -124,7 +137,7 @@ class DiagnoseSettings(Strict):
     prior_sd: float = Field(0.1, ge=0.0, le=10.0)
     clean_min: float = Field(0.3, ge=0.0, le=1.0)
     baseline_cogging: bool = True
-    max_effects: int = Field(3, ge=1, le=8)
+    max_effects: int = Field(4, ge=1, le=8)
     forward_pool: int = Field(6, ge=0, le=10)
     forward_z: float = Field(-100.0, ge=-100.0)
     family_top: int = Field(4, ge=0, le=10)
@@ -132,6 +145,7 @@ class DiagnoseSettings(Strict):
     resolved_share: float = Field(0.5, ge=0.0, le=10.0)
     resolved_min: float = Field(0.1, ge=0.0, le=1.0)
     resolved_z: float = Field(1.0, ge=0.0)
+    remainder_max: float = Field(3.0, ge=1.0, le=100.0)
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""
@@ -206,6 +220,14 @@ class NoiseFindings:
     guards : dict
         ``{candidate: ResonanceGuard}`` for every lag-type candidate; the verdict
         reads ``guards[name].absorbs_resonance`` (:data:`~.noise.GUARD_FLAG`).
+    coverage : list of dict
+        Per channel, what the verdict's model closes of the gap above the model
+        floor (``before_over_floor``, ``after_over_floor``, ``closes``, ``short``;
+        :func:`~.diagnose.channel_coverage`).
+    partial : dict
+        When a verdict was turned ``unexplained`` because a channel's gap stayed
+        open: the effect set and its per-channel coverage (it explains part of
+        the gap); empty otherwise.
     """
 
     checks: dict[str, NoiseCheck]
@@ -214,6 +236,8 @@ class NoiseFindings:
     remaining_peaks: list[SpectralPeak] = field(default_factory=list)
     unexplained: list[dict] = field(default_factory=list)
     guards: dict[str, ResonanceGuard] = field(default_factory=dict)
+    coverage: list[dict] = field(default_factory=list)
+    partial: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """JSON-ready view."""
@@ -223,6 +247,8 @@ class NoiseFindings:
             "final_model": {ch: c.to_dict() for ch, c in self.checks_after.items()},
             "remaining_peaks": [p.to_dict() for p in self.remaining_peaks],
             "resonance_guard": {n: g.to_dict() for n, g in self.guards.items()},
+            "channel_coverage": self.coverage,
+            "partly_explained_by": self.partial,
         }
 
 
