@@ -388,7 +388,11 @@ class SelftestResult:
     def markdown(self) -> str:
         """Markdown view (confusion matrix as a table)."""
         rows, cols, m = self.confusion()
-        md = ["| truth \\ verdict | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+        # A confusable set's "|" would end the table cell: escaped.
+        md = [
+            "| truth \\ verdict | " + " | ".join(c.replace("|", "\\|") for c in cols) + " |",
+            "|---" * (len(cols) + 1) + "|",
+        ]
         for i, r in enumerate(rows):
             md.append(f"| {r} | " + " | ".join(str(v) if v else "." for v in m[i]) + " |")
         md += ["", *_summary_lines(self.summary(), markdown=True)]

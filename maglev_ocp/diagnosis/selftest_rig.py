@@ -165,7 +165,10 @@ class RigSelftestResult(SelftestResult):
         rows, cols, m = self.confusion()
         md = ["| truth | datasets | right | verdicts (count) |", "|---|---|---|---|"]
         for i, r in enumerate(rows):
-            got = ", ".join(f"`{cols[j]}` {m[i, j]}" for j in np.argsort(-m[i], kind="stable") if m[i, j])
+            # A confusable set's "|" would end the table cell: escaped.
+            got = ", ".join(
+                f"`{cols[j]}`".replace("|", "\\|") + f" {m[i, j]}" for j in np.argsort(-m[i], kind="stable") if m[i, j]
+            )
             right = sum(1 for c in self.cases if c.truth == r and c.right)
             md.append(f"| `{r}` | {int(m[i].sum())} | {right} | {got} |")
         return "\n".join([*md, "", *(f"- {x}" for x in self._lines())])
