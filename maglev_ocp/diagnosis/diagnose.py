@@ -1393,9 +1393,7 @@ def _standing_peaks(noise: NoiseFindings, parts: Sequence[Sequence[Residual]]) -
     return out
 
 
-def channel_coverage(
-    base: _Baseline, att: _Attribution, noise: NoiseFindings, rules: VerdictRules, remainder_max: float
-) -> list[dict]:
+def channel_coverage(att: _Attribution, noise: NoiseFindings, rules: VerdictRules, remainder_max: float) -> list[dict]:
     """What the verdict's model closes of each channel's gap, above the noise model's floor, on the held-out runs.
 
     Per channel: the baseline's held-out rms ``b``, the final model's ``a``, the noise model's floor ``nf``
@@ -1433,7 +1431,7 @@ def apply_coverage(base: _Baseline, att: _Attribution, noise: NoiseFindings, st:
     v = att.verdict
     if v.verdict in ("none", "unexplained"):
         return
-    rows = channel_coverage(base, att, noise, st.rules(), st.remainder_max)
+    rows = channel_coverage(att, noise, st.rules(), st.remainder_max)
     noise.coverage = rows
     short = [r for r in rows if r["short"]]
     if not short:
@@ -1442,8 +1440,8 @@ def apply_coverage(base: _Baseline, att: _Attribution, noise: NoiseFindings, st:
     for r in short:
         v.reasons.append(
             f"{v.verdict} closes {r['closes']:.0%} of the {r['channel']} gap above the noise model's floor and "
-            f"leaves {r['after_over_floor']:.1f}x that floor (at most {st.remainder_max:.0f}x, or "
-            f"{st.rules().closes_min:.0%} of the gap closed): the library does not account for the "
+            f"leaves {r['after_over_floor']:.1f}x that floor (a verdict leaves at most {st.remainder_max:.0f}x "
+            f"or closes {st.rules().closes_min:.0%} of each channel's gap): the library does not account for the "
             f"{r['channel']} gap"
         )
     v.reasons.append(f"unexplained; {v.verdict} explains part of the gap (per channel: {parts})")
