@@ -1431,7 +1431,8 @@ def apply_coverage(base: _Baseline, att: _Attribution, noise: NoiseFindings, st:
     v = att.verdict
     if v.verdict in ("none", "unexplained"):
         return
-    rows = channel_coverage(att, noise, st.rules(), st.remainder_max)
+    rules = st.rules()
+    rows = channel_coverage(att, noise, rules, st.remainder_max)
     noise.coverage = rows
     short = [r for r in rows if r["short"]]
     if not short:
@@ -1441,17 +1442,16 @@ def apply_coverage(base: _Baseline, att: _Attribution, noise: NoiseFindings, st:
         v.reasons.append(
             f"{v.verdict} closes {r['closes']:.0%} of the {r['channel']} gap above the noise model's floor and "
             f"leaves {r['after_over_floor']:.1f}x that floor (a verdict leaves at most {st.remainder_max:.0f}x "
-            f"or closes {st.rules().closes_min:.0%} of each channel's gap): the library does not account for the "
+            f"or closes {rules.closes_min:.0%} of each channel's gap): the library does not account for the "
             f"{r['channel']} gap"
         )
     v.reasons.append(f"unexplained; {v.verdict} explains part of the gap (per channel: {parts})")
     noise.partial = {"model": v.verdict, "per_channel": rows}
-    for s_ in att.scores:
-        s_.selected = False
     v.verdict, v.selected = "unexplained", []
-    att.final_spec, att.final_fit, att.final_score = base.spec, None, None
-    att.remaining = base.floors
-    att.shares = {}
+    # The final model is the baseline again and no score is selected (:func:`_settle_verdict`); the effect set's
+    # score and shares describe no verdict any more.
+    _settle_verdict(base, att)
+    att.final_score, att.shares = None, {}
 
 
 def apply_resonance_guard(base: _Baseline, att: _Attribution, guards: dict[str, ResonanceGuard]) -> None:
