@@ -65,3 +65,16 @@ def test_out_of_library_guide_ripple_is_unexplained_in_the_horizontal_channel():
     assert case.verdict == "unexplained", diag.table()
     regs = diag.remaining_regions or diag.regions
     assert any(r.channel == "horizontal" for r in regs)
+
+
+@pytest.mark.slow
+def test_an_effect_that_only_takes_up_sticking_friction_is_dropped():
+    """Library self-check case 14 (calibrated, seed 1): friction + end effect. Over all held-out samples an
+    amplifier lag entered beside them (paired z 4.5, 0.1 % of the gap); on the samples whose velocities resolve
+    the friction law it makes the residual worse, and the backward check drops it."""
+
+    st = SelftestSettings(n=30, seed=1)
+    _, s_cases = np.random.SeedSequence(st.seed).spawn(2)
+    case, d = run_case(14, "friction+end_effect", s_cases.spawn(st.n)[14], st)
+    assert case.right, d.table()
+    assert any("amplifier_lag dropped" in r and "resolved samples" in r for r in d.verdict.reasons), d.verdict.reasons
