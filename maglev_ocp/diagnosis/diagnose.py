@@ -26,7 +26,11 @@ any controller, locked axes allowed) and returns a :class:`Diagnosis`, whose
    effects the information criterion favours, the member chosen by held-out
    score and the criterion; the single-effect verdict; then forward
    selection of further effects with a joint refit and a held-out test at
-   each step, a backward drop-one check, and each effect's share of the gap.
+   each step, a backward drop-one check (also on the held-out samples whose
+   velocities resolve the model's terms, :func:`_resolved_masks`: where a
+   guide sticks the friction law's misfit is structured, and an effect that
+   only takes it up there is not evidenced), and each effect's share of the
+   gap.
    The report's constants (and ``model.yaml``) are those of the joint refit
    with the effects found, on the samples whose velocities the encoder
    resolves where an effect's law is steep below that resolution (a sticking
