@@ -412,7 +412,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             law="drift",
         ),
     )
-    ripple = _free("end_effect.ripple", "end_effect.ripple_phase", "end_effect.ripple2", "end_effect.ripple2_phase")
+    ripple = _free("end_effect.ripple", "end_effect.ripple_phase")
     knots = tuple(f"end_effect.{n}" for n in EndEffect.param_names() if n.startswith("dloss_"))
     out["end_effect"] += (
         CandidateSpec(
@@ -428,7 +428,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             free=(*ripple, *_free("end_effect.edge_cog", *knots)),
             fixed=(("end_effect.edge_gain", 0.0),),
             note=(
-                "two ripple harmonics and an overhang loss of any smooth shape, the same at both ends (cubic "
+                "thrust ripple and an overhang loss of any smooth shape, the same at both ends (cubic "
                 "B-spline in |d|, knots every 5 mm from 10 mm), the cogging's share of the loss free"
             ),
             law="spline profile",
