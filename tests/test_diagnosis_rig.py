@@ -176,25 +176,3 @@ def test_end_effect_spline_profile_nests_the_geometric_law_and_follows_other_pro
         err = basis @ coef - loss
         assert np.max(np.abs(err)) < 0.03 * np.max(loss), family
         assert np.sqrt(np.mean(err**2)) < 0.01 * np.max(loss), family
-
-
-def test_an_end_effect_that_levels_off_is_named_with_its_profile(tmp_path):
-    """Independent rig, one end effect whose overhang loss levels off along a half cosine (25 % of the force
-    lost beyond 42 mm, a second ripple harmonic, cogging untouched by the overhang): named `end_effect`, with
-    the free profile (the library's geometric loss grows without bound and left 49-66 % of such a gap, which
-    made these datasets `unexplained`), and it closes the gap of both channels."""
-    from maglev_ocp.diagnosis import DiagnoseSettings, diagnose
-    from maglev_ocp.riglog import read_dataset
-    from maglev_ocp.rigsim import RigSettings, generate
-
-    eff = {
-        "end_effect": {"family": "cosine", "r1": 0.05, "p1": 0.8, "r2": 0.015, "p2": -2.0, "d_edge": 0.03,
-                       "w": 0.012, "loss": 0.25}
-    }  # fmt: skip
-    folder = generate(tmp_path / "ds", eff, 61, RigSettings(n_runs=4, duration=8.0))
-    d = diagnose(read_dataset(folder), settings=DiagnoseSettings(seed=61, simulate=False))
-    assert d.verdict.verdict == "end_effect", d.table()
-    ee = next(s for s in d.scores if s.name == "end_effect")
-    assert ee.law == "spline profile", ee.law_choice
-    assert d.final_score.closes > 0.9, d.table()
-    assert len(d.noise.coverage) == 2 and all(r["closes"] >= 0.9 for r in d.noise.coverage), d.noise.coverage

@@ -312,9 +312,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
     - ``commutation_offset``: ``drift``: the offset grows linearly along the
       stroke (a commutation encoder scale off the position encoder's);
     - ``end_effect``: ``free profile``: the overhang loss scaled and bent
-      (``edge_gain``, ``edge_quad``); ``spline profile``: a loss of any
-      smooth shape in |d| (a cubic B-spline, which also takes a loss that
-      levels off), two ripple harmonics
+      (``edge_gain``, ``edge_quad``); two ripple harmonics
       and the cogging's share of the loss;
     - the amplifier lag searches a continuous effective delay (whole samples
       plus a lag or a fractional delay, which act alike below the cut-off);
@@ -412,8 +410,6 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             law="drift",
         ),
     )
-    ripple = _free("end_effect.ripple", "end_effect.ripple_phase")
-    knots = tuple(f"end_effect.{n}" for n in EndEffect.param_names() if n.startswith("dloss_"))
     out["end_effect"] += (
         CandidateSpec(
             "end_effect",
@@ -421,17 +417,6 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             free=(*lib["end_effect"].free, *_free("end_effect.edge_gain", "end_effect.edge_quad")),
             note="thrust ripple and an overhang loss of free size and curvature",
             law="free profile",
-        ),
-        CandidateSpec(
-            "end_effect",
-            ("end_effect",),
-            free=(*ripple, *_free("end_effect.edge_cog", *knots)),
-            fixed=(("end_effect.edge_gain", 0.0),),
-            note=(
-                "thrust ripple and an overhang loss of any smooth shape, the same at both ends (cubic "
-                "B-spline in |d|, knots every 5 mm from 10 mm), the cogging's share of the loss free"
-            ),
-            law="spline profile",
         ),
     )
     return out
