@@ -39,7 +39,7 @@ import numpy as np
 import scipy.optimize as spo
 from numpy.lib.stride_tricks import as_strided
 
-from ..effects import EFFECTS, AmplifierLag, EffectSet, EndEffect
+from ..effects import EFFECTS, AmplifierLag, EffectSet
 from ..estimation.ident import autocorr_factor, hac_stderr
 from ..params import Params
 from ..signals import PARAM_NAMES
@@ -174,12 +174,6 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "end_effect.edge_width": (1e-3, 0.05, 5e-3, 5e-3),
     "end_effect.edge_gain": (0.0, 5.0, 1.0, 0.5),
     "end_effect.edge_quad": (-20.0, 20.0, 0.0, 2.0),
-    "end_effect.ripple2": (0.0, 0.5, 0.01, 0.05),
-    "end_effect.ripple2_phase": _PHASE,
-    "end_effect.edge_cog": (0.0, 1.0, 1.0, 0.5),
-    # the free profile's steps of its B-spline coefficients: a loss of force of a few 10 % at most on a real
-    # stroke; the weak ridge at 0 holds a step whose knot the data do not reach (the profile keeps its level)
-    **{f"end_effect.{n}": (-1.0, 1.0, 0.0, 0.1) for n in EndEffect.param_names() if n.startswith("dloss_")},
     # saturation
     "saturation.loss_8mm": (0.0, 0.8, 0.05, 0.1),
     "saturation.ell_sat": (5e-4, 0.05, 3e-3, 3e-3),
@@ -312,8 +306,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
     - ``commutation_offset``: ``drift``: the offset grows linearly along the
       stroke (a commutation encoder scale off the position encoder's);
     - ``end_effect``: ``free profile``: the overhang loss scaled and bent
-      (``edge_gain``, ``edge_quad``); two ripple harmonics
-      and the cogging's share of the loss;
+      (``edge_gain``, ``edge_quad``);
     - the amplifier lag searches a continuous effective delay (whole samples
       plus a lag or a fractional delay, which act alike below the cut-off);
       ``eddy_drag`` has one law.

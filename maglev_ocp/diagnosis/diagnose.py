@@ -1089,7 +1089,7 @@ def _backward(
         masks = None
         if st.resolved_share > 0:
             masks, fracs = _resolved_masks(full[0], full[1], split.test, split.u_test, base, split, st)
-            masks = None if all(f > 0.995 or f < st.resolved_min for f in fracs) else masks
+            masks = masks if _partly_resolved(fracs, st) else None
         e_full = _resolved_errors(split, base, full[0], full[1], masks) if masks is not None else None
         tests = []
         for e in names:
@@ -1174,9 +1174,8 @@ def _resolved_masks(
     (:func:`.candidates.resolution_spread`: friction's sign and Stribeck terms, a guide that sticks). A channel
     with fewer than ``st.resolved_min`` resolved samples keeps all of them.
     """
-    dv = 2.0 * math.pi * split.filt.settings.vel_fc_hz * base.q_enc
     thr = st.resolved_share * base.fvec
-    masks = [s_ < thr for s_ in resolution_spread(spec, fit, runs, base.p, dv, u_runs)]
+    masks = [s_ < thr for s_ in resolution_spread(spec, fit, runs, base.p, _velocity_resolution(split, base), u_runs)]
     fracs = []
     for c in range(len(CHANNELS)):
         rows = [m[:, c] for m, r in zip(masks, runs, strict=True) if r.n and r.valid[c]]
@@ -1186,6 +1185,16 @@ def _resolved_masks(
                 m[:, c] = True
         fracs.append(frac)
     return masks, fracs
+
+
+def _velocity_resolution(split: _Split, base: _Baseline) -> float:
+    """The velocities' resolution [m/s]: one encoder count per time constant of the velocity smoother."""
+    return 2.0 * math.pi * split.filt.settings.vel_fc_hz * base.q_enc
+
+
+def _partly_resolved(fracs: Sequence[float], st: DiagnoseSettings) -> bool:
+    """Whether the resolved fractions of :func:`_resolved_masks` leave out samples worth a separate test."""
+    return not all(f > 0.995 or f < st.resolved_min for f in fracs)
 
 
 def _resolved_errors(
@@ -1222,12 +1231,12 @@ def _resolved_refit(split: _Split, base: _Baseline, att: _Attribution, st: Diagn
     if fit is None or spec is None or base.given or st.resolved_share <= 0 or not base.cal_free:
         return
     masks, kept = _resolved_masks(spec, fit, split.train, split.u_train, base, split, st)
-    dv = 2.0 * math.pi * split.filt.settings.vel_fc_hz * base.q_enc
+    dv = _velocity_resolution(split, base)
     rec: dict = {"velocity_resolution_m_s": dv, "threshold_m_s2": (st.resolved_share * base.fvec).tolist()}
     rec["adopted"] = False
     for ch, frac in zip(CHANNELS, kept, strict=True):
         rec[f"{ch}_resolved_fraction"] = frac
-    if all(f > 0.995 or f < st.resolved_min for f in kept):
+    if not _partly_resolved(kept, st):
         rec["reason"] = "the final model's terms are resolved on (almost) every sample, or on too few: no refit"
         att.resolved = rec
         return
