@@ -332,6 +332,11 @@ class EndEffect(Effect):
         return 1 - gain * f - quad * f**2
 
     @classmethod
+    def profile_names(cls) -> tuple[str, ...]:
+        """Names of the free profile's steps (one per knot, :attr:`KNOTS`), in knot order."""
+        return tuple(_knot_name(c) for c in cls.KNOTS)
+
+    @classmethod
     def profile_loss(cls, d: Expr, theta: Mapping[str, Expr]) -> Expr:
         """The free profile's loss at ``d`` (0 with the default coefficients).
 

@@ -157,7 +157,7 @@ def test_end_effect_spline_profile_nests_the_geometric_law_and_follows_other_pro
     from maglev_ocp.effects import EndEffect
     from maglev_ocp.rigsim.laws import EndEffect as RigEndEffect
 
-    names = [n for n in EndEffect.param_names() if n.startswith("dloss_")]
+    names = list(EndEffect.profile_names())
     d = ca.SX.sym("d")
     c = ca.SX.sym("c", len(names))
     f = ca.Function("loss", [d, c], [EndEffect.profile_loss(d, dict(zip(names, ca.vertsplit(c), strict=True)))])

@@ -180,7 +180,7 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     # No step is negative: an overhang only loses force, and more of it the farther the magnets overhang (a
     # B-spline with non-decreasing coefficients is non-decreasing), so the profile cannot take up a force that
     # grows or oscillates along the stroke (an encoder scale error's commutation drift, seed 3 #15).
-    **{f"end_effect.{n}": (0.0, 1.0, 0.0, 0.1) for n in EndEffect.param_names() if n.startswith("dloss_")},
+    **{f"end_effect.{n}": (0.0, 1.0, 0.0, 0.1) for n in EndEffect.profile_names()},
     # saturation
     "saturation.loss_8mm": (0.0, 0.8, 0.05, 0.1),
     "saturation.ell_sat": (5e-4, 0.05, 3e-3, 3e-3),
@@ -413,7 +413,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             law="drift",
         ),
     )
-    knots = tuple(f"end_effect.{n}" for n in EndEffect.param_names() if n.startswith("dloss_"))
+    knots = tuple(f"end_effect.{n}" for n in EndEffect.profile_names())
     out["end_effect"] += (
         CandidateSpec(
             "end_effect",
