@@ -937,6 +937,8 @@ def _forward(split: _Split, base: _Baseline, att: _Attribution, st: DiagnoseSett
         pool = [o for o in pool if o not in names and o not in dropped]
         if not gone or not pool or len(names) >= st.max_effects:
             break
+    if len(names) > 1:
+        slots = _confirm_slots(split, base, att, names, slots, st, warnings)
     att.remaining = base.floors_of(spec, fit, split)
     if len(names) == 1 and names[0] != best.name:  # the backward pass kept another single
         att.verdict = Verdict("|".join(slots[0]), list(names), True, att.verdict.reasons)
@@ -1117,6 +1119,46 @@ def _backward(
         names.remove(e)
         slots = [x for x in slots if x[0] != e]
     return names, slots
+
+
+def _confirm_slots(
+    split: _Split,
+    base: _Baseline,
+    att: _Attribution,
+    names: list[str],
+    slots: list[list[str]],
+    st: DiagnoseSettings,
+    warnings: list[str],
+) -> list[list[str]]:
+    """A confusable slot of a joint model keeps only the alternatives that the final model cannot tell apart.
+
+    A slot's alternatives were judged when its effect entered: as single fits, or at a forward step, with the
+    effects not yet added still in the residual. That residual inflates the paired test's noise, so two
+    effects of different physics (an overhang loss along d, a saturation along g) passed as fitting the
+    held-out runs equally well. Here each alternative replaces its slot's effect in the final model (the
+    others refitted jointly with it) and stays in the slot only if that model's held-out residual is not
+    significantly worse (paired z below ``confusable_z``), as a single verdict's alternatives are judged.
+    """
+    rules = st.rules()
+    full = _model(split, base, att, names, st, warnings)
+    out = []
+    for slot in slots:
+        keep = []
+        for alt in slot[1:]:
+            if alt in names:
+                continue
+            swapped = [alt if n == slot[0] else n for n in names]
+            _, sfit, ssc = _model(split, base, att, swapped, st, warnings)
+            z = paired_z(ssc.e_after, full[2].e_after) if sfit.success else math.inf
+            if z < rules.confusable_z:
+                keep.append(alt)
+                continue
+            att.verdict.reasons.append(
+                f"{alt} in place of {slot[0]} in the joint model ({'+'.join(swapped)}) fits the held-out runs "
+                f"worse (paired z = {z:.1f}): not confusable"
+            )
+        out.append([slot[0], *keep])
+    return out
 
 
 def _shares(
