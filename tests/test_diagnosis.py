@@ -512,6 +512,7 @@ def test_a_confusable_slot_keeps_only_what_the_final_joint_model_cannot_tell_apa
     out = dg._confirm_slots(None, None, att, ["end_effect", "cogging"], slots, DiagnoseSettings(), [])
     assert out == [["end_effect", "edge_loss"], ["cogging"]]
     assert any(r.startswith("saturation in place of end_effect") and "not confusable" in r for r in att.verdict.reasons)
+    assert any(r.startswith("bad_fit in place of end_effect") and "did not converge" in r for r in att.verdict.reasons)
 
 
 @pytest.mark.slow

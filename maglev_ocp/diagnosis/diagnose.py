@@ -1140,7 +1140,7 @@ def _confirm_slots(
     significantly worse (paired z below ``confusable_z``), as a single verdict's alternatives are judged.
     """
     rules = st.rules()
-    full = _model(split, base, att, names, st, warnings)
+    _, _, full = _model(split, base, att, names, st, warnings)
     out = []
     for slot in slots:
         keep = []
@@ -1149,13 +1149,15 @@ def _confirm_slots(
                 continue
             swapped = [alt if n == slot[0] else n for n in names]
             _, sfit, ssc = _model(split, base, att, swapped, st, warnings)
-            z = paired_z(ssc.e_after, full[2].e_after) if sfit.success else math.inf
-            if z < rules.confusable_z:
+            if not sfit.success:  # flagged by _model; a fit that did not converge is no evidence of a tie
+                why = "did not converge"
+            elif (z := paired_z(ssc.e_after, full.e_after)) < rules.confusable_z:
                 keep.append(alt)
                 continue
+            else:
+                why = f"fits the held-out runs worse (paired z = {z:.1f})"
             att.verdict.reasons.append(
-                f"{alt} in place of {slot[0]} in the joint model ({'+'.join(swapped)}) fits the held-out runs "
-                f"worse (paired z = {z:.1f}): not confusable"
+                f"{alt} in place of {slot[0]} in the joint model ({'+'.join(swapped)}) {why}: not confusable"
             )
         out.append([slot[0], *keep])
     return out
