@@ -71,6 +71,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm import tqdm
 
+from .. import constants as k
 from ..constants import encoder_resolution
 from ..errors import DataError
 from ..params import NOMINAL, Params
@@ -142,6 +143,51 @@ def runs_from_dataset(ds: RigDataset) -> list[RunInput]:
                 raise DataError(f"{r.file}: rows are not evenly spaced by sample_time {ds.sample_time:g} s")
         out.append(RunInput(r.file, float(ds.sample_time), r.y, r.u, tuple(r.locked), float(t[0]) if len(t) else 0.0))
     return out
+
+
+#: A position within this distance of a mechanical stop (MODEL.md: g in [8, 32] mm, d in [-60, 60] mm) counts
+#: as touching it: 10 encoder counts, far above the encoder noise, far below any setpoint a controller tracks.
+STOP_MARGIN_M: float = 1e-4
+#: Samples left out on each side of a contact with a stop: the impact and the bounce before the position leaves
+#: the margin (the contact force is in no model; the filter's window then starts clear of it).
+STOP_PAD: int = 20
+
+
+def off_stops(runs: Sequence[RunInput]) -> tuple[list[RunInput], list[str]]:
+    """The runs cut where the mover touches a mechanical stop, and a note for each run that did.
+
+    A rig that loses the levitation (a force the controller cannot hold, a bad
+    gain) hits the stops; the contact force is in no model and no effect's law,
+    so one crash would dominate every fit (seen: an upper-stop contact in one
+    of six runs made a saturation fit worse at the true law than a wrong one).
+    Samples within :data:`STOP_MARGIN_M` of a stop of an axis that is not locked,
+    padded by :data:`STOP_PAD` samples, are left out: a run becomes the
+    contact-free pieces between them (named ``<file>@<t0>s``), each filtered on
+    its own, so no residual sample's window spans a contact.
+    """
+    out: list[RunInput] = []
+    notes: list[str] = []
+    lo = np.array([k.g_stop[0], k.d_stop[0]]) + STOP_MARGIN_M
+    hi = np.array([k.g_stop[1], k.d_stop[1]]) - STOP_MARGIN_M
+    for r in runs:
+        free = np.array(["g" not in r.locked, "d" not in r.locked])
+        y = np.asarray(r.y, float)
+        at = ((y <= lo) | (y >= hi)) & free if len(y) else np.zeros((0, 2), bool)
+        touch = at.any(axis=1)
+        if not touch.any():
+            out.append(r)
+            continue
+        bad = np.convolve(touch.astype(float), np.ones(2 * STOP_PAD + 1), mode="same") > 0
+        edges = np.flatnonzero(np.diff(np.concatenate([[1], bad.astype(int), [1]])))
+        for a, b in zip(edges[::2], edges[1::2], strict=True):  # clean pieces [a, b)
+            t0 = r.t0 + a * r.Ts
+            out.append(RunInput(f"{r.name}@{t0:.3f}s", r.Ts, y[a:b], np.asarray(r.u)[a:b], r.locked, t0))
+        which = [ax for j, ax in enumerate(("g", "d")) if at[:, j].any()]
+        notes.append(
+            f"{r.name}: the mover touches a mechanical stop ({', '.join(which)}) in {int(touch.sum())} samples; "
+            f"{int(bad.sum())} samples around the contacts left out (the contact force is in no model)"
+        )
+    return out, notes
 
 
 def split_runs(runs: Sequence[RunInput], every: int = 3) -> tuple[list[RunInput], list[RunInput]]:
@@ -277,6 +323,7 @@ class _Split:
     train: list[PreparedRun]
     test: list[PreparedRun]
     has: tuple[bool, bool]  # the training runs carry a vertical / horizontal channel
+    stops: list[str] = field(default_factory=list)  # runs cut at a stop contact (:func:`off_stops`)
 
     @property
     def u_train(self) -> list[np.ndarray]:
@@ -372,16 +419,19 @@ def _split(dataset: RigDataset, st: DiagnoseSettings) -> _Split:
     Ts = float(dataset.sample_time)
     filt = ZeroPhaseFilter(ResidualSettings(st.fc_hz, st.numtaps | 1, st.decimate), Ts)
     train_in, test_in = split_runs(runs, st.holdout_every)
+    # whole runs are held out first, then cut at stop contacts: a crash does not move a run between the sets
+    (train_in, notes_a), (test_in, notes_b) = off_stops(train_in), off_stops(test_in)
     train = [(ri, pr) for ri in train_in if (pr := prepare_run(ri, filt)).n > 0]
     test = [(ri, pr) for ri in test_in if (pr := prepare_run(ri, filt)).n > 0]
     if not train or not test:
         raise DataError(
             f"{dataset.folder or 'dataset'}: runs are too short for the residual filter "
             f"({st.numtaps} taps at {Ts:g} s); need at least {3 * st.numtaps} samples per run"
+            + (" clear of the mechanical stops" if notes_a or notes_b else "")
         )
     tr = [b for _, b in train]
     has = (any(r.valid[0] for r in tr), any(r.valid[1] for r in tr))
-    return _Split(filt, [a for a, _ in train], [a for a, _ in test], tr, [b for _, b in test], has)
+    return _Split(filt, [a for a, _ in train], [a for a, _ in test], tr, [b for _, b in test], has, notes_a + notes_b)
 
 
 def _baseline(split: _Split, params: Params | None, st: DiagnoseSettings, warnings: list[str]) -> _Baseline:
@@ -1742,6 +1792,7 @@ def diagnose(
         return now
 
     split = _split(dataset, st)
+    warnings.extend(split.stops)
     t0 = lap("prepare_s", t_all)
     base = _baseline(split, params, st, warnings)
     t0 = lap("baseline_s", t0)
