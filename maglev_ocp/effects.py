@@ -283,7 +283,8 @@ class EndEffect(Effect):
     free overhang profile, a cubic B-spline in ``|d|`` with knots every
     :attr:`KNOT_STEP` from 10 mm to the stops (:attr:`KNOTS`; the profile is 0
     at ``d = 0``, a uniform loss would be the calibrated constants), subtracted
-    from the factor; and
+    from the factor; ends of their own (``edge_skew``, ``gain_skew``,
+    :meth:`overhang_factor`); and
     ``edge_cog``, the share of the loss the cogging force takes (1: cogging is
     a magnetic force like the others; 0: the teeth's cogging does not see the
     overhang).
@@ -316,20 +317,30 @@ class EndEffect(Effect):
             )
             for c in _END_KNOTS
         ),
+        EffectParam("edge_skew", 0.0, -0.05, 0.05, "m", "onset of the overhang loss at d > 0 later (d < 0 earlier)"),
+        EffectParam("gain_skew", 0.0, -0.9, 0.9, "-", "loss per overhang at d > 0 times 1 + gain_skew (d < 0: 1 -)"),
     )
 
     @staticmethod
-    def overhang_factor(d: Expr, d_edge: Expr, w: Expr, gain: Expr = 1.0, quad: Expr = 0.0) -> Expr:
+    def overhang_factor(
+        d: Expr, d_edge: Expr, w: Expr, gain: Expr = 1.0, quad: Expr = 0.0, edge_skew: Expr = 0.0, gain_skew: Expr = 0.0
+    ) -> Expr:
         """Fraction of the force left as the array overhangs (1 in the middle of the stroke).
 
         Geometric law (defaults): ``1 - o / (pm tau)``; the law family scales
         the loss (``gain``, fringe fields) and bends it (``quad``):
-        ``1 - gain f - quad f^2`` with ``f = o / (pm tau)``.
+        ``1 - gain f - quad f^2`` with ``f = o / (pm tau)``; the two ends of a
+        stator need not be alike (end teeth, a mover's fixture on one side):
+        ``edge_skew`` moves the onset to ``d_edge + edge_skew`` at ``d > 0`` and
+        ``d_edge - edge_skew`` at ``d < 0``, ``gain_skew`` scales the loss by
+        ``1 +- gain_skew``. The side switch at ``d = 0`` acts where the
+        overhang is nil, so the factor stays smooth.
         """
-        z = (_smooth_abs(d, 1e-5) - d_edge) / w
+        side = ca.sign(d)
+        z = (_smooth_abs(d, 1e-5) - d_edge - side * edge_skew) / w
         softplus = ca.if_else(z > 30, z, ca.log1p(ca.exp(ca.fmin(z, 30))))
         f = w * softplus / (k.pm * k.tau)
-        return 1 - gain * f - quad * f**2
+        return 1 - gain * (1 + side * gain_skew) * f - quad * f**2
 
     @classmethod
     def profile_names(cls) -> tuple[str, ...]:
@@ -364,7 +375,10 @@ class EndEffect(Effect):
         a = 2 * math.pi * d / k.tau
         ripple = 1 + theta["ripple"] * ca.cos(a + theta["ripple_phase"])
         terms.scale(["a_thrust"], ripple + theta["ripple2"] * ca.cos(2 * a + theta["ripple2_phase"]))
-        fac = self.overhang_factor(d, theta["d_edge"], theta["edge_width"], theta["edge_gain"], theta["edge_quad"])
+        fac = self.overhang_factor(
+            d, theta["d_edge"], theta["edge_width"], theta["edge_gain"], theta["edge_quad"], theta["edge_skew"],
+            theta["gain_skew"],
+        )  # fmt: skip
         fac = fac - self.profile_loss(d, theta)
         # Cogging comes from the magnets over the teeth; how much of it the overhang takes is a law choice.
         cog = {"a_cogn", "a_cogx", "cog_extra_n", "cog_extra_x"}

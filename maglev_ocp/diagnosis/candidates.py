@@ -170,11 +170,15 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     # end effect
     "end_effect.ripple": (0.0, 0.5, 0.02, 0.05),
     "end_effect.ripple_phase": _PHASE,
+    "end_effect.ripple2": (0.0, 0.5, 0.02, 0.05),
+    "end_effect.ripple2_phase": _PHASE,
     "end_effect.d_edge": (0.0, 0.2, 0.04, 0.02),
     "end_effect.edge_width": (1e-3, 0.05, 5e-3, 5e-3),
     "end_effect.edge_gain": (0.0, 5.0, 1.0, 0.5),
     "end_effect.edge_quad": (-20.0, 20.0, 0.0, 2.0),
     "end_effect.edge_cog": (0.0, 1.0, 1.0, 0.5),
+    "end_effect.edge_skew": (-0.05, 0.05, 0.0, 0.005),
+    "end_effect.gain_skew": (-0.9, 0.9, 0.0, 0.2),
     # the free profile's steps of its B-spline coefficients: a loss of force of a few 10 % at most on a real
     # stroke; the weak ridge at 0 holds a step whose knot the data do not reach (the profile keeps its level).
     # No step is negative: an overhang only loses force, and more of it the farther the magnets overhang (a
@@ -306,7 +310,9 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
     - ``saturation``: which terms it scales: ``field`` (the magnet field: its
       B^2 attraction and cogging lose twice what the B-linear PM-current and
       thrust terms lose, the reluctance term nothing), ``current terms``
-      (PM-current, reluctance and thrust; not the magnets' attraction) and
+      (the field of the currents: the current-linear PM-current and thrust
+      terms lose L, the reluctance term, quadratic in it, twice that, the
+      magnets' attraction nothing) and
       ``per term`` (a free share for each); and the loss's profile in g:
       ``knee`` (and ``field``, ``current terms``) a logistic step whose knee is
       free, nesting the exponential at ``knee = 0``;
@@ -369,7 +375,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
     sat = lib["saturation"].free
     knee = (*sat, *_free("saturation.knee"))
     w0 = (("saturation.w_pm", 1.0), ("saturation.w_id", 0.5), ("saturation.w_thrust", 0.5), ("saturation.w_rel", 0.0))
-    w1 = (("saturation.w_pm", 0.0), ("saturation.w_id", 1.0), ("saturation.w_thrust", 1.0), ("saturation.w_rel", 1.0))
+    w1 = (("saturation.w_pm", 0.0), ("saturation.w_id", 1.0), ("saturation.w_thrust", 1.0), ("saturation.w_rel", 2.0))
     per_term = _free("saturation.w_pm", "saturation.w_id", "saturation.w_rel", "saturation.w_thrust")
     out["saturation"] += (
         CandidateSpec(
@@ -425,6 +431,20 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
         CandidateSpec(
             "end_effect",
             ("end_effect",),
+            free=(
+                *lib["end_effect"].free,
+                *_free("end_effect.edge_gain", "end_effect.edge_quad", "end_effect.edge_skew", "end_effect.gain_skew"),
+                *_free("end_effect.ripple2", "end_effect.ripple2_phase"),
+            ),
+            note=(
+                "the free profile with ends of their own (onset and loss per overhang differ between d > 0 and "
+                "d < 0) and the thrust ripple's second harmonic"
+            ),
+            law="two ends",
+        ),
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
             free=(*_free("end_effect.ripple", "end_effect.ripple_phase"), *_free("end_effect.edge_cog", *knots)),
             fixed=(("end_effect.edge_gain", 0.0),),
             note=(
@@ -432,6 +452,20 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
                 "B-spline in |d|, knots every 5 mm from 10 mm), the cogging's share of the loss free"
             ),
             law="spline profile",
+        ),
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
+            free=(
+                *_free("end_effect.ripple", "end_effect.ripple_phase", "end_effect.ripple2"),
+                *_free("end_effect.ripple2_phase", "end_effect.edge_cog", *knots),
+            ),
+            fixed=(("end_effect.edge_gain", 0.0),),
+            note=(
+                "the spline profile with the thrust ripple's second harmonic (period tau / 2): a motor's ripple "
+                "has harmonics of the pole pitch, like its cogging"
+            ),
+            law="spline profile, ripple harmonics",
         ),
     )
     return out
