@@ -577,3 +577,38 @@ def test_a_crash_into_the_upper_stop_does_not_hide_a_saturation_of_the_current_t
     sat = next(s for s in d.scores if s.name == "saturation")
     assert sat.law == "current terms", sat.law_choice
     assert d.final_score.closes > 0.9, d.table()
+
+
+def test_a_drop_one_model_is_refitted_from_the_full_models_values_when_that_fits_better(monkeypatch):
+    """The backward check compares the full model with each drop-one model at its best training fit: a refit
+    started from the full model's values replaces the model on record when it fits the training runs better (the
+    full model's gain in the other parameters then does not count for the dropped effect), and not otherwise;
+    each set is refitted once."""
+    from types import SimpleNamespace
+
+    dg = importlib.import_module("maglev_ocp.diagnosis.diagnose")
+    spec = SimpleNamespace(name="end_effect", keys=("p.C1", "end_effect.ripple"), note="")
+    full_fit = SimpleNamespace(params=lambda: {"p.C1": 14.1, "end_effect.ripple": 0.05, "commutation_offset.delta": 0})
+    warm_seen = []
+
+    def run(new_sse):
+        old = (spec, SimpleNamespace(success=True, sse=100.0), SimpleNamespace(name="old"))
+        att = dg._Attribution.__new__(dg._Attribution)
+        att.models, att.rewarmed, att.scores = {frozenset(["end_effect"]): old}, set(), [old[2]]
+
+        def fake_fit(name, spec_, split, base, rules, note, pair, warm=None, hold_lag=False):
+            warm_seen.append(warm)
+            return SimpleNamespace(success=True, sse=new_sse), SimpleNamespace(name="new")
+
+        monkeypatch.setattr(dg, "_fit_and_score", fake_fit)
+        st = DiagnoseSettings()
+        got = dg._rewarmed(None, None, att, ["end_effect"], (None, full_fit, None), st, [])
+        again = dg._rewarmed(None, None, att, ["end_effect"], (None, full_fit, None), st, [])
+        return got, again, att
+
+    got, again, att = run(90.0)
+    assert got[2].name == "new" and again is got and [s.name for s in att.scores] == ["new"]
+    assert warm_seen == [{"p.C1": 14.1, "end_effect.ripple": 0.05}]  # only the drop-one model's own keys
+    got, _, att = run(110.0)
+    assert got[2].name == "old" and [s.name for s in att.scores] == ["old"]
+    assert len(warm_seen) == 2  # once per set

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from maglev_ocp import constants as k
-from maglev_ocp.effects import Cogging, CommutationOffset, Saturation
+from maglev_ocp.effects import Cogging, CommutationOffset, EndEffect, Saturation
 from maglev_ocp.rigsim import laws as rig
 
 
@@ -63,6 +63,49 @@ def test_commutation_offset_drift_is_the_rigs_angle_along_the_stroke():
         iq, i_d = 1.3, -0.4
         ours = np.asarray(CommutationOffset().currents(np.array([iq, i_d]), x, th)).ravel()
         np.testing.assert_allclose(ours, law.rotate(iq, i_d, d), rtol=1e-12)
+
+
+def test_end_effect_two_ends_follow_the_rigs_asymmetric_overhang():
+    """The ``two ends`` law (onset ``d_edge +- edge_skew``, loss per overhang ``edge_gain (1 +- gain_skew)``) is the
+    rig's asymmetric overhang loss (each end its own onset and loss) up to the other end's softplus tail, which
+    the rig keeps everywhere (below 1e-4 of the force here); the symmetric law (no skews) misses it by percent."""
+    law = rig.EndEffect("asymmetric", e_p=0.039, e_n=0.030, w=5.4e-3, loss_p=0.90, loss_n=1.20)
+    p = law.p
+    edge, skew = 0.5 * (p["e_p"] + p["e_n"]), 0.5 * (p["e_p"] - p["e_n"])
+    gain, gskew = 0.5 * (p["loss_p"] + p["loss_n"]), (p["loss_p"] - p["loss_n"]) / (p["loss_p"] + p["loss_n"])
+    d = np.linspace(-0.058, 0.058, 117)
+    ours = np.array([_num(EndEffect.overhang_factor(x, edge, p["w"], gain, 0.0, skew, gskew)) for x in d])
+    sym = np.array([_num(EndEffect.overhang_factor(x, edge, p["w"], gain)) for x in d])
+    truth = law.rho(d)
+    assert np.max(np.abs(ours - truth)) < 1e-4
+    assert np.max(np.abs(sym - truth)) > 0.01
+    # no skew: the library's symmetric law, unchanged
+    np.testing.assert_allclose(
+        [_num(EndEffect.overhang_factor(x, 0.04, 4e-3, 1.0, 0.0, 0.0, 0.0)) for x in d],
+        [_num(EndEffect.overhang_factor(x, 0.04, 4e-3)) for x in d],
+        rtol=0,
+        atol=1e-15,
+    )
+
+
+def test_current_terms_saturation_is_the_rigs_saturated_current_field():
+    """The ``current terms`` member scales each magnetic term as the rig's saturation of the currents' field does
+    to first order in the loss L: the PM-current and thrust terms (linear in that field) by 1 - L, the reluctance
+    term (quadratic in it) by 1 - 2L, the magnets' attraction not at all; the difference is O(L^2)."""
+    from maglev_ocp.diagnosis.candidates import family_specs
+
+    member = next(m for m in family_specs()["saturation"] if m.law == "current terms")
+    w = dict(member.fixed)
+    law = rig.Saturation("exp", loss=0.05, ell=3.5e-3, target="current")
+    for g in (9e-3, 11e-3, 15e-3, 22e-3):
+        f = [1.0, 1.0, 1.0, 1.0]
+        law.factors(g, 0.0, f)
+        km, kc = f[0], f[1]
+        L = float(law.loss(g))
+        rig_terms = {"w_pm": km * km, "w_id": km * kc, "w_thrust": km * kc, "w_rel": kc * kc}
+        for key, factor in rig_terms.items():
+            ours = 1.0 - w[f"saturation.{key}"] * L
+            assert abs(ours - factor) <= 1.01 * L * L, (g, key, ours, factor)
 
 
 def _diagnose_rig(tmp_path, effects: dict, seed: int) -> str:
