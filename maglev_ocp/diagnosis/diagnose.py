@@ -1125,8 +1125,9 @@ def _rewarmed(
 
     The model on record was fitted before the dropped effect joined; the full model's fit, with more iterations
     from another start, can reach a better optimum of the other effects' and the constants' parameters. Compared
-    with the model on record, that gain would count for the dropped effect (seen: a commutation offset of 5e-5
-    rad, 0.3 % of the gap, kept at drop-one z 5.2 beside an end effect's spline profile).
+    with the model on record, that gain would count for the dropped effect. (A guard on the comparison: on the
+    rig datasets re-run with it, where a near-null commutation offset was kept beside an end effect, the refit
+    found no better optimum; the second ripple harmonic the end-effect law lacked was the cause there.)
     """
     spec, fit, sc = _model(split, base, att, names, st, warnings)
     key = frozenset(names)
