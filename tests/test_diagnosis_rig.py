@@ -192,7 +192,8 @@ def test_an_end_effect_that_levels_off_is_named_with_its_profile(tmp_path):
     """Independent rig, one end effect whose overhang loss levels off along a half cosine (25 % of the force
     lost beyond 42 mm, a second ripple harmonic, cogging untouched by the overhang): named `end_effect`, with
     the free profile (the library's geometric loss grows without bound and left 49-66 % of such a gap, which
-    made these datasets `unexplained`), and it closes the gap of both channels."""
+    made these datasets `unexplained`), with or without the ripple's second harmonic (the rig has one), and it
+    closes the gap of both channels."""
     from maglev_ocp.diagnosis import DiagnoseSettings, diagnose
     from maglev_ocp.riglog import read_dataset
     from maglev_ocp.rigsim import RigSettings, generate
@@ -205,7 +206,7 @@ def test_an_end_effect_that_levels_off_is_named_with_its_profile(tmp_path):
     d = diagnose(read_dataset(folder), settings=DiagnoseSettings(seed=61, simulate=False))
     assert d.verdict.verdict == "end_effect", d.table()
     ee = next(s for s in d.scores if s.name == "end_effect")
-    assert ee.law == "spline profile", ee.law_choice
+    assert ee.law in ("spline profile", "spline profile, ripple harmonics"), ee.law_choice
     assert d.final_score.closes > 0.9, d.table()
     assert len(d.noise.coverage) == 2 and all(r["closes"] >= 0.9 for r in d.noise.coverage), d.noise.coverage
 
