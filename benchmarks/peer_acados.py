@@ -168,7 +168,7 @@ class PeerResult:
 def build_acados(
     builder, p_vec: np.ndarray, build_dir: Path, qp_solver: str, hpipm_mode: str, qp_iter_max: int, warm_start: int
 ):
-    """An acados SQP_RTI solver for the OCP of ``builder`` (a :class:`controllers.nmpc.StepBuilder`)."""
+    """An acados SQP_RTI solver for the OCP of ``builder`` (a :class:`maglev_ocp.controllers.nmpc.StepBuilder`)."""
     import casadi as ca
     from acados.acados_template import AcadosModel, AcadosOcp, AcadosOcpSolver
 
@@ -400,8 +400,8 @@ def run(
 ) -> PeerResult:
     """Record the closed loop, then replay it interleaved (see the module docstring and
     :func:`replay_interleaved` for ``block``)."""
-    from controllers.nmpc import NMPCSettings, step_functions
     from maglev_ocp.codegen.backend import build_c_controller
+    from maglev_ocp.controllers.nmpc import NMPCSettings, step_functions
     from maglev_ocp.fastcall import BufferedFunction
     from maglev_ocp.params import NOMINAL
 

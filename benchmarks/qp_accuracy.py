@@ -2,9 +2,9 @@
 
 Every RTI QP of a set of closed loops (a tour, a traverse, gap steps and the two
 disturbance scenarios) is recorded: the step's inputs go through
-``nmpc_qp`` (:func:`controllers.nmpc.step.build_qp_export`), which gives the QP
+``nmpc_qp`` (:func:`maglev_ocp.controllers.nmpc.step.build_qp_export`), which gives the QP
 the step solves as dense data, and the QP is solved to ``1e-9`` by Clarabel
-(:func:`controllers.nmpc.exact_qp.solve_exact`, the disks as second-order cones:
+(:func:`maglev_ocp.controllers.nmpc.exact_qp.solve_exact`, the disks as second-order cones:
 the reference problem is exactly the QP our ADMM iterates on). For each solver
 setting the closed loops are run with that setting (so each setting is judged
 on its own trajectory) and reported:
@@ -36,9 +36,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
-from controllers.nmpc import NMPC, NMPCSettings, casadi_evaluators, step_functions  # noqa: E402
-from controllers.nmpc.exact_qp import QPData, solve_exact  # noqa: E402
-from controllers.nmpc.layout import NU  # noqa: E402
+from maglev_ocp.controllers.nmpc import NMPC, NMPCSettings, casadi_evaluators, step_functions  # noqa: E402
+from maglev_ocp.controllers.nmpc.exact_qp import QPData, solve_exact  # noqa: E402
+from maglev_ocp.controllers.nmpc.layout import NU  # noqa: E402
 from maglev_ocp.fastcall import BufferedFunction  # noqa: E402
 
 #: The closed loops whose QPs are recorded (shipped scenarios).
@@ -52,7 +52,7 @@ SCENARIOS: tuple[str, ...] = (
 
 
 class RecordingEvaluators:
-    """Evaluator factory (:class:`controllers.nmpc.StepEvaluators`) that records every step call.
+    """Evaluator factory (:class:`maglev_ocp.controllers.nmpc.StepEvaluators`) that records every step call.
 
     Wraps ``base`` (default the Python backend); ``calls`` holds ``(state_in,
     meas, ref, p, u, state_out, stats)`` per step, ``fns`` the step's Functions.

@@ -14,7 +14,7 @@ Procedure:
    SCHED_FIFO; the instances, both first controls and both timings are saved.
    Without that environment the tour is recorded here and acados is left out.
 2. Here, each instance's QP (``nmpc_qp``: the QP our step solves) is solved
-   exactly by Clarabel (:mod:`controllers.nmpc.exact_qp`, the disks as cones) and
+   exactly by Clarabel (:mod:`maglev_ocp.controllers.nmpc.exact_qp`, the disks as cones) and
    by OSQP (the ``solver: osqp`` stage, disks as tangent cuts refined once), by
    OSQP's own generated C of the same QP (``osqp: {embedded: true}``, embedded
    mode 2; timed from Python and its C calls alone) and DAQP (dual active set,
@@ -48,11 +48,11 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from benchmarks.qp_accuracy import pct, qp_of_call  # noqa: E402
-from controllers.nmpc import NMPC, NMPCSettings, step_functions  # noqa: E402
-from controllers.nmpc.exact_qp import QPData, solve_exact  # noqa: E402
-from controllers.nmpc.layout import NU  # noqa: E402
-from controllers.nmpc.osqp_solver import EmbeddedOSQPStage, OSQPStage  # noqa: E402
 from maglev_ocp.codegen.bench import realtime_priority  # noqa: E402
+from maglev_ocp.controllers.nmpc import NMPC, NMPCSettings, step_functions  # noqa: E402
+from maglev_ocp.controllers.nmpc.exact_qp import QPData, solve_exact  # noqa: E402
+from maglev_ocp.controllers.nmpc.layout import NU  # noqa: E402
+from maglev_ocp.controllers.nmpc.osqp_solver import EmbeddedOSQPStage, OSQPStage  # noqa: E402
 from maglev_ocp.fastcall import BufferedFunction  # noqa: E402
 from maglev_ocp.params import NOMINAL  # noqa: E402
 

@@ -722,7 +722,7 @@ def effect_delta_function(names: tuple[str, ...]) -> ca.Function:
     The effect library's accelerations (currents transformed, terms scaled,
     forces added, :meth:`EffectSet.accel`) minus the shared model's at the
     same state and currents: how a controller's model file
-    (:mod:`controllers.model_file`) and the reference planner
+    (:mod:`maglev_ocp.controllers.model_file`) and the reference planner
     (:mod:`maglev_ocp.reference`) add fitted effects to the shared model.
     """
     m = get_model()

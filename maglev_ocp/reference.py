@@ -74,7 +74,7 @@ class ReferenceSettings(Strict):
         (:func:`maglev_ocp.ocp.min_time.solve_min_time`, gap kept between the
         start and target gaps), a move at the limits for a controller that
         handles them itself (an option of the NMPC, see
-        :meth:`controllers.nmpc.NMPCSettings.reference_defaults`); a move the
+        :meth:`maglev_ocp.controllers.nmpc.NMPCSettings.reference_defaults`); a move the
         solver does not converge on falls back to ``trajectory``.
     current_fraction : float
         Fraction of the current limits the planned feedforward may use; the
@@ -153,7 +153,7 @@ def unit_profile(tau, ramp):
 
     The one jerk-limited (trapezoidal-acceleration) bang-bang profile of the
     suite: the runner's :class:`Move` samples it with NumPy arrays, the NMPC's
-    internal planner (:mod:`controllers.nmpc.planner`) builds it from CasADi SX
+    internal planner (:mod:`maglev_ocp.controllers.nmpc.planner`) builds it from CasADi SX
     (branch-free ``if_else``, so it is part of the generated C). The
     acceleration ramps from 0 to its peak ``A = 4 / (1 - 2 ramp)`` over
     ``ramp``, holds, ramps back to 0 at ``tau = 1/2``; the second half mirrors

@@ -21,11 +21,11 @@ Every key (SI units):
 ``controller``
     ``type`` (``nmpc``, ``fl``, ``pid``), ``backend`` (``python``, ``c``) and the
     settings of that controller, validated by its own settings model
-    (``controllers.nmpc.NMPCSettings``, ``controllers.fl.FLSettings``,
-    ``controllers.pid.PIDSettings``); e.g. ``delay_samples`` (the loop's
+    (``maglev_ocp.controllers.nmpc.NMPCSettings``, ``maglev_ocp.controllers.fl.FLSettings``,
+    ``maglev_ocp.controllers.pid.PIDSettings``); e.g. ``delay_samples`` (the loop's
     computation delay the controller predicts through, FL and NMPC) and, for
     FL and NMPC, ``model`` (a model file with constants and effects, e.g. the
-    ``model.yaml`` of ``maglev diagnose``, :mod:`controllers.model_file`; a
+    ``model.yaml`` of ``maglev diagnose``, :mod:`maglev_ocp.controllers.model_file`; a
     path from the working directory).
 ``controller_params``
     What the controller's model believes: ``file`` (a parameter YAML), single
@@ -86,9 +86,9 @@ from .reference import PlanEffects, ReferenceSettings, Target
 
 #: Controller types: module, settings class, controller class (imported lazily).
 CONTROLLERS: dict[str, tuple[str, str, str]] = {
-    "fl": ("controllers.fl", "FLSettings", "FeedbackLinearization"),
-    "nmpc": ("controllers.nmpc", "NMPCSettings", "NMPC"),
-    "pid": ("controllers.pid", "PIDSettings", "PIDController"),
+    "fl": ("maglev_ocp.controllers.fl", "FLSettings", "FeedbackLinearization"),
+    "nmpc": ("maglev_ocp.controllers.nmpc", "NMPCSettings", "NMPC"),
+    "pid": ("maglev_ocp.controllers.pid", "PIDSettings", "PIDController"),
 }
 
 _EPS = 1e-12  # slack on envelope checks (targets written in mm convert inexactly)
@@ -427,7 +427,7 @@ class Scenario(Strict):
         """The model the moves are planned on: the one the controller loads.
 
         With a model file (``controller: {model: FILE}``,
-        :mod:`controllers.model_file`) its constants and its static effects (the
+        :mod:`maglev_ocp.controllers.model_file`) its constants and its static effects (the
         planner checks the moves' currents on the model with them, so a plan
         near the limits stays within them on the model the controller predicts
         with); else :meth:`controller_model_params` and no effects.
@@ -435,7 +435,7 @@ class Scenario(Strict):
         path = getattr(self.controller.settings, "model", None)
         if not path:
             return self.controller_model_params(), None
-        from controllers.model_file import load_controller_model  # the controllers' format, loaded lazily
+        from maglev_ocp.controllers.model_file import load_controller_model  # the controllers' format, loaded lazily
 
         cm = load_controller_model(path)
         effects = PlanEffects(cm.effects, tuple(float(v) for v in cm.theta)) if cm.effects else None

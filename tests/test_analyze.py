@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from controllers.fl import FeedbackLinearization, FLSettings
 from maglev_ocp.analysis.controller_map import (
     LinearController,
     linearize_by_differences,
@@ -26,6 +25,7 @@ from maglev_ocp.analysis.plant_model import AnalysisPlant, DelayedPlantSim, Line
 from maglev_ocp.analysis.report import analyze_point, delay_cross_check
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
 from maglev_ocp.cli import main
+from maglev_ocp.controllers.fl import FeedbackLinearization, FLSettings
 
 Ts = 1e-3
 KP, KD = 1.0e4, 150.0  # PD on a unit double integrator: crossover near 160 rad/s
@@ -272,7 +272,7 @@ def test_cli_analyze_refuses_points_outside_the_stops(capsys):
 
 @pytest.mark.slow
 def test_nmpc_margins_and_delay_margin_at_20_mm():
-    from controllers.nmpc import NMPC
+    from maglev_ocp.controllers.nmpc import NMPC
 
     plant = AnalysisPlant(lag_hz=2000.0, delay_samples=0)
     pr = analyze_point(NMPC, plant, 0.020, 0.0)
@@ -299,10 +299,10 @@ def test_cli_analyze_takes_controller_and_delay_from_a_scenario(capsys):
 
 @pytest.mark.slow
 def test_nmpc_finite_differences_agree_with_automatic_differentiation_of_its_step():
-    from controllers.nmpc import NMPC
-    from controllers.nmpc.controller import casadi_evaluators
     from maglev_ocp.analysis.controller_map import StepRecorder, linearize_controller, linearize_recorded
     from maglev_ocp.analysis.margins import closed_loop_matrix
+    from maglev_ocp.controllers.nmpc import NMPC
+    from maglev_ocp.controllers.nmpc.controller import casadi_evaluators
 
     plant = AnalysisPlant()
     rec = StepRecorder(casadi_evaluators)

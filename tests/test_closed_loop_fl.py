@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.fl import FeedbackLinearization, FLSettings
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import Measurement
+from maglev_ocp.controllers.fl import FeedbackLinearization, FLSettings
 from maglev_ocp.ocp import MinTimeSettings, solve_min_time
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.runner import run_scenario

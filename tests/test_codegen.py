@@ -86,8 +86,8 @@ def test_observer_function_matches_python_observer(disturbance):
 
 
 def test_fl_step_function_matches_python_controller():
-    from controllers.fl import FeedbackLinearization, FLSettings
     from maglev_ocp.codegen.fl_fn import fl_functions
+    from maglev_ocp.controllers.fl import FeedbackLinearization, FLSettings
     from maglev_ocp.plant import Plant, PlantConfig
 
     s = FLSettings(integral=True, omega_g=60.0)
@@ -223,9 +223,9 @@ def test_nmpc_harness_built_with_make_reproduces_logged_run(nmpc_runs, tmp_path)
 
 @needs_cc
 def test_fl_and_observer_compiled_and_harness(tmp_path):
-    from controllers.fl import FLSettings
     from maglev_ocp.cli import main
     from maglev_ocp.codegen.backend import CompiledObserver, build_c_controller
+    from maglev_ocp.controllers.fl import FLSettings
     from maglev_ocp.runner import run_scenario
     from maglev_ocp.scenario import scenario_from_dict
 
@@ -307,8 +307,8 @@ def test_bench_reports_every_controller_and_backend(tmp_path):
 def test_runner_builds_backend_c_through_the_registered_evaluators():
     """``backend: c`` in a scenario: the runner (below codegen) gets the builder maglev_ocp.codegen registered,
     and the NMPC it returns is the Python class with the compiled evaluators injected (one C path)."""
-    from controllers.nmpc import NMPC
     from maglev_ocp.codegen.backend import CEvaluators, build_c_controller
+    from maglev_ocp.controllers.nmpc import NMPC
     from maglev_ocp.runner import CONTROLLER_BACKENDS, build_controller
     from maglev_ocp.scenario import scenario_from_dict
 
@@ -322,9 +322,9 @@ def test_runner_builds_backend_c_through_the_registered_evaluators():
 
 @needs_cc
 def test_pid_backend_c_is_the_compiled_pid():
-    """``backend: c`` of the PID: its whole step compiled (the law of controllers.pid, observer, schedule)."""
-    from controllers.pid import PIDController, PIDSettings
+    """``backend: c`` of the PID: its whole step compiled (law, observer, schedule)."""
     from maglev_ocp.codegen.backend import CompiledPID, build_c_controller
+    from maglev_ocp.controllers.pid import PIDController, PIDSettings
     from maglev_ocp.errors import UserError
 
     ctrl = build_c_controller("pid", PIDSettings(omega_g=70.0), NOMINAL, cflags=TEST_CFLAGS, progress=False)

@@ -182,7 +182,7 @@ def test_nmpc_reference_input_is_what_the_nmpc_reads(ahead, period_mean):
     """The pre-computed ``ref`` input of every step equals the NMPC's own read-ahead (preview mode), with and
     without a computation delay; with ``period_mean`` its accelerations are the period means the runner hands
     the controllers."""
-    from controllers.nmpc.reference import HorizonReference
+    from maglev_ocp.controllers.nmpc.reference import HorizonReference
 
     sc = scenario_from_dict(_scenario("nmpc"))
     rp = plan_run(sc)

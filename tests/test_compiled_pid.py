@@ -1,9 +1,9 @@
 """The PID regulators compiled (``pid_step``) and the diagnosis generator's runs on the compiled loop.
 
 Reference: the Python loop (:func:`maglev_ocp.loop.run_closed_loop`) with the Python
-:class:`controllers.pid.PIDController`, on the same plant seeds and so the same noise draws. The
+:class:`maglev_ocp.controllers.pid.PIDController`, on the same plant seeds and so the same noise draws. The
 compiled side is the PID's CasADi step (built from the controller's own law,
-:func:`controllers.pid.pid_law`) code-generated, and the plant's step code-generated, in one C call.
+:func:`maglev_ocp.controllers.pid.pid_law`) code-generated, and the plant's step code-generated, in one C call.
 The default rig profile (noise, quantization, limits, stops, amplifier lag, friction) is on; the logs
 must agree to 1e-9, and the quantized readings must be identical (no encoder count flipped).
 """
@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers.pid import PIDController, PIDSettings
 from maglev_ocp.codegen.backend import CompiledPID
 from maglev_ocp.codegen.build import find_compiler
 from maglev_ocp.codegen.loop_c import rig_loop, run_closed_loop_compiled
+from maglev_ocp.controllers.pid import PIDController, PIDSettings
 from maglev_ocp.diagnosis.generate import ForcedPlant, GeneratorSettings, generate_dataset, run_reference
 from maglev_ocp.errors import UserError
 from maglev_ocp.loop import run_closed_loop

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.fl import FeedbackLinearization, FLSettings, fl_predictor_function
 from maglev_ocp import constants as k
+from maglev_ocp.controllers.fl import FeedbackLinearization, FLSettings, fl_predictor_function
 from maglev_ocp.errors import ConfigError
 from maglev_ocp.loop import ClosedLoop
 from maglev_ocp.model import get_model

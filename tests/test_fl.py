@@ -9,15 +9,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from controllers.fl import (
+from maglev_ocp import constants as k
+from maglev_ocp.blocks import Measurement, Reference
+from maglev_ocp.controllers.fl import (
     FLAG_FIELDS,
     GAIN_FIELDS,
     FeedbackLinearization,
     FLSettings,
     fl_law_function,
 )
-from maglev_ocp import constants as k
-from maglev_ocp.blocks import Measurement, Reference
 from maglev_ocp.errors import ConfigError
 from maglev_ocp.model import model_inverse_function
 from maglev_ocp.params import NOMINAL

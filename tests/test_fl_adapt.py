@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.fl import FeedbackLinearization, FLSettings
 from maglev_ocp.blocks import Reference
+from maglev_ocp.controllers.fl import FeedbackLinearization, FLSettings
 from maglev_ocp.fastcall import BufferedFunction
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.runner import _as_scenario, build_run, run_scenario

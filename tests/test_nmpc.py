@@ -8,12 +8,12 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from controllers.nmpc import NMPC, NMPCSettings, StepBuilder, casadi_evaluators
-from controllers.nmpc.planner import feedforward_currents, half_duration, move_at
-from controllers.nmpc.qp import admm_iteration
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import Controller, Measurement, Reference
 from maglev_ocp.config import parse_model
+from maglev_ocp.controllers.nmpc import NMPC, NMPCSettings, StepBuilder, casadi_evaluators
+from maglev_ocp.controllers.nmpc.planner import feedforward_currents, half_duration, move_at
+from maglev_ocp.controllers.nmpc.qp import admm_iteration
 from maglev_ocp.errors import ConfigError
 from maglev_ocp.model import get_model
 from maglev_ocp.observers import HighGainObserver, ObserverSettings

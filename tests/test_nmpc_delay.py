@@ -14,9 +14,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from controllers.nmpc import NMPC, NMPCSettings, StepBuilder
-from controllers.nmpc.design import LQR_GAP_GRID, fn_terminal_weight, lqr_design, make_design, scheduled_gain
 from maglev_ocp.blocks import Measurement, Reference
+from maglev_ocp.controllers.nmpc import NMPC, NMPCSettings, StepBuilder
+from maglev_ocp.controllers.nmpc.design import LQR_GAP_GRID, fn_terminal_weight, lqr_design, make_design, scheduled_gain
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.runner import run_scenario
 

@@ -14,11 +14,11 @@ import shutil
 import numpy as np
 import pytest
 
-from controllers.model_file import load_controller_model
-from controllers.nmpc import NMPC, NMPCSettings
 from maglev_ocp import constants as k
 from maglev_ocp.codegen.build import find_compiler
 from maglev_ocp.config import dump_yaml
+from maglev_ocp.controllers.model_file import load_controller_model
+from maglev_ocp.controllers.nmpc import NMPC, NMPCSettings
 from maglev_ocp.effects import EFFECTS
 from maglev_ocp.errors import ConfigError
 from maglev_ocp.runner import run_scenario

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers.nmpc import NMPC, NMPCSettings, casadi_evaluators, step_functions
-from controllers.nmpc.exact_qp import QPData, kkt_residuals, solve_exact
-from controllers.nmpc.layout import NU
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import Reference
+from maglev_ocp.controllers.nmpc import NMPC, NMPCSettings, casadi_evaluators, step_functions
+from maglev_ocp.controllers.nmpc.exact_qp import QPData, kkt_residuals, solve_exact
+from maglev_ocp.controllers.nmpc.layout import NU
 from maglev_ocp.fastcall import BufferedFunction
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.plant import Plant, PlantConfig
@@ -136,7 +136,7 @@ def test_osqp_solver_runs_a_scenario_and_settles():
 
 def test_osqp_stage_matches_the_exact_qp(switch_default):
     pytest.importorskip("osqp")
-    from controllers.nmpc.osqp_solver import OSQPStage
+    from maglev_ocp.controllers.nmpc.osqp_solver import OSQPStage
 
     rec, _, qps, exact = switch_default
     st = OSQPStage(rec.fns.settings)

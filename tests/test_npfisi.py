@@ -44,8 +44,8 @@ def locked_gap_run(model, p, g: float, i_q: float, n: int, d0: float = -0.05) ->
 @pytest.fixture(scope="module")
 def hover_runs():
     """Hover runs with d locked at 0 on the ideal plant (true params TRUE), gap excited by the seed's PID."""
-    from controllers.pid import PIDController, PIDSettings
     from maglev_ocp.blocks import Reference
+    from maglev_ocp.controllers.pid import PIDController, PIDSettings
     from maglev_ocp.loop import run_closed_loop
     from maglev_ocp.plant import Plant, PlantConfig
 
@@ -190,8 +190,8 @@ def test_batch_recovers_vertical_parameters_and_reports_uncertainty(hover_runs):
 
 def test_batch_on_a_rig_with_saturation_keeps_C4_physical_and_says_the_model_does_not_fit():
     """Magnetic saturation (not in the model) drives the unconstrained C4 negative: held at 0 and flagged."""
-    from controllers.pid import PIDController, PIDSettings
     from maglev_ocp.blocks import Reference
+    from maglev_ocp.controllers.pid import PIDController, PIDSettings
     from maglev_ocp.loop.drive import run_closed_loop
     from maglev_ocp.plant import Plant, PlantConfig
 

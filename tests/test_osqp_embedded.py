@@ -12,7 +12,7 @@ import shutil
 import numpy as np
 import pytest
 
-from controllers.nmpc import NMPC, NMPCSettings
+from maglev_ocp.controllers.nmpc import NMPC, NMPCSettings
 from maglev_ocp.errors import ConfigError
 
 pytest.importorskip("osqp")
@@ -66,8 +66,8 @@ def test_embedded_osqp_gives_the_package_currents_on_a_tour(tmp_path, monkeypatc
     # each stage has its own workspace (its own warm start): a second stage solves the QP the first just
     # solved from cold, with as many iterations (a shared workspace would start at the solution: fewer)
     from benchmarks.qp_accuracy import qp_of_call
-    from controllers.nmpc import step_functions
-    from controllers.nmpc.osqp_solver import EmbeddedOSQPStage
+    from maglev_ocp.controllers.nmpc import step_functions
+    from maglev_ocp.controllers.nmpc.osqp_solver import EmbeddedOSQPStage
     from maglev_ocp.fastcall import BufferedFunction
 
     export = BufferedFunction(step_functions(s, rec.fns.mode)[2].build_qp_export())

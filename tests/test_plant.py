@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from controllers.pid import PIDController
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import Reference
+from maglev_ocp.controllers.pid import PIDController
 from maglev_ocp.effects import EFFECTS, AmplifierLag, EffectSet
 from maglev_ocp.errors import ConfigError
 from maglev_ocp.loop import run_closed_loop, run_open_loop

@@ -389,7 +389,7 @@ class StepRecorder:
     Parameters
     ----------
     base : callable
-        The evaluator factory to wrap (e.g. ``controllers.nmpc.casadi_evaluators``).
+        The evaluator factory to wrap (e.g. ``maglev_ocp.controllers.nmpc.casadi_evaluators``).
     """
 
     def __init__(self, base: Any):

@@ -337,7 +337,7 @@ def _closed_loop(
     plant, job: dict, gd: tuple[float, float], x0: np.ndarray, ss_ref, args: argparse.Namespace, file: str
 ):
     """The seed's PID regulators holding (g, d) ('hover') or tracking a sum of sines ('excitation')."""
-    from controllers.pid import PIDController, PIDSettings
+    from maglev_ocp.controllers.pid import PIDController, PIDSettings
 
     from ..loop import run_closed_loop
     from ..plant.excitation import AxisExcitation, ExcitationSettings, SumOfSines, constant_reference

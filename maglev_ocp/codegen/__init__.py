@@ -35,8 +35,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from controllers.fl import FLSettings
-from controllers.nmpc import NMPCSettings
+from maglev_ocp.controllers.fl import FLSettings
+from maglev_ocp.controllers.nmpc import NMPCSettings
 
 from ..params import NOMINAL, Params
 from .backend import register_c_backend

@@ -3,7 +3,7 @@
 ``backend: c`` in a scenario means the closed loop runs on the very code the
 rig would run. There is one C path:
 
-* the NMPC is the Python :class:`controllers.nmpc.NMPC` given the compiled
+* the NMPC is the Python :class:`maglev_ocp.controllers.nmpc.NMPC` given the compiled
   evaluators :func:`c_evaluators` (its step Function code-generated
   (:func:`maglev_ocp.codegen.functions.nmpc_code`), built in the content-hash
   cache (:func:`maglev_ocp.codegen.build.build_cached`; once per design and
@@ -33,9 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from controllers.fl import FeedbackLinearization, fl_adapted, law_stats
-from controllers.nmpc import NMPC, StepFunctions
-from controllers.pid import PIDController, hover_error
+from maglev_ocp.controllers.fl import FeedbackLinearization, fl_adapted, law_stats
+from maglev_ocp.controllers.nmpc import NMPC, StepFunctions
+from maglev_ocp.controllers.pid import PIDController, hover_error
 
 from .. import constants as k
 from ..blocks import ControlOutput, Measurement, Reference
@@ -87,7 +87,7 @@ class _Timed:
 
 
 class CEvaluators:
-    """The NMPC's step evaluators on compiled C (a :class:`controllers.nmpc.StepEvaluators`).
+    """The NMPC's step evaluators on compiled C (a :class:`maglev_ocp.controllers.nmpc.StepEvaluators`).
 
     Parameters
     ----------
@@ -123,7 +123,7 @@ def c_evaluators(cflags: str | None = None, progress: bool = True) -> CEvaluator
 
 
 class CompiledFL(FeedbackLinearization):
-    """:class:`controllers.fl.FeedbackLinearization` whose whole step (observer + law) is compiled C."""
+    """:class:`maglev_ocp.controllers.fl.FeedbackLinearization` whose whole step (observer + law) is compiled C."""
 
     backend = "c"
 
@@ -184,7 +184,7 @@ class CompiledFL(FeedbackLinearization):
 
 
 class CompiledPID(PIDController):
-    """:class:`controllers.pid.PIDController` whose whole step (observer + schedule + regulators) is compiled C."""
+    """:class:`~maglev_ocp.controllers.pid.PIDController` whose step (observer, schedule, regulators) is compiled C."""
 
     backend = "c"
 

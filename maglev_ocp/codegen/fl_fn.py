@@ -1,7 +1,7 @@
 """The whole feedback-linearization step (observer + control law) as CasADi Functions.
 
-:class:`controllers.fl.FeedbackLinearization` keeps its observer in Python and
-calls the CasADi law :func:`controllers.fl.fl_law_function`. For the rig the
+:class:`maglev_ocp.controllers.fl.FeedbackLinearization` keeps its observer in Python and
+calls the CasADi law :func:`maglev_ocp.controllers.fl.fl_law_function`. For the rig the
 step must be one self-contained C function, so this module composes the
 observer update (:mod:`maglev_ocp.codegen.observer_fn`, same gains) and the
 same law Function into
@@ -14,10 +14,10 @@ with the controller's memory in one state vector (:data:`FL_STATE`), and
 
 Both mirror ``FeedbackLinearization.reset`` / ``step`` line by line, so the C
 backend reproduces the Python controller to rounding. With a computation
-delay of ``N > 0`` samples (:func:`controllers.fl.fl_delay_samples`) the state
+delay of ``N > 0`` samples (:func:`maglev_ocp.controllers.fl.fl_delay_samples`) the state
 also holds the ``N + 1`` commands sent (:func:`fl_state`), the observer is
 updated with the oldest (the one applied over the last period) and the law runs
-on the FL's own predictor (:func:`controllers.fl.fl_predictor_function`, the
+on the FL's own predictor (:func:`maglev_ocp.controllers.fl.fl_predictor_function`, the
 shared model's RK4 step through the ``N`` commands in flight); the caller hands
 in the reference ``N`` samples ahead, as the Python FL reads it from its plan.
 """
@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from controllers.fl import (
+from maglev_ocp.controllers.fl import (
     GAIN_FIELDS,
     fl_adapt_state,
     fl_adapted,
@@ -58,7 +58,7 @@ def fl_state(delay: int = 0, n_adapt: int = 0) -> tuple[tuple[str, int, str, str
     """The state's pieces for a computation delay of ``delay`` samples and ``n_adapt`` adapted constants.
 
     :data:`FL_STATE`, then the queue of commands sent (``delay > 0``), then the
-    adaptive observer's memory (``n_adapt > 0``, :func:`controllers.fl.fl_adapt_state`).
+    adaptive observer's memory (``n_adapt > 0``, :func:`maglev_ocp.controllers.fl.fl_adapt_state`).
     """
     out = FL_STATE
     if delay > 0:
@@ -93,12 +93,12 @@ def fl_state_slices(delay: int = 0, n_adapt: int = 0) -> dict[str, slice]:
 
 
 def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
-    """``fl_init`` and ``fl_step`` for :class:`controllers.fl.FLSettings` ``settings``.
+    """``fl_init`` and ``fl_step`` for :class:`maglev_ocp.controllers.fl.FLSettings` ``settings``.
 
     The observer gain (``settings.observer_eps``, ``settings.disturbance``) and
-    the delay predicted through (:func:`controllers.fl.fl_delay_samples`) are
+    the delay predicted through (:func:`maglev_ocp.controllers.fl.fl_delay_samples`) are
     baked in; the model parameters ``p`` and the gain vector ``gains`` (order
-    :data:`controllers.fl.GAIN_FIELDS`) are inputs.
+    :data:`maglev_ocp.controllers.fl.GAIN_FIELDS`) are inputs.
 
     Returns
     -------

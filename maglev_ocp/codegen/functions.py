@@ -9,9 +9,9 @@ sources, the header ``maglev_controller.h``, the harness and the build files.
 
 * ``nmpc``: ``nmpc_init(meas, ref, p) -> state`` and
   ``nmpc_step(state_in, meas, ref, p) -> (u, state_out, stats, x_hat)``, the
-  NMPC developer's step Function (:mod:`controllers.nmpc.step`) as it is, its
+  NMPC developer's step Function (:mod:`maglev_ocp.controllers.nmpc.step`) as it is, its
   state ports documented by the NMPC's own layout table
-  (:meth:`controllers.nmpc.layout.StateLayout.table`);
+  (:meth:`maglev_ocp.controllers.nmpc.layout.StateLayout.table`);
 * ``fl``: ``fl_init``/``fl_step`` (:mod:`maglev_ocp.codegen.fl_fn`);
 * ``pid``: ``pid_init``/``pid_step`` (:mod:`maglev_ocp.codegen.pid_fn`);
 * ``observer``: ``observer_step`` (:mod:`maglev_ocp.codegen.observer_fn`).
@@ -25,10 +25,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from controllers.fl import FLAG_FIELDS, GAIN_FIELDS, fl_adapted, fl_delay_samples
-from controllers.nmpc import step_functions
-from controllers.nmpc.layout import MEAS_TABLE, N_MEAS, STATS_TABLE
-from controllers.nmpc.reference import resolve_mode
+from maglev_ocp.controllers.fl import FLAG_FIELDS, GAIN_FIELDS, fl_adapted, fl_delay_samples
+from maglev_ocp.controllers.nmpc import step_functions
+from maglev_ocp.controllers.nmpc.layout import MEAS_TABLE, N_MEAS, STATS_TABLE
+from maglev_ocp.controllers.nmpc.reference import resolve_mode
 
 from .. import constants as k
 from ..errors import UserError
@@ -246,11 +246,11 @@ REF_ROW_UNITS: tuple[tuple[str, str], ...] = tuple((r.name, r.unit) for r in REF
 
 # ----------------------------------------------------------------------------- NMPC
 def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
-    """Code units of :class:`controllers.nmpc.NMPC` for reference mode ``mode`` (``plan`` or ``preview``).
+    """Code units of :class:`maglev_ocp.controllers.nmpc.NMPC` for reference mode ``mode`` (``plan`` or ``preview``).
 
     Parameters
     ----------
-    settings : controllers.nmpc.NMPCSettings
+    settings : maglev_ocp.controllers.nmpc.NMPCSettings
         The controller's settings (the step Function is built from them, once per design).
     params : Params
         What the controller's model believes (cogging dropped if ``use_cogging`` is off).
@@ -327,7 +327,7 @@ def nmpc_code(settings, params: Params, mode: str) -> ControllerCode:
 
 # ----------------------------------------------------------------------------- FL
 def fl_code(settings, params: Params) -> ControllerCode:
-    """Code units of :class:`controllers.fl.FeedbackLinearization` (observer + law in one step)."""
+    """Code units of :class:`maglev_ocp.controllers.fl.FeedbackLinearization` (observer + law in one step)."""
     init, step = fl_functions(settings, k.Ts)
     delay = fl_delay_samples(settings)
     pieces = tuple(Piece(*q) for q in fl_state(delay, len(fl_adapted(settings))))
@@ -397,7 +397,7 @@ def fl_code(settings, params: Params) -> ControllerCode:
 
 # ----------------------------------------------------------------------------- PID
 def pid_code(settings, params: Params) -> ControllerCode:
-    """Code units of :class:`controllers.pid.PIDController` (observer + schedule + regulators in one step)."""
+    """Code units of :class:`maglev_ocp.controllers.pid.PIDController` (observer, schedule, regulators: one step)."""
     init, step = pid_functions(settings, k.Ts)
     pieces = tuple(Piece(*q) for q in PID_STATE)
     state0, state_in, state_out = _state_ports(PID_STATE_SIZE, pieces)
@@ -458,7 +458,7 @@ def observer_code(eps: float, disturbance: bool, params: Params) -> ControllerCo
 
 
 def resolve_nmpc_mode(settings, shaping: str | None) -> str:
-    """The NMPC's reference mode as the controller picks it (:func:`controllers.nmpc.reference.resolve_mode`).
+    """The NMPC reference mode the controller picks (:func:`~maglev_ocp.controllers.nmpc.reference.resolve_mode`).
 
     ``shaping`` is the scenario's ``reference.shaping`` (``None``: no reference
     plan from a runner, e.g. a bare rig log).

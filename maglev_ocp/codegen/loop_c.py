@@ -50,10 +50,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from controllers.fl import fl_delay_samples
-from controllers.nmpc.layout import STATS_NAMES, STATUS_TEXT
-from controllers.nmpc.reference import resolve_mode
-from controllers.pid import PIDController, hover_error
+from maglev_ocp.controllers.fl import fl_delay_samples
+from maglev_ocp.controllers.nmpc.layout import STATS_NAMES, STATUS_TEXT
+from maglev_ocp.controllers.nmpc.reference import resolve_mode
+from maglev_ocp.controllers.pid import PIDController, hover_error
 
 from .. import constants as k
 from ..blocks import Reference
@@ -94,9 +94,9 @@ class LoopStruct(ctypes.Structure):
 # ----------------------------------------------------------------------------- cache
 @functools.lru_cache(maxsize=1)
 def code_version() -> str:
-    """Hash of the Python code that generates the C (``controllers/`` and ``maglev_ocp/``) and CasADi's version."""
+    """Hash of the Python code that generates the C (``maglev_ocp/``, the controllers included) and CasADi's version."""
     h = hashlib.sha256(ca.__version__.encode())
-    roots = [Path(__file__).resolve().parents[2] / "controllers", Path(__file__).resolve().parents[1]]
+    roots = [Path(__file__).resolve().parents[1]]
     for root in roots:
         for p in sorted(root.rglob("*.py")):
             h.update(str(p.relative_to(root.parent)).encode() + b"\0" + p.read_bytes())
@@ -186,15 +186,15 @@ def _controller_library(ctype: str, settings_json: str, pvec: tuple[float, ...],
     lib = _lookup(ctype, key, "libmaglev_controller.so")
     if lib is None:
         if ctype == "nmpc":
-            from controllers.nmpc import NMPCSettings
+            from maglev_ocp.controllers.nmpc import NMPCSettings
 
             code = nmpc_code(NMPCSettings.model_validate_json(settings_json), params, mode)
         elif ctype == "pid":
-            from controllers.pid import PIDSettings
+            from maglev_ocp.controllers.pid import PIDSettings
 
             code = pid_code(PIDSettings.model_validate_json(settings_json), params)
         else:
-            from controllers.fl import FLSettings
+            from maglev_ocp.controllers.fl import FLSettings
 
             code = fl_code(FLSettings.model_validate_json(settings_json), params)
         b = compile_codes([code], cflags, progress=False)
@@ -231,7 +231,7 @@ def nmpc_refs(mode: str, rp: RunPlan, N: int, ahead: int = 0, period_mean: bool 
     ``t + (ahead + j) Ts`` (``ahead``: the NMPC's computation delay; with
     ``period_mean`` the accelerations averaged over each period), held at its
     value just before the next target switch
-    (:meth:`controllers.nmpc.reference.HorizonReference.matrix`).
+    (:meth:`maglev_ocp.controllers.nmpc.reference.HorizonReference.matrix`).
     """
     n, Ts, plan = rp.n, k.Ts, rp.plan
     out = np.zeros((n, N + 1, 6))
@@ -303,7 +303,7 @@ def _pid_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> C
 
 def fl_refs(rp: RunPlan, delay: int) -> np.ndarray:
     """FL's ``ref`` input of every step (``n x 6``): the runner's rows, or with a delay of ``N`` samples the plan
-    ``N`` samples ahead, as :meth:`controllers.fl.FeedbackLinearization.set_reference_plan` makes it read."""
+    ``N`` samples ahead, as :meth:`maglev_ocp.controllers.fl.FeedbackLinearization.set_reference_plan` makes it read."""
     if not delay:
         return rp.refs
     Ts, plan = k.Ts, rp.plan
@@ -354,7 +354,7 @@ def _fl_stats(log: np.ndarray, t_us: np.ndarray) -> tuple[np.ndarray, dict, dict
 
 def _pid_stats(log: np.ndarray, t_us: np.ndarray) -> tuple[np.ndarray, dict, dict]:
     """x_hat, statistics and timings of the PID's logged outputs ``[u(2), x_hat(4), u_eq(2), flags(2)]``
-    (as :meth:`controllers.pid.PIDController.step` reports them; ``fallback`` only if it happened)."""
+    (as :meth:`maglev_ocp.controllers.pid.PIDController.step` reports them; ``fallback`` only if it happened)."""
     stats = {"i_q_eq": log[:, 6], "i_d_eq": log[:, 7], "saturated": (log[:, 8] != 0).astype(float)}
     if np.any(log[:, 9] != 0):
         stats["fallback"] = np.where(log[:, 9] != 0, 1.0, np.nan)

@@ -1,12 +1,12 @@
 """The whole PID step (observer + gain schedule + the two regulators + limits) as CasADi Functions.
 
-:class:`controllers.pid.PIDController` runs its high-gain observer and its law
+:class:`maglev_ocp.controllers.pid.PIDController` runs its high-gain observer and its law
 numerically. For the C backend and the compiled closed loop the step is one
 self-contained function, composed here from the controller's own pieces (never
 retyped): the observer's symbolic update (:func:`maglev_ocp.observers.observer_update`,
 the gain of :class:`~maglev_ocp.observers.HighGainObserver`), the controller's
-gain-schedule Function (:func:`controllers.pid.schedule_function`) and its law
-(:func:`controllers.pid.pid_law` evaluated with :data:`controllers.pid.SYMBOLIC`):
+gain-schedule Function (:func:`maglev_ocp.controllers.pid.schedule_function`) and its law
+(:func:`maglev_ocp.controllers.pid.pid_law` evaluated with :data:`maglev_ocp.controllers.pid.SYMBOLIC`):
 
 ``pid_step(state_in, meas, ref, p) -> (u, state_out, x_hat, u_eq, flags)``
 
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from controllers.pid import SYMBOLIC, clip_currents, pid_law, schedule_function
+from maglev_ocp.controllers.pid import SYMBOLIC, clip_currents, pid_law, schedule_function
 
 from .. import constants as k
 from ..model import get_model
@@ -49,7 +49,7 @@ def pid_state_slices() -> dict[str, slice]:
 
 
 def pid_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
-    """``pid_init`` and ``pid_step`` for :class:`controllers.pid.PIDSettings` ``settings``.
+    """``pid_init`` and ``pid_step`` for :class:`maglev_ocp.controllers.pid.PIDSettings` ``settings``.
 
     The tuning and the observer gain (``settings.observer_eps``, disturbance
     estimate on, as the controller builds its observer) are baked in; the model

@@ -2,7 +2,7 @@
 
 A diagnosis needs data that visits the gaps and positions where effects live
 (cogging below 15 mm, the ends of the stroke, both directions of motion,
-current changes). The seed's PID regulators (:mod:`controllers.pid`) track a
+current changes). The seed's PID regulators (:mod:`maglev_ocp.controllers.pid`) track a
 sum of slow, large sines (the sweep) plus small, faster sines (dither that
 excites velocities and current rates), as the seed did for its
 identification. Each run covers a different band of gaps, so a dataset of
@@ -25,7 +25,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from controllers.pid import PIDController
+from maglev_ocp.controllers.pid import PIDController
 
 from .. import constants as k
 from ..blocks import Reference

@@ -1,7 +1,7 @@
 """The seed's calibration experiments (sections IV and V) on the plant simulator, as a rig-log dataset.
 
 Three groups of runs, each produced with the seed's PID regulators
-(:class:`controllers.pid.PIDController`) on one :class:`~maglev_ocp.plant.Plant`
+(:class:`maglev_ocp.controllers.pid.PIDController`) on one :class:`~maglev_ocp.plant.Plant`
 (one set of true parameters, an independent noise stream per run):
 
 * **hover** (seed V.B, V.C): d locked by the fixture at 0 and at ``3 t1 / 2``,
@@ -28,7 +28,7 @@ import numpy as np
 from pydantic import Field
 from tqdm import tqdm
 
-from controllers.pid import PIDController, PIDSettings
+from maglev_ocp.controllers.pid import PIDController, PIDSettings
 
 from .. import constants as k
 from ..blocks import ControlOutput, Measurement, Reference

@@ -1,7 +1,7 @@
 """OSQP as the NMPC's QP solver (``solver: osqp``): the same condensed QP, solved by the osqp package.
 
 OSQP takes linear constraints only, so the current disks of the QP
-(:mod:`controllers.nmpc.exact_qp`) become, per stage, the per-axis box and
+(:mod:`maglev_ocp.controllers.nmpc.exact_qp`) become, per stage, the per-axis box and
 tangent cuts ``n' (ubar_k + v_k) <= r``: a fixed circumscribed polygon of
 ``osqp.polygon`` sides, one cut at the direction of the linearization point
 ``ubar_k`` (the cut acados's RTI linearization of ``|u|^2 <= r^2`` also gives,
@@ -18,7 +18,7 @@ calls (its own warm start: the previous solution), and is set up once per
 design. Two solvers run the same cutting-plane passes (:meth:`OSQPStage.solve`):
 the osqp package (:class:`OSQPStage`) or, with ``osqp: {embedded: true}``, OSQP's
 own generated C of this QP (:class:`EmbeddedOSQPStage`,
-:mod:`controllers.nmpc.osqp_embedded`). Both get the QP's data as one gather
+:mod:`maglev_ocp.controllers.nmpc.osqp_embedded`). Both get the QP's data as one gather
 into a fixed sparsity (:meth:`OSQPStage._structure`).
 """
 
@@ -218,7 +218,7 @@ class EmbeddedOSQPStage(OSQPStage):
     ----------
     library : pathlib.Path
         The cached shared library this stage loaded a private copy of
-        (:func:`controllers.nmpc.osqp_embedded.load`).
+        (:func:`maglev_ocp.controllers.nmpc.osqp_embedded.load`).
     c_seconds : float
         Time spent in the generated code's calls (updates and solves) since the stage was made [s].
     """

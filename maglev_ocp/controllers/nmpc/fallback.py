@@ -122,8 +122,8 @@ def build_post(d: StepDesign) -> ca.Function:
     """Prediction of the new plan, checks, fallback and warm-start shift (``nmpc_post``, inputs :data:`POST_INPUTS`).
 
     An MX Function: the prediction of the new plan is a
-    :func:`~controllers.nmpc.riccati.stage_chain` of
-    :func:`~controllers.nmpc.prediction.fn_pred_stage`, the rest one SX
+    :func:`~maglev_ocp.controllers.nmpc.riccati.stage_chain` of
+    :func:`~maglev_ocp.controllers.nmpc.prediction.fn_pred_stage`, the rest one SX
     Function (:func:`fn_post_tail`).
     """
     s, m = d.settings, d.model

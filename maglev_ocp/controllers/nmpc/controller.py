@@ -1,8 +1,8 @@
 """The NMPC controller: the step Function, evaluated by an injected evaluator, inside the Controller protocol.
 
 :class:`NMPC` follows :class:`~maglev_ocp.blocks.Controller`; its settings are
-:class:`~controllers.nmpc.settings.NMPCSettings`. One control step is the single
-CasADi Function of :mod:`controllers.nmpc.step`. *How* it is evaluated is not
+:class:`~maglev_ocp.controllers.nmpc.settings.NMPCSettings`. One control step is the single
+CasADi Function of :mod:`maglev_ocp.controllers.nmpc.step`. *How* it is evaluated is not
 the controller's business: it is given a :class:`StepEvaluators` factory that
 turns the step's Functions into callables. The default,
 :func:`casadi_evaluators`, evaluates them with CasADi's buffer API
@@ -14,7 +14,7 @@ Functions code-generated, compiled and loaded. The Python glue around the call
 
 Example
 -------
->>> from controllers.nmpc import NMPC, NMPCSettings
+>>> from maglev_ocp.controllers.nmpc import NMPC, NMPCSettings
 >>> ctrl = NMPC(NMPCSettings(horizon=20), NOMINAL)
 >>> ctrl.reset(y0, Reference(0.020, 0.0))
 >>> out = ctrl.step(y, Reference(0.020, 0.05))    # out.u, out.x_hat, out.stats

@@ -294,7 +294,7 @@ class FLSettings(AdaptSettings):
         to the rig's delay (``plant.delay_samples`` plus the amplifier's
         transport delay in a scenario); 0 = no predictor.
     model : str or None
-        A model file (:mod:`controllers.model_file`: constants plus fitted
+        A model file (:mod:`maglev_ocp.controllers.model_file`: constants plus fitted
         effects, the plant profiles' ``effects:`` format). Its constants replace
         the controller's parameters; its static effects enter the observer's
         prediction and the inversion (see :meth:`FeedbackLinearization.step`);
@@ -320,7 +320,9 @@ class FLSettings(AdaptSettings):
     delay_samples: int = Field(
         0, ge=0, le=10, description="computation delay compensated by the predictor [control periods]"
     )
-    model: str | None = Field(None, description="model file with constants and effects (controllers.model_file)")
+    model: str | None = Field(
+        None, description="model file: constants and fitted effects (maglev_ocp.controllers.model_file)"
+    )
     adapt_noise: float | None = Field(
         4e-6,
         gt=0,

@@ -1,6 +1,6 @@
 """The NMPC's QP as plain data, its exact solution (interior point, second-order cones) and a KKT check.
 
-The QP our step solves at every RTI step (stage 4 of :mod:`controllers.nmpc.step`)
+The QP our step solves at every RTI step (stage 4 of :mod:`maglev_ocp.controllers.nmpc.step`)
 is, in the ``2 N`` input corrections ``v`` about the shifted plan ``ubar``,
 
     min_v  1/2 v' H v + q' v + sum_i  w1 s_i + w2/2 s_i^2,   s_i = max(0, G_i v - gub_i, glb_i - G_i v)
@@ -8,7 +8,7 @@ is, in the ``2 N`` input corrections ``v`` about the shifted plan ``ubar``,
 
 with ``H, q`` the condensed tracking cost, ``G`` the soft gap rows (millimetres,
 relative to the free response) and ``w1``, ``w2`` the exact and quadratic
-penalties of :class:`~controllers.nmpc.settings.SoftGap`. The per-axis box
+penalties of :class:`~maglev_ocp.controllers.nmpc.settings.SoftGap`. The per-axis box
 ``|i| <= i_box = min(8 A, r)`` contains the disk of radius ``r``, so it is not a
 separate constraint. This is
 the *reference problem* of the accuracy benchmark: exactly what the ADMM

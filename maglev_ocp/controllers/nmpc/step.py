@@ -14,11 +14,11 @@
    current disk per stage, soft gap bounds;
 5. checks and fallback, 6. warm-start shift (:mod:`.fallback`).
 
-Every number comes from :class:`~controllers.nmpc.settings.NMPCSettings` through
-the :class:`~controllers.nmpc.design.StepDesign`. The Function is an MX graph of
+Every number comes from :class:`~maglev_ocp.controllers.nmpc.settings.NMPCSettings` through
+the :class:`~maglev_ocp.controllers.nmpc.design.StepDesign`. The Function is an MX graph of
 small SX Functions (observer/planner, per-node and per-stage maps, and every
 recursion over the horizon as a chain of calls of one blocked stage Function,
-:func:`controllers.nmpc.riccati.stage_chain`), so the generated C holds each
+:func:`maglev_ocp.controllers.nmpc.riccati.stage_chain`), so the generated C holds each
 stage's code once, is branch-free in its loop counts and needs only fixed work
 arrays. How it is evaluated (CasADi or compiled C) is up to the caller.
 """
@@ -203,7 +203,7 @@ def build_qp_export(d: StepDesign) -> ca.Function:
 
     The same stages 1-3 as the step and the dense condensing of :func:`~.admm.fn_condense`
     (identical to what the Riccati x-update iterates on), for the exact reference
-    solution (:mod:`controllers.nmpc.exact_qp`) and the external QP solvers.
+    solution (:mod:`maglev_ocp.controllers.nmpc.exact_qp`) and the external QP solvers.
     """
     (st, meas, ref, p), o = _front_inputs(d)
     H, q, G, glb, gub = _condensed(d, o, meas[2])
@@ -340,7 +340,7 @@ def step_functions(
     """``nmpc_init``, ``nmpc_step`` and the builder (holding the layout) of a design, built once per design.
 
     ``params``: the controller's model as the step receives it (the LQR pieces
-    are designed on it, see :func:`~controllers.nmpc.design.make_design`).
+    are designed on it, see :func:`~maglev_ocp.controllers.nmpc.design.make_design`).
     """
     key = None if params is None else tuple(params.vector().tolist())
     return _step_functions(settings.model_dump_json(), mode, key)

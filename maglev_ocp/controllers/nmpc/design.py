@@ -1,6 +1,6 @@
 """The numeric design of one NMPC step: everything the stage modules bake in as constants.
 
-:func:`make_design` turns :class:`~controllers.nmpc.settings.NMPCSettings` and a
+:func:`make_design` turns :class:`~maglev_ocp.controllers.nmpc.settings.NMPCSettings` and a
 resolved reference mode into a :class:`StepDesign`: the state layout, the
 prediction model (RK4 of the shared model plus the observer's disturbance) and
 its RTI Jacobians, the LQR terminal weight and fallback gain, and the observer
@@ -103,7 +103,7 @@ def model_effects(s: NMPCSettings) -> tuple[tuple[str, ...], np.ndarray | None]:
 
 def effect_accel(effects: tuple[str, ...], theta: np.ndarray | None, x: ca.SX, u: ca.SX, p: ca.SX) -> ca.SX:
     """Accelerations ``(dg_ddot, dd_ddot)`` the effects add at ``(x, u)``: the effect library's own
-    expressions minus the shared model's (:func:`controllers.model_file.effect_delta_function`)."""
+    expressions minus the shared model's (:func:`maglev_ocp.controllers.model_file.effect_delta_function`)."""
     if not effects:
         return ca.SX.zeros(2)
     return effect_delta_function(effects)(x, u, p, ca.DM(theta))

@@ -208,7 +208,7 @@ def rho_adaptation(d: StepDesign, fac: ca.Function, fac_in: list):
 
 
 def admm_riccati(d: StepDesign, o: dict, fault):
-    """Fixed-budget ADMM with the Riccati x-update (:mod:`controllers.nmpc.riccati`)."""
+    """Fixed-budget ADMM with the Riccati x-update (:mod:`maglev_ocp.controllers.nmpc.riccati`)."""
     s = d.settings
     N, nv, sg = s.horizon, s.horizon * NU, s.soft_gap
     fac = factor_function(N, s.gap_stages, np.diag(s.Q), s.R, s.admm, sg.g_min, sg.g_max)

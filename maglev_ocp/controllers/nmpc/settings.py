@@ -1,12 +1,12 @@
 """Settings of the NMPC: the one place where every option has its name, its default and its meaning.
 
 :class:`NMPCSettings` is the ``controller:`` block of a scenario (``type:
-nmpc``). The step builder (:mod:`controllers.nmpc.step` and its stage modules)
+nmpc``). The step builder (:mod:`maglev_ocp.controllers.nmpc.step` and its stage modules)
 reads it directly; the few derived quantities it needs (weight tuples, the
 soft-bounded stages, the current box) are properties here, so nothing is
 renamed or defaulted twice. How the step is *evaluated* (CasADi in Python or the
 compiled C) is not a setting of the controller: it is the evaluator the NMPC is
-given (:class:`controllers.nmpc.controller.NMPC`, ``evaluators``).
+given (:class:`maglev_ocp.controllers.nmpc.controller.NMPC`, ``evaluators``).
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ class OSQPOptions(Strict):
 
     ``embedded: false`` runs the osqp package (polished by default); ``embedded: true`` runs OSQP's own
     generated C (``codegen``, embedded mode 2: the matrices are parameters, since the linearization
-    changes them every step), built once per design (:mod:`controllers.nmpc.osqp_embedded`). Embedded
+    changes them every step), built once per design (:mod:`maglev_ocp.controllers.nmpc.osqp_embedded`). Embedded
     mode has no polishing, so its default tolerances are tighter.
     """
 
@@ -152,7 +152,7 @@ class NMPCSettings(AdaptSettings):
         Constants (of C1..C4, which enter the model linearly) whose relative
         error the observer estimates online from the encoder innovation (an
         adaptive observer with the constants' sensitivities as regressors,
-        :func:`controllers.nmpc.observer.observe`). The default ``C1, C4``:
+        :func:`maglev_ocp.controllers.nmpc.observer.observe`). The default ``C1, C4``:
         the thrust and the current-squared attraction, whose errors scale with
         the move's currents. A constant's error is only learnt while its
         regressor is excited (during moves); the constant-acceleration
@@ -166,7 +166,7 @@ class NMPCSettings(AdaptSettings):
         against the reference ``N`` samples ahead (a state-space Smith
         predictor inside the step: nothing to retune).
     model : str or None
-        A model file (:mod:`controllers.model_file`: constants plus fitted
+        A model file (:mod:`maglev_ocp.controllers.model_file`: constants plus fitted
         effects, the plant files' format, e.g. the ``model.yaml`` of ``maglev
         diagnose``). Its constants replace the controller's parameters; its
         static effects enter the prediction model (inside the RK4), the
@@ -233,7 +233,9 @@ class NMPCSettings(AdaptSettings):
         "is applied at k + N; the step propagates its estimate N samples with the commands in flight and "
         "optimises from there (0: no delay model)",
     )
-    model: str | None = Field(None, description="model file with constants and effects (controllers.model_file)")
+    model: str | None = Field(
+        None, description="model file: constants and fitted effects (maglev_ocp.controllers.model_file)"
+    )
     force_failure_steps: list[int] = Field(default_factory=list)
 
     @field_validator("model")

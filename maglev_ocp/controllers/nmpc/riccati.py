@@ -1,6 +1,6 @@
 """Structure-exploiting ADMM for the NMPC's QP: the x-update by a Riccati recursion, O(N) per iteration.
 
-The same QP and the same ADMM iteration as :mod:`controllers.nmpc.qp` (OSQP's
+The same QP and the same ADMM iteration as :mod:`maglev_ocp.controllers.nmpc.qp` (OSQP's
 iteration with the current disks and the soft gap bounds as the ``z`` block,
 the same penalty ``rho`` from the trace of the condensed Hessian), but the
 equality-constrained x-update
@@ -229,10 +229,10 @@ def factor_function(
 
     ``(As, Bs, cs, dx0, Xbar, Xref, Ubar, Uref, fault, P, rho_mult) -> (K, Sinv, PB, Pc, rho, qW,
     rbase, glb, gub, zg0)``, ``P`` the terminal weight (an input: scheduled with the
-    operating point, :func:`controllers.nmpc.design.terminal_weight`): penalty ``rho``
+    operating point, :func:`maglev_ocp.controllers.nmpc.design.terminal_weight`): penalty ``rho``
     from the trace of the condensed Hessian (open-loop cost-to-go recursion, the rule of
-    :func:`controllers.nmpc.qp.admm_rho`) times ``rho_mult`` (the adaptation of
-    :func:`controllers.nmpc.admm.admm_riccati`, 1 at first), the Riccati factorization
+    :func:`maglev_ocp.controllers.nmpc.qp.admm_rho`) times ``rho_mult`` (the adaptation of
+    :func:`maglev_ocp.controllers.nmpc.admm.admm_riccati`, 1 at first), the Riccati factorization
     for ``R + sigma + rho``, the constant linear terms, the soft gap bounds and the free
     response of the gap rows (warm start of ``z_g``).
 

@@ -1,6 +1,6 @@
 """OSQP's own embedded code for the NMPC's QP (``solver: osqp`` with ``osqp: {embedded: true}``).
 
-The QP is :class:`~controllers.nmpc.osqp_solver.OSQPStage`'s (box, circumscribed
+The QP is :class:`~maglev_ocp.controllers.nmpc.osqp_solver.OSQPStage`'s (box, circumscribed
 polygon and cutting-plane passes on the current disks, soft gap rows with
 slacks), with the same fixed sparsity. Its Hessian ``H``, gap rows ``G`` and
 cut normals change every step (the RTI linearization and the cut directions),
@@ -18,7 +18,7 @@ API) is compiled once per design into a shared library, cached by content
 hash under ``$MAGLEV_CODEGEN_CACHE`` (default ``~/.cache/maglev-ocp/codegen``)
 like the controllers' C, and each stage loads its own copy (the workspace is
 a global of the library: two stages must not share warm starts). The glue is
-called through ``ctypes`` by :class:`~controllers.nmpc.osqp_solver.EmbeddedOSQPStage`;
+called through ``ctypes`` by :class:`~maglev_ocp.controllers.nmpc.osqp_solver.EmbeddedOSQPStage`;
 the cutting-plane passes stay in ``OSQPStage.solve``, shared with the package path.
 """
 
@@ -88,7 +88,7 @@ def osqp_setup(P, q, A, lo, hi, opts, polishing: bool):
     """An ``osqp.OSQP`` set up on the NMPC's QP with the settings ``opts`` (``NMPCSettings.osqp``).
 
     The one setup of both OSQP paths: the package solver of
-    :class:`~controllers.nmpc.osqp_solver.OSQPStage` and the placeholder
+    :class:`~maglev_ocp.controllers.nmpc.osqp_solver.OSQPStage` and the placeholder
     problem :func:`generate` hands to OSQP's code generator (warm starts on,
     quiet; polishing only where the variant has it).
     """
@@ -114,7 +114,7 @@ def osqp_setup(P, q, A, lo, hi, opts, polishing: bool):
 def generate(stage, folder: Path) -> None:
     """Write OSQP's embedded code (mode 2) for ``stage``'s QP into ``folder``, plus :data:`GLUE_C`.
 
-    ``stage`` is a :class:`~controllers.nmpc.osqp_solver.OSQPStage` (its sparsity, bounds and options).
+    ``stage`` is a :class:`~maglev_ocp.controllers.nmpc.osqp_solver.OSQPStage` (its sparsity, bounds and options).
 
     The solver is set up on a placeholder QP with the stage's sparsity (identity Hessian, zero gap
     rows, the polygon's normals); only the sparsity, the settings and the dimensions matter, every
