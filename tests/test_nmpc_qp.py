@@ -14,8 +14,6 @@ from maglev_ocp.fastcall import BufferedFunction
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.plant import Plant, PlantConfig
 
-pytest.importorskip("clarabel")
-
 #: A target switch across the envelope (plan mode: the planner starts a move at 0.03 s) ...
 SWITCH = [(0.020, 0.0, 0.03), (0.016, 0.045, 0.05)]
 #: ... and a 150 N horizontal push during the move (as push_d_nmpc): it saturates the current disks.
@@ -117,7 +115,6 @@ def test_starved_fixed_budget_misses_the_bound():
 
 
 def test_osqp_solver_runs_a_scenario_and_settles():
-    pytest.importorskip("osqp")
     from maglev_ocp.runner import run_scenario
 
     res = run_scenario(
@@ -135,7 +132,6 @@ def test_osqp_solver_runs_a_scenario_and_settles():
 
 
 def test_osqp_stage_matches_the_exact_qp(switch_default):
-    pytest.importorskip("osqp")
     from maglev_ocp.controllers.nmpc.osqp_solver import OSQPStage
 
     rec, _, qps, exact = switch_default

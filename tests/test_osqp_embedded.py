@@ -15,7 +15,6 @@ import pytest
 from maglev_ocp.controllers.nmpc import NMPC, NMPCSettings
 from maglev_ocp.errors import ConfigError
 
-pytest.importorskip("osqp")
 needs_cc = pytest.mark.skipif(
     not any(shutil.which(c) for c in ("cc", "gcc", "clang")), reason="no C compiler for OSQP's embedded code"
 )

@@ -49,17 +49,6 @@ def _worker_env(_: int) -> dict:
     return {k: os.environ.get(k) for k in ("MALLOC_TRIM_THRESHOLD_", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
 
 
-def _alloc_time(_: int) -> float:
-    """Seconds for 300 allocations of 4 MB arrays and a product each (what a diagnosis fit does)."""
-    import time
-
-    t0 = time.perf_counter()
-    x = np.ones(500_000)
-    for _ in range(300):
-        x = (x * 1.0000001).copy()
-    return time.perf_counter() - t0
-
-
 def test_workers_keep_glibcs_dynamic_mmap_threshold(monkeypatch):
     """Dask's default MALLOC_TRIM_THRESHOLD_ in the workers made every large array a fresh mapping (the gap
     diagnosis ran 4 times slower in a worker than alone): unset there, with one BLAS thread per worker."""
@@ -70,6 +59,4 @@ def test_workers_keep_glibcs_dynamic_mmap_threshold(monkeypatch):
     for e in env:
         assert e["MALLOC_TRIM_THRESHOLD_"] is None, e
         assert e["OMP_NUM_THREADS"] == "1" and e["OPENBLAS_NUM_THREADS"] == "1", e
-    t_worker = min(map_ordered(_alloc_time, [0, 1], workers=2, progress=False))
-    t_here = min(_alloc_time(0) for _ in range(2))
-    assert t_worker < 4.0 * t_here + 0.1, (t_worker, t_here)  # measured: equal; with the variable: 20x
+    # the speed this buys (worker vs in-process allocation time) is measured in benchmarks/bench_workers.py

@@ -172,18 +172,52 @@ def test_settings_that_cannot_work_are_refused(tmp_path, change, key, what):
     assert key in msg and what in msg, msg
 
 
-def test_settings_at_the_edge_still_work(tmp_path):
-    """The checks refuse only what cannot work: limits just above the hover currents, a band holding the
-    targets, stops just outside them, a soft-gap band that is switched off."""
-    ok = [
-        {"controller": {"type": "fl", "i_amp_max": 3.5}},  # hover needs <= 3.4 A at 16 mm, d = 45 mm
+def _assert_kept(asked: dict, loaded: dict, where: str = "") -> None:
+    """Every value asked for is the loaded one (nested mappings compared key by key)."""
+    for key, v in asked.items():
+        got = loaded[key]
+        if isinstance(v, dict):
+            _assert_kept(v, got if isinstance(got, dict) else got.model_dump(), f"{where}{key}.")
+        else:
+            assert (list(got) if isinstance(got, tuple) else got) == v, (f"{where}{key}", got, v)
+
+
+#: Settings just inside what can work, each with its twin just across the edge (the checks must refuse the twin).
+EDGES = [
+    # hover at the 16 mm, d = 45 mm target needs 2.977 A (nominal constants)
+    ({"controller": {"type": "fl", "i_amp_max": 3.0}}, {"controller": {"type": "fl", "i_amp_max": 2.95}}),
+    # a soft-gap band holding both target gaps (16 and 20 mm), and one that leaves the 20 mm target out
+    (
         {"controller": {"type": "nmpc", "soft_gap": {"g_min": 0.0155, "g_max": 0.0205}}},
+        {"controller": {"type": "nmpc", "soft_gap": {"g_min": 0.0155, "g_max": 0.0195}}},
+    ),
+    # a band that misses the targets is fine while it is switched off (stride 0), refused when it is on
+    (
         {"controller": {"type": "nmpc", "soft_gap": {"g_min": 0.018, "g_max": 0.029, "stride": 0}}},
+        {"controller": {"type": "nmpc", "soft_gap": {"g_min": 0.018, "g_max": 0.029}}},
+    ),
+    # stops just outside the targets, and one that cuts the d = 0 target off
+    (
         {"plant": {"stops": {"enabled": True, "g": [0.0155, 0.0205], "d": [-0.001, 0.046]}}},
-        {"plant": {"params": {"C4": 1e-6}}},
-    ]
-    for change in ok:
-        load_scenario(_write(tmp_path, {**GOOD, **change}))
+        {"plant": {"stops": {"enabled": True, "g": [0.0155, 0.0205], "d": [0.001, 0.046]}}},
+    ),
+    # a tiny positive C4 is a constant; a negative one is not
+    ({"plant": {"params": {"C4": 1e-6}}}, {"plant": {"params": {"C4": -1e-6}}}),
+]
+
+
+@pytest.mark.parametrize(("ok", "over"), EDGES, ids=["i_amp_max", "soft_gap", "soft_gap_off", "stops", "C4"])
+def test_settings_at_the_edge_still_work(tmp_path, ok, over):
+    """The checks refuse only what cannot work: each setting just inside the edge loads with its value kept,
+    and its twin just across the edge is refused with one line naming the file."""
+    sc = load_scenario(_write(tmp_path, {**GOOD, **ok}))
+    section, values = next(iter(ok.items()))
+    obj = getattr(sc, section)
+    _assert_kept(values, obj.to_dict() if hasattr(obj, "to_dict") else obj.model_dump())
+    path = _write(tmp_path, {**GOOD, **over}, "over.yaml")
+    with pytest.raises(ConfigError) as ei:
+        load_scenario(path)
+    assert "\n" not in str(ei.value) and str(path) in str(ei.value), str(ei.value)
 
 
 def test_yaml_that_does_not_parse(tmp_path):
