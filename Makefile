@@ -1,6 +1,11 @@
 # Two commands set up a fresh machine (only Python needed):
 #   make run    - create .venv, install, run the headline job (writes results/)
-#   make test   - create .venv, install, run the test suite (not-slow, then slow)
+#   make test   - create .venv, install, lint, run the tests CI runs (default set + bounded slow set, 2 processes)
+# Other tiers:
+#   make test-fast   - the default set only (every capability, a few minutes)
+#   make check-long  - the long statistical checks (self-checks over many datasets, recovery table; not in CI);
+#                      each writes its table under results/long/ with the command, seed and code version
+#   make bench       - speed figures (medians, p99, against peers): timing lives there, never in a test
 #   make peer   - create .venv-peer (project + acados, apart from .venv), run benchmarks/peer_acados.py
 PYTHON ?= python3
 VENV   ?= .venv
@@ -13,7 +18,11 @@ PEER_BIN    = $(PEER_VENV)/bin
 PEER_STAMP  = $(PEER_VENV)/.installed
 PEER_ARGS  ?=
 
-.PHONY: run test test-fast test-slow selfcheck lint bench peer clean-venv
+# Test workers (pytest-xdist); CI has 2 cores. `make test XDIST=` runs in one process.
+XDIST  ?= -n 2
+PYTEST  = $(BIN)/python -m pytest
+
+.PHONY: run test test-fast test-slow check-long lint bench peer clean-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,17 +34,16 @@ run: $(STAMP)
 	$(BIN)/python -m maglev_ocp.main_job --out results
 
 test: $(STAMP) lint
-	$(BIN)/python -m pytest -q
-	$(BIN)/python -m pytest -q -m "slow and not selfcheck"
+	$(PYTEST) -q $(XDIST) -m "not long" --durations=25
 
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(PYTEST) -q $(XDIST) --durations=10
 
 test-slow: $(STAMP)
-	$(BIN)/python -m pytest -q -m "slow and not selfcheck"
+	$(PYTEST) -q $(XDIST) -m "slow" --durations=10
 
-selfcheck: $(STAMP)
-	$(BIN)/python -m pytest -q -m selfcheck
+check-long: $(STAMP)
+	$(PYTEST) -q -m long --durations=0 tests/test_long.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from maglev_ocp.diagnosis import LIBRARY
 from maglev_ocp.diagnosis.generate import GeneratorSettings
-from maglev_ocp.diagnosis.selftest import COMBOS, SelftestSettings, run_case, run_selftest
+from maglev_ocp.diagnosis.selftest import SelftestSettings, run_case, run_selftest
 
 
 @pytest.mark.slow
@@ -24,37 +23,6 @@ def test_small_blind_selfcheck_is_right(tmp_path):
     assert np.all(r >= 0.7), res.table()
     assert (tmp_path / "selftest.json").is_file() and (tmp_path / "selftest.md").is_file()
     assert res.confusion()[2].sum() == 3
-
-
-@pytest.mark.slow
-@pytest.mark.selfcheck
-def test_blind_selfcheck_30_datasets_meets_the_targets(tmp_path):
-    """>= 30 blind datasets, baseline calibrated, spanning none, every library effect a calibration does not
-    absorb and the two- and three-effect sets: >= 29/30 right, no effect claimed on 'none', held-out
-    reduction >= 70 % of the ideal one on the right verdicts."""
-    st = SelftestSettings(n=30, seed=1)
-    assert st.baseline == "calibrated"
-    res = run_selftest(st, progress=False, out_dir=tmp_path)
-    truths = {c.truth for c in res.cases}
-    assert truths == {"none", *(n for n in LIBRARY if n != "parameter_error"), *COMBOS}
-    assert res.accuracy() >= 29 / 30, res.table()
-    assert res.accuracy() >= 0.9, res.table()
-    assert res.none_false_claims() == 0, res.table()
-    assert np.mean(res.reduction_ratios() >= 0.7) == 1.0, res.table()
-
-
-@pytest.mark.slow
-@pytest.mark.selfcheck
-def test_blind_selfcheck_20_datasets_with_effect_sets(tmp_path):
-    """20 blind datasets (seed 2, calibrated baseline, singles with law variants and two- and three-effect
-    sets): >= 90 % name exactly the true set, no effect claimed on 'none', the sets' confusion matrix."""
-    st = SelftestSettings(n=20, seed=2)
-    res = run_selftest(st, progress=False, out_dir=tmp_path)
-    assert any("+" in c.truth for c in res.cases)
-    assert res.accuracy() >= 0.9, res.table()
-    assert res.none_false_claims() == 0, res.table()
-    rows, _, m = res.confusion()
-    assert m.sum() == 20 and any("+" in r for r in rows)
 
 
 @pytest.mark.slow
