@@ -58,13 +58,14 @@ def _size(d, name: str):
     return sizes[name]
 
 
-def true_effective_delay(law: dict) -> float:
-    """Low-frequency group delay of rigsim's amplifier law [s]: transport delay plus the lag's own delay."""
-    delay = law.get("delay_samples", 0.0) * k.Ts
-    if law["family"] == "first":
-        delay += 1.0 / (2 * math.pi * law["bandwidth_hz"])
-    elif law["family"] == "second":
-        delay += 2 * law["zeta"] / (2 * math.pi * law["fn_hz"])
+def true_effective_delay(family: str, p: dict) -> float:
+    """Low-frequency group delay of rigsim's amplifier law [s]: transport delay plus the lag's own (the phase
+    slope at zero frequency: ``1 / omega_b`` of a first-order lag, ``2 zeta / omega_n`` of a second-order one)."""
+    delay = p.get("delay_samples", 0.0) * k.Ts
+    if family == "first":
+        delay += 1.0 / (2 * math.pi * p["bandwidth_hz"])
+    elif family == "second":
+        delay += 2 * p["zeta"] / (2 * math.pi * p["fn_hz"])
     return delay
 
 
@@ -81,7 +82,9 @@ def test_an_amplifier_lag_is_fitted_with_its_delay(tmp_path):
     truth, d = _dataset(tmp_path, "rig_truth_lag", "amplifier_lag")
     assert "amplifier_lag" in d.verdict.verdict.split("+"), d.table()
     size = _size(d, "amplifier_lag")
-    want = true_effective_delay(truth["effects"]["amplifier_lag"])
+    law = truth["effects"]["amplifier_lag"]
+    want = true_effective_delay(law["family"], law["params"])
+    assert law["effective_delay_s"] == pytest.approx(want, rel=1e-12)  # the generator's own record agrees
     assert size.delay_us is not None
     assert abs(size.delay_us * 1e-6 / want - 1) <= SIZE_TOL, (size.delay_us, want * 1e6, truth["effects"])
     _check_constants(truth, d)

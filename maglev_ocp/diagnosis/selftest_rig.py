@@ -78,11 +78,54 @@ def run_rig_case(index: int, kind: str, seed: int, settings: SelftestSettings, k
     closes = float(fs.closes) if fs is not None else math.nan
     reduction = float(fs.reduction) if fs is not None else 0.0
     params = {"kind": kind, "seed": seed, "effects": scen["effects"], "true_constants": tr["true_constants"],
-              "peak_force_n": {n: e.get("peak_force_n") for n, e in tr["effects"].items()}}  # fmt: skip
+              "peak_force_n": {n: e.get("peak_force_n") for n, e in tr["effects"].items()},
+              "effective_delay_s": {n: e["effective_delay_s"] for n, e in tr["effects"].items()
+                                    if "effective_delay_s" in e},
+              "fitted": fitted_values(diag)}  # fmt: skip
     case = Case(index, truth, params, canonical(diag.verdict.verdict), same_set(diag.verdict.verdict, truth),
                 reduction, closes, False, secs, t_gen, [])  # fmt: skip
     case.channels = sorted({r.channel for r in (diag.remaining_regions or diag.regions)})
     return case
+
+
+#: Constants compared with the truth file (C4, the reluctance term, is the least determined: seed Table III).
+CONSTANTS = ("C1", "C2", "C3", "C4")
+
+
+def fitted_values(diag) -> dict:
+    """What the diagnosis fitted, for comparison with ``truth.json``: the calibrated constants, and per effect of
+    the verdict its peak force [N] (larger axis) and, for a lag, its effective delay [s]."""
+    sizes = diag.consequences.sizes if diag.consequences is not None else []
+    return {
+        "constants": {n: float(diag.baseline_params.as_dict()[n]) for n in CONSTANTS},
+        "peak_force_n": {s.name: float(max(s.peak_force_n.values())) for s in sizes if s.peak_force_n},
+        "effective_delay_s": {s.name: 1e-6 * float(s.delay_us) for s in sizes if s.delay_us is not None},
+    }
+
+
+def size_errors(case: Case) -> dict[str, float]:
+    """Relative errors of the fitted sizes against the truth file, for the effects both name: the effective delay
+    of a lag, the peak force of every other effect."""
+    tp, fit = case.truth_params, case.truth_params.get("fitted") or {}
+    out: dict[str, float] = {}
+    for name, true in (tp.get("effective_delay_s") or {}).items():
+        got = (fit.get("effective_delay_s") or {}).get(name)
+        if got is not None and true:
+            out[name] = got / true - 1.0
+    for name, true in (tp.get("peak_force_n") or {}).items():
+        got = (fit.get("peak_force_n") or {}).get(name)
+        if name not in out and got is not None and true:
+            out[name] = got / true - 1.0
+    return out
+
+
+def constant_errors(case: Case) -> dict[str, float]:
+    """Relative errors of the calibrated constants against the truth file."""
+    true, got = (
+        case.truth_params.get("true_constants") or {},
+        (case.truth_params.get("fitted") or {}).get("constants") or {},
+    )
+    return {n: got[n] / true[n] - 1.0 for n in CONSTANTS if n in got and true.get(n)}
 
 
 class RigSelftestResult(SelftestResult):
@@ -105,10 +148,16 @@ class RigSelftestResult(SelftestResult):
         """Not defined on the independent rig (no true model in the library): empty."""
         return np.zeros(0)
 
+    def size_errors(self) -> np.ndarray:
+        """Relative errors of the fitted effect sizes on the right verdicts naming effects (every effect)."""
+        return np.array([e for c in self.cases if c.right for e in size_errors(c).values()])
+
     def summary(self) -> dict:
         """Headline numbers against the issue's targets."""
         g = self.gap_closed()
         secs = [c.seconds for c in self.cases]
+        se = np.abs(self.size_errors())
+        ce = {n: [abs(constant_errors(c).get(n, math.nan)) for c in self.cases] for n in CONSTANTS}
         return {
             "datasets": len(self.cases),
             "right_verdicts": float(self.accuracy()),
@@ -119,6 +168,10 @@ class RigSelftestResult(SelftestResult):
             "out_of_library_unexplained": self.right_fraction(("out_of_library",)),
             "gap_closed_median": float(np.median(g)) if len(g) else None,
             "gap_closed_min": float(np.min(g)) if len(g) else None,
+            "sizes_compared": len(se),
+            "sizes_within_20pct": float(np.mean(se <= 0.2)) if len(se) else None,
+            "size_error_median": float(np.median(se)) if len(se) else None,
+            "constant_error_median": {n: float(np.nanmedian(v)) if v else None for n, v in ce.items()},
             "diagnosis_seconds_median": float(np.median(secs)) if secs else None,
             "diagnosis_seconds_max": float(np.max(secs)) if secs else None,
         }
@@ -139,6 +192,15 @@ class RigSelftestResult(SelftestResult):
                 f"gap closed on the right verdicts with effects: median {s['gap_closed_median']:.0%}, "
                 f"min {s['gap_closed_min']:.0%}"
             )
+        if s["sizes_within_20pct"] is not None:
+            out.append(
+                f"fitted sizes against the truth file on the right verdicts: {s['sizes_within_20pct']:.0%} of "
+                f"{s['sizes_compared']} within 20 % (median error {s['size_error_median']:.0%})"
+            )
+        cm = s["constant_error_median"]
+        if any(v is not None and not math.isnan(v) for v in cm.values()):
+            out.append("calibrated constants against the truth file, median |error|: "
+                       + ", ".join(f"{n} {v:.2%}" for n, v in cm.items() if v is not None))  # fmt: skip
         if s["diagnosis_seconds_median"] is not None:
             out.append(
                 f"diagnosis time per dataset: median {s['diagnosis_seconds_median']:.1f} s, "

@@ -12,6 +12,7 @@ Nothing of the truth goes into ``dataset.yaml``.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict
@@ -139,6 +140,17 @@ def _forces(rig: Rig, X: np.ndarray, I: np.ndarray, km) -> tuple[np.ndarray, np.
     return Fg, Fd
 
 
+def effective_delay(family: str, p: dict[str, float], Ts: float) -> float:
+    """Low-frequency group delay of an amplifier law [s]: its transport delay plus the lag's own, ``1 / omega_b``
+    for a first-order lag and ``2 zeta / omega_n`` for a second-order one (the phase slope at zero frequency)."""
+    delay = p.get("delay_samples", 0.0) * Ts
+    if family == "first":
+        delay += 1.0 / (2 * math.pi * p["bandwidth_hz"])
+    elif family == "second":
+        delay += 2 * p["zeta"] / (2 * math.pi * p["fn_hz"])
+    return float(delay)
+
+
 def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
     """Peak force of one effect along the trajectory [N] (per axis), and other sizes where forces do not apply.
 
@@ -153,6 +165,7 @@ def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
     out: dict[str, Any] = {}
     if law.name == "amplifier_lag":
         F1 = _forces(base, X, traj.i_amp, 1.0)
+        out["effective_delay_s"] = effective_delay(law.family, law.p, rig.s.Ts)
     elif law.name == "temperature_drift":
         F1 = _forces(base, X, u, traj.km)
         out["peak_field_change"] = float(np.max(np.abs(traj.km - 1.0)))
