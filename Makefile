@@ -43,7 +43,7 @@ test-slow: $(STAMP)
 	$(PYTEST) -q $(XDIST) -m "slow" --durations=10
 
 check-long: $(STAMP)
-	$(PYTEST) -q -m long --durations=0 tests/test_long.py
+	$(PYTEST) -q -m long --durations=0
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

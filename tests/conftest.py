@@ -72,3 +72,19 @@ def pytest_make_collect_report(collector):
         reason = rep.longrepr[2] if isinstance(rep.longrepr, tuple) else str(rep.longrepr)
         rep.outcome = "failed"
         rep.longrepr = f"module skipped under CI=true, where nothing may be skipped: {reason}"
+
+
+#: Per-test time limits by tier [s] (pytest-timeout; the ini's ``timeout`` is the default set's). A hung test
+#: fails with its stack instead of eating CI's budget; a test that needs more says so with its own marker.
+TIER_TIMEOUT = {"slow": 600, "long": 6 * 3600}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Give ``slow`` and ``long`` tests their tier's time limit unless they carry their own."""
+    for item in items:
+        if item.get_closest_marker("timeout") is not None:
+            continue
+        for tier, seconds in TIER_TIMEOUT.items():
+            if item.get_closest_marker(tier) is not None:
+                item.add_marker(pytest.mark.timeout(seconds))
+                break

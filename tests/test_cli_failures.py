@@ -444,7 +444,7 @@ def test_sigint_during_a_rerun_leaves_the_old_or_the_new_result(tmp_path):
     _interrupt_run(tmp_path, n=2, seed=0)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_sigint_during_a_rerun_many_times(tmp_path):
     _interrupt_run(tmp_path, n=12, seed=1)
 
@@ -625,7 +625,7 @@ def test_any_mutated_input_and_output_path_is_exit_0_or_2_and_one_line(tmp_path_
     _property(tmp_path_factory, data)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @settings(max_examples=400, deadline=None, suppress_health_check=list(HealthCheck))
 @given(data=st.data())
 def test_any_mutated_input_and_output_path_many(tmp_path_factory, dataset_source, data):

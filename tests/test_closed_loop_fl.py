@@ -203,7 +203,7 @@ def test_shipped_fl_scenarios(name):
     _assert_settle_follows_the_plan(res)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("seed", [1, 2, 3, 4, 5, 6])
 def test_random_targets_more_seeds(seed):
     sc = load_scenario(SCEN / "random_fl.yaml")

@@ -397,7 +397,7 @@ def test_two_effects_are_named_with_their_shares():
         assert _close(getattr(d.baseline_params, n), getattr(gen.true_params, n), 0.03), (n, d.table())
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_friction_that_sticks_does_not_drag_the_constants(tmp_path):
     """Strong friction (Coulomb + Stribeck with a sign sharper than the velocity resolution), baseline
     calibrated: while a guide sticks the controller's current produces no acceleration, which a fit over all
@@ -515,7 +515,7 @@ def test_a_confusable_slot_keeps_only_what_the_final_joint_model_cannot_tell_apa
     assert any(r.startswith("bad_fit in place of end_effect") and "did not converge" in r for r in att.verdict.reasons)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_an_end_effect_beside_cogging_is_not_left_confusable_with_saturation(tmp_path):
     """Independent rig, cogging (Gaussian decay, three harmonics) and a quadratic end effect (seed 83 #8 of the
     rig self-check): before the slots were judged again in the final joint model, the answer was
@@ -558,7 +558,7 @@ def test_contacts_with_a_mechanical_stop_are_cut_out_of_the_runs():
     assert len(notes) == 1 and notes[0].startswith("crash.csv:") and "(g)" in notes[0] and "50 samples" in notes[0]
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_a_crash_into_the_upper_stop_does_not_hide_a_saturation_of_the_current_terms(tmp_path):
     """Independent rig, a strong saturation of the current terms only (34 % loss at 8 mm; the rig's controller
     loses the levitation in one run and the mover hits the upper stop; seed 97 #24 of the rig self-check).

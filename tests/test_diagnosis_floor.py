@@ -317,7 +317,7 @@ def test_model_file_wraps_fitted_phases_into_the_plant_range():
     np.testing.assert_allclose(written, fitted, atol=1e-12)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_structural_resonance_end_to_end_on_the_independent_rig(tmp_path):
     """Independent rig (rigsim), a 35 Hz frame mode of 1 encoder count and nothing else the baseline lacks.
 

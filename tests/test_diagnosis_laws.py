@@ -122,7 +122,7 @@ def _diagnose_rig(tmp_path, effects: dict, seed: int) -> str:
     return canonical(diag.verdict.verdict)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_rig_friction_and_a_small_amplifier_lag_are_both_named(tmp_path):
     """Friction and a 0.8 ms effective amplifier delay at once on the independent rig: the lag, whose single
     fit the friction corrupts, is found by the joint refit of the forward step (the lag alone is found)."""
@@ -133,7 +133,7 @@ def test_rig_friction_and_a_small_amplifier_lag_are_both_named(tmp_path):
     assert set(_diagnose_rig(tmp_path, effects, 7301).split("+")) == {"friction", "amplifier_lag"}
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_rig_logistic_saturation_alone_adds_no_other_effect(tmp_path):
     """Saturation of the magnet field with a logistic knee (not the library's exponential): `saturation` alone,
     no second effect mopping up what an exponential loss would leave."""

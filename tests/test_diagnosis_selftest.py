@@ -9,7 +9,7 @@ from maglev_ocp.diagnosis.generate import GeneratorSettings
 from maglev_ocp.diagnosis.selftest import SelftestSettings, run_case, run_selftest
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_small_blind_selfcheck_is_right(tmp_path):
     """Three seeded blind datasets (calibrated baseline; seed 5 draws a single, a two- and a three-effect set):
     the single and the pair named exactly; the three-effect set on 28 s of data may miss one effect (seen:
@@ -25,7 +25,7 @@ def test_small_blind_selfcheck_is_right(tmp_path):
     assert res.confusion()[2].sum() == 3
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_out_of_library_guide_ripple_is_unexplained_in_the_horizontal_channel():
     """A guide ripple with an 8.6 mm period along d (no slot or pole period): unexplained, horizontal."""
     st = SelftestSettings(n=1)
@@ -35,7 +35,7 @@ def test_out_of_library_guide_ripple_is_unexplained_in_the_horizontal_channel():
     assert any(r.channel == "horizontal" for r in regs)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_an_effect_that_only_takes_up_sticking_friction_is_dropped():
     """Library self-check case 14 (calibrated, seed 1): friction + end effect. Over all held-out samples an
     amplifier lag entered beside them (paired z 4.5, 0.1 % of the gap); on the samples whose velocities resolve

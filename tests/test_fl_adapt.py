@@ -141,7 +141,7 @@ def test_compiled_step_function_carries_the_adaptation_like_the_python_fl():
     assert abs(py.adapted_constants["C1"] - C1_ERR) < 0.035, py.adapted_constants  # it learnt (profile: +-2 %)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("name", ["tour_fl_delay1", "tour_fl"])
 def test_tours_hold_6um_on_nine_seeds(name):
     """Issue 12: every tour target settles within 0.1 mm with steady RMS <= 6 um in both axes, on the scenario's

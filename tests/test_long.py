@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from seeds import DEVELOPMENT_SEEDS, code_version, fresh_seed
 
-pytestmark = [pytest.mark.long, pytest.mark.timeout(6 * 3600)]
+pytestmark = pytest.mark.long
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results" / "long"

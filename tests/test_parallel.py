@@ -27,7 +27,7 @@ def test_map_ordered_keeps_the_order_and_reports_progress():
         map_ordered(_noisy_square, [1], workers=0)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_rig_selfcheck_gives_the_same_cases_on_one_or_two_workers(tmp_path):
     """Two independent-rig datasets diagnosed in-process and on two Dask workers: the same verdicts and scores."""
     from maglev_ocp.diagnosis.selftest import GeneratorSettings, SelftestSettings

@@ -80,7 +80,7 @@ def test_true_model_file_is_the_rig_of_the_tours(effect, tmp_path):
         np.testing.assert_allclose(cm.theta, EffectSet([effect]).vector(on))
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_diagnosed_commutation_offset_recovers_the_true_models_gain(tmp_path):
     """Whole chain for one effect (dataset, diagnosis, six tours; about 2 min): >= 70 % wherever scored."""
     assert main(["--out", str(tmp_path), "--effects", "commutation_offset"]) == 0
