@@ -43,8 +43,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..estimation.ident import autocorr_factor, geyer_factor
-from .candidates import FitResult
+from .fit import FitResult
 from .residuals import Residual
+from .settings import VerdictRules
 
 
 def stack(res: Sequence[Residual], floors: np.ndarray) -> np.ndarray:
@@ -216,31 +217,6 @@ class EffectScore:
             "law_choice": self.law_choice,
             "note": self.note,
         }
-
-
-@dataclass(frozen=True)
-class VerdictRules:
-    """Thresholds of the verdict.
-
-    Attributes
-    ----------
-    z_min : float
-        Held-out improvement significance a candidate needs.
-    bic_margin : float
-        Required drop of the training information criterion.
-    closes_min : float
-        Fraction of the gap an effect (or pair) must close to be named.
-    confusable_z : float
-        Candidates within this paired z of the best form a confusable set.
-    second_min : float
-        Fraction of the *remaining* gap a second effect must close to be added.
-    """
-
-    z_min: float = 4.0
-    bic_margin: float = 10.0
-    closes_min: float = 0.5
-    confusable_z: float = 2.0
-    second_min: float = 0.5
 
 
 def score(

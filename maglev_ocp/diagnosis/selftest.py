@@ -58,9 +58,10 @@ from ..parallel import map_ordered
 from ..params import NOMINAL, Params
 from ..plant import PlantConfig
 from .attribution import raw_rms
-from .candidates import CandidateSpec, FitResult, residuals_with
 from .diagnose import LIBRARY, DiagnoseSettings, Diagnosis, diagnose
+from .fit import FitResult, residuals_with
 from .generate import OUT_OF_LIBRARY, GeneratorSettings, generate_dataset
+from .library import CandidateSpec
 from .localize import bin_stats, edges_for, pool
 from .report import write_report
 from .residuals import CHANNELS
