@@ -46,6 +46,7 @@ from ..estimation.ident import autocorr_factor, geyer_factor
 from .fit import FitResult
 from .residuals import Residual
 from .settings import VerdictRules
+from .verdict import EffectSets, Verdict
 
 
 def stack(res: Sequence[Residual], floors: np.ndarray) -> np.ndarray:
@@ -275,28 +276,6 @@ def score(
     )
 
 
-@dataclass
-class Verdict:
-    """The verdict and how it was reached.
-
-    Attributes
-    ----------
-    verdict : str
-        ``none``, ``unexplained``, an effect name, ``a|b`` (confusable set) or ``a+b`` (two effects).
-    selected : list of str
-        Effects in the verdict, ranked.
-    gap_detected : bool
-        The baseline residual has a gap above the floor.
-    reasons : list of str
-        Plain-language steps of the decision.
-    """
-
-    verdict: str
-    selected: list[str]
-    gap_detected: bool
-    reasons: list[str]
-
-
 def decide(
     scores: Sequence[EffectScore], gap_detected: bool, rules: VerdictRules, gap_evidence: Sequence[str] = ()
 ) -> tuple[Verdict, EffectScore | None]:
@@ -308,17 +287,17 @@ def decide(
     sig = [s for s in scores if s.significant]
     if not gap_detected and not sig:
         reasons.append("no gap above the noise floor and no candidate improves the held-out runs: none")
-        return Verdict("none", [], False, reasons), None
+        return Verdict(EffectSets.none(), [], False, reasons), None
     if not sig:
         reasons.append("a gap is detected but no candidate improves the held-out runs significantly")
-        return Verdict("unexplained", [], gap_detected, reasons), None
+        return Verdict(EffectSets.gap_unexplained(), [], gap_detected, reasons), None
     best = max(sig, key=lambda s: (s.reduction, -s.delta_bic))
     reasons.append(
         f"best candidate {best.name}: held-out reduction {best.reduction:.1%}, closes "
         f"{best.closes:.0%} of the gap, z = {best.z:.1f}, dBIC = {best.delta_bic:.0f}"
     )
     if best.closes < rules.closes_min:
-        return Verdict("unexplained", [], True, reasons), best
+        return Verdict(EffectSets.gap_unexplained(), [], True, reasons), best
     conf = []
     for s in sig:
         if s is best or s.closes < rules.closes_min:
@@ -331,8 +310,7 @@ def decide(
     for s in sig:
         if s.name in conf:
             s.confusable_with = [best.name] + [c for c in conf if c != s.name]
-    name = "|".join([best.name, *conf])
-    return Verdict(name, [best.name, *conf], True, reasons), best
+    return Verdict(EffectSets.of([[best.name, *conf]]), [best.name, *conf], True, reasons), best
 
 
 def rank(scores: Sequence[EffectScore]) -> list[EffectScore]:

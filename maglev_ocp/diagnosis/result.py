@@ -32,11 +32,12 @@ import numpy as np
 from ..params import Params
 from .attribution import EffectScore, Verdict
 from .consequence import EffectSize
-from .localize import BinStats, ChannelFloor, PeriodScan, Region, Spectrum
-from .noise import NoiseCheck, ResonanceGuard, SpectralPeak
+from .localize import BinStats, ChannelFloor, PeriodScan, Region
+from .peaks import NoiseCheck, ResonanceGuard, SpectralPeak
 from .residuals import Residual
 from .settings import DiagnoseSettings
 from .simulate_compare import TrajectoryComparison
+from .spectra import Spectrum
 
 
 @dataclass
