@@ -111,7 +111,7 @@ class NoiseFindings:
     coverage : list of dict
         Per channel, what the verdict's model closes of the gap above the model
         floor (``before_over_floor``, ``after_over_floor``, ``closes``, ``short``;
-        :func:`~.diagnose.channel_coverage`).
+        :func:`~.stages.guards.channel_coverage`).
     partial : dict
         When a verdict was turned ``unexplained`` because a channel's gap stayed
         open: the effect set and its per-channel coverage (it explains part of
