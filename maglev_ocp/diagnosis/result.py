@@ -328,7 +328,7 @@ def report_json(d: Diagnosis) -> dict:
         }
     out = {
         "verdict": d.verdict.verdict,
-        "verdict_effects": d.verdict.selected if d.verdict.verdict not in ("none", "unexplained") else [],
+        "verdict_effects": d.verdict.selected if d.verdict.named else [],
         "reasons": d.verdict.reasons,
         "effects": [s.to_dict() for s in d.scores],
         "regions": [r.to_dict() for r in d.regions],

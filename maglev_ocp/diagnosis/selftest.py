@@ -330,7 +330,7 @@ class SelftestResult:
 
     def none_false_claims(self) -> int:
         """Number of ``none`` datasets on which an effect was claimed."""
-        return sum(1 for c in self.cases if c.truth == "none" and c.verdict not in ("none", "unexplained"))
+        return sum(1 for c in self.cases if c.truth == "none" and EffectSets.parse(c.verdict).named)
 
     def localization_accuracy(self) -> float:
         """Fraction of datasets localized right."""
