@@ -27,7 +27,7 @@ from .models import Attribution
 from .split import Split
 
 
-@dataclass
+@dataclass(frozen=True)
 class CleanCalibration:
     """Where the baseline was recalibrated (the part of the data the localization finds clean)."""
 
@@ -85,38 +85,31 @@ def clean_calibration(split: Split, base: Baseline, loc: Localization, st: Diagn
     """
     keep = CleanCalibration(False, 1.0, [], base.p.copy(), "")
     if base.given:
-        keep.reason = "baseline given"
-        return keep
+        return replace(keep, reason="baseline given")
     regs = [r for r in regions(loc.views, base.floors) if r.n_bins > 0]
     if not loc.gap_detected or not regs:
-        keep.reason = "no region of the gap x position plane exceeds the floor"
-        return keep
+        return replace(keep, reason="no region of the gap x position plane exceeds the floor")
     boxes = [(list(r.g_range_m), list(r.d_range_m)) for r in regs]
     row_w = _clean_weights(split.train, boxes)
     tot = sum(float(w.sum()) for w in row_w)
     frac = tot / max(sum(w.size for w in row_w), 1)
-    keep.fraction, keep.excluded = frac, [{"channel": r.channel, "g_range_m": b[0], "d_range_m": b[1]}
-                                          for r, b in zip(regs, boxes, strict=True)]  # fmt: skip
+    excluded = [{"channel": r.channel, "g_range_m": b[0], "d_range_m": b[1]} for r, b in zip(regs, boxes, strict=True)]
+    keep = replace(keep, fraction=frac, excluded=excluded)
     if frac < st.clean_min:
-        keep.reason = f"only {frac:.0%} of the samples lie outside the regions (< {st.clean_min:.0%})"
-        return keep
+        return replace(keep, reason=f"only {frac:.0%} of the samples lie outside the regions (< {st.clean_min:.0%})")
     if frac > 0.999:
-        keep.reason = "the regions hold no training sample"
-        return keep
+        return replace(keep, reason="the regions hold no training sample")
     data = Dataset(split.train, 1.0 / base.fvec, split.filt, row_w, base.noise_lag)
     spec = CandidateSpec("baseline", free=calibrated_free(base.params, split, st))
     fit = fit_candidate(spec, data, base.p)
     if not fit.success:
-        keep.reason = "the calibration on the clean samples did not converge"
-        return keep
-    keep.used = True
-    keep.p_clean = params_with(base.p, fit)
-    keep.reason = (
+        return replace(keep, reason="the calibration on the clean samples did not converge")
+    reason = (
         f"calibrated also on the {frac:.0%} of the training samples outside {len(regs)} region(s) (clean_pass); the "
         "residual baseline keeps the calibration on all training samples, and the constants reported are those of "
         "the joint refit with the effects found"
     )
-    return keep
+    return replace(keep, used=True, p_clean=params_with(base.p, fit), reason=reason)
 
 
 def resolved_masks(
