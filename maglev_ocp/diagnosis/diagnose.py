@@ -141,7 +141,7 @@ def diagnose(
     noise, loc = clock.run("noise", noise_stage, split, base, loc, q_enc, st.seed)
     base = replace(base, floor_ms=noise_floor_ms(base, noise))
     run = Run(split, base, st, progress=progress)
-    att = clock.run("candidates", attribute, run, loc, progress)
+    att = clock.run("candidates", attribute, run, loc)
 
     def select() -> None:
         forward(run, att)

@@ -199,7 +199,7 @@ def refine_laws(run: Run, att: Attribution) -> None:
     rules, fam = st.rules(), family_specs()
     spec, fit, cur = att.final_spec, att.final_fit, att.final_score
     changed = False
-    for e in names:
+    for e in tqdm(names, desc="laws in the joint model", disable=not run.progress, leave=False):
         old = att.specs[e]
         tried = []
         for mem in fam.get(e, ()):

@@ -28,7 +28,7 @@ def library_names() -> tuple[str, ...]:
     return tuple(family_specs())
 
 
-def attribute(run: Run, loc: Localization, progress: bool) -> Attribution:
+def attribute(run: Run, loc: Localization) -> Attribution:
     """Stage 4: every library effect fitted on top of the baseline (its law family for the most promising
     ones), scored on the held-out runs; the single-effect verdict."""
     base, st, warnings = run.base, run.settings, run.warnings
@@ -40,7 +40,7 @@ def attribute(run: Run, loc: Localization, progress: bool) -> Attribution:
     specs: dict[str, CandidateSpec] = {}
     fits: dict[str, FitResult] = {}
     scores: list[EffectScore] = []
-    for name in tqdm(names, desc="candidates", disable=not progress, leave=False):
+    for name in tqdm(names, desc="candidates", disable=not run.progress, leave=False):
         spec = joint_spec(fam[name][0], base)
         fit, sc = fit_and_score(run, name, spec, spec.note, pair=False)
         check_fit(fit, f"candidate {name}", warnings)
@@ -83,7 +83,7 @@ def _choose_laws(run: Run, att: Attribution) -> None:
         for s in sorted(att.scores, key=lambda s: s.delta_bic)
         if len(fam.get(s.name, ())) > 1 and s.fit is not None and s.fit.success
     ][: st.family_top]
-    for sc in promising:
+    for sc in tqdm(promising, desc="law families", disable=not run.progress, leave=False):
         name = sc.name
         tried = [(sc, att.specs[name], att.fits[name])]
         warm = warm_start(name, att.fits[name])
