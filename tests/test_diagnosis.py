@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
 
@@ -484,14 +483,15 @@ def test_polyphase_filter_equals_the_sparse_rows(model):
 
 
 def test_a_confusable_slot_keeps_only_what_the_final_joint_model_cannot_tell_apart(monkeypatch):
-    """`_confirm_slots`: each alternative of a slot replaces that slot's effect in the final joint model; it stays
+    """`confirm_slots`: each alternative of a slot replaces that slot's effect in the final joint model; it stays
     confusable only if that swapped model fits the held-out residual about as well (paired z < confusable_z).
     The joint models are stand-ins with known held-out residuals: one alternative as good as the slot's effect
     (kept), one much worse (dropped, with the reason), one whose fit failed (dropped)."""
     from types import SimpleNamespace
 
-    dg = importlib.import_module("maglev_ocp.diagnosis.diagnose")  # the package exports a function of that name
-    from maglev_ocp.diagnosis.attribution import Verdict
+    from maglev_ocp.diagnosis.stages import joint as dg
+    from maglev_ocp.diagnosis.stages.models import Run
+    from maglev_ocp.diagnosis.verdict import Verdict
 
     rng = np.random.default_rng(0)
     noise = rng.standard_normal(4000)
@@ -503,13 +503,13 @@ def test_a_confusable_slot_keeps_only_what_the_final_joint_model_cannot_tell_apa
         ("bad_fit", "cogging"): noise,
     }
 
-    def fake_model(split, base, att, names, st, warnings):
+    def fake_model(run, att, names):
         return None, SimpleNamespace(success=names[0] != "bad_fit"), SimpleNamespace(e_after=e_after[tuple(names)])
 
-    monkeypatch.setattr(dg, "_model", fake_model)
+    monkeypatch.setattr(dg, "joint_model", fake_model)
     att = SimpleNamespace(verdict=Verdict("x", [], True, []))
     slots = [["end_effect", "saturation", "edge_loss", "bad_fit"], ["cogging"]]
-    out = dg._confirm_slots(None, None, att, ["end_effect", "cogging"], slots, DiagnoseSettings(), [])
+    out = dg.confirm_slots(Run(None, None, DiagnoseSettings()), att, ["end_effect", "cogging"], slots)
     assert out == [["end_effect", "edge_loss"], ["cogging"]]
     assert any(r.startswith("saturation in place of end_effect") and "not confusable" in r for r in att.verdict.reasons)
     assert any(r.startswith("bad_fit in place of end_effect") and "did not converge" in r for r in att.verdict.reasons)
@@ -536,7 +536,8 @@ def test_an_end_effect_beside_cogging_is_not_left_confusable_with_saturation(tmp
 def test_contacts_with_a_mechanical_stop_are_cut_out_of_the_runs():
     """A run whose mover touches a stop becomes the contact-free pieces around it (padded), with a note naming the
     run and the axis; a locked axis at any position and a run clear of the stops are left as they are."""
-    dg = importlib.import_module("maglev_ocp.diagnosis.diagnose")
+    from maglev_ocp.diagnosis.stages import split as dg
+
     n, Ts = 3000, 1e-3
     y = np.column_stack([np.full(n, 0.015), np.zeros(n)])
     y[1000:1050, 0] = k.g_stop[0]  # 50 samples against the upper stop
@@ -587,24 +588,26 @@ def test_a_drop_one_model_is_refitted_from_the_full_models_values_when_that_fits
     each set is refitted once."""
     from types import SimpleNamespace
 
-    dg = importlib.import_module("maglev_ocp.diagnosis.diagnose")
+    from maglev_ocp.diagnosis.stages import joint as dg
+    from maglev_ocp.diagnosis.stages.models import Attribution, Run
+
     spec = SimpleNamespace(name="end_effect", keys=("p.C1", "end_effect.ripple"), note="")
     full_fit = SimpleNamespace(params=lambda: {"p.C1": 14.1, "end_effect.ripple": 0.05, "commutation_offset.delta": 0})
     warm_seen = []
 
     def run(new_sse):
         old = (spec, SimpleNamespace(success=True, sse=100.0), SimpleNamespace(name="old"))
-        att = dg._Attribution.__new__(dg._Attribution)
+        att = Attribution.__new__(Attribution)
         att.models, att.rewarmed, att.scores = {frozenset(["end_effect"]): old}, set(), [old[2]]
 
-        def fake_fit(name, spec_, split, base, rules, note, pair, warm=None, hold_lag=False):
+        def fake_fit(run_, name, spec_, note, pair, warm=None, hold_lag=False):
             warm_seen.append(warm)
             return SimpleNamespace(success=True, sse=new_sse), SimpleNamespace(name="new")
 
-        monkeypatch.setattr(dg, "_fit_and_score", fake_fit)
-        st = DiagnoseSettings()
-        got = dg._rewarmed(None, None, att, ["end_effect"], (None, full_fit, None), st, [])
-        again = dg._rewarmed(None, None, att, ["end_effect"], (None, full_fit, None), st, [])
+        monkeypatch.setattr(dg, "fit_and_score", fake_fit)
+        ctx = Run(None, None, DiagnoseSettings())
+        got = dg.rewarmed(ctx, att, ["end_effect"], (None, full_fit, None))
+        again = dg.rewarmed(ctx, att, ["end_effect"], (None, full_fit, None))
         return got, again, att
 
     got, again, att = run(90.0)

@@ -19,7 +19,7 @@ from maglev_ocp import constants as k
 from maglev_ocp.diagnosis.candidates import CandidateSpec, FitResult, library_specs
 from maglev_ocp.diagnosis.consequence import effect_force, effect_size, plant_effects, plant_file
 from maglev_ocp.diagnosis.localize import channel_floor
-from maglev_ocp.diagnosis.noise import forced_peaks, noise_check, resonance_guard
+from maglev_ocp.diagnosis.peaks import forced_peaks, noise_check, resonance_guard
 from maglev_ocp.diagnosis.residuals import ResidualSettings, RunInput, ZeroPhaseFilter, prepare_run, residual_of
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.plant import load_plant_config
@@ -378,9 +378,10 @@ def test_the_verdict_drops_a_lag_that_absorbs_a_resonance():
     """A lag verdict flagged by the guard becomes ``unexplained``; in a pair only the lag is dropped."""
     from types import SimpleNamespace
 
-    from maglev_ocp.diagnosis.attribution import Verdict
-    from maglev_ocp.diagnosis.diagnose import _Attribution, apply_resonance_guard
-    from maglev_ocp.diagnosis.noise import ResonanceGuard
+    from maglev_ocp.diagnosis.peaks import ResonanceGuard
+    from maglev_ocp.diagnosis.stages.guards import apply_resonance_guard
+    from maglev_ocp.diagnosis.stages.models import Attribution as _Attribution
+    from maglev_ocp.diagnosis.verdict import Verdict
 
     lib = library_specs()
     base = SimpleNamespace(spec=CandidateSpec("baseline"), floors={"vertical": "floor"})
@@ -388,25 +389,26 @@ def test_the_verdict_drops_a_lag_that_absorbs_a_resonance():
     fits = {"amplifier_lag": "fit-lag", "cogging": "fit-cog"}
     att = _Attribution(lib, fits, [], Verdict("amplifier_lag", ["amplifier_lag"], True, []), None)
     att.final_spec, att.final_fit = lib["amplifier_lag"], "fit-lag"
-    apply_resonance_guard(base, att, flagged)
-    assert att.verdict.verdict == "unexplained" and att.final_fit is None
+    got = apply_resonance_guard(base, att, flagged)
+    assert got.verdict.verdict == "unexplained" and got.final_fit is None
+    assert att.verdict.verdict == "amplifier_lag" and att.final_fit == "fit-lag"  # a new record; the old one stays
+    att = got
     assert any("cannot explain a narrow resonance" in r for r in att.verdict.reasons)
     att = _Attribution(lib, fits, [], Verdict("cogging+amplifier_lag", ["cogging", "amplifier_lag"], True, []), None)
-    apply_resonance_guard(base, att, flagged)
+    att = apply_resonance_guard(base, att, flagged)
     assert att.verdict.verdict == "cogging" and att.final_fit == "fit-cog"
     ok = {"amplifier_lag": ResonanceGuard("amplifier_lag", False, 0.1, 0.95, [35.0])}
     att = _Attribution(lib, fits, [], Verdict("amplifier_lag", ["amplifier_lag"], True, []), None)
-    apply_resonance_guard(base, att, ok)
-    assert att.verdict.verdict == "amplifier_lag"
+    assert apply_resonance_guard(base, att, ok) is att and att.verdict.verdict == "amplifier_lag"
 
 
 def _coverage_case(per_channel: dict[str, tuple[float, float]], verdict: str = "commutation_offset"):
     """An attribution whose final model leaves ``(before, after)`` times a unit noise floor per channel."""
     from types import SimpleNamespace
 
-    from maglev_ocp.diagnosis.attribution import Verdict
-    from maglev_ocp.diagnosis.diagnose import _Attribution
     from maglev_ocp.diagnosis.result import NoiseFindings
+    from maglev_ocp.diagnosis.stages.models import Attribution as _Attribution
+    from maglev_ocp.diagnosis.verdict import Verdict
 
     lib = library_specs()
     base = SimpleNamespace(spec=CandidateSpec("baseline"), floors={"vertical": "floor"})
@@ -422,23 +424,23 @@ def test_a_verdict_that_leaves_a_channels_gap_open_is_unexplained():
     gap 6.3x the floor closed to 2.8x, horizontal 39x left at 32x) explains part of the gap only: unexplained,
     with what it explained per channel. A steep law's misfit that closes two thirds of a 46x gap, and a channel
     left at 1.9x its floor, are no reason to doubt a verdict."""
-    from maglev_ocp.diagnosis.diagnose import apply_coverage
-    from maglev_ocp.diagnosis.result import DiagnoseSettings
+    from maglev_ocp.diagnosis.settings import DiagnoseSettings
+    from maglev_ocp.diagnosis.stages.guards import apply_coverage
 
     st = DiagnoseSettings()
     base, att, noise = _coverage_case({"vertical": (6.3, 2.8), "horizontal": (39.1, 31.9)})
-    apply_coverage(base, att, noise, st)
+    att, coverage, partial = apply_coverage(base, att, noise, st)
     assert att.verdict.verdict == "unexplained" and att.final_fit is None and att.final_score is None
-    rows = {r["channel"]: r for r in noise.partial["per_channel"]}
-    assert noise.partial["model"] == "commutation_offset"
+    rows = {r["channel"]: r for r in partial["per_channel"]}
+    assert partial["model"] == "commutation_offset" and coverage == partial["per_channel"]
     assert rows["horizontal"]["short"] and not rows["vertical"]["short"]
     assert rows["horizontal"]["closes"] == pytest.approx((39.1**2 - 31.9**2) / (39.1**2 - 1), rel=1e-9)
     assert any("does not account for the horizontal gap" in r for r in att.verdict.reasons)
     base, att, noise = _coverage_case({"vertical": (46.4, 27.1), "horizontal": (2.3, 1.9)}, "end_effect")
-    apply_coverage(base, att, noise, st)
+    att, coverage, partial = apply_coverage(base, att, noise, st)
     assert att.verdict.verdict == "end_effect" and att.final_fit == "fit"
-    assert noise.partial == {} and [r["short"] for r in noise.coverage] == [False, False]
+    assert partial == {} and [r["short"] for r in coverage] == [False, False]
     # The threshold is a setting: at 1.5x the floor the 1.9x channel whose gap is 39 % closed is short.
     base, att, noise = _coverage_case({"vertical": (46.4, 27.1), "horizontal": (2.3, 1.9)}, "end_effect")
-    apply_coverage(base, att, noise, DiagnoseSettings(remainder_max=1.5))
+    att, _, _ = apply_coverage(base, att, noise, DiagnoseSettings(remainder_max=1.5))
     assert att.verdict.verdict == "unexplained"

@@ -103,20 +103,20 @@ def test_structure_test_is_on_the_residual_of_the_final_calibration(tmp_path):
     goes on with (formerly those of the first, rms-weighted pass, whose prior held Mv near nominal and left a
     state-dependent vertical residual: held-out map gain 20-30 %, z 4-8, on 3 of 9 such datasets), and that
     residual has no structure."""
-    import importlib
 
     from maglev_ocp.diagnosis import DiagnoseSettings
     from maglev_ocp.diagnosis.localize import channel_floor
     from maglev_ocp.diagnosis.residuals import CHANNELS
+    from maglev_ocp.diagnosis.stages import baseline as dg
+    from maglev_ocp.diagnosis.stages.split import split_dataset
     from maglev_ocp.riglog import read_dataset
     from maglev_ocp.rigsim import RigSettings, draw, generate
 
-    dg = importlib.import_module("maglev_ocp.diagnosis.diagnose")
     seed = 77
     folder = generate(tmp_path / "ds", draw(seed, "none")["effects"], seed, RigSettings(n_runs=3, duration=8.0))
     st = DiagnoseSettings(seed=seed)
-    split = dg._split(read_dataset(folder), st)
-    base = dg._baseline(split, None, st, [])
+    split = split_dataset(read_dataset(folder), st)
+    base = dg.calibrate_baseline(split, None, st)
     for c, ch in enumerate(CHANNELS):
         fl = channel_floor(base.b_train, base.b_test, c, base.q_floor, max_lag=base.noise_lag)
         assert base.floors[ch].gain == pytest.approx(fl.gain, rel=1e-9, abs=1e-12), ch

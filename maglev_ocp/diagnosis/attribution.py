@@ -43,8 +43,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..estimation.ident import autocorr_factor, geyer_factor
-from .candidates import FitResult
+from .fit import FitResult
 from .residuals import Residual
+from .settings import VerdictRules
+from .verdict import EffectSets, Verdict
 
 
 def stack(res: Sequence[Residual], floors: np.ndarray) -> np.ndarray:
@@ -218,31 +220,6 @@ class EffectScore:
         }
 
 
-@dataclass(frozen=True)
-class VerdictRules:
-    """Thresholds of the verdict.
-
-    Attributes
-    ----------
-    z_min : float
-        Held-out improvement significance a candidate needs.
-    bic_margin : float
-        Required drop of the training information criterion.
-    closes_min : float
-        Fraction of the gap an effect (or pair) must close to be named.
-    confusable_z : float
-        Candidates within this paired z of the best form a confusable set.
-    second_min : float
-        Fraction of the *remaining* gap a second effect must close to be added.
-    """
-
-    z_min: float = 4.0
-    bic_margin: float = 10.0
-    closes_min: float = 0.5
-    confusable_z: float = 2.0
-    second_min: float = 0.5
-
-
 def score(
     name: str,
     fit: FitResult | None,
@@ -299,28 +276,6 @@ def score(
     )
 
 
-@dataclass
-class Verdict:
-    """The verdict and how it was reached.
-
-    Attributes
-    ----------
-    verdict : str
-        ``none``, ``unexplained``, an effect name, ``a|b`` (confusable set) or ``a+b`` (two effects).
-    selected : list of str
-        Effects in the verdict, ranked.
-    gap_detected : bool
-        The baseline residual has a gap above the floor.
-    reasons : list of str
-        Plain-language steps of the decision.
-    """
-
-    verdict: str
-    selected: list[str]
-    gap_detected: bool
-    reasons: list[str]
-
-
 def decide(
     scores: Sequence[EffectScore], gap_detected: bool, rules: VerdictRules, gap_evidence: Sequence[str] = ()
 ) -> tuple[Verdict, EffectScore | None]:
@@ -332,17 +287,17 @@ def decide(
     sig = [s for s in scores if s.significant]
     if not gap_detected and not sig:
         reasons.append("no gap above the noise floor and no candidate improves the held-out runs: none")
-        return Verdict("none", [], False, reasons), None
+        return Verdict(EffectSets.none(), [], False, reasons), None
     if not sig:
         reasons.append("a gap is detected but no candidate improves the held-out runs significantly")
-        return Verdict("unexplained", [], gap_detected, reasons), None
+        return Verdict(EffectSets.gap_unexplained(), [], gap_detected, reasons), None
     best = max(sig, key=lambda s: (s.reduction, -s.delta_bic))
     reasons.append(
         f"best candidate {best.name}: held-out reduction {best.reduction:.1%}, closes "
         f"{best.closes:.0%} of the gap, z = {best.z:.1f}, dBIC = {best.delta_bic:.0f}"
     )
     if best.closes < rules.closes_min:
-        return Verdict("unexplained", [], True, reasons), best
+        return Verdict(EffectSets.gap_unexplained(), [], True, reasons), best
     conf = []
     for s in sig:
         if s is best or s.closes < rules.closes_min:
@@ -355,8 +310,7 @@ def decide(
     for s in sig:
         if s.name in conf:
             s.confusable_with = [best.name] + [c for c in conf if c != s.name]
-    name = "|".join([best.name, *conf])
-    return Verdict(name, [best.name, *conf], True, reasons), best
+    return Verdict(EffectSets.of([[best.name, *conf]]), [best.name, *conf], True, reasons), best
 
 
 def rank(scores: Sequence[EffectScore]) -> list[EffectScore]:

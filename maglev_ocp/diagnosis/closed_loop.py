@@ -55,9 +55,10 @@ from ..plant.config import deep_merge
 from ..runner import _as_scenario, build_controller, run_scenario
 from ..scenario import scenario_from_dict
 from ..signals import PARAM_NAMES
-from .candidates import CandidateSpec, _accel_function, library_specs
 from .diagnose import DiagnoseSettings, diagnose
+from .fit import _accel_function
 from .generate import GeneratorSettings, generate_dataset
+from .library import CandidateSpec, library_specs
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

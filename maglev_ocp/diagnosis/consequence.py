@@ -36,7 +36,8 @@ from ..effects import EFFECTS, EffectSet
 from ..errors import ConfigError
 from ..runner import run_scenario
 from ..signals import PARAM_NAMES
-from .candidates import CandidateSpec, FitResult, accel_series, lag_features
+from .fit import FitResult, accel_series, lag_features
+from .library import CandidateSpec
 from .residuals import PreparedRun
 
 #: The positioning goal [m] (0.1 mm).

@@ -48,12 +48,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.ndimage as ndi
-import scipy.signal as sps
 import scipy.stats as st
 
 from .. import constants as k
 from ..estimation.ident import autocorr_factor
 from .residuals import CHANNELS, Residual
+from .spectra import Spectrum, dominant_band, spectrum
 
 #: Features used for 1-D maps and binned views, with plot units scale.
 FEATURES_1D: tuple[str, ...] = ("g", "d", "g_dot", "d_dot", "i_q", "i_d", "di_q", "di_d")
@@ -388,121 +388,6 @@ def channel_floor(
     return ChannelFloor(
         CHANNELS[channel], rms, min(floor, rms), quantization, infl, gain, z, bool(z > z_crit and gain > min_gain), te.n
     )
-
-
-# ----------------------------------------------------------------------- spectrum
-@dataclass
-class Spectrum:
-    """Welch PSD of a channel's residual.
-
-    Attributes
-    ----------
-    f : ndarray
-        Frequencies [Hz].
-    psd : ndarray
-        Power spectral density [(m/s^2)^2/Hz].
-    baseline : ndarray
-        Running-median baseline of the PSD.
-    peaks : list of dict
-        Bands where the PSD exceeds the baseline significantly:
-        ``{"band_hz": [lo, hi], "peak_hz", "ratio", "power_m2_s4"}``.
-    dof : float
-        Degrees of freedom of the Welch estimate.
-    """
-
-    f: np.ndarray
-    psd: np.ndarray
-    baseline: np.ndarray
-    peaks: list[dict]
-    dof: float
-
-
-def spectrum(
-    residuals: Sequence[Residual], channel: int, fs: float, fmax: float, seg_s: float = 4.0, false_alarm: float = 1e-3
-) -> Spectrum | None:
-    """Welch PSD (segments within runs, averaged) with peak bands above a running median.
-
-    Parameters
-    ----------
-    residuals : sequence of Residual
-        Residuals (all samples of a run are contiguous in time).
-    channel : int
-        0 vertical, 1 horizontal.
-    fs : float
-        Sample rate of the residual samples [Hz].
-    fmax : float
-        Highest frequency reported (the residual filter's cut-off) [Hz].
-    seg_s : float
-        Welch segment length [s].
-    false_alarm : float
-        Per-band false-alarm probability (Bonferroni over the bins below fmax).
-    """
-    nper = int(seg_s * fs)
-    acc, wsum, nseg = None, 0.0, 0
-    f = None
-    for res in residuals:
-        if res.run.n < nper or not res.run.valid[channel]:
-            continue
-        f, p = sps.welch(res.r[:, channel], fs=fs, nperseg=nper, noverlap=nper // 2, detrend="constant")
-        m = 1 + 2 * (res.run.n - nper) // nper
-        acc = p * m if acc is None else acc + p * m
-        wsum += m
-        nseg += m
-    if acc is None or f is None:
-        return None
-    psd = acc / wsum
-    sel = f <= fmax
-    f, psd = f[sel], psd[sel]
-    dof = max(2.0, 2 * nseg * 0.9)
-    width = max(5, round(2.0 / (f[1] - f[0])) | 1) if len(f) > 1 else 5
-    baseline = ndi.median_filter(psd, size=width, mode="nearest")
-    n_bins = max(1, int(np.sum(f > 0.5)))
-    # Under H0 psd / baseline ~ chi2(dof) / dof.
-    thr = st.chi2.isf(false_alarm / n_bins, dof) / dof
-    over = (psd > thr * baseline) & (f > 0.5)
-    peaks = []
-    lab, n_lab = ndi.label(over)
-    for j in range(1, n_lab + 1):
-        ii = np.flatnonzero(lab == j)
-        df = f[1] - f[0]
-        band = [float(max(f[ii[0]] - df / 2, 0.0)), float(f[ii[-1]] + df / 2)]
-        ipk = ii[np.argmax(psd[ii] / baseline[ii])]
-        peaks.append(
-            {
-                "band_hz": band,
-                "peak_hz": float(f[ipk]),
-                "ratio": float(psd[ipk] / baseline[ipk]),
-                "power_m2_s4": float(np.sum(psd[ii] - baseline[ii]) * df),
-            }
-        )
-    peaks.sort(key=lambda q: -q["power_m2_s4"])
-    return Spectrum(f, psd, baseline, peaks, dof)
-
-
-def dominant_band(spec: Spectrum, fraction: float = 0.8) -> list[float] | None:
-    """Smallest band around the PSD maximum that holds ``fraction`` of the power above the baseline median."""
-    if spec is None or len(spec.f) < 3:
-        return None
-    ex = np.maximum(spec.psd - np.median(spec.psd), 0.0)
-    tot = ex.sum()
-    if tot <= 0:
-        return None
-    i0 = int(np.argmax(ex))
-    lo, hi = i0, i0
-    acc = ex[i0]
-    while acc < fraction * tot:
-        left = ex[lo - 1] if lo > 0 else -1
-        right = ex[hi + 1] if hi < len(ex) - 1 else -1
-        if left < 0 and right < 0:
-            break
-        if left >= right:
-            lo -= 1
-            acc += ex[lo]
-        else:
-            hi += 1
-            acc += ex[hi]
-    df = spec.f[1] - spec.f[0]
-    return [float(max(spec.f[lo] - df / 2, 0.0)), float(spec.f[hi] + df / 2)]
 
 
 # -------------------------------------------------------------------- period scan

@@ -337,6 +337,9 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
     for f in figures:
         md.append(f"### {FIGURES[f][1]}\n\n![{f}]({f})\n")
     md.append(f"\nDiagnosis time: {d.timing.get('total_s', float('nan')):.1f} s.\n")
+    stages = [(k_[:-2], v) for k_, v in d.timing.items() if k_.endswith("_s") and k_ not in ("total_s", "cpu_s")]
+    if stages:
+        md.append("Time per stage: " + ", ".join(f"{n} {v:.1f} s" for n, v in stages) + ".\n")
     return "\n".join(md)
 
 

@@ -28,128 +28,16 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydantic import Field
 
-from ..config import Strict
 from ..params import Params
-from .attribution import EffectScore, Verdict, VerdictRules
+from .attribution import EffectScore, Verdict
 from .consequence import EffectSize
-from .localize import BinStats, ChannelFloor, PeriodScan, Region, Spectrum
-from .noise import NoiseCheck, ResonanceGuard, SpectralPeak
+from .localize import BinStats, ChannelFloor, PeriodScan, Region
+from .peaks import NoiseCheck, ResonanceGuard, SpectralPeak
 from .residuals import Residual
+from .settings import DiagnoseSettings
 from .simulate_compare import TrajectoryComparison
-
-
-class DiagnoseSettings(Strict):
-    """Settings of :func:`diagnose` (all have defaults that suit 1 kHz rig logs).
-
-    Attributes
-    ----------
-    fc_hz, numtaps, decimate : float, int, int
-        Residual filter (see :class:`~.residuals.ResidualSettings`).
-    holdout_every : int
-        Hold out every n-th run (at least one).
-    candidates : list of str or None
-        Restrict the candidate library (default: all; ``parameter_error`` is
-        dropped against a calibrated baseline, which absorbs it).
-    z_min, bic_margin, closes_min, confusable_z, second_min : float
-        Verdict thresholds (see :class:`~.attribution.VerdictRules`).
-    n_null : int
-        Null draws (circular shifts) of the period scan's threshold, an
-        extreme-value quantile at a false alarm of 1e-3 per channel (its scale
-        is estimated to about ``sqrt(1.1 / n_null)``, 10 % at 100).
-    seed : int
-        Seed of the null draws and subsampling (same seed, same report).
-    horizon_s : float
-        Window of the simulated-trajectory comparison [s].
-    simulate : bool
-        Run the trajectory comparison.
-    consequence : bool
-        Simulate each found effect's closed-loop consequence with the shipped
-        controllers (only with ``simulate``).
-    prior_sd : float
-        Sd of the Gaussian prior at nominal on C1..C3 of a calibrated baseline,
-        relative to nominal (C4, xi0 and ell five times looser; 0: no prior).
-    baseline_cogging : bool
-        The calibrated baseline carries the shared model's cogging law (seed
-        eq. (9), MODEL.md) with xi0 and ell calibrated, so that cogging that
-        follows eq. (9) is part of the baseline and only cogging that differs
-        is an effect (default); off: the cogging-blind seed eq. (2).
-    clean_min : float
-        Smallest fraction of the training samples outside the regions with a
-        gap for the baseline to be recalibrated on them.
-    max_effects : int
-        Most effects the forward selection holds at once. One more than the
-        sets the self-checks draw (three): an effect that entered early to take
-        up another's law misfit (a saturation standing in for an end effect's
-        overhang loss) leaves through the backward check once the true effect
-        has entered as a fourth (independent rig, seed 47 #48).
-    forward_pool, forward_z : int, float
-        Candidates refitted jointly with the current model at each forward
-        step: the ``forward_pool`` converged singles with the best information
-        criterion whose own held-out z exceeds ``forward_z`` (default: every
-        other library effect, no gate; a single's scores are corrupted by the
-        other effects still in its residual).
-    family_top : int
-        Effects (the best singles) whose whole law family is fitted.
-    z_enter : float
-        Held-out z for the forward selection to admit an effect (the
-        backward check then asks ``z_min`` of each one in the full model).
-    resolved_share : float
-        The final model's constants and effects are refitted on the training
-        samples whose model acceleration the measured velocities determine:
-        those where a change of the velocities by their resolution moves it by
-        less than this share of the channel's floor (0: no such refit).
-    resolved_min : float
-        Smallest fraction of a channel's training samples that must be
-        resolved for that channel to be restricted to them.
-    resolved_z : float
-        The refit on the resolved samples is adopted when it fits the held-out
-        runs' resolved samples better than the fit over all samples by this
-        paired z (one standard error: the refit adds no effect and changes no
-        verdict, it only removes samples a steep law cannot be evaluated on).
-    remainder_max : float
-        A verdict stands only if, in every channel where its model leaves more
-        than this many times the noise model's floor (held-out rms), it closes
-        at least ``closes_min`` of that channel's gap; otherwise the library
-        does not account for the gap: ``unexplained``. On the independent rig,
-        right verdicts that close less than half of a channel's gap leave at
-        most 1.9x there, and where they leave more (up to 27x, a steep end
-        effect's law misfit) they close at least 66 %; a cable spring taken up
-        by a commutation drift leaves 19-32x and closes 33-47 %.
-    """
-
-    fc_hz: float = Field(15.0, gt=0.5, le=200.0)
-    numtaps: int = Field(401, ge=31, le=4001)
-    decimate: int = Field(8, ge=1, le=100)
-    holdout_every: int = Field(3, ge=2, le=20)
-    candidates: list[str] | None = None
-    z_min: float = Field(4.0, gt=0)
-    bic_margin: float = Field(10.0, ge=0)
-    closes_min: float = Field(0.5, gt=0, le=1)
-    confusable_z: float = Field(2.0, ge=0)
-    second_min: float = Field(0.5, gt=0, le=1)
-    n_null: int = Field(100, ge=20, le=1000)
-    seed: int = Field(0, ge=0)
-    horizon_s: float = Field(0.05, gt=0.002, le=1.0)
-    simulate: bool = True
-    consequence: bool = True
-    prior_sd: float = Field(0.1, ge=0.0, le=10.0)
-    clean_min: float = Field(0.3, ge=0.0, le=1.0)
-    baseline_cogging: bool = True
-    max_effects: int = Field(4, ge=1, le=8)
-    forward_pool: int = Field(6, ge=0, le=10)
-    forward_z: float = Field(-100.0, ge=-100.0)
-    family_top: int = Field(4, ge=0, le=10)
-    z_enter: float = Field(2.0, ge=0.0)
-    resolved_share: float = Field(0.5, ge=0.0, le=10.0)
-    resolved_min: float = Field(0.1, ge=0.0, le=1.0)
-    resolved_z: float = Field(1.0, ge=0.0)
-    remainder_max: float = Field(3.0, ge=1.0, le=100.0)
-
-    def rules(self) -> VerdictRules:
-        """Verdict thresholds."""
-        return VerdictRules(self.z_min, self.bic_margin, self.closes_min, self.confusable_z, self.second_min)
+from .spectra import Spectrum
 
 
 @dataclass
@@ -223,7 +111,7 @@ class NoiseFindings:
     coverage : list of dict
         Per channel, what the verdict's model closes of the gap above the model
         floor (``before_over_floor``, ``after_over_floor``, ``closes``, ``short``;
-        :func:`~.diagnose.channel_coverage`).
+        :func:`~.stages.guards.channel_coverage`).
     partial : dict
         When a verdict was turned ``unexplained`` because a channel's gap stayed
         open: the effect set and its per-channel coverage (it explains part of
@@ -440,7 +328,7 @@ def report_json(d: Diagnosis) -> dict:
         }
     out = {
         "verdict": d.verdict.verdict,
-        "verdict_effects": d.verdict.selected if d.verdict.verdict not in ("none", "unexplained") else [],
+        "verdict_effects": d.verdict.selected if d.verdict.named else [],
         "reasons": d.verdict.reasons,
         "effects": [s.to_dict() for s in d.scores],
         "regions": [r.to_dict() for r in d.regions],

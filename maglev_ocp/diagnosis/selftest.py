@@ -58,12 +58,14 @@ from ..parallel import map_ordered
 from ..params import NOMINAL, Params
 from ..plant import PlantConfig
 from .attribution import raw_rms
-from .candidates import CandidateSpec, FitResult, residuals_with
 from .diagnose import LIBRARY, DiagnoseSettings, Diagnosis, diagnose
+from .fit import FitResult, residuals_with
 from .generate import OUT_OF_LIBRARY, GeneratorSettings, generate_dataset
+from .library import CandidateSpec
 from .localize import bin_stats, edges_for, pool
 from .report import write_report
 from .residuals import CHANNELS
+from .verdict import EffectSets
 
 Draw = Callable[[np.random.Generator], tuple[dict, dict]]
 
@@ -328,7 +330,7 @@ class SelftestResult:
 
     def none_false_claims(self) -> int:
         """Number of ``none`` datasets on which an effect was claimed."""
-        return sum(1 for c in self.cases if c.truth == "none" and c.verdict not in ("none", "unexplained"))
+        return sum(1 for c in self.cases if c.truth == "none" and EffectSets.parse(c.verdict).named)
 
     def localization_accuracy(self) -> float:
         """Fraction of datasets localized right."""
@@ -614,7 +616,7 @@ def run_case(
     t_res = truth_residuals(diag, gen.true_params, true_eff)
     before = raw_rms(diag.heldout.baseline)
     ideal = 1.0 - raw_rms(t_res) / before if before > 0 else 0.0
-    head = diag.verdict.verdict.split("|")[0]  # a confusable set is scored by its first (best) member
+    head = diag.verdict.sets.head  # a confusable set is scored by its first (best) member
     sel = [diag.final_score] if diag.final_score is not None else [s for s in diag.scores if s.name == head]
     reduction = sel[0].reduction if sel else 0.0
     name = extra or truth
@@ -635,10 +637,7 @@ def run_case(
 
 def canonical(verdict: str) -> str:
     """A verdict naming a set of effects (``b+a``) in library order (``a+b``); others as they are."""
-    if "|" in verdict or "+" not in verdict:
-        return verdict
-    parts = verdict.split("+")
-    return "+".join(sorted(parts, key=lambda n: LIBRARY.index(n) if n in LIBRARY else len(LIBRARY)))
+    return EffectSets.parse(verdict).canonical(LIBRARY)
 
 
 def same_set(verdict: str, truth: str) -> bool:

@@ -23,7 +23,8 @@ import scipy.signal as sps
 from .. import constants as k
 from ..effects import AmplifierLag
 from ..model import rk4
-from .candidates import CandidateSpec, FitResult, _accel_function
+from .fit import FitResult, _accel_function
+from .library import CandidateSpec
 from .residuals import RunInput
 
 

@@ -1,0 +1,518 @@
+"""The candidate library (catalogue): each effect's fitted parameters, bounds, starts and law-family members.
+
+A :class:`CandidateSpec` says how one candidate effect of :mod:`maglev_ocp.effects`
+is fitted on top of the shared model: which parameters are free (:class:`Free`,
+bounds in physical units, start, scale, prior), which are held fixed or tied,
+and which member of the effect's law family it is (:func:`family_specs`).
+:func:`calibration_free` gives the baseline's calibrated constants. The fitter
+that solves these specs is :mod:`.fit`; nothing here evaluates the model.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+from ..effects import EFFECTS, EndEffect
+from ..params import Params
+
+
+# ------------------------------------------------------------------------- specs
+@dataclass(frozen=True)
+class Free:
+    """A fitted parameter.
+
+    Attributes
+    ----------
+    key : str
+        ``"p.<name>"`` for an entry of the model's parameter vector, or
+        ``"<effect>.<param>"`` for an effect parameter.
+    lo, hi : float
+        Bounds (physical units).
+    start : float
+        Initial guess.
+    scale : float
+        Typical magnitude (the NLP works on ``value / scale``).
+    prior : tuple of float or None
+        Gaussian prior ``(mean, sd)`` in physical units (the baseline's
+        constants: a prior at nominal), weighted like ``n_eff`` independent
+        samples of the data (see :class:`CandidateFitter`).
+    """
+
+    key: str
+    lo: float
+    hi: float
+    start: float
+    scale: float
+    prior: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class CandidateSpec:
+    """How one candidate effect is fitted.
+
+    Attributes
+    ----------
+    name : str
+        Effect name (the verdict's vocabulary).
+    effects : tuple of str
+        :class:`EffectSet` composed on the model.
+    free : tuple of Free
+        Fitted parameters.
+    fixed : tuple of (str, float)
+        ``("<effect>.<param>", value)`` held fixed (others at the library defaults).
+    ties : tuple of (str, str)
+        ``("<effect>.<param>", "<key of a Free>")``: shares a fitted value.
+    lag : bool
+        Amplifier lag (searched over bandwidth and delay, see module docstring).
+    note : str
+        What was held fixed and why.
+    law : str
+        Member of the effect's law family (see :func:`family_specs`).
+    """
+
+    name: str
+    effects: tuple[str, ...] = ()
+    free: tuple[Free, ...] = ()
+    fixed: tuple[tuple[str, float], ...] = ()
+    ties: tuple[tuple[str, str], ...] = ()
+    lag: bool = False
+    note: str = ""
+    law: str = "default"
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        """Keys of the fitted parameters, in vector order."""
+        return tuple(f.key for f in self.free)
+
+    def with_free(self, extra: Sequence[Free]) -> CandidateSpec:
+        """Copy with more fitted parameters (e.g. the baseline's C1..C4 re-fitted jointly)."""
+        keys = {f.key for f in extra}
+        free = tuple(extra) + tuple(f for f in self.free if f.key not in keys)
+        return CandidateSpec(self.name, self.effects, free, self.fixed, self.ties, self.lag, self.note, self.law)
+
+    def renamed(self, name: str) -> CandidateSpec:
+        """Copy under another name."""
+        return CandidateSpec(name, self.effects, self.free, self.fixed, self.ties, self.lag, self.note, self.law)
+
+
+def _eb(effect: str, param: str) -> tuple[float, float]:
+    return EFFECTS[effect].bounds()[param]
+
+
+_TWO_PI = 2 * math.pi
+# Shared rows of :data:`_FREE`: (lo, hi, start, scale) of parameters of the same kind.
+_PHASE = (-_TWO_PI, _TWO_PI, 0.3, 1.0)  # a phase [rad]: any angle
+_HARMONIC = (-2.0, 2.0, 0.05, 0.2)  # a cogging harmonic relative to xi0
+_COGGING_PEAK = (0.0, 50.0, 1.0, 4.0)  # xi0 [N]
+_GUIDE_FORCE = (0.0, 10.0, 0.05, 0.2)  # a Coulomb or Stribeck force of a guide [N]
+_VISCOUS = (0.0, 100.0, 0.5, 1.0)  # a viscous coefficient [N s/m]
+_TERM_WEIGHT = (-0.5, 0.8, 0.05, 0.1)  # a magnetic term's share of the saturation loss
+_FACTOR = (0.5, 2.0, 1.0, 0.05)  # a factor on a model term
+
+#: Every parameter a candidate fits: key -> (lo, hi, start, scale) in physical units (see :class:`Free`).
+#: One definition per key; the specs below pick theirs by key.
+_FREE: dict[str, tuple[float, float, float, float]] = {
+    # cogging: the seed's law (in p), harmonics, and the free-decay law's own amplitude, decay and shape
+    "p.xi0": _COGGING_PEAK,
+    "p.ell": (1e-3, 0.03, 4e-3, 4e-3),
+    "cogging.h2": _HARMONIC,
+    "cogging.h3": _HARMONIC,
+    "cogging.phi2": _PHASE,
+    "cogging.phi3": _PHASE,
+    "cogging.xi0": _COGGING_PEAK,
+    "cogging.ell": (1e-3, 0.05, 4e-3, 4e-3),
+    "cogging.power": (0.0, 4.0, 0.0, 1.0),
+    "cogging.curv": (-20.0, 20.0, 0.0, 2.0),
+    "cogging.kn": (0.0, 4.0, 1.0, 0.5),
+    # friction
+    "friction.coulomb_g": _GUIDE_FORCE,
+    "friction.coulomb_d": _GUIDE_FORCE,
+    "friction.viscous_g": _VISCOUS,
+    "friction.viscous_d": _VISCOUS,
+    "friction.stribeck_g": _GUIDE_FORCE,
+    "friction.stribeck_d": _GUIDE_FORCE,
+    "friction.v_stribeck": (5e-4, 0.05, 5e-3, 5e-3),
+    # end effect
+    "end_effect.ripple": (0.0, 0.5, 0.02, 0.05),
+    "end_effect.ripple_phase": _PHASE,
+    "end_effect.ripple2": (0.0, 0.5, 0.02, 0.05),
+    "end_effect.ripple2_phase": _PHASE,
+    "end_effect.d_edge": (0.0, 0.2, 0.04, 0.02),
+    "end_effect.edge_width": (1e-3, 0.05, 5e-3, 5e-3),
+    "end_effect.edge_gain": (0.0, 5.0, 1.0, 0.5),
+    "end_effect.edge_quad": (-20.0, 20.0, 0.0, 2.0),
+    "end_effect.edge_cog": (0.0, 1.0, 1.0, 0.5),
+    "end_effect.edge_skew": (-0.05, 0.05, 0.0, 0.005),
+    "end_effect.gain_skew": (-0.9, 0.9, 0.0, 0.2),
+    # the free profile's steps of its B-spline coefficients: a loss of force of a few 10 % at most on a real
+    # stroke; the weak ridge at 0 holds a step whose knot the data do not reach (the profile keeps its level).
+    # No step is negative: an overhang only loses force, and more of it the farther the magnets overhang (a
+    # B-spline with non-decreasing coefficients is non-decreasing), so the profile cannot take up a force that
+    # grows or oscillates along the stroke (an encoder scale error's commutation drift, seed 3 #15).
+    **{f"end_effect.{n}": (0.0, 1.0, 0.0, 0.1) for n in EndEffect.profile_names()},
+    # saturation
+    "saturation.loss_8mm": (0.0, 0.8, 0.05, 0.1),
+    "saturation.ell_sat": (5e-4, 0.05, 3e-3, 3e-3),
+    "saturation.w_pm": _TERM_WEIGHT,
+    "saturation.w_id": _TERM_WEIGHT,
+    "saturation.w_rel": _TERM_WEIGHT,
+    "saturation.w_thrust": _TERM_WEIGHT,
+    # 0: exponential; knee at 8 mm + ell_sat ln(knee), at most 4.6 ell_sat above the stop: a knee far above the
+    # gaps visited makes the loss a constant factor, which the calibrated C1..C4 already are.
+    "saturation.knee": (0.0, 100.0, 1.0, 10.0),
+    # one-parameter effects (the effect's own bounds)
+    "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
+    "commutation_offset.drift": (*_eb("commutation_offset", "drift"), 0.0, 1.0),
+    "eddy_drag.c_eddy": (*_eb("eddy_drag", "c_eddy"), 10.0, 50.0),
+    # parameter error: factors on C1..C4 (C4, a small term, may be off by more)
+    "parameter_error.k_C1": _FACTOR,
+    "parameter_error.k_C2": _FACTOR,
+    "parameter_error.k_C3": _FACTOR,
+    "parameter_error.k_C4": (0.0, 5.0, 1.0, 0.5),
+}
+
+
+def _free(*keys: str) -> tuple[Free, ...]:
+    """The :class:`Free` of each key of :data:`_FREE`, in the order given (the fit's vector order)."""
+    return tuple(Free(key, *_FREE[key]) for key in keys)
+
+
+def library_specs() -> dict[str, CandidateSpec]:
+    """The candidate library: one spec per effect of :mod:`maglev_ocp.effects`.
+
+    ``parameter_error`` is only meaningful against a given model (``--params``):
+    against a model calibrated on the same data it is absorbed by the
+    calibration by construction.
+    """
+    specs = [
+        CandidateSpec(
+            "cogging",
+            ("cogging",),
+            free=_free("p.xi0", "p.ell", "cogging.h2", "cogging.h3", "cogging.phi2", "cogging.phi3"),
+            fixed=(("cogging.h1", 0.0), ("cogging.power", 0.0), ("cogging.kn", 1.0)),
+            ties=(("cogging.xi0", "p.xi0"), ("cogging.ell", "p.ell")),
+            note=(
+                "the seed's law (xi0, ell in p, eq. (9)) plus the library's 2nd/3rd slot harmonics relative to "
+                "xi0 with the same decay; power-law decay (collinear with ell) and the harmonics' normal ratio "
+                "kn (undetermined while the harmonics are small) held at 0 and 1"
+            ),
+        ),
+        CandidateSpec(
+            "friction",
+            ("friction",),
+            free=_free("friction.coulomb_g", "friction.coulomb_d", "friction.viscous_g", "friction.viscous_d"),
+            fixed=(("friction.stribeck_g", 0.0), ("friction.stribeck_d", 0.0), ("friction.v_reg", 1e-3)),
+            note=(
+                "Coulomb + viscous per axis; the Stribeck excess (below a few mm/s) and the sign "
+                "regularization are below the velocity resolution of 10 um encoders (v_reg fixed at 1 mm/s)"
+            ),
+        ),
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
+            free=_free("end_effect.ripple", "end_effect.ripple_phase", "end_effect.d_edge", "end_effect.edge_width"),
+            note="thrust ripple with the pole pitch and loss of force at overhang, all four parameters",
+        ),
+        CandidateSpec(
+            "amplifier_lag",
+            (),
+            lag=True,
+            free=(),
+            note=(
+                "first-order lag + whole-sample delay, applied to the commanded currents exactly as the plant "
+                "does; below the residual's cut-off lag and delay act alike, so the split between them is "
+                "weakly determined"
+            ),
+        ),
+        CandidateSpec(
+            "saturation",
+            ("saturation",),
+            free=_free("saturation.loss_8mm", "saturation.ell_sat"),
+            note="gap-dependent loss of every magnetic force",
+        ),
+        CandidateSpec(
+            "commutation_offset",
+            ("commutation_offset",),
+            free=_free("commutation_offset.delta"),
+            note="dq-frame rotation of the motor currents",
+        ),
+        CandidateSpec(
+            "eddy_drag",
+            ("eddy_drag",),
+            free=_free("eddy_drag.c_eddy"),
+            note="drag proportional to B(g)^2 times the horizontal velocity",
+        ),
+        CandidateSpec(
+            "parameter_error",
+            ("parameter_error",),
+            free=_free(*(f"parameter_error.k_C{i}" for i in range(1, 5))),
+            fixed=(("parameter_error.k_Mh", 1.0), ("parameter_error.k_Mv", 1.0)),
+            note=(
+                "factors on the C1..C4 terms; mass factors are not separable from them (a mass error "
+                "scales the same terms) and are held at 1"
+            ),
+        ),
+    ]
+    return {s.name: s for s in specs}
+
+
+def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
+    """Law families: for each library effect, its members, the library's law (the nested one) first.
+
+    A rig's effects rarely follow the library's law exactly; each family nests
+    the library's law in a more general one, so that an effect whose law
+    differs is still named (the member is chosen by held-out score and the
+    information criterion, see :func:`maglev_ocp.diagnosis.diagnose.diagnose`):
+
+    - ``cogging``: ``free decay``: the decay as a free smooth function of g
+      (exponential, power law and a curvature of the log-decay,
+      :class:`~maglev_ocp.effects.Cogging`), the normal-to-tangential ratio
+      and the 2nd/3rd harmonics free;
+    - ``friction``: ``stribeck``: Coulomb + viscous + the Stribeck excess and
+      velocity (a hysteretic Dahl/LuGre term needs a friction state the
+      equation-error residual does not carry; below the 15 Hz cut-off its
+      pre-sliding part acts like a smoothed Coulomb force);
+    - ``saturation``: which terms it scales: ``field`` (the magnet field: its
+      B^2 attraction and cogging lose twice what the B-linear PM-current and
+      thrust terms lose, the reluctance term nothing), ``current terms``
+      (the field of the currents: the current-linear PM-current and thrust
+      terms lose L, the reluctance term, quadratic in it, twice that, the
+      magnets' attraction nothing) and
+      ``per term`` (a free share for each); and the loss's profile in g:
+      ``knee`` (and ``field``, ``current terms``) a logistic step whose knee is
+      free, nesting the exponential at ``knee = 0``;
+    - ``commutation_offset``: ``drift``: the offset grows linearly along the
+      stroke (a commutation encoder scale off the position encoder's);
+    - ``end_effect``: ``free profile``: the overhang loss scaled and bent
+      (``edge_gain``, ``edge_quad``); ``spline profile``: a loss of any
+      smooth shape in |d| that never falls as the overhang grows (a cubic
+      B-spline with non-negative steps, the same at both ends, so it also
+      takes a loss that levels off), and the cogging's share of the loss;
+    - the amplifier lag searches a continuous effective delay (whole samples
+      plus a lag or a fractional delay, which act alike below the cut-off);
+      ``eddy_drag`` has one law.
+    """
+    lib = library_specs()
+    out = {n: (s,) for n, s in lib.items()}
+    harm = tuple(f for f in lib["cogging"].free if f.key.startswith("cogging."))
+    decay = _free("cogging.xi0", "cogging.ell", "cogging.power", "cogging.curv", "cogging.kn")
+    out["cogging"] += (
+        CandidateSpec(
+            "cogging",
+            ("cogging",),
+            free=(*decay, *harm),
+            fixed=(("cogging.h1", 1.0),),
+            note="decay free (exponential x power law x log-curvature), normal ratio kn and harmonics free",
+            law="free decay",
+        ),
+        CandidateSpec(
+            "cogging",
+            ("cogging",),
+            free=(
+                Free("cogging.ell", 1e-3, 0.05, 4e-3, 4e-3),
+                Free("cogging.power", 0.0, 4.0, 0.0, 1.0),
+                Free("cogging.kn", 0.0, 4.0, 1.0, 0.5),
+                Free("cogging.h1", -5.0, 5.0, 0.0, 0.5),
+                Free("cogging.h2", -5.0, 5.0, 0.3, 0.5),
+                Free("cogging.h3", -5.0, 5.0, 0.1, 0.5),
+                Free("cogging.phi2", -2 * math.pi, 2 * math.pi, 0.3, 1.0),
+                Free("cogging.phi3", -2 * math.pi, 2 * math.pi, 0.3, 1.0),
+            ),
+            fixed=(("cogging.xi0", 1.0),),
+            note=(
+                "cogging beyond the model's eq. (9) with a decay of its own: fundamental and 2nd/3rd slot harmonics "
+                "in N at g = 10 mm (xi0 = 1 N), exponential x power-law decay and normal ratio free"
+            ),
+            law="own decay",
+        ),
+    )
+    stribeck = _free("friction.stribeck_g", "friction.stribeck_d", "friction.v_stribeck")
+    out["friction"] += (
+        CandidateSpec(
+            "friction",
+            ("friction",),
+            free=(*lib["friction"].free, *stribeck),
+            fixed=(("friction.v_reg", 1e-3),),
+            note="Coulomb + viscous + Stribeck excess and velocity per axis (v_reg fixed at 1 mm/s)",
+            law="stribeck",
+        ),
+    )
+    sat = lib["saturation"].free
+    knee = (*sat, *_free("saturation.knee"))
+    w0 = (("saturation.w_pm", 1.0), ("saturation.w_id", 0.5), ("saturation.w_thrust", 0.5), ("saturation.w_rel", 0.0))
+    w1 = (("saturation.w_pm", 0.0), ("saturation.w_id", 1.0), ("saturation.w_thrust", 1.0), ("saturation.w_rel", 2.0))
+    per_term = _free("saturation.w_pm", "saturation.w_id", "saturation.w_rel", "saturation.w_thrust")
+    out["saturation"] += (
+        CandidateSpec(
+            "saturation",
+            ("saturation",),
+            knee,
+            note="every magnetic term, the loss a logistic step in g (knee free; 0 is the library's exponential)",
+            law="knee",
+        ),
+        CandidateSpec(
+            "saturation",
+            ("saturation",),
+            knee,
+            w0,
+            note="saturation of the magnet field (B scaled), exponential or logistic loss (knee free)",
+            law="field",
+        ),
+        CandidateSpec(
+            "saturation",
+            ("saturation",),
+            knee,
+            w1,
+            note="saturation of the current terms (PM-current, reluctance, thrust), exponential or logistic loss",
+            law="current terms",
+        ),
+        CandidateSpec(
+            "saturation",
+            ("saturation",),
+            free=(sat[1], *per_term),
+            fixed=(("saturation.loss_8mm", 1.0),),
+            note="a free loss at g = 8 mm for each magnetic term (w_*), one decay length",
+            law="per term",
+        ),
+    )
+    out["commutation_offset"] += (
+        CandidateSpec(
+            "commutation_offset",
+            ("commutation_offset",),
+            free=_free("commutation_offset.delta", "commutation_offset.drift"),
+            note="dq-frame rotation growing along the stroke, delta + drift d",
+            law="drift",
+        ),
+    )
+    knots = tuple(f"end_effect.{n}" for n in EndEffect.profile_names())
+    out["end_effect"] += (
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
+            free=(*lib["end_effect"].free, *_free("end_effect.edge_gain", "end_effect.edge_quad")),
+            note="thrust ripple and an overhang loss of free size and curvature",
+            law="free profile",
+        ),
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
+            free=(
+                *lib["end_effect"].free,
+                *_free("end_effect.edge_gain", "end_effect.edge_quad", "end_effect.edge_skew", "end_effect.gain_skew"),
+                *_free("end_effect.ripple2", "end_effect.ripple2_phase"),
+            ),
+            note=(
+                "the free profile with ends of their own (onset and loss per overhang differ between d > 0 and "
+                "d < 0) and the thrust ripple's second harmonic"
+            ),
+            law="two ends",
+        ),
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
+            free=(*_free("end_effect.ripple", "end_effect.ripple_phase"), *_free("end_effect.edge_cog", *knots)),
+            fixed=(("end_effect.edge_gain", 0.0),),
+            note=(
+                "thrust ripple and an overhang loss of any smooth shape, the same at both ends (cubic "
+                "B-spline in |d|, knots every 5 mm from 10 mm), the cogging's share of the loss free"
+            ),
+            law="spline profile",
+        ),
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
+            free=(
+                *_free("end_effect.ripple", "end_effect.ripple_phase", "end_effect.ripple2"),
+                *_free("end_effect.ripple2_phase", "end_effect.edge_cog", *knots),
+            ),
+            fixed=(("end_effect.edge_gain", 0.0),),
+            note=(
+                "the spline profile with the thrust ripple's second harmonic (period tau / 2): a motor's ripple "
+                "has harmonics of the pole pitch, like its cogging"
+            ),
+            law="spline profile, ripple harmonics",
+        ),
+    )
+    return out
+
+
+#: Gaussian prior of the calibrated constants: sd relative to nominal (C4, a small term, is loosely known; the
+#: cogging law's xi0 and ell of seed eq. (9), identifiable like C1..C4 (MODEL.md), vary more from rig to rig).
+PRIOR_SD: dict[str, float] = {"C1": 0.1, "C2": 0.1, "C3": 0.1, "C4": 0.5, "xi0": 0.5, "ell": 0.5, "Mv": 0.1}
+
+
+def calibration_free(
+    params: Params,
+    vertical: bool,
+    horizontal: bool,
+    ref: Params | None = None,
+    prior_sd: Mapping[str, float] | None = None,
+    cogging: bool = False,
+) -> tuple[Free, ...]:
+    """Free entries C1..C4 of ``p`` (and xi0, ell of the cogging law) for a calibration on data with the given channels.
+
+    Starts at ``params``; the bounds are relative to ``ref`` (default: the nominal
+    set), so that a joint re-fit can undo what a biased calibration absorbed
+    (in closed loop an unmodelled force that the controller fights drags the
+    thrust constant towards zero). ``prior_sd`` (relative to ``ref``, e.g.
+    :data:`PRIOR_SD`) puts a Gaussian prior at ``ref`` on each constant.
+    ``cogging`` also frees the amplitude ``xi0`` and decay ``ell`` of the
+    shared model's cogging (seed eq. (9), MODEL.md), which acts on both channels.
+    """
+    from ..params import NOMINAL
+
+    ref = ref or NOMINAL
+
+    def pr(name: str, nominal: float) -> tuple[float, float] | None:
+        if prior_sd is None or name not in prior_sd:
+            return None
+        return (nominal, prior_sd[name] * max(abs(nominal), 1e-12))
+
+    out = []
+    if horizontal:
+        out.append(Free("p.C1", 0.2 * ref.C1, 3.0 * ref.C1, params.C1, ref.C1, pr("C1", ref.C1)))
+    if vertical:
+        out += [
+            Free("p.C2", 0.3 * ref.C2, 3.0 * ref.C2, params.C2, ref.C2, pr("C2", ref.C2)),
+            Free("p.C3", 0.0, 5.0 * max(ref.C3, 1.0), params.C3, max(ref.C3, 1.0), pr("C3", ref.C3)),
+            Free("p.C4", 0.0, 20.0 * max(ref.C4, 0.05), params.C4, max(ref.C4, 0.05), pr("C4", ref.C4)),
+        ]
+    if cogging and (vertical or horizontal):
+        xi_ref, ell_ref = max(ref.xi0, 1.0), ref.ell if ref.ell > 0 else 4e-3
+        out += [
+            Free("p.xi0", 0.0, 50.0, params.xi0, 4.0, pr("xi0", xi_ref)),
+            Free("p.ell", 1e-3, 0.03, min(max(params.ell, 1e-3), 0.03), 4e-3, pr("ell", ell_ref)),
+        ]
+        if vertical:
+            # The cogging force [N] acts through the masses: xi0 / Mh along d and xi0 / Mv on g. The lumped C's
+            # carry the masses of the magnetic terms, not of the cogging; a rig whose Mv / Mh differs from the
+            # nominal ratio (masses a few % off) leaves a slot-periodic residual in g that a calibrated xi0
+            # cannot remove (seen on the independent rig without effects). Mv is calibrated with it (Mh stays:
+            # xi0 / Mh is what the horizontal channel determines).
+            out.append(Free("p.Mv", 0.7 * ref.Mv, 1.4 * ref.Mv, params.Mv, ref.Mv, pr("Mv", ref.Mv)))
+    return tuple(out)
+
+
+def combine(a: CandidateSpec, b: CandidateSpec) -> CandidateSpec:
+    """Two candidates composed on the model at once (shared model parameters appear once)."""
+    keys = set()
+    free = []
+    for f in (*a.free, *b.free):
+        if f.key not in keys:
+            keys.add(f.key)
+            free.append(f)
+    return CandidateSpec(
+        f"{a.name}+{b.name}",
+        tuple(dict.fromkeys((*a.effects, *b.effects))),
+        tuple(free),
+        a.fixed + b.fixed,
+        a.ties + b.ties,
+        a.lag or b.lag,
+        f"{a.note}; {b.note}",
+        "; ".join(x for x in (a.law, b.law) if x),
+    )
+
+
+__all__ = ["PRIOR_SD", "CandidateSpec", "Free", "calibration_free", "combine", "family_specs", "library_specs"]

@@ -1,0 +1,152 @@
+"""The selection's context and record: :class:`Run`, :class:`Attribution`, one candidate fitted and scored.
+
+A :class:`Run` (the split, the baseline, the settings and the stage's own warnings) replaces the positional
+``(split, base, st, warnings)`` arguments of the selection's steps; :func:`fit_and_score` fits a candidate on
+the training runs and scores it on the held-out runs (:mod:`..attribution`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..attribution import EffectScore, score
+from ..fit import FitResult, fit_candidate, residuals_with
+from ..library import CandidateSpec
+from ..localize import ChannelFloor
+from ..settings import DiagnoseSettings, VerdictRules
+from ..verdict import Verdict
+from .baseline import Baseline
+from .split import Split
+
+
+@dataclass(frozen=True)
+class Run:
+    """What every step of the selection works on.
+
+    Attributes
+    ----------
+    split : Split
+        Training and held-out runs (stage 1).
+    base : Baseline
+        The baseline model, residuals and floors (stage 2).
+    settings : DiagnoseSettings
+        What the diagnosis is asked.
+    warnings : list of str
+        The selection's own record of fits whose solver did not converge (returned with its result).
+    progress : bool
+        Progress bars over the candidates and each forward step.
+    """
+
+    split: Split
+    base: Baseline
+    settings: DiagnoseSettings
+    warnings: list[str] = field(default_factory=list)
+    progress: bool = False
+
+    @property
+    def rules(self) -> VerdictRules:
+        """The verdict's thresholds."""
+        return self.settings.rules()
+
+
+@dataclass
+class Attribution:
+    """Stage 4, the selection's record: candidates, verdict, the final model and what it leaves.
+
+    The selection's steps (:mod:`.selection`, :mod:`.joint`) build it up in place, as one stage's working
+    record; the stages after it (:mod:`.guards`, :mod:`.refit`, :mod:`.quantify`) never write into it but
+    return a new record (:func:`dataclasses.replace`) or their own evidence.
+    """
+
+    specs: dict[str, CandidateSpec]
+    fits: dict[str, FitResult]
+    scores: list[EffectScore]
+    verdict: Verdict
+    best: EffectScore | None
+    final_spec: CandidateSpec | None = None
+    final_fit: FitResult | None = None
+    remaining: dict[str, ChannelFloor] = field(default_factory=dict)
+    final_score: EffectScore | None = None
+    members: list[EffectScore] = field(default_factory=list)  # law-family members not chosen
+    models: dict[frozenset, tuple] = field(default_factory=dict)  # effect set -> (spec, fit, score)
+    rewarmed: set[frozenset] = field(default_factory=set)  # drop-one sets refitted from a full model (joint.rewarmed)
+    steps: list[dict] = field(default_factory=list)  # forward-selection trials
+    shares: dict[str, dict] = field(default_factory=dict)  # drop-one shares of the selected effects
+    model_fit: FitResult | None = None  # the final model's refit on the resolved samples (constants, model file)
+    resolved: dict = field(default_factory=dict)  # how that refit was made (see refit.resolved_refit)
+
+    @property
+    def model(self) -> FitResult | None:
+        """The fit the constants and the model file come from: the resolved refit if adopted, else the final fit."""
+        return self.model_fit if self.model_fit is not None else self.final_fit
+
+
+def _readable(fit: FitResult, pair: bool) -> tuple[dict[str, float], dict[str, float]]:
+    """A fit's values and standard errors under readable names (an effect's own keys without its prefix,
+    phases wrapped to [-pi, pi)); ``pair``: joint fits keep the full keys."""
+    vals, errs = {}, {}
+    for key, v in fit.params().items():
+        if key.endswith("_stderr"):
+            continue
+        name = key if pair else key.split(".", 1)[-1]
+        if "phi" in key or key.endswith("_phase"):
+            v = float((v + math.pi) % (2 * math.pi) - math.pi)
+        vals[name] = float(v)
+    se = dict(zip(fit.spec.keys, fit.stderr, strict=True))
+    if "effective_delay_s_stderr" in fit.extra:
+        se["effective_delay_s"] = fit.extra["effective_delay_s_stderr"]
+    for key, s in se.items():
+        name = key if pair else key.split(".", 1)[-1]
+        errs[name] = float(s) if np.isfinite(s) else None
+    return vals, errs
+
+
+def fit_and_score(
+    run: Run,
+    name: str,
+    spec: CandidateSpec,
+    note: str,
+    pair: bool,
+    warm: dict[str, float] | None = None,
+    hold_lag: bool = False,
+) -> tuple[FitResult, EffectScore]:
+    """Fit one candidate (or a joint set) on the training runs and score it on the held-out runs."""
+    split, base, rules = run.split, run.base, run.rules
+    fit = fit_candidate(spec, base.data_train, base.p, u_runs=split.u_train, warm=warm, hold_lag=hold_lag)
+    after = residuals_with(spec, fit, split.test, base.p, split.u_test)
+    vals, errs = _readable(fit, pair=pair)
+    sc = score(name, fit, base.fit, base.b_test, after, base.fvec, rules, vals, errs, note, base.noise_infl,
+               base.floor_ms)  # fmt: skip
+    sc.law = spec.law
+    return fit, sc
+
+
+def joint_spec(spec: CandidateSpec, base: Baseline) -> CandidateSpec:
+    """The candidate with the baseline's constants refitted jointly (when the baseline was calibrated)."""
+    return spec.with_free(base.cal_free) if base.cal_free else spec
+
+
+def warm_start(name: str, fit: FitResult) -> dict[str, float]:
+    """Start values from a fit, also under the effect's own keys (``p.xi0`` starts ``cogging.xi0``)."""
+    out = fit.params()
+    for key, v in list(out.items()):
+        if key.startswith("p.") and key[2:] in ("xi0", "ell"):
+            out.setdefault(f"{name}.{key[2:]}", v)
+    return out
+
+
+def settle_verdict(base: Baseline, att: Attribution) -> None:
+    """No effect claimed: the final model is the baseline and its gap remains; mark the selected scores."""
+    verdict = att.verdict
+    if not verdict.named:
+        att.final_spec, att.final_fit = base.spec, None
+        att.remaining = base.floors
+    in_verdict = set(verdict.sets.names)
+    for s in att.scores:
+        s.selected = verdict.named and (s.name in in_verdict or s.name == verdict.verdict or s is att.final_score)
+
+
+__all__ = ["Attribution", "Run", "fit_and_score", "joint_spec", "settle_verdict", "warm_start"]
