@@ -201,6 +201,13 @@ def min_time_table(
     return _profile_table(a, b, pvec, lim_q, lim_d, settings.current_fraction * k.i_amp_max, effects)
 
 
+def unsmoothed_duration(tab: tuple[float, np.ndarray, np.ndarray]) -> float:
+    """Duration [s] of a table ``(T, tau, rows)`` before :func:`_smoothed` added its moving average's width."""
+    n = max(round(MIN_TIME_SMOOTHING / MIN_TIME_TABLE_STEP), 1)
+    tau = tab[1]
+    return float(tab[0] - (n - 1) * (tau[1] - tau[0]))
+
+
 def plan_min_time_move(
     p0: Sequence[float],
     p1: Sequence[float],
