@@ -74,13 +74,33 @@ def violations(rows: np.ndarray, st: ReferenceSettings = SETTINGS) -> int:
     return int(np.count_nonzero(bad))
 
 
+def kinematic_error(tau: np.ndarray, rows: np.ndarray) -> tuple[float, float]:
+    """How far a table is from a motion: ``(velocity error / peak velocity, position error [m])``, worst axis.
+
+    The velocities are compared with the integral of the accelerations and the
+    positions with the integral of the velocities (trapezoid rule on the table's
+    own times): a table whose rows are not the derivatives of each other would
+    ask the model for accelerations the move does not have.
+    """
+
+    def cumtrapz(y: np.ndarray) -> np.ndarray:
+        return np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(tau))])
+
+    ev, ep = 0.0, 0.0
+    for j in (0, 3):
+        v_peak = max(float(np.max(np.abs(rows[:, j + 1]))), 1e-6)
+        ev = max(ev, float(np.max(np.abs(rows[0, j + 1] + cumtrapz(rows[:, j + 2]) - rows[:, j + 1]))) / v_peak)
+        ep = max(ep, float(np.max(np.abs(rows[0, j] + cumtrapz(rows[:, j + 1]) - rows[:, j]))))
+    return ev, ep
+
+
 def measure(moves, st: ReferenceSettings = SETTINGS) -> dict[str, np.ndarray]:
-    """Per move: profile and NLP durations [s], planning wall and CPU times [s], violating rows, NLP solved."""
+    """Per move: durations [s], planning wall and CPU times [s], violating rows, NLP solved, kinematic errors."""
     pvec = tuple(NOMINAL.vector().tolist())
     lims = (st.axis_limit_fraction * k.i_axis_max, st.i_d_limit_fraction * k.i_axis_max)
     amp = st.current_fraction * k.i_amp_max
     _profile_table.__wrapped__(moves[0][0], moves[0][1], pvec, *lims, amp)  # build the CasADi Functions once
-    res: dict[str, list] = {"T_profile": [], "T_nlp": [], "wall": [], "cpu": [], "viol": [], "nlp_ok": []}
+    res: dict[str, list] = {k: [] for k in ("T_profile", "T_nlp", "wall", "cpu", "viol", "nlp_ok", "ev", "ep")}
     for p0, p1 in tqdm(moves, desc="moves (profile + NLP)", unit="move"):
         c0, t0 = time.process_time(), time.perf_counter()
         tab = _profile_table.__wrapped__(p0, p1, pvec, *lims, amp)  # uncached
@@ -88,6 +108,9 @@ def measure(moves, st: ReferenceSettings = SETTINGS) -> dict[str, np.ndarray]:
         res["cpu"].append(time.process_time() - c0)
         res["T_profile"].append(np.inf if tab is None else unsmoothed_duration(tab))
         res["viol"].append(-1 if tab is None else violations(tab[2], st))
+        ev, ep = (np.nan, np.nan) if tab is None else kinematic_error(tab[1], tab[2])
+        res["ev"].append(ev)
+        res["ep"].append(ep)
         ref = _min_time_table.__wrapped__(p0, p1, pvec, st.current_fraction, st.axis_limit_fraction, st.i_d_fraction)
         res["nlp_ok"].append(ref is not None)
         res["T_nlp"].append(np.nan if ref is None else unsmoothed_duration(ref))
@@ -132,6 +155,9 @@ def report(r: dict[str, np.ndarray], moves: int, seed: int, command: str) -> str
         "every profile move is checked on the model below)",
         f"- table rows beyond the limits on the shared model's inverse (all profile moves): "
         f"{int(r['viol'][r['viol'] >= 0].sum())}",
+        f"- tables against their own integrals (velocity vs the integral of the acceleration, position vs the "
+        f"integral of the velocity): worst velocity error {np.nanmax(r['ev']) * 100:.3f} % of the peak velocity, "
+        f"worst position error {np.nanmax(r['ep']) * 1e6:.3f} um",
     ]
     return "\n".join(lines) + "\n"
 

@@ -57,7 +57,7 @@ PROFILE_ITERATIONS = 6
 #: Relative change of the durations at which the fixed-point iteration stops.
 PROFILE_TOLERANCE = 1e-5
 #: Gap timings tried for a move that changes the gap (:func:`gap_progress`; 1: the straight path).
-GAP_ALPHAS: tuple[float, ...] = (1.0, 1.5, 2.0, 3.0, 4.0)
+GAP_ALPHAS: tuple[float, ...] = (1.0, 2.0, 2.5, 3.0, 4.0)
 #: Margins (fractions of the limits) tried in turn until the smoothed move passes the model check.
 PROFILE_MARGINS: tuple[float, ...] = (2e-4, 2e-3, 1e-2)
 
@@ -151,7 +151,7 @@ def _bounds(admissible, sign: np.ndarray, scale: float, start: np.ndarray | None
 def gap_progress(sigma: np.ndarray, alpha: float, opening: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Share ``S`` of the gap change done at path coordinate ``sigma`` (the share of ``d``'s), with ``S'``, ``S''``.
 
-    ``alpha = 1``: the straight path. ``alpha > 1``: a gap that opens
+    ``alpha = 1``: the straight path. ``alpha >= 2`` (``S''`` bounded): a gap that opens
     (``opening``) does so late, ``S = sigma^alpha``, while the mover brakes
     (opening the gap needs less ``i_d``, which leaves more of the amplitude to
     the thrust's ``i_q``), and a gap that closes does so early,
@@ -159,10 +159,12 @@ def gap_progress(sigma: np.ndarray, alpha: float, opening: bool) -> tuple[np.nda
     (the thrust per ampere ``L1 = C1 f1`` grows as the gap shrinks, seed eq. (2)).
     The minimum-time NLP's moves do both (:mod:`maglev_ocp.ocp.min_time`).
     """
+    if alpha != 1.0 and alpha < 2.0:
+        raise ValueError(f"gap timing alpha = {alpha}: 1 or at least 2 (S'' is unbounded at the start otherwise)")
     r = sigma if opening else 1.0 - sigma
     S = r**alpha
     S1 = alpha * r ** (alpha - 1.0)
-    S2 = alpha * (alpha - 1.0) * r ** max(alpha - 2.0, 0.0) if alpha != 1.0 else np.zeros_like(r)
+    S2 = alpha * (alpha - 1.0) * r ** (alpha - 2.0) if alpha != 1.0 else np.zeros_like(r)
     if opening:
         return S, S1, S2
     return 1.0 - S, S1, -S2
