@@ -59,7 +59,10 @@ def test_min_time_move_is_rest_to_rest_and_consistent():
     np.testing.assert_allclose(r[[2, 3], :], [[0.021, 0, 0, 0.04, 0, 0]] * 2, atol=1e-9)
     # velocity integrates to the displacement, acceleration to zero velocity change
     assert np.trapezoid(mv.rows[:, 4], mv.tau) == pytest.approx(0.07, rel=1e-3)
-    assert abs(np.trapezoid(mv.rows[:, 5], mv.tau)) < 1e-3
+    # (within the trapezoid rule's error at the two acceleration steps where the unsmoothed move leaves and
+    # reaches rest: half a table step times each step, at most a step times the peak acceleration)
+    h = mv.tau[1] - mv.tau[0]
+    assert abs(np.trapezoid(mv.rows[:, 5], mv.tau)) < h * np.max(np.abs(mv.rows[:, 5]))
     # below 1 mm the jerk-limited trajectory is planned instead
     assert not isinstance(plan_min_time_move((0.02, 0.0), (0.02, 5e-4), NOMINAL, st), TabulatedMove)
 

@@ -31,7 +31,7 @@ from ..errors import ConfigError
 from ..ocp.min_time import MinTimeSettings, solve_min_time
 from ..params import Params
 from .feasibility import PlanEffects, _limits_ok
-from .profile_plan import GAP_ALPHAS, PROFILE_MARGINS, path_profiles, table_length
+from .profile_plan import PROFILE_MARGINS, candidate_shapes, path_profiles, table_length
 from .profiles import Move, TabulatedMove
 from .settings import ReferenceSettings
 from .trajectory import plan_move
@@ -40,8 +40,6 @@ _log = logging.getLogger(__name__)
 
 #: Rounding of a move's end points in the plan cache's key [m] (float noise, far below the 10 um encoders).
 CACHE_ROUND_M = 1e-9
-#: Smallest change of both the gap and ``d`` [m] for which bent paths (gap timings) are tried too.
-MIN_BENT_MOVE_M = 2e-4
 
 #: Table step of a minimum-time move [s] (a tenth of the control period).
 MIN_TIME_TABLE_STEP = 1e-4
@@ -143,8 +141,8 @@ def _profile_table(
     """``(T, tau, rows)`` of the fastest path profile whose smoothed move passes the model check; ``None`` if none.
 
     The candidates are the straight path and, for a move that changes the gap
-    and ``d``, the gap timings :data:`~maglev_ocp.reference.profile_plan.GAP_ALPHAS`
-    (:func:`~maglev_ocp.reference.profile_plan.path_profiles`). Their bounds are
+    and ``d``, bent paths (:func:`~maglev_ocp.reference.profile_plan.candidate_shapes`,
+    :func:`~maglev_ocp.reference.profile_plan.path_profiles`). Their bounds are
     computed with the limits narrowed by each of
     :data:`~maglev_ocp.reference.profile_plan.PROFILE_MARGINS` in turn; the
     fastest candidate whose smoothed move's currents (the shared inverse, with
@@ -152,16 +150,15 @@ def _profile_table(
     """
     params = Params.from_vector(np.asarray(pvec))
     lim_axes = np.array([lim_q, lim_d])
-    both = min(abs(p1[0] - p0[0]), abs(p1[1] - p0[1])) >= MIN_BENT_MOVE_M
-    alphas = GAP_ALPHAS if both else (1.0,)  # GAP_ALPHAS[0] is the straight path
+    shapes = candidate_shapes(p1[0] - p0[0], p1[1] - p0[1])
     for margin in PROFILE_MARGINS:
         keep = 1.0 - margin
         lims = (keep * lim_q, keep * lim_d, keep * lim_amp)
         profiles = path_profiles(p0, p1, params, *lims, effects)  # straight: exact in one pass
         if profiles is None:
             return None
-        if len(alphas) > 1:  # bent paths: iterated with their speed
-            profiles += path_profiles(p0, p1, params, *lims, effects, alphas[1:]) or []
+        if len(shapes) > 1:  # bent paths: iterated with their speed
+            profiles += path_profiles(p0, p1, params, *lims, effects, shapes[1:]) or []
         for prof in sorted(profiles, key=lambda pr: pr.T):
             if not np.isfinite(prof.T):
                 continue

@@ -18,7 +18,7 @@ full acceleration until the braking curve is met, full braking after it
 *at each gap and position* the move passes, not the worst of them).
 
 The paths are the straight line and, for a move that changes the gap and
-``d``, a few gap timings (:func:`gap_progress`): the NLP's moves accelerate at
+``d``, a few gap timings (:func:`candidate_shapes`): the NLP's moves accelerate at
 the smaller gap, where the thrust per ampere is larger, and open the gap while
 braking, where that needs less ``i_d``. The fastest path whose move passes
 the check on the model wins (:func:`maglev_ocp.reference.min_time._profile_table`).
@@ -48,16 +48,20 @@ from ..params import Params
 from .feasibility import PlanEffects, _mapped_inverse
 
 #: Points along the path at which the acceleration bounds are computed.
-PROFILE_GRID = 201
+PROFILE_GRID = 121
 #: Bisection steps of the bounds (relative resolution ``2**-PROFILE_BISECTIONS`` of the bracket).
-PROFILE_BISECTIONS = 20
+PROFILE_BISECTIONS = 15
 #: Fixed-point iterations of a bent path's bounds with its speed (the iteration stops earlier when
 #: every duration changed by less than :data:`PROFILE_TOLERANCE` of itself).
-PROFILE_ITERATIONS = 6
+PROFILE_ITERATIONS = 5
 #: Relative change of the durations at which the fixed-point iteration stops.
-PROFILE_TOLERANCE = 1e-5
-#: Gap timings tried for a move that changes the gap (:func:`gap_progress`; 1: the straight path).
-GAP_ALPHAS: tuple[float, ...] = (1.0, 2.0, 2.5, 3.0, 4.0)
+PROFILE_TOLERANCE = 1e-4
+#: ``(alpha, weight)`` of the gap following ``d`` (:class:`PathShape`, :func:`candidate_shapes`).
+GAP_BENDS: tuple[tuple[float, float], ...] = ((2.0, 0.25), (2.0, 0.5), (2.0, 1.0), (2.5, 1.0), (3.0, 1.0), (4.0, 1.0))
+#: ``(alpha, weight)`` of ``d`` following the gap (:class:`PathShape`, :func:`candidate_shapes`).
+D_BENDS: tuple[tuple[float, float], ...] = ((2.0, 0.25), (2.0, 0.5), (2.0, 1.0))
+#: Smallest change of both the gap and ``d`` [m] for which bent paths are tried.
+MIN_BENT_MOVE_M = 2e-4
 #: Margins (fractions of the limits) tried in turn until the smoothed move passes the model check.
 PROFILE_MARGINS: tuple[float, ...] = (2e-4, 2e-3, 1e-2)
 
@@ -131,7 +135,7 @@ def _bounds(admissible, sign: np.ndarray, scale: float, start: np.ndarray | None
     if start is not None:  # the bounds move little from one iteration to the next: a narrow bracket first
         below = 0.8 * start
         lo = np.where(admissible(sign * below) & ok0, below, 0.0)
-        steps = PROFILE_BISECTIONS - 6  # the bracket is already 2^-1 of the bound or less
+        steps = PROFILE_BISECTIONS - 4  # the bracket is already 2^-1 of the bound or less
     grow = ok0.copy()
     for _ in range(60):  # bracket: double until inadmissible
         ok = admissible(sign * hi) & grow
@@ -148,26 +152,81 @@ def _bounds(admissible, sign: np.ndarray, scale: float, start: np.ndarray | None
     return lo
 
 
-def gap_progress(sigma: np.ndarray, alpha: float, opening: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Share ``S`` of the gap change done at path coordinate ``sigma`` (the share of ``d``'s), with ``S'``, ``S''``.
+def follower_progress(sigma: np.ndarray, alpha: float, late: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Share ``S`` of the following axis's change done at path coordinate ``sigma``, with ``S'`` and ``S''``.
 
-    ``alpha = 1``: the straight path. ``alpha >= 2`` (``S''`` bounded): a gap that opens
-    (``opening``) does so late, ``S = sigma^alpha``, while the mover brakes
-    (opening the gap needs less ``i_d``, which leaves more of the amplitude to
-    the thrust's ``i_q``), and a gap that closes does so early,
-    ``S = 1 - (1 - sigma)^alpha``, so the mover accelerates at the smaller gap
-    (the thrust per ampere ``L1 = C1 f1`` grows as the gap shrinks, seed eq. (2)).
-    The minimum-time NLP's moves do both (:mod:`maglev_ocp.ocp.min_time`).
+    The leading axis has done ``sigma`` of its change. ``alpha = 1``: the
+    straight path. ``alpha >= 2`` (``S''`` bounded): the follower moves late,
+    ``S = sigma^alpha``, or early, ``S = 1 - (1 - sigma)^alpha``. With ``d``
+    leading, a gap that opens late does so while the mover brakes (opening the
+    gap needs less ``i_d``, which leaves more of the amplitude to the thrust's
+    ``i_q``) and a gap that closes early lets the mover accelerate at the
+    smaller gap (the thrust per ampere ``L1 = C1 f1`` grows as the gap shrinks,
+    seed eq. (2)); the minimum-time NLP's moves do both
+    (:mod:`maglev_ocp.ocp.min_time`).
     """
     if alpha != 1.0 and alpha < 2.0:
-        raise ValueError(f"gap timing alpha = {alpha}: 1 or at least 2 (S'' is unbounded at the start otherwise)")
-    r = sigma if opening else 1.0 - sigma
+        raise ValueError(f"timing alpha = {alpha}: 1 or at least 2 (S'' is unbounded at the start otherwise)")
+    r = sigma if late else 1.0 - sigma
     S = r**alpha
     S1 = alpha * r ** (alpha - 1.0)
     S2 = alpha * (alpha - 1.0) * r ** (alpha - 2.0) if alpha != 1.0 else np.zeros_like(r)
-    if opening:
+    if late:
         return S, S1, S2
     return 1.0 - S, S1, -S2
+
+
+@dataclass(frozen=True)
+class PathShape:
+    """A path from ``p0`` to ``p1``: the leading axis moves with the path coordinate, the other follows.
+
+    Attributes
+    ----------
+    alpha : float
+        Timing exponent of the follower (:func:`follower_progress`; 1: the straight path).
+    lead : {"d", "g"}
+        The axis whose share of its change is the path coordinate.
+    late : bool
+        The follower moves late (``sigma^alpha``) or early.
+    weight : float
+        Share of the bent timing in the follower's progress, the rest straight
+        (``(1 - w) sigma + w S``, ``0 < w <= 1``: a milder bend).
+    """
+
+    alpha: float = 1.0
+    lead: str = "d"
+    late: bool = True
+    weight: float = 1.0
+
+    def axes(self, sigma: np.ndarray, delta: tuple[float, float]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """``[(s, s', s'') of g, (s, s', s'') of d]`` at ``sigma`` scaled by ``delta = (dg, dd)``."""
+        lin = (sigma, np.ones_like(sigma), np.zeros_like(sigma))
+        S, S1, S2 = follower_progress(sigma, self.alpha, self.late)
+        w = self.weight
+        fol = ((1.0 - w) * sigma + w * S, (1.0 - w) + w * S1, w * S2)
+        order = (fol, lin) if self.lead == "d" else (lin, fol)
+        return [(dl * a, dl * b, dl * c) for dl, (a, b, c) in zip(delta, order, strict=True)]
+
+
+STRAIGHT = PathShape()
+
+
+def candidate_shapes(dg: float, dd: float) -> tuple[PathShape, ...]:
+    """The paths tried for a move of ``(dg, dd)`` [m]: the straight one first, bent ones if both axes move.
+
+    The bends go the way the minimum-time moves do (:func:`follower_progress`):
+    a gap that opens does so late in the move, one that closes early. With
+    ``d`` leading, the gap follows with each of :data:`GAP_BENDS`; with the gap
+    leading (the same direction seen from the other axis, better for moves of
+    a few mm in both), ``d`` follows with each of :data:`D_BENDS`.
+    """
+    if min(abs(dg), abs(dd)) < MIN_BENT_MOVE_M:
+        return (STRAIGHT,)
+    opening = dg >= 0.0
+    out = [STRAIGHT]
+    out += [PathShape(a, "d", opening, w) for a, w in GAP_BENDS]
+    out += [PathShape(a, "g", not opening, w) for a, w in D_BENDS]
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -176,8 +235,8 @@ class PathProfile:
 
     Attributes
     ----------
-    alpha : float
-        The path's gap timing (:func:`gap_progress`; 1: straight).
+    shape : PathShape
+        The path.
     T : float
         Duration of the move [s] (``inf`` when the parameterization did not reach the end).
     t, sigma : ndarray
@@ -186,7 +245,7 @@ class PathProfile:
         Constant ``sigma''`` on each segment [1/s^2].
     """
 
-    alpha: float
+    shape: PathShape
     T: float
     t: np.ndarray
     sigma: np.ndarray
@@ -201,11 +260,10 @@ class PathProfile:
         v_i = np.concatenate([[0.0], np.cumsum(u * np.diff(t))])[i]
         sg = np.clip(self.sigma[i] + v_i * h + 0.5 * u[i] * h**2, 0.0, 1.0)
         sd, sdd = v_i + u[i] * h, u[i]
-        dg, dd = p1[0] - p0[0], p1[1] - p0[1]
-        S, S1, S2 = gap_progress(sg, self.alpha, dg >= 0.0)
-        rows = np.column_stack(
-            [p0[0] + dg * S, dg * S1 * sd, dg * (S1 * sdd + S2 * sd**2), p0[1] + dd * sg, dd * sd, dd * sdd]
-        )
+        cols = []
+        for p, (s, s1, s2) in zip(p0, self.shape.axes(sg, (p1[0] - p0[0], p1[1] - p0[1])), strict=True):
+            cols += [p + s, s1 * sd, s1 * sdd + s2 * sd**2]  # chain rule along the path
+        rows = np.column_stack(cols)
         rows[tau >= self.T] = [p1[0], 0.0, 0.0, p1[1], 0.0, 0.0]
         return rows
 
@@ -218,16 +276,16 @@ def path_profiles(
     lim_d: float,
     lim_amp: float,
     effects: PlanEffects | None = None,
-    alphas: tuple[float, ...] = (1.0,),
+    shapes: tuple[PathShape, ...] = (STRAIGHT,),
     n: int = PROFILE_GRID,
 ) -> list[PathProfile] | None:
-    """Time-optimal rest-to-rest parameterizations of the paths ``alphas`` from ``p0`` to ``p1``, all at once.
+    """Time-optimal rest-to-rest parameterizations of the paths ``shapes`` from ``p0`` to ``p1``, all at once.
 
-    Along the path ``g = g0 + dg S(sigma)``, ``d = d0 + dd sigma``
-    (:func:`gap_progress`) the accelerations are ``p' sigma'' + p'' sigma'^2``.
-    At each grid point the limits give the largest ``sigma''`` speeding up and
-    braking (bisection on the currents: :func:`currents` of the shared model's
-    coefficients, or with ``effects`` the model file's inverse
+    Along a path ``p(sigma)`` (:class:`PathShape`) the accelerations are
+    ``p' sigma'' + p'' sigma'^2``. At each grid point the limits give the
+    largest ``sigma''`` speeding up and braking (bisection on the currents:
+    :func:`currents` of the shared model's coefficients, or with ``effects``
+    the model file's inverse
     :func:`~maglev_ocp.reference.feasibility.planning_inverse_function`); full
     acceleration from rest at 0 until the braking curve to rest at 1 is met
     gives ``sigma'^2`` along the path. A bent path's bounds depend on
@@ -238,18 +296,18 @@ def path_profiles(
     Returns
     -------
     list of PathProfile or None
-        One per ``alpha``; ``None`` if holding still somewhere on the straight path needs more than the limits.
+        One per shape; ``None`` if holding still somewhere on the first path needs more than the limits.
     """
-    K = len(alphas)
+    K = len(shapes)
     sig = np.linspace(0.0, 1.0, n)
-    dg, dd = p1[0] - p0[0], p1[1] - p0[1]
-    shapes = [gap_progress(sig, a, dg >= 0.0) for a in alphas]
-    g = np.concatenate([p0[0] + dg * S for S, _, _ in shapes])
-    x = np.vstack([g, np.zeros(K * n), np.tile(p0[1] + dd * sig, K), np.zeros(K * n)])
+    delta = (p1[0] - p0[0], p1[1] - p0[1])
+    ax = [sh.axes(sig, delta) for sh in shapes]
+    # position, p' and p'' of each axis over the K paths' n points
+    (g, pg, cg), (d, pd, cd) = ([np.concatenate([a[j][m] for a in ax]) for m in range(3)] for j in range(2))
+    x = np.vstack([p0[0] + g, np.zeros(K * n), p0[1] + d, np.zeros(K * n)])
     pv = params.vector()
     # every array below: the K paths' n points, then the same for braking (sign -1)
-    pg = np.tile(np.concatenate([dg * S1 for _, S1, _ in shapes]), 2)
-    cg = np.tile(np.concatenate([dg * S2 for _, _, S2 in shapes]), 2)
+    pg, cg, pd, cd = (np.tile(v, 2) for v in (pg, cg, pd, cd))
     sign = np.concatenate([np.ones(K * n), -np.ones(K * n)])
     v2 = np.zeros(2 * K * n)  # sigma'^2 at every point, as the bounds see it
 
@@ -258,7 +316,7 @@ def path_profiles(
         cc = np.tile(c.reshape(K * n, 6).T, (1, 2))
 
         def admissible(s2: np.ndarray) -> np.ndarray:
-            return _admissible(cc, s2 * pg + cg * v2, s2 * dd, lim_q, lim_d, lim_amp)
+            return _admissible(cc, s2 * pg + cg * v2, s2 * pd + cd * v2, lim_q, lim_d, lim_amp)
 
     else:
         inv = _mapped_inverse(2 * K * n, effects.names)
@@ -266,25 +324,24 @@ def path_profiles(
         th = np.tile(np.asarray(effects.theta, dtype=float)[:, None], (1, 2 * K * n))
 
         def admissible(s2: np.ndarray) -> np.ndarray:
-            u, unr = inv(xx, np.vstack([s2 * pg + cg * v2, s2 * dd + 0.0 * v2]), P, th)
+            u, unr = inv(xx, np.vstack([s2 * pg + cg * v2, s2 * pd + cd * v2]), P, th)
             i_q, i_d = u.reshape(-1, 2).T
             with np.errstate(invalid="ignore"):
                 return (unr < 0.5) & (np.abs(i_q) <= lim_q) & (np.abs(i_d) <= lim_d) & (i_q**2 + i_d**2 <= lim_amp**2)
 
     if not admissible(np.zeros(2 * K * n))[:n].all():
-        return None  # holding still on the straight path already needs more than the limits
-    scale = max(abs(dg), abs(dd))
+        return None  # holding still on the first path already needs more than the limits
+    scale = max(abs(delta[0]), abs(delta[1]))
     ds = np.diff(sig)
     bounds, x2, T_prev = None, np.zeros((K, n)), None
-    bent = any(a != 1.0 for a in alphas)
+    bent = any(sh.alpha != 1.0 for sh in shapes)
     for _ in range(PROFILE_ITERATIONS if bent else 1):
         bounds = _bounds(admissible, sign, scale, bounds)
         b = bounds.reshape(2, K, n)
         acc, brk = np.minimum(b[0, :, 1:], b[0, :, :-1]), np.minimum(b[1, :, 1:], b[1, :, :-1])
         fwd = np.concatenate([np.zeros((K, 1)), np.cumsum(2.0 * acc * ds, axis=1)], axis=1)
         bwd = np.concatenate([np.cumsum((2.0 * brk * ds)[:, ::-1], axis=1)[:, ::-1], np.zeros((K, 1))], axis=1)
-        new = np.minimum(fwd, bwd)
-        x2 = new
+        x2 = np.minimum(fwd, bwd)
         v = np.sqrt(x2)
         with np.errstate(divide="ignore"):
             T = np.sum(2.0 * ds / (v[:, 1:] + v[:, :-1]), axis=1)
@@ -294,12 +351,12 @@ def path_profiles(
         v2 = np.tile(x2.ravel(), 2)
     v = np.sqrt(x2)
     out = []
-    for j, a in enumerate(alphas):
+    for j, sh in enumerate(shapes):
         with np.errstate(divide="ignore"):
             dt = 2.0 * ds / (v[j, 1:] + v[j, :-1])
         t = np.concatenate([[0.0], np.cumsum(dt)])
         u = (x2[j, 1:] - x2[j, :-1]) / (2.0 * ds)
-        out.append(PathProfile(float(a), float(t[-1]), t, sig, u))
+        out.append(PathProfile(sh, float(t[-1]), t, sig, u))
     return out
 
 
@@ -309,14 +366,17 @@ def table_length(T: float, step: float) -> int:
 
 
 __all__ = [
-    "GAP_ALPHAS",
+    "D_BENDS",
+    "GAP_BENDS",
     "PROFILE_BISECTIONS",
     "PROFILE_GRID",
     "PROFILE_ITERATIONS",
     "PROFILE_MARGINS",
     "PathProfile",
+    "PathShape",
+    "candidate_shapes",
     "currents",
-    "gap_progress",
+    "follower_progress",
     "inverse_coefficients_function",
     "path_profiles",
     "table_length",
