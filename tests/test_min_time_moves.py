@@ -31,6 +31,7 @@ from maglev_ocp.reference import (
     split_profile,
     unit_profile,
 )
+from maglev_ocp.reference.min_time import MIN_TIME_SMOOTHING
 from maglev_ocp.runner import plan_run, run_scenario
 from maglev_ocp.scenario import scenario_from_dict
 
@@ -58,7 +59,10 @@ def test_min_time_move_is_rest_to_rest_and_consistent():
     np.testing.assert_allclose(r[[2, 3], :], [[0.021, 0, 0, 0.04, 0, 0]] * 2, atol=1e-9)
     # velocity integrates to the displacement, acceleration to zero velocity change
     assert np.trapezoid(mv.rows[:, 4], mv.tau) == pytest.approx(0.07, rel=1e-3)
-    assert abs(np.trapezoid(mv.rows[:, 5], mv.tau)) < 1e-3
+    # (within the trapezoid rule's error at the two acceleration steps where the unsmoothed move leaves and
+    # reaches rest: half a table step times each step, at most a step times the peak acceleration)
+    h = mv.tau[1] - mv.tau[0]
+    assert abs(np.trapezoid(mv.rows[:, 5], mv.tau)) < h * np.max(np.abs(mv.rows[:, 5]))
     # below 1 mm the jerk-limited trajectory is planned instead
     assert not isinstance(plan_min_time_move((0.02, 0.0), (0.02, 5e-4), NOMINAL, st), TabulatedMove)
 
@@ -143,10 +147,17 @@ def test_plan_uses_the_controllers_model_file(tmp_path):
     files = (_model_file(tmp_path / "a", {}), _model_file(tmp_path / "b", weak))
     plain, sat = (plan_run(scenario_from_dict(_scenario({"type": "nmpc", "model": f}, start, end))) for f in files)
     T0, T1 = plain.plan.moves[0].T, sat.plan.moves[0].T
-    assert T1 > 1.02 * T0  # the loss at 16-20 mm is about 4-7 %: measured 1.04
-    # the weaker model's move: currents within 0.97 of the limits on the model with the effect
+    # the effect's thrust loss at the move's mean gap (19 mm, from the effect law, not the planner) stretches a
+    # thrust-limited move by 1 / sqrt(1 - loss) (3.3 %: 1.017); the profile planner measured 1.016
     es = EffectSet(("saturation",))
     theta = es.vector(weak)
+    x, u = [0.019, 0.0, 0.0, 0.0], [7.0, 3.0]
+    a_eff = float(np.asarray(es.accel_function()(x, u, NOMINAL.vector(), theta)).ravel()[1])
+    a_nom = float(np.asarray(get_model().f(x, u, NOMINAL.vector())).ravel()[3])
+    expected = 1.0 / np.sqrt(a_eff / a_nom)
+    sm = MIN_TIME_SMOOTHING  # both moves include it
+    assert (T1 - sm) / (T0 - sm) == pytest.approx(expected, abs=0.006)
+    # the weaker model's move: currents within 0.97 of the limits on the model with the effect
     inv = planning_inverse_function(("saturation",))
     r = sat.refs[: round(sat.plan.moves[0].T / k.Ts)]
     for row in r[::5]:
