@@ -33,6 +33,33 @@ the reference handed in is used as it is, so the mover follows it N samples
 late, with the delay-free loop's response (extrapolating it instead would
 put the feedforward acceleration N samples late, which costs more than the lag).
 
+A model file (``model: FILE``, :mod:`maglev_ocp.controllers.model_file`, e.g. the
+``model.yaml`` of ``maglev diagnose``) enters as for the NMPC: its constants are
+the controller's parameters, its amplifier lag's transport delay adds to
+``delay_samples``, and its static effects (:class:`~maglev_ocp.controllers.model_file.ModelEffects`,
+the effect library's laws) enter three places without letting the
+measurement noise into the current:
+
+* the inverse: the law's model must give the demanded acceleration with what
+  the effects add at the commanded current (a fixed point of two passes),
+  evaluated at the *planned* velocities (the reference row the law meets, N
+  samples ahead with a delay), never at the estimate: a fitted friction sign
+  (a diagnosis fixes ``tanh(v / 1 mm/s)``) on the observer's velocity, whose
+  noise is 1.2 mm/s from 10 um readings, would switch the Coulomb and Stribeck
+  force on the noise and rectify it into an offset (measured on the issue's
+  rig at rest: d 7.9 um RMS against 1.4 um blind);
+* the observer's prediction over the period, at its own estimate, with every
+  regularized sign widened to three standard deviations of the velocity
+  estimate's noise (:func:`~maglev_ocp.controllers.model_file.velocity_noise`,
+  3.6 mm/s at the default 2 ms observer);
+* the delay predictor: the effects' accelerations now (at the planned
+  velocity) are held over the N predicted periods like the disturbance
+  estimate (without them a commutation offset's thrust from the hover current
+  went unpredicted and d rang at 15 um RMS at rest behind a one-period delay).
+
+The compiled FL (:mod:`maglev_ocp.codegen.fl_fn`) carries the model file's
+delay but not its effects.
+
 Adaptive observer (``adapt``, default ``[C1, C3, C4]``, the NMPC's): a constant
 acceleration disturbance cannot follow an error of a constant that multiplies
 the currents (the rig's C1, C3, C4 are off their nominal values): it learns a
@@ -76,7 +103,7 @@ from maglev_ocp.observers import (
 from maglev_ocp.params import NOMINAL, Params
 from maglev_ocp.signals import REF_FIELDS
 
-from .model_file import check_model_path, effect_delta_function, load_controller_model
+from .model_file import SIGN_WIDTH_SIGMAS, ModelEffects, check_model_path, load_controller_model, velocity_noise
 
 #: Order of the gain / limit vector fed to :func:`fl_law_function`.
 GAIN_FIELDS: tuple[str, ...] = ("kp_g", "kd_g", "ki_g", "kp_d", "kd_d", "ki_d", "i_axis_max", "i_amp_max", "Ts")
@@ -297,8 +324,10 @@ class FLSettings(AdaptSettings):
         A model file (:mod:`maglev_ocp.controllers.model_file`: constants plus fitted
         effects, the plant profiles' ``effects:`` format). Its constants replace
         the controller's parameters; its static effects enter the observer's
-        prediction and the inversion (see :meth:`FeedbackLinearization.step`);
-        an amplifier lag's transport delay adds to ``delay_samples``.
+        prediction, the delay predictor and the inversion, at the planned
+        velocity in the inversion and with the velocity signs smoothed to the
+        estimate's resolution in the observer (module docstring); an amplifier
+        lag's transport delay adds to ``delay_samples``.
     adapt : list of str
         Constants (of C1..C4) whose relative error the observer estimates from
         the moves (see the module docstring); ``[]`` turns it off, and it is
@@ -413,16 +442,17 @@ class FeedbackLinearization:
         self.params = params
         self.Ts = Ts
         self._p = params.vector()
-        # the model file's static effects: what they add to the model's accelerations (None: no effects)
-        self._delta = None
-        if self.model is not None and self.model.effects:
-            self._delta = BufferedFunction(effect_delta_function(self.model.effects))
-            self._theta = self.model.theta
         self._gains = self.settings.gains(Ts)
         self._law = BufferedFunction(fl_law_function())
         self.observer = HighGainObserver(
             params, ObserverSettings(eps=self.settings.observer_eps, disturbance=self.settings.disturbance), Ts
         )
+        # the model file's static effects (None: none), their velocity signs widened to the resolution of the
+        # observer's velocity estimate (see the module docstring)
+        self.effects: ModelEffects | None = None
+        if self.model is not None and self.model.effects:
+            width = SIGN_WIDTH_SIGMAS * velocity_noise(self.observer.L, Ts)
+            self.effects = ModelEffects(self.model, self._p, width)
         # adaptive observer (settings.adapt): the constants' relative errors, learnt from the moves
         self._adapt_fn = fl_adaptive_observer(self.settings, self.observer.L, Ts)
         self._adapt_fn = BufferedFunction(self._adapt_fn) if self._adapt_fn is not None else None
@@ -490,6 +520,7 @@ class FeedbackLinearization:
             # the current applied over the last period: the last command, or the one sent N samples before it
             u_applied = self._u_prev if not self.delay else self._sent[0]
             # the effects the model file knows are part of the observer's prediction over the period
+            # (at its own velocity estimate: the widened sign keeps the estimate's noise out of the prediction)
             d_eff = self._effect(self.observer.x_hat, u_applied)
             self.observer.dist += d_eff
             finite = math.isfinite(y.y[0]) and math.isfinite(y.y[1])
@@ -507,17 +538,21 @@ class FeedbackLinearization:
             self.observer.dist -= d_eff  # what is left is the residual disturbance
         dist = self.observer.disturbance
         x_law, p = x_hat, self._p_hat
+        v_plan = (r[1], r[4])  # the planned velocities (N samples ahead with a delay): what the effects see
         if self._pred is not None:
             u_seq = np.concatenate(list(self._sent)[1:])
-            (x_law,) = self._pred(x_hat, dist, u_seq, p)
+            # over the periods predicted through, the effects act as they do now (held, as the disturbance)
+            d_pred = dist + self._effect(x_hat, self._sent[-1], v_plan)
+            (x_law,) = self._pred(x_hat, d_pred, u_seq, p)
         u, z_next, v, fl = self._law(x_law, dist, r, self._z, p, self._gains)
-        if self._delta is not None:
+        if self.effects is not None:
             # invert the model with the effects: the law's model must give v minus the residual disturbance
-            # minus what the effects add at the current it commands (fixed point, exact for state-only effects)
+            # minus what the effects add at the current it commands (fixed point, exact for state-only effects);
+            # at the planned velocity, so that the velocity estimate's noise does not reach the current
             for _ in range(2):
                 if not np.all(np.isfinite(u)):
                     break
-                u, z_next, v, fl = self._law(x_law, dist + self._effect(x_law, u), r, self._z, p, self._gains)
+                u, z_next, v, fl = self._law(x_law, dist + self._effect(x_law, u, v_plan), r, self._z, p, self._gains)
         law_failed = not (math.isfinite(u[0]) and math.isfinite(u[1]))
         if law_failed:
             u, fallback = self._safe_current(x_hat), 1
@@ -536,12 +571,14 @@ class FeedbackLinearization:
         names = fl_adapted(self.settings) if self._adapt_fn is not None else ()
         return {n: float(self._ad[j]) for j, n in enumerate(names)}
 
-    def _effect(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Accelerations the model file's effects add at state ``x`` and currents ``u`` (zeros without effects)."""
-        if self._delta is None or not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
+    def _effect(self, x: np.ndarray, u: np.ndarray, velocity: tuple[float, float] | None = None) -> np.ndarray:
+        """Accelerations the model file's effects add at state ``x`` and currents ``u`` (zeros without effects).
+
+        ``velocity`` replaces the state's velocities (:class:`~maglev_ocp.controllers.model_file.ModelEffects`).
+        """
+        if self.effects is None:
             return np.zeros(2)
-        (d,) = self._delta(x, u, self._p, self._theta)
-        return np.asarray(d, dtype=float).ravel()
+        return self.effects(x, u, velocity)
 
     def _plan_ahead(self, t: float) -> tuple[float, ...]:
         """The plan's reference row at ``t + delay_samples Ts`` (sampled once on the control grid, then looked up)."""

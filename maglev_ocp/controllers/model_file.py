@@ -25,6 +25,16 @@ expressions (:meth:`maglev_ocp.effects.EffectSet.accel`, not retyped) minus
 the shared model's accelerations, i.e. what the effects add at a state and a
 current. The amplifier lag's transport delay is reported as ``delay_samples``
 (a controller compensates it with its delay predictor).
+
+How a controller evaluates them without feeding measurement noise into the
+current (:class:`ModelEffects`): the fitted laws are kept, but a regularized
+sign of a velocity (friction's ``tanh(v / v_reg)``, :data:`SIGN_WIDTHS`) is
+widened to the resolution of the velocity the controller has
+(:func:`velocity_noise`: a high-gain observer on 10 um readings at 1 kHz
+estimates the velocity to about 1.2 mm/s, while a diagnosis fixes ``v_reg`` at
+1 mm/s, so the fitted sign would flip on the noise at rest), and the caller
+chooses the velocity the effects see (a controller takes the planned one in its
+inverse, see :mod:`maglev_ocp.controllers.fl`).
 """
 
 from __future__ import annotations
@@ -35,9 +45,11 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from maglev_ocp import constants as k
 from maglev_ocp.config import load_yaml, parse_model
 from maglev_ocp.effects import EFFECTS, EffectSet, effect_delta_function
 from maglev_ocp.errors import ConfigError
+from maglev_ocp.fastcall import BufferedFunction
 from maglev_ocp.params import Params, ParamsFile
 
 #: Plant-file keys that describe the rig, not its model (ignored when a plant file is loaded as a model file).
@@ -57,6 +69,15 @@ MISMATCH_KEYS: tuple[str, ...] = ("relative", "distribution", "overrides")
 
 #: Effects with plant states: not part of the static prediction (the lag's delay is reported instead).
 DYNAMIC_EFFECTS: tuple[str, ...] = tuple(n for n, cls in EFFECTS.items() if cls.dynamic)
+
+
+#: Effect parameters that are the width of a regularized sign of a velocity (``tanh(v / width)``) [m/s].
+SIGN_WIDTHS: tuple[str, ...] = ("friction.v_reg",)
+#: A sign's width in standard deviations of the velocity estimate's noise: a 1-sigma error of the
+#: estimate moves the smoothed sign by at most tanh(1/3) = 0.32 of its full swing (instead of flipping it).
+SIGN_WIDTH_SIGMAS: float = 3.0
+#: Standard deviation of the encoder's quantization error [m] (a uniform error over one 10 um count).
+QUANTIZATION_STD: float = k.encoder_resolution / math.sqrt(12.0)
 
 
 @dataclass(frozen=True)
@@ -121,6 +142,92 @@ def load_controller_model(path: str | os.PathLike) -> ControllerModel:
     return ControllerModel(params, es.names, theta, delay, str(path))
 
 
+def velocity_noise(L: np.ndarray, Ts: float = k.Ts, sigma: float = QUANTIZATION_STD) -> float:
+    """Standard deviation of a high-gain observer's velocity estimate from white reading noise [m/s].
+
+        The observer of one axis (:class:`maglev_ocp.observers.HighGainObserver`, gain ``L`` of 2 or
+        3 entries: position, velocity, disturbance) has the estimation error
+        ``e+ = (I - L H) F e - L n`` for a reading error ``n``; its stationary covariance solves the
+        discrete Lyapunov equation ``S = A S A^T + sigma^2 L L^T`` with ``A = (I - L H) F`` (summed by
+    doubling), and the
+        velocity's standard deviation is ``sqrt(S[1, 1])``. With ``sigma`` the quantization of a
+        10 um encoder (2.9 um) this is the resolution of the velocity the controller knows: 1.2 mm/s
+        for the FL's observer (2 ms, with disturbance), 0.45 mm/s at 4 ms.
+    """
+    L = np.asarray(L, dtype=float).ravel()
+    n = len(L)
+    F = np.eye(n)
+    F[0, 1] = Ts
+    if n == 3:
+        F[0, 2], F[1, 2] = Ts**2 / 2, Ts
+    H = np.zeros((1, n))
+    H[0, 0] = 1.0
+    A = (np.eye(n) - L[:, None] @ H) @ F
+    # Smith's doubling: S_{j+1} = S_j + A_j S_j A_j^T, A_{j+1} = A_j^2 sums A^i Q A^iT over i < 2^j
+    # (the error poles are inside the unit circle; 2^12 terms is far past convergence at any eps >= Ts / 8)
+    S = sigma**2 * np.outer(L, L)
+    for _ in range(12):
+        S = S + A @ S @ A.T
+        A = A @ A
+    return float(math.sqrt(max(S[1, 1], 0.0)))
+
+
+class ModelEffects:
+    """A model file's static effects as a controller evaluates them: what they add to the accelerations.
+
+    The effect library's expressions (:func:`effect_delta_function`, not retyped) with the
+    parameters of the file, except that every regularized sign of a velocity
+    (:data:`SIGN_WIDTHS`) is at least ``sign_width`` wide, so that the noise of an
+    estimated velocity cannot switch it.
+
+    Parameters
+    ----------
+    model : ControllerModel
+        The loaded model file (its ``effects`` must not be empty).
+    params : ndarray
+        The model parameter vector the effects are evaluated with.
+    sign_width : float
+        Smallest width of a regularized sign [m/s] (e.g. ``SIGN_WIDTH_SIGMAS * velocity_noise(L)``).
+
+    Attributes
+    ----------
+    theta : ndarray
+        The parameters evaluated (the file's, the sign widths widened).
+    widened : dict of str to tuple of float
+        ``{parameter: (file's value, value used)}`` for each width that was widened.
+    """
+
+    def __init__(self, model: ControllerModel, params: np.ndarray, sign_width: float):
+        if not model.effects:
+            raise ValueError("ModelEffects needs a model file with static effects")
+        names = EffectSet(model.effects).param_names
+        theta = np.array(model.theta, dtype=float)
+        self.widened: dict[str, tuple[float, float]] = {}
+        for name in SIGN_WIDTHS:
+            if name in names:
+                i = names.index(name)
+                if theta[i] < sign_width:
+                    self.widened[name] = (float(theta[i]), float(sign_width))
+                    theta[i] = sign_width
+        self.theta = theta
+        self.p = np.asarray(params, dtype=float).copy()
+        self._fn = BufferedFunction(effect_delta_function(model.effects))
+
+    def __call__(self, x: np.ndarray, u: np.ndarray, velocity: tuple[float, float] | None = None) -> np.ndarray:
+        """Accelerations ``(dg_ddot, dd_ddot)`` [m/s^2] the effects add at state ``x`` and currents ``u``.
+
+        ``velocity = (g_dot, d_dot)`` replaces the state's velocities (e.g. the planned ones);
+        zeros where ``x`` or ``u`` is not finite.
+        """
+        x = np.asarray(x, dtype=float)
+        if velocity is not None:
+            x = np.array([x[0], velocity[0], x[2], velocity[1]])
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
+            return np.zeros(2)
+        (d,) = self._fn(x, u, self.p, self.theta)
+        return d
+
+
 def check_model_path(path: str | None) -> str | None:
     """Settings validator of a ``model:`` key: the file must exist (its content is checked when loaded)."""
     if path is not None and not os.path.isfile(path):
@@ -156,9 +263,14 @@ def _mismatch_constants(path: str | os.PathLike, block: object) -> dict:
 
 __all__ = [
     "DYNAMIC_EFFECTS",
+    "QUANTIZATION_STD",
     "RIG_KEYS",
+    "SIGN_WIDTHS",
+    "SIGN_WIDTH_SIGMAS",
     "ControllerModel",
+    "ModelEffects",
     "check_model_path",
     "effect_delta_function",
     "load_controller_model",
+    "velocity_noise",
 ]

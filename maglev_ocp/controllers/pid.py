@@ -17,6 +17,17 @@ loop's three closed-loop poles at ``-omega`` (``(s + omega)^3``), which keeps
 the unstable vertical pole (about +39 rad/s at 20 mm, +64 rad/s at 10 mm)
 stabilized anywhere in the stroke. Anti-windup by conditional integration;
 the output is clipped to ±8 A per axis and 8 A amplitude, the gap loop first.
+
+A model file (``model: FILE``, :mod:`maglev_ocp.controllers.model_file`, e.g.
+the ``model.yaml`` of ``maglev diagnose``): its constants replace the
+controller's parameters (equilibrium currents, schedule, observer), and its
+static effects enter the feed-forward only: the feed-forward current is
+corrected, through the scheduled gains, by what the effects add at the
+*planned* state and velocity (:meth:`PIDController.effect_feedforward`), so no
+measured or estimated quantity passes through the fitted laws (the loops
+themselves stay linear). The PID has no predictor: a model file's delay is
+not compensated (the PID's slow poles leave it a phase margin for a sample
+or two).
 """
 
 from __future__ import annotations
@@ -28,7 +39,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
@@ -37,6 +48,8 @@ from maglev_ocp.errors import ConfigError
 from maglev_ocp.model import get_model
 from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL, Params
+
+from .model_file import ModelEffects, check_model_path, load_controller_model
 
 
 class PIDSettings(Strict):
@@ -63,6 +76,10 @@ class PIDSettings(Strict):
         Time constant of the high-gain observer [s].
     i_axis_max, i_amp_max : float
         Current limits [A] (per axis, amplitude).
+    model : str or None
+        A model file (constants plus fitted effects, :mod:`maglev_ocp.controllers.model_file`):
+        its constants replace the controller's parameters, its static effects
+        correct the feed-forward at the planned state (see the module docstring).
     """
 
     omega_g: float = Field(80.0, gt=0, le=2000)
@@ -77,6 +94,14 @@ class PIDSettings(Strict):
     observer_eps: float = Field(4e-3, gt=1e-4, le=1.0)
     i_axis_max: float = Field(k.i_axis_max, gt=0, le=100)
     i_amp_max: float = Field(k.i_amp_max, gt=0, le=100)
+    model: str | None = Field(
+        None, description="model file: constants and fitted effects (maglev_ocp.controllers.model_file)"
+    )
+
+    @field_validator("model")
+    @classmethod
+    def _model_exists(cls, v: str | None) -> str | None:
+        return check_model_path(v)
 
 
 def schedule_function() -> ca.Function:
@@ -124,10 +149,18 @@ class PIDController:
     name = "pid"
 
     def __init__(self, params: Params = NOMINAL, settings: PIDSettings | None = None, Ts: float = k.Ts):
-        self.params = params
         self.settings = settings or PIDSettings()
+        self.model = load_controller_model(self.settings.model) if self.settings.model else None
+        if self.model is not None:
+            params = self.model.params
+        self.params = params
         self.Ts = float(Ts)
         self.observer = HighGainObserver(params, ObserverSettings(eps=self.settings.observer_eps), self.Ts)
+        # the model file's static effects, evaluated at the planned state only (no estimate: no sign to smooth
+        # against noise, the library's regularization is kept)
+        self.effects: ModelEffects | None = None
+        if self.model is not None and self.model.effects and self.settings.feedforward:
+            self.effects = ModelEffects(self.model, params.vector(), 0.0)
         self._sched = schedule_function()
         # buffer evaluation: ~5 us instead of ~100 us for a numpy call
         self._in_p = params.vector()
@@ -159,6 +192,26 @@ class PIDController:
         self._ueq_good = (float(u_eq[0]), float(u_eq[1]))
         self._u_prev = self._clip(u_eq)[0]
 
+    def effect_feedforward(self, r, u_eq: np.ndarray, b_v: float, L1: float) -> np.ndarray:
+        """Correction of the feed-forward current for the model file's effects [A] (zeros without effects).
+
+        The effects' accelerations ``(da_g, da_d)`` at the planned state ``(g, g_dot, d, d_dot)``
+        of the reference row ``r`` and the feed-forward current ``u_ff`` (the equilibrium current
+        plus the reference accelerations through the scheduled gains, as :func:`pid_law` adds
+        them) are cancelled through those gains: ``di_d = -da_g / b_v`` (``b_v = d g_ddot / d i_d``)
+        and ``di_q = da_d / L1`` (``d_ddot = -L1 i_q``); two fixed-point passes for effects that
+        depend on the current (a commutation offset).
+        """
+        du = np.zeros(2)
+        if self.effects is None or not (np.all(np.isfinite(u_eq)) and b_v != 0.0 and L1 != 0.0):
+            return du
+        x_ref = np.array([r[0], r[1], r[3], r[4]])
+        u_ff = u_eq + np.array([-r[5] / L1, r[2] / b_v])
+        for _ in range(2):
+            da = self.effects(x_ref, u_ff + du)
+            du = np.array([da[1] / L1, -da[0] / b_v])
+        return du
+
     def _clip(self, u: np.ndarray) -> tuple[np.ndarray, bool, bool]:
         """Limit: each axis to ±i_axis_max, then i_q to what the amplitude leaves after i_d."""
         i_q, i_d, q_sat, d_sat = clip_currents(NUMERIC, self.settings, float(u[0]), float(u[1]))
@@ -174,6 +227,8 @@ class PIDController:
         x_hat = self.observer.step(y.y, self._u_prev)
         u_eq, b_v, a21, L1 = self.schedule(ref.g, ref.d)
         r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
+        if self.effects is not None:
+            u_eq = u_eq + self.effect_feedforward(r, u_eq, b_v, L1)
         out = pid_law(
             NUMERIC,
             self.settings,
