@@ -44,7 +44,8 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from maglev_ocp.cli import main as maglev  # noqa: E402
-from maglev_ocp.config import atomic_write_text, dump_yaml, load_yaml  # noqa: E402
+from maglev_ocp.config import load_yaml  # noqa: E402
+from maglev_ocp.output import atomic_write_text, dump_yaml  # noqa: E402
 from maglev_ocp.params import NOMINAL  # noqa: E402
 
 #: Strong settings of each library effect (top of the self-check's draw ranges,

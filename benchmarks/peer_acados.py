@@ -159,7 +159,7 @@ class PeerResult:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write the result as JSON (atomically)."""
-        from maglev_ocp.config import atomic_write_text
+        from maglev_ocp.output import atomic_write_text
 
         atomic_write_text(path, json.dumps(asdict(self), indent=2) + "\n")
         return Path(path)

@@ -21,7 +21,7 @@ Regenerates ``results/``:
 
 Scenarios run in ``--jobs`` worker processes (default 2); each folder is
 written into a temporary sibling and swapped in whole
-(:func:`maglev_ocp.config.replace_dir`), so a failing or interrupted task never
+(:func:`maglev_ocp.output.replace_dir`), so a failing or interrupted task never
 leaves a folder that mixes two runs, and never loses the others. Exit code 0 if
 every headline scenario passes its tolerance checks, 1 if one fails, 2 on bad
 input (checked before any work), 130 on an interrupt (SIGINT).
@@ -40,7 +40,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-from .config import atomic_write_text, replace_dir, sigint_ignored
+from .interrupts import sigint_ignored
+from .output import atomic_write_text, replace_dir
 
 SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
 
@@ -373,8 +374,8 @@ def _main(argv: list[str] | None) -> int:
     a = ap.parse_args(argv)
     from tqdm.auto import tqdm
 
-    from .config import check_output_dir
     from .errors import UserError
+    from .output import check_output_dir
     from .scenario import load_scenario
 
     t0 = time.perf_counter()

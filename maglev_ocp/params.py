@@ -14,7 +14,8 @@ import numpy as np
 from pydantic import Field
 
 from . import constants as k
-from .config import Strict, dump_yaml, load_model
+from .config import Strict, load_model
+from .output import dump_yaml
 from .signals import PARAM_NAMES
 
 

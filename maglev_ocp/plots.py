@@ -1,7 +1,7 @@
 """Figures of a closed-loop run: positions with the 0.1 mm band, currents with limits, solver time.
 
 All figures use the Agg backend and are written atomically
-(:func:`maglev_ocp.config.atomic_write_bytes`); labels carry units.
+(:func:`maglev_ocp.output.atomic_write_bytes`); labels carry units.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from . import constants as k
-from .config import atomic_write_bytes
+from .output import atomic_write_bytes
 
 
 def _target_track(t: np.ndarray, plan: Any) -> np.ndarray:

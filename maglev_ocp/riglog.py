@@ -35,8 +35,9 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from . import constants as k
-from .config import Strict, atomic_write_text, dump_yaml, load_yaml, parse_model, plain_data
+from .config import Strict, load_yaml, parse_model
 from .errors import ConfigError, DataError
+from .output import atomic_write_text, dump_yaml, plain_data
 
 FORMAT = "maglev-rig-log/1"
 REQUIRED_COLUMNS: tuple[str, ...] = ("t", "g", "d", "i_q", "i_d")

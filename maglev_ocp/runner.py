@@ -57,10 +57,10 @@ import numpy as np
 
 from . import constants as k
 from .blocks import Controller, Reference
-from .config import atomic_write_text, dump_yaml
 from .errors import UserError
 from .loop import TIMING_SUFFIX, ClosedLoop, TraceRecorder
 from .metrics import Metrics, compute_metrics
+from .output import atomic_write_text, dump_yaml
 from .plant import Plant
 from .reference import ReferencePlan, plan_targets
 from .riglog import RunLog

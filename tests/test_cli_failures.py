@@ -26,8 +26,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from maglev_ocp.cli import main
-from maglev_ocp.config import MAX_YAML_DEPTH, check_output_dir, parse_yaml_text, replace_dir
+from maglev_ocp.config import MAX_YAML_DEPTH, parse_yaml_text
 from maglev_ocp.errors import ConfigError, DataError
+from maglev_ocp.output import check_output_dir, replace_dir
 from maglev_ocp.riglog import MAX_CELL_CHARS, MAX_COLUMNS, read_dataset, write_dataset
 
 REPO = Path(__file__).resolve().parents[1]

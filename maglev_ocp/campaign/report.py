@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..config import atomic_write_text
+from ..output import atomic_write_text
 from . import CampaignResult, run_campaign
 from .config import load_campaign
 

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import atomic_write_bytes, atomic_write_text
+from ..output import atomic_write_bytes, atomic_write_text
 from .execute import read_run_record, run_dir
 from .expand import RunSpec
 

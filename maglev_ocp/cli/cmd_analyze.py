@@ -105,9 +105,9 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev analyze``."""
     from ..analysis.plant_model import AnalysisPlant
     from ..analysis.report import analyze_grid, delay_cross_check, markdown_report, write_report
-    from ..config import check_output_dir, replace_dir
     from ..constants import d_stop, g_stop
     from ..errors import UserError
+    from ..output import check_output_dir, replace_dir
     from ..plant.config import PlantConfig
 
     for g in args.gaps:

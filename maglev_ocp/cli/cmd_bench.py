@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     if args.warmup < 0:
         raise UserError(f"--warmup: must be >= 0, got {args.warmup}")
     if args.out is not None:
-        from ..config import check_output_file
+        from ..output import check_output_file
 
         check_output_file(args.out)
     scenario = None

@@ -44,8 +44,8 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev calibrate``."""
-    from ..config import check_output_dir, replace_dir
     from ..estimation.calibrate import calibrate
+    from ..output import check_output_dir, replace_dir
     from ..params import NOMINAL
     from . import load_model_params
 

@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev campaign``."""
     from ..campaign import load_campaign, run_campaign
     from ..campaign.expand import expand, validate_cases
-    from ..config import check_output_dir
+    from ..output import check_output_dir
 
     camp = load_campaign(args.campaign)  # refuses a campaign above the size limit before expanding
     if args.workers is not None and args.workers < 1:

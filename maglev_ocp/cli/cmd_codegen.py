@@ -52,7 +52,7 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev codegen``."""
-    from ..config import check_output_dir, replace_dir
+    from ..output import check_output_dir, replace_dir
     from ..params import NOMINAL
     from . import load_model_params
 

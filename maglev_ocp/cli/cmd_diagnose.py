@@ -279,9 +279,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _dataset(args) -> int:
-    from ..config import check_output_dir, replace_dir
     from ..diagnosis import diagnose
     from ..diagnosis.report import write_report
+    from ..output import check_output_dir, replace_dir
     from ..riglog import read_dataset
     from . import load_model_params
 
@@ -330,7 +330,7 @@ def _selftest(args) -> int:
 
 def _run_and_write(run_fn, st, args) -> int:
     """Run a self-check (``run_fn``: library or independent rig) and print its table; ``--out`` is replaced whole."""
-    from ..config import check_output_dir, replace_dir
+    from ..output import check_output_dir, replace_dir
 
     workers = args.workers or os.cpu_count() or 1
     if args.out:
@@ -363,9 +363,9 @@ def _selftest_independent(args) -> int:
 def _generate(args) -> int:
     import numpy as np
 
-    from ..config import check_output_dir, replace_dir
     from ..diagnosis.generate import generate_dataset
     from ..diagnosis.selftest import selftest_plant
+    from ..output import check_output_dir, replace_dir
     from ..params import NOMINAL
     from ..riglog import read_dataset
 
@@ -414,7 +414,7 @@ def _generate_independent(args) -> int:
     """``--generate DIR --plant independent``: a dataset (and its truth.json) from the independent rig."""
     import json
 
-    from ..config import check_output_dir, replace_dir
+    from ..output import check_output_dir, replace_dir
     from ..riglog import read_dataset
     from ..rigsim import RigSettings, generate
 
@@ -433,9 +433,9 @@ def _generate_independent(args) -> int:
 
 
 def _scenario(args) -> int:
-    from ..config import check_output_dir, replace_dir
     from ..diagnosis.closed_loop import closed_loop_view, fitted_from_report
     from ..diagnosis.generate import GeneratorSettings
+    from ..output import check_output_dir, replace_dir
 
     if not args.effect:
         raise UserError("--scenario needs --effect NAME")

@@ -75,7 +75,7 @@ def plot_table(path: str, params) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from ..config import atomic_write_bytes
+    from ..output import atomic_write_bytes
 
     gs = np.linspace(8.0, 32.0, 97)
     rows = table(gs, params)
@@ -101,7 +101,7 @@ def plot_table(path: str, params) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev model``."""
-    from ..config import check_output_file
+    from ..output import check_output_file
     from ..params import NOMINAL
     from . import load_model_params
 

@@ -50,7 +50,7 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev run``."""
-    from ..config import check_output_dir
+    from ..output import check_output_dir
     from ..runner import summary_table
     from ..scenario import load_scenario
 
@@ -92,7 +92,7 @@ def _run_one(sc, folder: Path, args: argparse.Namespace, cache: dict):
     A scenario that crashes is reported and its folder holds ``error.txt`` (the
     traceback), so one scenario's crash never loses the others' results.
     """
-    from ..config import atomic_write_text, replace_dir
+    from ..output import atomic_write_text, replace_dir
     from ..runner import run_scenario
 
     with replace_dir(folder) as tmp:

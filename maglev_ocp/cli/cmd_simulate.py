@@ -150,7 +150,7 @@ def plot_run(run, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..config import atomic_write_bytes
+    from ..output import atomic_write_bytes
 
     t = run["t"]
     fig, ax = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
@@ -183,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
     folder). The dataset is written into a temporary sibling folder and swapped
     in whole; runs of an existing dataset at ``--out`` are kept (appended to).
     """
-    from ..config import check_output_dir, replace_dir
+    from ..output import check_output_dir, replace_dir
     from ..riglog import merge_datasets, read_dataset
 
     if args.check:

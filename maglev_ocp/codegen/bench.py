@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import atomic_write_text
+from ..output import atomic_write_text
 from ..runner import build_controller, run_scenario
 from ..scenario import Scenario, load_scenario, scenario_from_dict
 from .backend import build_c_controller, default_cflags

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..config import atomic_write_bytes, atomic_write_text, plain_data
+from ..output import atomic_write_bytes, atomic_write_text, plain_data
 from ..params import NOMINAL
 from ..signals import label
 from .result import Diagnosis, report_json, summary_table

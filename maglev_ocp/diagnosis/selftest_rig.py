@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import atomic_write_text
+from ..output import atomic_write_text
 from ..parallel import map_ordered
 from ..riglog import read_dataset
 from ..rigsim import RigSettings, draw, generate

@@ -52,9 +52,9 @@ import scipy.sparse as sp
 from tqdm import tqdm
 
 from .. import constants as k
-from ..config import atomic_write_text
 from ..effects import Friction
 from ..model import get_model
+from ..output import atomic_write_text
 from ..params import NOMINAL, Params
 from ..signals import PARAM_NAMES
 from .data import RunData, eval_samples

@@ -32,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import atomic_write_text
 from ..errors import DataError, UserError
+from ..output import atomic_write_text
 from ..params import NOMINAL, Params
 from .batch import BATCH_PARAMS, BatchResult, BatchSettings, batch_estimate
 from .data import runs_from_dataset

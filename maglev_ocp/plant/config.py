@@ -26,10 +26,11 @@ import numpy as np
 from pydantic import Field, create_model, field_validator, model_validator
 
 from .. import constants as k
-from ..config import Strict, dump_yaml, load_yaml, parse_model
+from ..config import Strict, load_yaml, parse_model
 from ..effects import EFFECTS, EffectSet
 from ..errors import ConfigError
 from ..model import get_model
+from ..output import dump_yaml
 from ..params import ParamOverrides, Params
 from .disturbances import Cable, Disturbance
 
