@@ -11,7 +11,7 @@ from ..errors import UserError
 
 def register(sub) -> None:
     """Add the ``campaign`` subcommand."""
-    from . import add_command
+    from . import add_command, add_quiet
 
     p = add_command(
         sub,
@@ -53,7 +53,7 @@ def register(sub) -> None:
     p.add_argument("--retry-failed", action="store_true", help="re-run runs recorded as failed")
     p.add_argument("--plan", action="store_true", help="only print the expansion (cases and runs), run nothing")
     p.add_argument("--no-figures", action="store_true", help="write the summary tables only")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 

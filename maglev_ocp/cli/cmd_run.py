@@ -21,7 +21,7 @@ RESULT_FILES: tuple[str, ...] = ("metrics.json", "error.txt", "scenario.yaml")
 
 def register(sub) -> None:
     """Add the ``run`` subcommand."""
-    from . import add_command
+    from . import add_command, add_quiet
 
     p = add_command(
         sub,
@@ -43,7 +43,7 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="results folder (one subfolder per scenario)")
     p.add_argument("--seed", type=int, default=None, help="replace every scenario's seed")
     p.add_argument("--no-figures", action="store_true", help="skip the figures (faster)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_quiet(p)
     p.add_argument("--details", action="store_true", help="also print each scenario's per-target table")
     p.set_defaults(handler=run)
 
@@ -97,7 +97,7 @@ def _run_one(sc, folder: Path, args: argparse.Namespace, cache: dict):
 
     with replace_dir(folder) as tmp:
         try:
-            res = run_scenario(sc, seed=args.seed, progress=not args.no_progress, cache=cache)
+            res = run_scenario(sc, seed=args.seed, progress=not args.quiet, cache=cache)
         except UserError:
             raise
         except Exception as err:

@@ -24,7 +24,7 @@ EXAMPLES = """examples:
 
 def register(sub) -> None:
     """Add the ``simulate`` subcommand."""
-    from . import add_command
+    from . import add_command, add_quiet
 
     p = add_command(
         sub,
@@ -64,7 +64,7 @@ def register(sub) -> None:
     p.add_argument("--lock", choices=("none", "g", "d"), default=None, help="hold an axis in a fixture")
     p.add_argument("--out", default="results/simulate", metavar="DIR", help="dataset folder (results/simulate)")
     p.add_argument("--plot", action="store_true", help="also plot each run to DIR/<run>.png")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_quiet(p)
     p.add_argument("--check", metavar="DATASET", help="only validate DATASET and print its summary")
     p.set_defaults(handler=run)
 
@@ -280,7 +280,7 @@ def _seed_calibration(folder: Path, args: argparse.Namespace, job: dict) -> None
     from ..loop.experiments import generate_seed_calibration
 
     generate_seed_calibration(
-        folder, seed=args.seed, plant_config=job["cfg"], params=job["params"], progress=not args.no_progress
+        folder, seed=args.seed, plant_config=job["cfg"], params=job["params"], progress=not args.quiet
     )
 
 
@@ -299,7 +299,7 @@ def _simulate_runs(folder: Path, args: argparse.Namespace, job: dict) -> tuple[f
     ss_plant, ss_ref = ss.spawn(2)
     plant = Plant(cfg, job["params"], seed=ss_plant)
     x0 = np.array([g, 0.0, d, 0.0])
-    progress = not args.no_progress
+    progress = not args.quiet
     if experiment == "open-loop":
         if job["currents"] is not None:
             t_file, u_file = job["currents"]
@@ -360,4 +360,4 @@ def _closed_loop(
             fade_in=base.fade_in,
         )
         ref = SumOfSines(exc, seed=ss_ref)
-    return run_closed_loop(plant, ctrl, ref, duration, x0=x0, file=file, progress=not args.no_progress)
+    return run_closed_loop(plant, ctrl, ref, duration, x0=x0, file=file, progress=not args.quiet)

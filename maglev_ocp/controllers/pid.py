@@ -28,7 +28,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
@@ -37,6 +37,8 @@ from maglev_ocp.errors import ConfigError
 from maglev_ocp.model import get_model
 from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL, Params
+
+from .model_file import MODEL_SETTING_DESCRIPTION, check_model_path, load_controller_model
 
 
 class PIDSettings(Strict):
@@ -63,6 +65,11 @@ class PIDSettings(Strict):
         Time constant of the high-gain observer [s].
     i_axis_max, i_amp_max : float
         Current limits [A] (per axis, amplitude).
+    model : str or None
+        A model file (:mod:`maglev_ocp.controllers.model_file`): its constants
+        replace the controller's parameters (the hover feed-forward and the
+        gain schedule use them); the PID has no model of the effects, so a
+        file's fitted effects are not used.
     """
 
     omega_g: float = Field(80.0, gt=0, le=2000)
@@ -77,6 +84,12 @@ class PIDSettings(Strict):
     observer_eps: float = Field(4e-3, gt=1e-4, le=1.0)
     i_axis_max: float = Field(k.i_axis_max, gt=0, le=100)
     i_amp_max: float = Field(k.i_amp_max, gt=0, le=100)
+    model: str | None = Field(None, description=MODEL_SETTING_DESCRIPTION)
+
+    @field_validator("model")
+    @classmethod
+    def _model_exists(cls, v: str | None) -> str | None:
+        return check_model_path(v)
 
 
 def schedule_function() -> ca.Function:
@@ -124,8 +137,10 @@ class PIDController:
     name = "pid"
 
     def __init__(self, params: Params = NOMINAL, settings: PIDSettings | None = None, Ts: float = k.Ts):
-        self.params = params
         self.settings = settings or PIDSettings()
+        if self.settings.model:  # the model file's constants (its effects: the PID has no model of them)
+            params = load_controller_model(self.settings.model).params
+        self.params = params
         self.Ts = float(Ts)
         self.observer = HighGainObserver(params, ObserverSettings(eps=self.settings.observer_eps), self.Ts)
         self._sched = schedule_function()
