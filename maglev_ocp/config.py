@@ -15,10 +15,10 @@ import math
 import os
 import warnings
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, TypeVar, get_args, get_origin
 
 import yaml
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from .errors import ConfigError
 
@@ -34,10 +34,42 @@ class Strict(BaseModel):
     """Base for every settings model: unknown keys are errors, values are checked.
 
     NaN and infinite numbers are refused in every field (a NaN passes no range
-    check in a useful way and an infinite limit is never what a setting means).
+    check in a useful way and an infinite limit is never what a setting means),
+    and so is ``true`` / ``false`` where a number is expected (Python's bool is
+    an int, so ``seed: true`` would otherwise be taken as seed 1).
     """
 
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False, allow_inf_nan=False)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_bool_for_a_number(cls, data: Any) -> Any:
+        """``true`` / ``false`` given for a number is handed on as text, so the field's own check refuses it."""
+        if not isinstance(data, dict):
+            return data
+        out = data
+        for key, v in data.items():
+            field = cls.model_fields.get(key) if isinstance(key, str) else None
+            if isinstance(v, bool) and field is not None and _takes_number_not_bool(field.annotation):
+                out = {**out, key: f"{str(v).lower()} (a boolean, not a number)"}
+        return out
+
+
+def _annotation_types(ann: Any) -> set[Any]:
+    """The plain types an annotation admits (``int | None`` -> ``{int, NoneType}``)."""
+    args = get_args(ann)
+    if not args:
+        return {ann}
+    out: set[Any] = set()
+    for a in args:
+        out |= _annotation_types(a)
+    return out
+
+
+def _takes_number_not_bool(ann: Any) -> bool:
+    """The field takes an int or a float but not a bool (where ``true`` must be refused)."""
+    types = _annotation_types(ann)
+    return bool(types & {int, float}) and not types & {bool, str} and get_origin(ann) not in (list, dict, tuple)
 
 
 def format_validation_error(err: ValidationError, source: str, prefix: str = "") -> str:
@@ -50,6 +82,8 @@ def format_validation_error(err: ValidationError, source: str, prefix: str = "")
             msg = "unknown key"
         elif e["type"] == "missing":
             msg = "required key missing"
+        elif isinstance(e.get("input"), str) and e["input"].endswith("(a boolean, not a number)"):
+            msg = f"{e['input'].split()[0]} is a boolean, not a number; give a number"
         elif e["type"] == "finite_number" or (isinstance(e.get("input"), float) and math.isnan(e["input"])):
             msg = f"NaN/inf is not allowed (got {e.get('input')!r}); give a finite number"
         parts.append(f"{loc}: {msg}")

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError, UserError
-from ..riglog import MAX_CELL_CHARS, MAX_COLUMNS, wide_csv_fields
+from ..riglog import MAX_CELL_CHARS, MAX_COLUMNS, PHYSICAL_RANGES, is_plain_number, wide_csv_fields
 
 EXAMPLES = """examples:
   maglev simulate --experiment hover --g 15 --duration 2 --out data/hover15
@@ -123,6 +123,12 @@ def _cell_value(path: Path, r: int, name: str, cell: str) -> float:
         raise DataError(f"{where}: not a number: {cell!r}") from None
     if not math.isfinite(v):
         raise DataError(f"{where}: non-finite value {cell!r}")
+    if not is_plain_number(cell):
+        raise DataError(f"{where}: {cell!r} is not a plain number (digits, '.', an optional exponent; no '_')")
+    if name in PHYSICAL_RANGES:
+        lo, hi, unit = PHYSICAL_RANGES[name]
+        if not lo <= v <= hi:
+            raise DataError(f"{where}: {v:g} {unit} is outside {lo:g}..{hi:g} {unit}")
     return v
 
 
