@@ -201,6 +201,20 @@ def check_range(flag: str, v: float, lo: float, hi: float, unit: str = "", lo_op
         raise UserError(f"{flag}: {v:g}{u} is outside {'(' if lo_open else ''}{lo:g}..{hi:g}{u}")
 
 
+#: Bounds of the counts the commands take (every count and duration a user gives is bounded).
+MAX_SEED: int = 2**63 - 1
+MAX_WORKERS: int = 256
+MAX_WARMUP_STEPS: int = 10_000
+MAX_SELFTEST_DATASETS: int = 1000
+MAX_CAMPAIGN_LIMIT: int = 1_000_000
+
+
+def check_count(flag: str, v: int, lo: int, hi: int) -> None:
+    """A whole-number flag must be in ``lo..hi``; one-line UserError otherwise."""
+    if not lo <= v <= hi:
+        raise UserError(f"{flag}: {v} is outside {lo}..{hi}")
+
+
 def load_model_params(path: str | os.PathLike):
     """A parameter file the model can run on: its keys validated, and a real, finite hover current
     (seed eq. (8)) at every gap of the envelope (one-line error naming the keys otherwise)."""

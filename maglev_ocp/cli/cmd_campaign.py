@@ -6,8 +6,6 @@ import argparse
 import os
 import sys
 
-from ..errors import UserError
-
 
 def register(sub) -> None:
     """Add the ``campaign`` subcommand."""
@@ -64,10 +62,12 @@ def run(args: argparse.Namespace) -> int:
     from ..output import check_output_dir
 
     camp = load_campaign(args.campaign)  # refuses a campaign above the size limit before expanding
-    if args.workers is not None and args.workers < 1:
-        raise UserError(f"--workers: must be >= 1, got {args.workers}")
-    if args.limit is not None and args.limit < 0:
-        raise UserError(f"--limit: must be >= 0, got {args.limit}")
+    from . import MAX_CAMPAIGN_LIMIT, MAX_WORKERS, check_count
+
+    if args.workers is not None:
+        check_count("--workers", args.workers, 1, MAX_WORKERS)
+    if args.limit is not None:
+        check_count("--limit", args.limit, 0, MAX_CAMPAIGN_LIMIT)
     if not args.plan:
         check_output_dir(args.out, replaced=False, expect=("campaign.yaml", "plan.csv", "runs"))
     validate_cases(camp, source=str(args.campaign))  # bad settings on the grid: one line now, not per run

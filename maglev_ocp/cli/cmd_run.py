@@ -54,8 +54,10 @@ def run(args: argparse.Namespace) -> int:
     from ..runner import summary_table
     from ..scenario import load_scenario
 
-    if args.seed is not None and not (0 <= args.seed < 2**63):
-        raise UserError(f"--seed: {args.seed} must be in [0, 2^63)")
+    if args.seed is not None:
+        from . import MAX_SEED, check_count
+
+        check_count("--seed", args.seed, 0, MAX_SEED)
     out = check_output_dir(args.out, replaced=False)  # OUT itself is kept; each OUT/<name>/ is replaced
     # Validate everything first: bad input never leaves half a results folder behind.
     scenarios = [load_scenario(path) for path in args.scenarios]

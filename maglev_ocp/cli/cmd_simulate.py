@@ -62,10 +62,17 @@ def register(sub) -> None:
     p.add_argument("--g", type=float, default=20.0, metavar="MM", help="gap set-point / lock position [mm] (20)")
     p.add_argument("--d", type=float, default=0.0, metavar="MM", help="horizontal set-point / lock position [mm] (0)")
     p.add_argument("--lock", choices=("none", "g", "d"), default=None, help="hold an axis in a fixture")
-    p.add_argument("--out", default="results/simulate", metavar="DIR", help="dataset folder (results/simulate)")
+    p.add_argument("--out", default=None, metavar="DIR", help="dataset folder (required; a new or empty folder)")
+    p.add_argument(
+        "--append",
+        action="store_true",
+        help="add the new runs to the dataset already in --out (a run of the same name is refused, never replaced)",
+    )
     p.add_argument("--plot", action="store_true", help="also plot each run to DIR/<run>.png")
     add_quiet(p)
-    p.add_argument("--check", metavar="DATASET", help="only validate DATASET and print its summary")
+    p.add_argument(
+        "--check", metavar="DATASET", help="only validate DATASET and print its summary (no other flag with it)"
+    )
     p.set_defaults(handler=run)
 
 
@@ -187,18 +194,25 @@ def run(args: argparse.Namespace) -> int:
 
     Everything is checked before the simulation (values, files, the output
     folder). The dataset is written into a temporary sibling folder and swapped
-    in whole; runs of an existing dataset at ``--out`` are kept (appended to).
+    in whole. An existing dataset at ``--out`` is refused unless ``--append``;
+    then its runs are kept, the new ones added (a new run with the name of an
+    old one is refused: nothing is replaced silently) and the added runs named.
     """
     from ..output import check_output_dir, replace_dir
-    from ..riglog import merge_datasets, read_dataset
+    from ..riglog import merge_datasets, read_dataset, read_header
 
     if args.check:
+        _check_alone(args)
         ds = read_dataset(args.check)
         print(ds.table())
         return 0
     job = _prepare(args)
+    if not args.out:
+        raise UserError("--out DIR is required (a new or empty folder; --append adds to an existing dataset)")
     out = check_output_dir(args.out)
     previous = _existing_dataset(out, job["cfg"])
+    if previous and not args.append:
+        raise UserError(f"--out: {out} already holds a dataset; give a new folder, or --append to add these runs to it")
     t0 = time.perf_counter()
     with replace_dir(out) as tmp:
         if job["experiment"] == "seed-calibration":
@@ -207,13 +221,22 @@ def run(args: argparse.Namespace) -> int:
             sim_time = None
         else:
             sim_time, events = _simulate_runs(tmp, args, job)
+        added = [e["file"] for e in read_header(tmp)["runs"]]
         if previous:
+            clash = sorted(set(added) & {e["file"] for e in read_header(out)["runs"]})
+            if clash:
+                raise UserError(
+                    f"--append: {out} already has run(s) {', '.join(clash)}; nothing written (a run is never "
+                    "replaced: change --g/--d/--lock or give another folder)"
+                )
             merge_datasets(tmp, out)
     wall = time.perf_counter() - t0
     ds = read_dataset(out)
     print(ds.table())
     for e in events:
         print(f"stop event: {e}")
+    if previous:
+        print(f"appended {len(added)} run(s) to {out}: {', '.join(added)} ({len(ds.runs)} runs now)")
     if sim_time is None:
         print(f"wrote {out} in {wall:.1f} s")
     else:
@@ -221,14 +244,36 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Flags that make no sense with ``--check`` (it only reads a dataset): flag -> attribute and its default.
+_SIMULATION_FLAGS: tuple[tuple[str, str, object], ...] = (
+    ("--out", "out", None),
+    ("--append", "append", False),
+    ("--experiment", "experiment", None),
+    ("--currents", "currents", None),
+    ("--constant", "constant", None),
+    ("--profile", "profile", None),
+    ("--plant", "plant", None),
+    ("--params", "params", None),
+    ("--duration", "duration", None),
+    ("--lock", "lock", None),
+    ("--plot", "plot", False),
+)
+
+
+def _check_alone(args: argparse.Namespace) -> None:
+    """``--check`` only validates a dataset: any simulation flag with it is a conflict (one-line UserError)."""
+    given = [flag for flag, attr, default in _SIMULATION_FLAGS if getattr(args, attr) != default]
+    if given:
+        raise UserError(f"--check only validates a dataset; leave out {', '.join(given)} (they set up a simulation)")
+
+
 def _prepare(args: argparse.Namespace) -> dict:
     """Check the command-line values and load the settings files (nothing is simulated or written)."""
     from ..params import NOMINAL
     from ..plant import PlantConfig, load_plant_config
-    from . import load_model_params
+    from . import MAX_SEED, check_count, load_model_params
 
-    if args.seed < 0:
-        raise UserError(f"--seed: must be >= 0, got {args.seed}")
+    check_count("--seed", args.seed, 0, MAX_SEED)
     if args.duration is not None:
         _check_range("--duration", args.duration, 0.002, 3600.0, "s")
     _check_range("--g", args.g, 5.0, 40.0, "mm")
