@@ -2,9 +2,9 @@
 
 For each library effect (:data:`maglev_ocp.effects.EFFECTS`) set strong (:data:`STRONG`):
 
-1. a diagnosis dataset of that plant is generated (``maglev diagnose --generate DIR --effect NAME
+1. a diagnosis dataset of that plant is generated (``maglev diagnose generate DIR --effect NAME
    --effect-param ...``: the PID excitation, 6 runs of 10 s, plant without random mismatch);
-2. ``maglev diagnose DIR --out REPORT`` diagnoses it with default settings (calibrated baseline,
+2. ``maglev diagnose run DIR --out REPORT`` diagnoses it with default settings (calibrated baseline,
    not told the effect) and writes ``REPORT/model.yaml``;
 3. a tour of the envelope (:data:`TOUR`) is run on the same plant with FL and NMPC using
    (a) the blind nominal model (the nominal constants without cogging, no effects: what the
@@ -124,13 +124,13 @@ def blind_model() -> dict[str, Any]:
 
 # ------------------------------------------------------------------ diagnosis
 def generate_and_diagnose(effect: str, work: Path, seed: int, reuse: bool) -> tuple[Path, Path, dict[str, Any]]:
-    """Steps 1-2: ``maglev diagnose --generate``, then ``maglev diagnose`` with default settings.
+    """Steps 1-2: ``maglev diagnose generate``, then ``maglev diagnose run`` with default settings.
 
     Returns the dataset folder, the diagnosed ``model.yaml`` and ``{"verdict", "commands"}``.
     """
     data, rep = work / effect / "dataset", work / effect / "diagnosis"
     gen = generate_command(effect, data, seed)
-    diag = ["diagnose", str(data), "--out", str(rep), "--no-figures"]
+    diag = ["diagnose", "run", str(data), "--out", str(rep), "--no-figures"]
     if not (reuse and (rep / "model.yaml").is_file()):
         for args in (gen, diag):
             if maglev(args) != 0:
@@ -145,7 +145,7 @@ def generate_and_diagnose(effect: str, work: Path, seed: int, reuse: bool) -> tu
 
 def generate_command(effect: str, data: Path, seed: int) -> list[str]:
     """``maglev`` arguments that generate the strong-``effect`` dataset into ``data``."""
-    gen = ["diagnose", "--generate", str(data), "--effect", effect, "--seed", str(seed), "--effect-param"]
+    gen = ["diagnose", "generate", str(data), "--effect", effect, "--seed", str(seed), "--effect-param"]
     return gen + [f"{kk}={v!r}" for kk, v in STRONG[effect].items()]
 
 
@@ -255,7 +255,7 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
         f"`{command}`",
         "",
         "Per effect (set strong, the other effects off, no random mismatch): a diagnosis dataset "
-        "(`maglev diagnose --generate`), a diagnosis with default settings (calibrated baseline, not told the "
+        "(`maglev diagnose generate`), a diagnosis with default settings (calibrated baseline, not told the "
         "effect), then the envelope tour (6 targets, g 15-25 mm, d +-50 mm, seed 7) on that rig with each "
         "controller on the blind nominal model, the diagnosed `model.yaml` and the true model "
         "(`controller: {model: FILE}`). RMS in um of the position-error vector: *steady* over the settled "

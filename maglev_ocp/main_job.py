@@ -179,25 +179,30 @@ def write_model_table(out: Path) -> str:
     return text
 
 
+class _SimulationFailedError(Exception):
+    """``maglev simulate`` returned a non-zero code inside :func:`write_simulation` (the old folder stays)."""
+
+
 def write_simulation(out: Path) -> int:
-    """A 2 s plant simulation: the seed's excitation experiment (PID regulators), via ``maglev simulate``."""
+    """A 2 s plant simulation: the seed's excitation experiment (PID regulators), via ``maglev simulate``.
+
+    ``out/simulate`` is regenerated whole (same seed, same bytes): the simulation writes into a fresh
+    folder swapped in on success (``simulate`` itself never appends without ``--append``).
+    """
     from .cli import main as cli_main
 
-    code = cli_main(
-        [
-            "simulate",
-            "--experiment",
-            "excitation",
-            "--duration",
-            "2",
-            "--seed",
-            "1",
-            "--out",
-            str(out / "simulate"),
-            "--plot",
-            "--no-progress",
-        ]
-    )
+    try:
+        with replace_dir(out / "simulate") as tmp:
+            code = cli_main(
+                [
+                    *("simulate", "--experiment", "excitation", "--duration", "2", "--seed", "1"),
+                    *("--out", str(tmp), "--plot", "--quiet"),
+                ]
+            )
+            if code != 0:
+                raise _SimulationFailedError(code)
+    except _SimulationFailedError as failed:
+        code = failed.args[0]
     if code == 130:  # interrupted (the CLI said so): stop the job too
         raise KeyboardInterrupt
     return code

@@ -122,7 +122,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not getattr(args, "handler", None):
             parser.print_help()
             return 2
-        command = f"maglev {args.command}"
+        command = f"maglev {args.command}" + (f" {args.mode}" if getattr(args, "mode", None) else "")
         return int(args.handler(args) or 0)
     except KeyboardInterrupt:
         _say(f"{command}: interrupted")
