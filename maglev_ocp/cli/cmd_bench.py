@@ -8,7 +8,7 @@ import sys
 
 from ..codegen.bench import BACKENDS, CONTROLLER_TYPES, run_bench
 from ..errors import UserError
-from . import MAX_WARMUP_STEPS, check_count
+from . import MAX_WARMUP_STEPS, add_quiet, check_count
 
 
 def register(sub) -> None:
@@ -47,6 +47,7 @@ def register(sub) -> None:
     )
     p.add_argument("--json", action="store_true", help="print the numbers as JSON instead of the table")
     p.add_argument("--out", default=None, metavar="FILE", help="also write the JSON to FILE")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 
@@ -78,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
         backends,
         warmup=args.warmup,
         cflags=args.cflags,
-        progress=not args.json,
+        progress=not (args.json or args.quiet),
         realtime=args.realtime,
     )
     if args.realtime and not res.meta.get("realtime"):

@@ -38,7 +38,12 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (replaced whole)")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--scenario", default=None, metavar="FILE", help="scenario YAML: controller settings and params")
-    src.add_argument("--params", default=None, metavar="FILE", help="parameter YAML (default: seed Table III)")
+    src.add_argument(
+        "--params",
+        default=None,
+        metavar="FILE",
+        help="nominal constants: a parameter file (maglev-params/1; default: seed Table III)",
+    )
     p.add_argument(
         "--controllers",
         default="nmpc,fl,observer",

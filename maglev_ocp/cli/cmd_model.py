@@ -34,7 +34,12 @@ def register(sub) -> None:
         metavar="MM",
         help="gaps in mm (default: 10 15 20 25)",
     )
-    p.add_argument("--params", default=None, metavar="FILE", help="parameter YAML (default: seed Table III)")
+    p.add_argument(
+        "--params",
+        default=None,
+        metavar="FILE",
+        help="nominal constants: a parameter file (maglev-params/1; default: seed Table III)",
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a text table")
     p.add_argument(
         "--plot",

@@ -55,8 +55,12 @@ def register(sub) -> None:
     src.add_argument("--constant", nargs=2, type=float, metavar=("IQ", "ID"), help="open loop: constant currents [A]")
     prof = p.add_mutually_exclusive_group()
     prof.add_argument("--profile", default=None, help="rig profile: default or ideal (default: default)")
-    prof.add_argument("--plant", metavar="FILE", help="plant YAML (a profile plus overrides)")
-    p.add_argument("--params", metavar="FILE", help="nominal parameter YAML (default: seed Table III)")
+    prof.add_argument("--plant", metavar="FILE", help="plant file: a rig profile plus overrides (YAML)")
+    p.add_argument(
+        "--params",
+        metavar="FILE",
+        help="nominal constants: a parameter file (maglev-params/1; default: seed Table III)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
     p.add_argument("--duration", type=float, default=None, help="run length [s] (default 2; currents CSV: its length)")
     p.add_argument("--g", type=float, default=20.0, metavar="MM", help="gap set-point / lock position [mm] (20)")

@@ -396,8 +396,13 @@ def _noise_markdown(d: Diagnosis) -> list[str]:
 def _consequence_markdown(d: Diagnosis) -> list[str]:
     """Size-and-consequence section of the effects found."""
     c = d.consequences
-    if c is None or not c.sizes:
+    if c is None:
         return []
+    if not c.sizes:  # no effect found: the model file still is the refit baseline, loaded the one way
+        return [
+            f"\nThe refit model is written as a model file, `model.yaml` (the baseline as `baseline.yaml`). "
+            f"{model_file_instruction('model.yaml')}."
+        ]
     md = ["\n## Size and closed-loop consequence of the effects found\n"]
     md.append(
         "| effect | peak force g / d [N] | % of weight | delay [µs] | FL max error [µm] | NMPC max error [µm] | |"
