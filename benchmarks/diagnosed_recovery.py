@@ -11,7 +11,7 @@ For each library effect (:data:`maglev_ocp.effects.EFFECTS`) set strong (:data:`
    diagnosis starts from), (b) the diagnosed ``model.yaml`` (``controller: {model: FILE}``) and
    (c) the true model (the plant's constants and effect as a model file);
 4. steady and tracking RMS of each, and the recovered fraction ``(a - b) / (a - c)`` of the
-   blind-to-true improvement; ``n/a`` where that improvement is below :data:`MIN_GAIN_M` (1 um).
+   blind-to-true improvement; ``n/a`` where that improvement is below :data:`MIN_GAIN_M` (1 µm).
 
 Beside them, an ablation (:data:`ABLATION`): the diagnosed effects on the nominal constants, which
 separates what the fitted law recovers from what the diagnosis's calibrated constants cost or add.
@@ -258,10 +258,10 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
         "(`maglev diagnose generate`), a diagnosis with default settings (calibrated baseline, not told the "
         "effect), then the envelope tour (6 targets, g 15-25 mm, d +-50 mm, seed 7) on that rig with each "
         "controller on the blind nominal model, the diagnosed `model.yaml` and the true model "
-        "(`controller: {model: FILE}`). RMS in um of the position-error vector: *steady* over the settled "
+        "(`controller: {model: FILE}`). RMS in µm of the position-error vector: *steady* over the settled "
         "part of each target, *tracking* against the planned reference over each whole hold, then RMS over "
         f"the targets. *Recovered* = (blind - diagnosed) / (blind - true); n/a where blind - true < "
-        f"{MIN_GAIN_M * 1e6:g} um; **bold** below the {TARGET_FRACTION * 100:.0f} % asked for.",
+        f"{MIN_GAIN_M * 1e6:g} µm; **bold** below the {TARGET_FRACTION * 100:.0f} % asked for.",
         "",
         "| effect | verdict | ctrl | steady blind | steady diag. | steady true | recovered | "
         "tracking blind | tracking diag. | tracking true | recovered |",
@@ -285,7 +285,7 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
     short = [f"{e} {c} {kind} ({f * 100:.0f} %)" for e, c, kind, f in scored if f < TARGET_FRACTION]
     lines += [
         "",
-        f"Scored cells (improvement > {MIN_GAIN_M * 1e6:g} um): {len(scored)}; at or above "
+        f"Scored cells (improvement > {MIN_GAIN_M * 1e6:g} µm): {len(scored)}; at or above "
         f"{TARGET_FRACTION * 100:.0f} %: {len(scored) - len(short)}; below: {', '.join(short) or 'none'}.",
         "",
         "Ablation: the diagnosed effects (and cogging law) on the nominal constants "

@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Any
 
 from .interrupts import sigint_ignored
+from .markdown import md_table
 from .output import atomic_write_text, replace_dir
 
 SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
@@ -227,25 +228,28 @@ def summary_markdown(
         "Step time: the controller's "
         "Python computation on this machine (shared, 2 cores), median / p99.",
         "",
-        "| scenario | ctrl | settled | max settle [s] | max RMS g [µm] | max RMS d [µm] | stops | "
-        "solver fail / fallback | max \\|i\\| [A] | step median / p99 [µs] | result |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
+    head = ["scenario", "ctrl", "settled", "max settle [s]", "max RMS g [µm]", "max RMS d [µm]", "stops"]
+    head += ["solver fail / fallback", "max |i| [A]", "step median / p99 [µs]", "result"]
+    body = []
     for name in results:
         r = results[name]
         if not r.get("ok"):
-            lines.append(f"| [{name}]({name}/) | | | | | | | | | | ERROR: {r.get('error', '')} |")
+            body.append([f"[{name}]({name}/)", *[""] * 9, f"ERROR: {r.get('error', '')}"])
             continue
         m = r["metrics"]
         n_ok = sum(bool(t["settled"]) for t in m["targets"])
         st = m["step_time_us"]
         tm = "–" if st["median"] is None else f"{st['median']:.0f} / {st['p99']:.0f}"
-        lines.append(
-            f"| [{name}]({name}/positions.png) | {m['controller']} | {n_ok}/{len(m['targets'])} | "
-            f"{_fmt(m['max_settle_time_s'])} | {_fmt(m['max_rms_error_g_m'], 1e6, 2)} | "
-            f"{_fmt(m['max_rms_error_d_m'], 1e6, 2)} | {m['stop_hits']} | {m['solver_failures']} / "
-            f"{m['fallbacks']} | {m['max_current_A']:.2f} | {tm} | {'PASS' if m['passed'] else 'FAIL'} |"
+        body.append(
+            [
+                *(f"[{name}]({name}/positions.png)", m["controller"], f"{n_ok}/{len(m['targets'])}"),
+                *(_fmt(m["max_settle_time_s"]), _fmt(m["max_rms_error_g_m"], 1e6, 2)),
+                *(_fmt(m["max_rms_error_d_m"], 1e6, 2), m["stop_hits"], f"{m['solver_failures']} / {m['fallbacks']}"),
+                *(f"{m['max_current_A']:.2f}", tm, "PASS" if m["passed"] else "FAIL"),
+            ]
         )
+    lines.append(md_table(head, body))
     # Traverse against the minimum-time bound.
     lines += [
         "",
@@ -254,10 +258,8 @@ def summary_markdown(
         "Settle time of each direction of the traverse (d = −50 → +50 → −50 mm) and the minimum time "
         "of the same move from the optimal-control problem on the shared model (`min_time/`).",
         "",
-        "| gap [mm] | minimum time [s] | NMPC settle [s] | NMPC / bound | FL settle [s] | FL / bound |",
-        "|---|---|---|---|---|---|",
     ]
-    tmin = {}
+    tmin, body = {}, []
     if bounds and bounds.get("ok"):
         tmin = {round(r["g_mm"]): r["T_min_s"] for r in bounds["rows"] if r["success"]}
     for g in TRAVERSE_GAPS:
@@ -268,7 +270,9 @@ def summary_markdown(
             worst = None if not ts or any(v is None for v in ts) else max(ts)
             cells.append(" / ".join(_fmt(v) for v in ts) if ts else "–")
             cells.append("–" if worst is None or g not in tmin else f"{worst / tmin[g]:.2f}")
-        lines.append("| " + " | ".join(cells) + " |")
+        body.append(cells)
+    head = ["gap [mm]", "minimum time [s]", "NMPC settle [s]", "NMPC / bound", "FL settle [s]", "FL / bound"]
+    lines.append(md_table(head, body))
     if bounds and not bounds.get("ok"):
         lines.append(f"\nminimum-time bound failed: {bounds.get('error')}")
     # Cogging-aware against cogging-blind.
@@ -279,10 +283,8 @@ def summary_markdown(
         "Steady-state RMS over the settled part once the plan has arrived, and tracking RMS against the "
         "planned reference over the whole hold (moves included), true state.",
         "",
-        "| controller | model | mean RMS g [µm] | mean RMS d [µm] | max RMS g [µm] | max RMS d [µm] | "
-        "tracking RMS g [µm] | tracking RMS d [µm] |",
-        "|---|---|---|---|---|---|---|---|",
     ]
+    body = []
     for c in ("nmpc", "fl"):
         for mdl in ("aware", "blind"):
             r = results.get(f"cogging_{mdl}_{c}", {})
@@ -296,11 +298,15 @@ def summary_markdown(
                 mean([t.get(f"rms_tracking_error_{a}_m") for t in tg if t.get(f"rms_tracking_error_{a}_m") is not None])
                 for a in ("g", "d")
             ]
-            lines.append(
-                f"| {c} | cogging-{mdl} | {_fmt(mean(rg), 1e6, 2)} | {_fmt(mean(rd), 1e6, 2)} | "
-                f"{_fmt(max(rg) if rg else None, 1e6, 2)} | {_fmt(max(rd) if rd else None, 1e6, 2)} | "
-                f"{_fmt(trk[0], 1e6, 2)} | {_fmt(trk[1], 1e6, 2)} |"
+            body.append(
+                [
+                    *(c, f"cogging-{mdl}", _fmt(mean(rg), 1e6, 2), _fmt(mean(rd), 1e6, 2)),
+                    *(_fmt(max(rg) if rg else None, 1e6, 2), _fmt(max(rd) if rd else None, 1e6, 2)),
+                    *(_fmt(trk[0], 1e6, 2), _fmt(trk[1], 1e6, 2)),
+                ]
             )
+    head = ["controller", "model", "mean RMS g [µm]", "mean RMS d [µm]", "max RMS g [µm]", "max RMS d [µm]"]
+    lines.append(md_table([*head, "tracking RMS g [µm]", "tracking RMS d [µm]"], body))
     dist_rows = [row for r in results.values() if r.get("ok") for row in r.get("disturbances", [])]
     if dist_rows:
         from .metrics import disturbance_table

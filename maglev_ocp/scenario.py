@@ -307,7 +307,7 @@ class StartSpec(Strict):
         description="time the mover hovers at the start before the first target's move begins [s], as a rig "
         "lifts off and settles before it moves: the controllers' observers and disturbance estimates start from "
         "the first reading, and a minimum-time move begun at that instant carries their start-up transient into "
-        "the target (random_nmpc's first gap move: 10.8 um steady RMS at 0 s, 3.6 um at 0.06 s); 0: the first "
+        "the target (random_nmpc's first gap move: 10.8 µm steady RMS at 0 s, 3.6 µm at 0.06 s); 0: the first "
         "move starts at t = 0",
     )
 

@@ -32,7 +32,7 @@ def markdown_table(results: dict[str, CampaignResult]) -> str:
     """Markdown: per campaign and case, runs, success rate (95 % interval), settle and step times."""
     lines = [
         "| campaign | case | runs | failed | success [%] | 95 % interval [%] | settle median / p90 [ms] "
-        "| worst RMS median [um] | step median / worst p99 [us] |",
+        "| worst RMS median [µm] | step median / worst p99 [µs] |",
         "|---|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for name, res in results.items():

@@ -31,7 +31,7 @@ def register(sub) -> None:
         "simulate",
         help="run the plant simulator and write a rig-log dataset",
         description=(
-            "Run the plant simulator (the stand-in for the rig: shared model + noise, 10 um\n"
+            "Run the plant simulator (the stand-in for the rig: shared model + noise, 10 µm\n"
             "encoders, current limits, stops, fixtures and unmodelled effects, per a rig profile\n"
             "or a plant YAML) and write a maglev-rig-log/1 dataset (RIG_LOG.md).\n\n"
             "Experiments: 'hover' holds (g, d) with the seed's PID regulators; 'excitation'\n"

@@ -184,7 +184,7 @@ class PlantConfig(Strict):
     measurement_noise : MeasurementNoise
         Encoder noise std [m], added before quantization.
     quantization : Quantization
-        Encoder resolution (10 um), switchable.
+        Encoder resolution (10 µm), switchable.
     current_limits : CurrentLimits
         ±8 A per axis and 8 A amplitude, switchable.
     stops : Stops
