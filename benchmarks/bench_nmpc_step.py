@@ -37,7 +37,7 @@ def _stats(a: np.ndarray) -> dict:
 def bench(
     scenarios: list[Path], backend: str = "python", horizon: int | None = None, warmup: int = 50, progress: bool = True
 ) -> dict:
-    """Run the scenarios with the NMPC and return step-time statistics [us].
+    """Run the scenarios with the NMPC and return step-time statistics [µs].
 
     Returns
     -------
@@ -93,7 +93,7 @@ def table(r: dict) -> str:
     lines = [
         f"NMPC step time, backend {r['backend']}, horizon {r['horizon']} "
         f"(1-min load average {r['load_avg_1min']:.2f} on {os.cpu_count()} cores)",
-        "median / p99 / max [us] of: the whole step (wall), its CPU time, the step Function call alone (wall)",
+        "median / p99 / max [µs] of: the whole step (wall), its CPU time, the step Function call alone (wall)",
         f"{'scenario':<22} {'steps':>6} {'step (wall)':>22} {'step (CPU)':>22} {'kernel (wall)':>22}",
     ]
 

@@ -2,16 +2,16 @@
 
 For each library effect (:data:`maglev_ocp.effects.EFFECTS`) set strong (:data:`STRONG`):
 
-1. a diagnosis dataset of that plant is generated (``maglev diagnose --generate DIR --effect NAME
+1. a diagnosis dataset of that plant is generated (``maglev diagnose generate DIR --effect NAME
    --effect-param ...``: the PID excitation, 6 runs of 10 s, plant without random mismatch);
-2. ``maglev diagnose DIR --out REPORT`` diagnoses it with default settings (calibrated baseline,
+2. ``maglev diagnose run DIR --out REPORT`` diagnoses it with default settings (calibrated baseline,
    not told the effect) and writes ``REPORT/model.yaml``;
 3. a tour of the envelope (:data:`TOUR`) is run on the same plant with FL and NMPC using
    (a) the blind nominal model (the nominal constants without cogging, no effects: what the
    diagnosis starts from), (b) the diagnosed ``model.yaml`` (``controller: {model: FILE}``) and
    (c) the true model (the plant's constants and effect as a model file);
 4. steady and tracking RMS of each, and the recovered fraction ``(a - b) / (a - c)`` of the
-   blind-to-true improvement; ``n/a`` where that improvement is below :data:`MIN_GAIN_M` (1 um).
+   blind-to-true improvement; ``n/a`` where that improvement is below :data:`MIN_GAIN_M` (1 µm).
 
 Beside them, an ablation (:data:`ABLATION`): the diagnosed effects on the nominal constants, which
 separates what the fitted law recovers from what the diagnosis's calibrated constants cost or add.
@@ -44,7 +44,8 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from maglev_ocp.cli import main as maglev  # noqa: E402
-from maglev_ocp.config import atomic_write_text, dump_yaml, load_yaml  # noqa: E402
+from maglev_ocp.config import load_yaml  # noqa: E402
+from maglev_ocp.output import atomic_write_text, dump_yaml  # noqa: E402
 from maglev_ocp.params import NOMINAL  # noqa: E402
 
 #: Strong settings of each library effect (top of the self-check's draw ranges,
@@ -123,13 +124,13 @@ def blind_model() -> dict[str, Any]:
 
 # ------------------------------------------------------------------ diagnosis
 def generate_and_diagnose(effect: str, work: Path, seed: int, reuse: bool) -> tuple[Path, Path, dict[str, Any]]:
-    """Steps 1-2: ``maglev diagnose --generate``, then ``maglev diagnose`` with default settings.
+    """Steps 1-2: ``maglev diagnose generate``, then ``maglev diagnose run`` with default settings.
 
     Returns the dataset folder, the diagnosed ``model.yaml`` and ``{"verdict", "commands"}``.
     """
     data, rep = work / effect / "dataset", work / effect / "diagnosis"
     gen = generate_command(effect, data, seed)
-    diag = ["diagnose", str(data), "--out", str(rep), "--no-figures"]
+    diag = ["diagnose", "run", str(data), "--out", str(rep), "--no-figures"]
     if not (reuse and (rep / "model.yaml").is_file()):
         for args in (gen, diag):
             if maglev(args) != 0:
@@ -144,7 +145,7 @@ def generate_and_diagnose(effect: str, work: Path, seed: int, reuse: bool) -> tu
 
 def generate_command(effect: str, data: Path, seed: int) -> list[str]:
     """``maglev`` arguments that generate the strong-``effect`` dataset into ``data``."""
-    gen = ["diagnose", "--generate", str(data), "--effect", effect, "--seed", str(seed), "--effect-param"]
+    gen = ["diagnose", "generate", str(data), "--effect", effect, "--seed", str(seed), "--effect-param"]
     return gen + [f"{kk}={v!r}" for kk, v in STRONG[effect].items()]
 
 
@@ -254,13 +255,13 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
         f"`{command}`",
         "",
         "Per effect (set strong, the other effects off, no random mismatch): a diagnosis dataset "
-        "(`maglev diagnose --generate`), a diagnosis with default settings (calibrated baseline, not told the "
+        "(`maglev diagnose generate`), a diagnosis with default settings (calibrated baseline, not told the "
         "effect), then the envelope tour (6 targets, g 15-25 mm, d +-50 mm, seed 7) on that rig with each "
         "controller on the blind nominal model, the diagnosed `model.yaml` and the true model "
-        "(`controller: {model: FILE}`). RMS in um of the position-error vector: *steady* over the settled "
+        "(`controller: {model: FILE}`). RMS in µm of the position-error vector: *steady* over the settled "
         "part of each target, *tracking* against the planned reference over each whole hold, then RMS over "
         f"the targets. *Recovered* = (blind - diagnosed) / (blind - true); n/a where blind - true < "
-        f"{MIN_GAIN_M * 1e6:g} um; **bold** below the {TARGET_FRACTION * 100:.0f} % asked for.",
+        f"{MIN_GAIN_M * 1e6:g} µm; **bold** below the {TARGET_FRACTION * 100:.0f} % asked for.",
         "",
         "| effect | verdict | ctrl | steady blind | steady diag. | steady true | recovered | "
         "tracking blind | tracking diag. | tracking true | recovered |",
@@ -284,7 +285,7 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
     short = [f"{e} {c} {kind} ({f * 100:.0f} %)" for e, c, kind, f in scored if f < TARGET_FRACTION]
     lines += [
         "",
-        f"Scored cells (improvement > {MIN_GAIN_M * 1e6:g} um): {len(scored)}; at or above "
+        f"Scored cells (improvement > {MIN_GAIN_M * 1e6:g} µm): {len(scored)}; at or above "
         f"{TARGET_FRACTION * 100:.0f} %: {len(scored) - len(short)}; below: {', '.join(short) or 'none'}.",
         "",
         "Ablation: the diagnosed effects (and cogging law) on the nominal constants "

@@ -1,6 +1,6 @@
 """Which filter and which standard error for the identification toolkit? A Monte Carlo with known truth.
 
-Data like the rig's: a 1 kHz encoder (10 um quantization) on a mass whose
+Data like the rig's: a 1 kHz encoder (10 µm quantization) on a mass whose
 acceleration is ``a = th1 u1 + th2 u2 + d + w`` over each sample period
 (zero-order hold), with band-limited random currents ``u1, u2``, white process
 noise ``w`` and a slow unmodelled disturbance ``d`` (Ornstein-Uhlenbeck, 0.3 s).

@@ -33,7 +33,7 @@ shared machine otherwise preempt either solver for milliseconds).
 
 acados options: SQP_RTI, Gauss-Newton, HPIPM. Its best configuration measured here
 is the default: FULL_CONDENSING_HPIPM, hpipm_mode SPEED, QP warm start (median
-196 us, p99 605 us in blocks of 50 steps under SCHED_FIFO, against 358 / 839 for
+196 µs, p99 605 µs in blocks of 50 steps under SCHED_FIFO, against 358 / 839 for
 PARTIAL_CONDENSING_HPIPM SPEED, 260 / 432 for FULL_CONDENSING SPEED_ABS without
 warm start, 730 / 1164 for PARTIAL_CONDENSING BALANCE).
 
@@ -89,7 +89,7 @@ def setup_acados() -> str | None:
 
 
 def summary(us: np.ndarray) -> dict[str, float]:
-    """Median, p99 and max of a timing series [us]."""
+    """Median, p99 and max of a timing series [µs]."""
     us = np.asarray(us, dtype=float)
     return {
         "median_us": float(np.median(us)),
@@ -106,9 +106,9 @@ class PeerResult:
     Attributes
     ----------
     ours, ours_cpu : dict
-        Our compiled step (observer + planner + RTI + ADMM QP + shift): wall clock and thread CPU time [us].
+        Our compiled step (observer + planner + RTI + ADMM QP + shift): wall clock and thread CPU time [µs].
     acados_wall, acados_cpu, acados_internal : dict
-        acados ``solve()``: wall clock and thread CPU time around the call, and its own ``time_tot`` [us].
+        acados ``solve()``: wall clock and thread CPU time around the call, and its own ``time_tot`` [µs].
     ratio_median, ratio_p99 : float
         Ours divided by acados (wall).
     u_diff_A : dict
@@ -144,7 +144,7 @@ class PeerResult:
             f"acados {s['qp_solver']} ({s['hpipm_mode']}), ours {s['admm_iterations']} ADMM iterations "
             f"({s['cflags']}), load average {s['loadavg']}, "
             f"{'SCHED_FIFO' if s.get('realtime') else 'normal priority'}",
-            f"{'':<26} {'median [us]':>12} {'p99 [us]':>10} {'max [us]':>10}",
+            f"{'':<26} {'median [µs]':>12} {'p99 [µs]':>10} {'max [µs]':>10}",
         ]
         for name, d in rows:
             lines.append(f"{name:<26} {d['median_us']:12.1f} {d['p99_us']:10.1f} {d['max_us']:10.1f}")
@@ -159,7 +159,7 @@ class PeerResult:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write the result as JSON (atomically)."""
-        from maglev_ocp.config import atomic_write_text
+        from maglev_ocp.output import atomic_write_text
 
         atomic_write_text(path, json.dumps(asdict(self), indent=2) + "\n")
         return Path(path)
@@ -325,7 +325,7 @@ def replay_interleaved(
     perf, cpu = time.perf_counter, time.thread_time
 
     def timed(call, i: int, wall: str, cpu_key: str) -> None:
-        """``call()``, its wall and thread CPU time [us] into ``out[wall][i]``, ``out[cpu_key][i]``."""
+        """``call()``, its wall and thread CPU time [µs] into ``out[wall][i]``, ``out[cpu_key][i]``."""
         c0 = cpu()
         t0 = perf()
         call()

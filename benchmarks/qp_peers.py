@@ -110,7 +110,7 @@ def qps_of(data: dict, settings: NMPCSettings) -> list[QPData]:
 
 
 def timed(fn, items, realtime: bool) -> tuple[np.ndarray, list]:
-    """Call ``fn`` on each item (in order) under SCHED_FIFO; wall times [us] and results."""
+    """Call ``fn`` on each item (in order) under SCHED_FIFO; wall times [µs] and results."""
     t = np.zeros(len(items))
     res = []
     perf = time.perf_counter
@@ -213,7 +213,7 @@ def ours_variants(settings: NMPCSettings, data: dict, realtime: bool) -> dict[st
 
 
 def row(name: str, what: str, t: np.ndarray | None, du: np.ndarray | None) -> dict:
-    """One table row: timing percentiles [us] and accuracy [A]."""
+    """One table row: timing percentiles [µs] and accuracy [A]."""
     r = {"solver": name, "timed": what}
     if t is not None:
         r["time_us"] = pct(t, True)
@@ -225,7 +225,7 @@ def row(name: str, what: str, t: np.ndarray | None, du: np.ndarray | None) -> di
 def table(rows: list[dict]) -> str:
     """Markdown table of the rows."""
     lines = [
-        "| solver | timed | median [us] | p99 | p99.9 | max | \\|u-u*\\| median [A] | p99 | max |",
+        "| solver | timed | median [µs] | p99 | p99.9 | max | \\|u-u*\\| median [A] | p99 | max |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:

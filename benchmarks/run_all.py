@@ -36,7 +36,7 @@ from maglev_ocp.codegen.bench import run_bench  # noqa: E402
 
 def _controllers(progress: bool) -> dict[str, Any]:
     res = run_bench(progress=progress)
-    print("== maglev bench: one step per controller and backend [us]")
+    print("== maglev bench: one step per controller and backend [µs]")
     print(res.table())
     return res.to_dict()
 

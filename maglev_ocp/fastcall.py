@@ -1,8 +1,8 @@
 """Fast numeric evaluation of CasADi Functions in a 1 kHz Python loop.
 
-Calling a ``casadi.Function`` with numpy arrays costs ~100-200 us of argument
+Calling a ``casadi.Function`` with numpy arrays costs ~100-200 µs of argument
 conversion; evaluating through its buffer API on preallocated arrays costs
-~10-20 us. Every per-sample loop (plant, observers, controllers) uses this.
+~10-20 µs. Every per-sample loop (plant, observers, controllers) uses this.
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ Regenerates ``results/``:
 
 Scenarios run in ``--jobs`` worker processes (default 2); each folder is
 written into a temporary sibling and swapped in whole
-(:func:`maglev_ocp.config.replace_dir`), so a failing or interrupted task never
+(:func:`maglev_ocp.output.replace_dir`), so a failing or interrupted task never
 leaves a folder that mixes two runs, and never loses the others. Exit code 0 if
 every headline scenario passes its tolerance checks, 1 if one fails, 2 on bad
 input (checked before any work), 130 on an interrupt (SIGINT).
@@ -40,7 +40,9 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-from .config import atomic_write_text, replace_dir, sigint_ignored
+from .interrupts import sigint_ignored
+from .markdown import md_table
+from .output import atomic_write_text, replace_dir
 
 SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
 
@@ -178,25 +180,30 @@ def write_model_table(out: Path) -> str:
     return text
 
 
+class _SimulationFailedError(Exception):
+    """``maglev simulate`` returned a non-zero code inside :func:`write_simulation` (the old folder stays)."""
+
+
 def write_simulation(out: Path) -> int:
-    """A 2 s plant simulation: the seed's excitation experiment (PID regulators), via ``maglev simulate``."""
+    """A 2 s plant simulation: the seed's excitation experiment (PID regulators), via ``maglev simulate``.
+
+    ``out/simulate`` is regenerated whole (same seed, same bytes): the simulation writes into a fresh
+    folder swapped in on success (``simulate`` itself never appends without ``--append``).
+    """
     from .cli import main as cli_main
 
-    code = cli_main(
-        [
-            "simulate",
-            "--experiment",
-            "excitation",
-            "--duration",
-            "2",
-            "--seed",
-            "1",
-            "--out",
-            str(out / "simulate"),
-            "--plot",
-            "--no-progress",
-        ]
-    )
+    try:
+        with replace_dir(out / "simulate") as tmp:
+            code = cli_main(
+                [
+                    *("simulate", "--experiment", "excitation", "--duration", "2", "--seed", "1"),
+                    *("--out", str(tmp), "--plot", "--quiet"),
+                ]
+            )
+            if code != 0:
+                raise _SimulationFailedError(code)
+    except _SimulationFailedError as failed:
+        code = failed.args[0]
     if code == 130:  # interrupted (the CLI said so): stop the job too
         raise KeyboardInterrupt
     return code
@@ -221,25 +228,28 @@ def summary_markdown(
         "Step time: the controller's "
         "Python computation on this machine (shared, 2 cores), median / p99.",
         "",
-        "| scenario | ctrl | settled | max settle [s] | max RMS g [µm] | max RMS d [µm] | stops | "
-        "solver fail / fallback | max \\|i\\| [A] | step median / p99 [µs] | result |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
+    head = ["scenario", "ctrl", "settled", "max settle [s]", "max RMS g [µm]", "max RMS d [µm]", "stops"]
+    head += ["solver fail / fallback", "max |i| [A]", "step median / p99 [µs]", "result"]
+    body = []
     for name in results:
         r = results[name]
         if not r.get("ok"):
-            lines.append(f"| [{name}]({name}/) | | | | | | | | | | ERROR: {r.get('error', '')} |")
+            body.append([f"[{name}]({name}/)", *[""] * 9, f"ERROR: {r.get('error', '')}"])
             continue
         m = r["metrics"]
         n_ok = sum(bool(t["settled"]) for t in m["targets"])
         st = m["step_time_us"]
         tm = "–" if st["median"] is None else f"{st['median']:.0f} / {st['p99']:.0f}"
-        lines.append(
-            f"| [{name}]({name}/positions.png) | {m['controller']} | {n_ok}/{len(m['targets'])} | "
-            f"{_fmt(m['max_settle_time_s'])} | {_fmt(m['max_rms_error_g_m'], 1e6, 2)} | "
-            f"{_fmt(m['max_rms_error_d_m'], 1e6, 2)} | {m['stop_hits']} | {m['solver_failures']} / "
-            f"{m['fallbacks']} | {m['max_current_A']:.2f} | {tm} | {'PASS' if m['passed'] else 'FAIL'} |"
+        body.append(
+            [
+                *(f"[{name}]({name}/positions.png)", m["controller"], f"{n_ok}/{len(m['targets'])}"),
+                *(_fmt(m["max_settle_time_s"]), _fmt(m["max_rms_error_g_m"], 1e6, 2)),
+                *(_fmt(m["max_rms_error_d_m"], 1e6, 2), m["stop_hits"], f"{m['solver_failures']} / {m['fallbacks']}"),
+                *(f"{m['max_current_A']:.2f}", tm, "PASS" if m["passed"] else "FAIL"),
+            ]
         )
+    lines.append(md_table(head, body))
     # Traverse against the minimum-time bound.
     lines += [
         "",
@@ -248,10 +258,8 @@ def summary_markdown(
         "Settle time of each direction of the traverse (d = −50 → +50 → −50 mm) and the minimum time "
         "of the same move from the optimal-control problem on the shared model (`min_time/`).",
         "",
-        "| gap [mm] | minimum time [s] | NMPC settle [s] | NMPC / bound | FL settle [s] | FL / bound |",
-        "|---|---|---|---|---|---|",
     ]
-    tmin = {}
+    tmin, body = {}, []
     if bounds and bounds.get("ok"):
         tmin = {round(r["g_mm"]): r["T_min_s"] for r in bounds["rows"] if r["success"]}
     for g in TRAVERSE_GAPS:
@@ -262,7 +270,9 @@ def summary_markdown(
             worst = None if not ts or any(v is None for v in ts) else max(ts)
             cells.append(" / ".join(_fmt(v) for v in ts) if ts else "–")
             cells.append("–" if worst is None or g not in tmin else f"{worst / tmin[g]:.2f}")
-        lines.append("| " + " | ".join(cells) + " |")
+        body.append(cells)
+    head = ["gap [mm]", "minimum time [s]", "NMPC settle [s]", "NMPC / bound", "FL settle [s]", "FL / bound"]
+    lines.append(md_table(head, body))
     if bounds and not bounds.get("ok"):
         lines.append(f"\nminimum-time bound failed: {bounds.get('error')}")
     # Cogging-aware against cogging-blind.
@@ -273,10 +283,8 @@ def summary_markdown(
         "Steady-state RMS over the settled part once the plan has arrived, and tracking RMS against the "
         "planned reference over the whole hold (moves included), true state.",
         "",
-        "| controller | model | mean RMS g [µm] | mean RMS d [µm] | max RMS g [µm] | max RMS d [µm] | "
-        "tracking RMS g [µm] | tracking RMS d [µm] |",
-        "|---|---|---|---|---|---|---|---|",
     ]
+    body = []
     for c in ("nmpc", "fl"):
         for mdl in ("aware", "blind"):
             r = results.get(f"cogging_{mdl}_{c}", {})
@@ -290,11 +298,15 @@ def summary_markdown(
                 mean([t.get(f"rms_tracking_error_{a}_m") for t in tg if t.get(f"rms_tracking_error_{a}_m") is not None])
                 for a in ("g", "d")
             ]
-            lines.append(
-                f"| {c} | cogging-{mdl} | {_fmt(mean(rg), 1e6, 2)} | {_fmt(mean(rd), 1e6, 2)} | "
-                f"{_fmt(max(rg) if rg else None, 1e6, 2)} | {_fmt(max(rd) if rd else None, 1e6, 2)} | "
-                f"{_fmt(trk[0], 1e6, 2)} | {_fmt(trk[1], 1e6, 2)} |"
+            body.append(
+                [
+                    *(c, f"cogging-{mdl}", _fmt(mean(rg), 1e6, 2), _fmt(mean(rd), 1e6, 2)),
+                    *(_fmt(max(rg) if rg else None, 1e6, 2), _fmt(max(rd) if rd else None, 1e6, 2)),
+                    *(_fmt(trk[0], 1e6, 2), _fmt(trk[1], 1e6, 2)),
+                ]
             )
+    head = ["controller", "model", "mean RMS g [µm]", "mean RMS d [µm]", "max RMS g [µm]", "max RMS d [µm]"]
+    lines.append(md_table([*head, "tracking RMS g [µm]", "tracking RMS d [µm]"], body))
     dist_rows = [row for r in results.values() if r.get("ok") for row in r.get("disturbances", [])]
     if dist_rows:
         from .metrics import disturbance_table
@@ -373,8 +385,8 @@ def _main(argv: list[str] | None) -> int:
     a = ap.parse_args(argv)
     from tqdm.auto import tqdm
 
-    from .config import check_output_dir
     from .errors import UserError
+    from .output import check_output_dir
     from .scenario import load_scenario
 
     t0 = time.perf_counter()

@@ -12,7 +12,7 @@ Per target (the target is active from its switch time for its ``hold``):
     reference has arrived (from the later of the settle instant and the end of
     the planned move; the whole settled part if the plan has not arrived
     within the hold). A minimum-time move enters the 0.1 mm band 1-3 ms before
-    its plan ends, and the plan's own approach inside the band (about 3.5 um
+    its plan ends, and the plan's own approach inside the band (about 3.5 µm
     RMS over a 0.3 s hold after a 50 m/s^2 braking, with a perfect tracker) is
     tracking, not steady-state error. ``*_enc_m`` the same on the encoder
     readings (what the rig would report).
@@ -139,8 +139,8 @@ class Metrics:
     def table(self) -> str:
         """Text view: one row per target, then the overall figures."""
         head = (
-            f"{'#':>3} {'g [mm]':>7} {'d [mm]':>8} {'settled':>7} {'t_s [s]':>8} {'rms g [um]':>10} "
-            f"{'rms d [um]':>10} {'enc g [um]':>10} {'enc d [um]':>10} {'max |i| [A]':>11}"
+            f"{'#':>3} {'g [mm]':>7} {'d [mm]':>8} {'settled':>7} {'t_s [s]':>8} {'rms g [µm]':>10} "
+            f"{'rms d [µm]':>10} {'enc g [µm]':>10} {'enc d [µm]':>10} {'max |i| [A]':>11}"
         )
         lines = [f"scenario {self.scenario} (controller {self.controller}, seed {self.seed})", head, "-" * len(head)]
 
@@ -309,7 +309,7 @@ def compute_metrics(
     stats : dict of str to ndarray
         Logged controller statistics (``solver_failure``, ``status``, ``fallback``, ``unreachable``, ...).
     step_time_us : ndarray
-        Controller computation time per step [us].
+        Controller computation time per step [µs].
     stop_events : list
         The plant's stop events.
     error : str, optional
@@ -422,7 +422,7 @@ def failed_checks(m: Metrics, checks: Any) -> list[str]:
         lim = checks.max_rms_error_m
         big = [str(t.index) for t in m.targets if (t.rms_error_g_m or 0) > lim or (t.rms_error_d_m or 0) > lim]
         if big:
-            out.append(f"steady-state RMS error above {lim * 1e6:g} um: targets {', '.join(big)}")
+            out.append(f"steady-state RMS error above {lim * 1e6:g} µm: targets {', '.join(big)}")
     return out
 
 
@@ -629,13 +629,13 @@ _DIST_COLS: tuple[tuple[str, str, str, Callable[[Any, dict[str, Any]], str]], ..
     ("ctrl", "controller", ">5", _text),
     ("disturbance", "kind", ">12", _text),
     ("t0 [s]", "t_start", ">7", _fixed(".3f")),
-    ("peak g [um]", "peak_error_g_m", ">11", _um),
-    ("peak d [um]", "peak_error_d_m", ">11", _um),
+    ("peak g [µm]", "peak_error_g_m", ">11", _um),
+    ("peak d [µm]", "peak_error_d_m", ">11", _um),
     ("back in tol [ms]", "recovery_time_s", ">16", _recovery_ms),
     ("stops", "stop_hits", ">5", _text),
     ("max|i| [A]", "max_current_A", ">10", _fixed(".2f")),
     ("at limit [ms]", "time_at_limit_s", ">13", _ms),
-    ("rms after [um]", "rms_error_after_m", ">14", _um),
+    ("rms after [µm]", "rms_error_after_m", ">14", _um),
     ("settled", "settled", ">8", _text),
 )
 
@@ -648,9 +648,11 @@ def disturbance_table(rows: list[dict[str, Any]], markdown: bool = False) -> str
     """
     rows = sorted(rows, key=lambda r: (r["scenario"], r["index"]))
     if markdown:
-        lines = ["| " + " | ".join(h for h, _, _, _ in _DIST_COLS) + " |", "|" + "---|" * len(_DIST_COLS)]
-        lines += ["| " + " | ".join(cell(r[key], r) for _, key, _, cell in _DIST_COLS) + " |" for r in rows]
-        return "\n".join(lines)
+        from .markdown import md_table
+
+        return md_table(
+            [h for h, _, _, _ in _DIST_COLS], ([cell(r[key], r) for _, key, _, cell in _DIST_COLS] for r in rows)
+        )
     head = " ".join(f"{h:{fmt}}" for h, _, fmt, _ in _DIST_COLS)
     lines = [head, "-" * len(head)]
     lines += [" ".join(f"{cell(r[key], r):{fmt}}" for _, key, fmt, cell in _DIST_COLS) for r in rows]

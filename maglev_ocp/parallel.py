@@ -19,8 +19,8 @@ from typing import Any, TypeVar
 
 from tqdm import tqdm
 
-from .config import sigint_ignored
 from .errors import UserError
+from .interrupts import sigint_ignored
 
 T = TypeVar("T")
 R = TypeVar("R")

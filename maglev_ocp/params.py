@@ -8,13 +8,18 @@ given a calibrated one.
 from __future__ import annotations
 
 import os
+import warnings
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
+import yaml
 from pydantic import Field
 
 from . import constants as k
-from .config import Strict, dump_yaml, load_model
+from .config import Strict, load_yaml, parse_model
+from .errors import ConfigError
+from .output import atomic_write_text, dump_yaml, plain_data
 from .signals import PARAM_NAMES
 
 
@@ -79,6 +84,12 @@ class ParamsFile(Strict):
     """
 
     format: str = Field("maglev-params/1", pattern=r"^maglev-params/1$")
+    trusted: bool = Field(
+        True,
+        description="false: the writer could not vouch for these constants (e.g. maglev calibrate --force on data "
+        "that do not identify them); every loader warns",
+    )
+    untrusted_because: list[str] = Field(default_factory=list, description="why the file is marked untrusted")
     C1: float = Field(Params.C1, gt=0, lt=1e4)
     C2: float = Field(Params.C2, gt=0, lt=1e5)
     C3: float = Field(Params.C3, gt=0, lt=1e4)
@@ -106,10 +117,98 @@ class ParamOverrides(Strict):
         return replace(base, **{k_: v for k_, v in self.model_dump().items() if v is not None})
 
 
+class UntrustedModelWarning(UserWarning):
+    """A parameter or model file its writer marked ``trusted: false`` was loaded."""
+
+
+def warn_if_untrusted(f: ParamsFile, source: str | os.PathLike) -> None:
+    """Warn (:class:`UntrustedModelWarning`, one line) when a loaded file is marked ``trusted: false``."""
+    if not f.trusted:
+        why = "; ".join(f.untrusted_because) or "no reason given"
+        warnings.warn(
+            f"{source}: marked untrusted by its writer ({why}); results with it cannot be relied on",
+            UntrustedModelWarning,
+            stacklevel=3,
+        )
+
+
 def load_params(path: str | os.PathLike) -> Params:
-    """Load a parameter YAML file (one-line ConfigError on any problem)."""
-    f = load_model(ParamsFile, path)
+    """Load a parameter YAML file (one-line ConfigError on any problem; a warning if it is marked untrusted).
+
+    A model file with fitted effects is refused here with what to write instead
+    (``controller: {model: FILE}``): a parameter file carries constants only.
+    """
+    data = load_yaml(path)
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a mapping at the top level, got {type(data).__name__}")
+    if data.get("effects"):
+        raise ConfigError(
+            f"{path}: effects: a model file with fitted effects, not a parameter file; a controller loads it with "
+            f"controller: {{model: {os.path.basename(path)}}} (relative to the scenario file's folder)"
+        )
+    data.pop("effects", None)
+    f = parse_model(ParamsFile, data, str(path))
+    warn_if_untrusted(f, path)
     return Params(**{fld.name: getattr(f, fld.name) for fld in fields(Params)})
+
+
+def model_file_instruction(name: str) -> str:
+    """The one sentence every writer of a model file (file header, reports, command output) prints.
+
+    Parameters
+    ----------
+    name : str
+        The model file's name or path as the user should write it.
+    """
+    return (
+        f"Use it in a scenario with `controller: {{model: {name}}}` (FL, NMPC and PID; a relative path is read "
+        f"from the scenario file's folder)"
+    )
+
+
+def model_file_text(
+    params: Params,
+    effects: dict | None = None,
+    *,
+    written_by: str,
+    trusted: bool = True,
+    untrusted_because: Sequence[str] = (),
+    name: str = "model.yaml",
+    extra: dict | None = None,
+) -> str:
+    """Text of a model file: a header with :func:`model_file_instruction`, the constants, the effects.
+
+    Parameters
+    ----------
+    params : Params
+        The model constants.
+    effects : dict, optional
+        Fitted effects in the plant profiles' format (``{name: {enabled: true, ...}}``).
+    written_by : str
+        What wrote it (e.g. ``"maglev calibrate"``), for the header.
+    trusted, untrusted_because
+        ``trusted: false`` and the reasons when the writer cannot vouch for the constants.
+    name : str
+        File name the header's instruction shows.
+    extra : dict, optional
+        Further top-level keys (e.g. a plant file's).
+    """
+    head = [f"# Model file written by {written_by}: constants (maglev-params/1) and fitted effects."]
+    head.append(f"# {model_file_instruction(name)}.")
+    if not trusted:
+        head.append("# UNTRUSTED: " + "; ".join(untrusted_because))
+    data: dict = {"format": "maglev-params/1", "trusted": bool(trusted)}
+    if not trusted:
+        data["untrusted_because"] = list(untrusted_because)
+    data.update(params.as_dict())
+    data["effects"] = plain_data(effects or {})
+    data.update(plain_data(extra or {}))
+    return "\n".join(head) + "\n" + yaml.safe_dump(data, sort_keys=False)
+
+
+def write_model_file(path: str | os.PathLike, params: Params, **kw) -> None:
+    """Atomically write :func:`model_file_text` to ``path`` (keywords as there)."""
+    atomic_write_text(path, model_file_text(params, name=os.path.basename(path), **kw))
 
 
 NOMINAL = Params()

@@ -1,7 +1,7 @@
 """Figures of a closed-loop run: positions with the 0.1 mm band, currents with limits, solver time.
 
 All figures use the Agg backend and are written atomically
-(:func:`maglev_ocp.config.atomic_write_bytes`); labels carry units.
+(:func:`maglev_ocp.output.atomic_write_bytes`); labels carry units.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from . import constants as k
-from .config import atomic_write_bytes
+from .output import atomic_write_bytes
 
 
 def _target_track(t: np.ndarray, plan: Any) -> np.ndarray:
@@ -40,7 +40,7 @@ def plot_positions(
     """Positions (true, encoder, reference, target) and the errors with the tolerance band.
 
     Top row: ``g`` and ``d`` [mm] with the planned reference and the target;
-    bottom row: the true error to the active target [um] with the ``±tolerance``
+    bottom row: the true error to the active target [µm] with the ``±tolerance``
     band shaded (the 0.1 mm band, visible at this scale).
     """
     t = cols["t"]
@@ -68,7 +68,7 @@ def plot_positions(
         e.plot(t, err, color="tab:blue", lw=0.8, label="true - target")
         e.axhspan(-tolerance * 1e6, tolerance * 1e6, color="tab:green", alpha=0.2, label="tolerance band")
         e.set_ylim(-3 * tolerance * 1e6, 3 * tolerance * 1e6)
-        e.set_ylabel(f"{name} error [um]")
+        e.set_ylabel(f"{name} error [µm]")
         e.set_xlabel("t [s]")
         e.grid(True, alpha=0.3)
         e.legend(loc="best", fontsize=8)
@@ -108,12 +108,12 @@ def plot_currents(
 def plot_solver_time(
     path: str | os.PathLike, t: np.ndarray, step_time_us: np.ndarray, title: str = "", period_us: float = k.Ts * 1e6
 ) -> None:
-    """Controller computation time per step [us] over time and its histogram, with the 1 ms period."""
+    """Controller computation time per step [µs] over time and its histogram, with the 1 ms period."""
     fig, ax = plt.subplots(1, 2, figsize=(12, 4), gridspec_kw={"width_ratios": [3, 1]})
     ax[0].plot(t, step_time_us, lw=0.6)
     ax[0].axhline(period_us, color="tab:red", ls="--", lw=0.8, label="control period")
     ax[0].set_xlabel("t [s]")
-    ax[0].set_ylabel("step time [us]")
+    ax[0].set_ylabel("step time [µs]")
     ax[0].set_yscale("log")
     ax[0].grid(True, alpha=0.3, which="both")
     ax[0].legend(loc="best", fontsize=8)
@@ -129,7 +129,7 @@ def plot_solver_time(
             ax[1].axhline(np.percentile(finite, q), color="k", ls=ls, lw=0.8, label=f"p{q}")
     ax[1].set_yscale("log")
     ax[1].set_xlabel("steps [-]")
-    ax[1].set_ylabel("step time [us]")
+    ax[1].set_ylabel("step time [µs]")
     ax[1].legend(loc="best", fontsize=8)
     _finish(fig, path, title or "controller computation time (Python, this machine)")
 

@@ -26,6 +26,7 @@ import csv
 import io
 import math
 import os
+import re
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,8 +36,9 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from . import constants as k
-from .config import Strict, atomic_write_text, dump_yaml, load_yaml, parse_model, plain_data
+from .config import Strict, load_yaml, parse_model
 from .errors import ConfigError, DataError
+from .output import atomic_write_text, dump_yaml, plain_data
 
 FORMAT = "maglev-rig-log/1"
 REQUIRED_COLUMNS: tuple[str, ...] = ("t", "g", "d", "i_q", "i_d")
@@ -47,6 +49,19 @@ SAMPLE_TIME_TOLERANCE = 1e-2
 MAX_COLUMNS: int = 4096
 #: Longest cell (and column name) of a run's CSV, in characters (a float's ``repr`` needs at most 24).
 MAX_CELL_CHARS: int = 1024
+#: Physical range of each required column (SI units), from the stage's stops and its amplifier
+#: (:mod:`maglev_ocp.constants`): the gap between 0 and twice its upper stop, d within twice its stops, a
+#: commanded current within ten times the amplifier's limit. A gap or position logged in millimetres
+#: (20 for 0.020 m) or a current of 1e308 A falls outside and is refused.
+PHYSICAL_RANGES: dict[str, tuple[float, float, str]] = {
+    "g": (0.0, 2.0 * k.g_stop[1], "m"),
+    "d": (2.0 * k.d_stop[0], 2.0 * k.d_stop[1], "m"),
+    "i_q": (-10.0 * k.i_amp_max, 10.0 * k.i_amp_max, "A"),
+    "i_d": (-10.0 * k.i_amp_max, 10.0 * k.i_amp_max, "A"),
+}
+#: A plain decimal number (what RIG_LOG.md's numeric cells are): no ``_`` digit separators, no words.
+_PLAIN_NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
+_PLAIN_CHARS = frozenset("0123456789+-.eE")
 
 
 def _fmt(v: Any) -> str:
@@ -581,7 +596,41 @@ def _column(path: Path, name: str, raw: np.ndarray) -> np.ndarray:
         if bad.size:
             r = int(bad[0])
             raise DataError(f"{path}: row {r + 1} (line {r + 2}), column {name!r}: non-finite value {raw[r]!r}")
+        _check_plain(path, name, raw)
+        _check_range(path, name, vals)
     return vals
+
+
+def is_plain_number(cell: str) -> bool:
+    """``cell`` (stripped) is a plain decimal number: ``-0.004``, ``4e-3``; not ``0.00_4``, ``٣`` or ``inf``."""
+    return _PLAIN_NUMBER.fullmatch(cell.strip()) is not None
+
+
+def _check_plain(path: Path, name: str, raw: np.ndarray) -> None:
+    """Every cell a plain decimal number (Python's float() also takes ``0.00_4`` and other digit forms)."""
+    if set("".join(raw.tolist())) <= _PLAIN_CHARS and not any("_" in c for c in raw.tolist()):
+        return  # fast path: only digits, signs, points and exponents (their arrangement float() has checked)
+    for r, cell in enumerate(raw.tolist()):
+        if not is_plain_number(cell):
+            raise DataError(
+                f"{path}: row {r + 1} (line {r + 2}), column {name!r}: {cell!r} is not a plain number "
+                "(digits, '.', an optional exponent; no '_' or other characters)"
+            )
+
+
+def _check_range(path: Path, name: str, vals: np.ndarray) -> None:
+    """Values within :data:`PHYSICAL_RANGES` (one line naming the row, the column, the range and the units)."""
+    if name not in PHYSICAL_RANGES:
+        return
+    lo, hi, unit = PHYSICAL_RANGES[name]
+    bad = np.flatnonzero((vals < lo) | (vals > hi))
+    if bad.size:
+        r = int(bad[0])
+        hint = " (SI units: metres, not millimetres)" if unit == "m" else ""
+        raise DataError(
+            f"{path}: row {r + 1} (line {r + 2}), column {name!r}: {vals[r]:g} {unit} is outside the physical "
+            f"range {lo:g}..{hi:g} {unit}{hint}"
+        )
 
 
 def _check_time(path: Path, t: np.ndarray, sample_time: float) -> None:
@@ -628,9 +677,11 @@ __all__ = [
     "FORMAT",
     "MAX_CELL_CHARS",
     "MAX_COLUMNS",
+    "PHYSICAL_RANGES",
     "REQUIRED_COLUMNS",
     "Dataset",
     "RunLog",
+    "is_plain_number",
     "merge_datasets",
     "read_dataset",
     "read_header",

@@ -57,10 +57,10 @@ import numpy as np
 
 from . import constants as k
 from .blocks import Controller, Reference
-from .config import atomic_write_text, dump_yaml
 from .errors import UserError
 from .loop import TIMING_SUFFIX, ClosedLoop, TraceRecorder
 from .metrics import Metrics, compute_metrics
+from .output import atomic_write_text, dump_yaml
 from .plant import Plant
 from .reference import ReferencePlan, plan_targets
 from .riglog import RunLog
@@ -153,7 +153,7 @@ class RunResult:
     columns : dict of str to ndarray
         The log, column by column (see the module docstring).
     step_time_us : ndarray
-        Controller computation time per step [us].
+        Controller computation time per step [µs].
     plan : ReferencePlan
         The reference plan of the run.
     metrics : Metrics
@@ -441,8 +441,8 @@ def summary_table(results: list[tuple[str, RunResult | None, str | None]]) -> st
         ``None`` result with an error message: the scenario failed to run.
     """
     head = (
-        f"{'scenario':<28} {'ctrl':>5} {'settled':>8} {'max t_s [s]':>11} {'rms g [um]':>10} "
-        f"{'rms d [um]':>10} {'stops':>5} {'fail/fb':>7} {'max|i| [A]':>10} {'med/p99 [us]':>13} {'result':>6}"
+        f"{'scenario':<28} {'ctrl':>5} {'settled':>8} {'max t_s [s]':>11} {'rms g [µm]':>10} "
+        f"{'rms d [µm]':>10} {'stops':>5} {'fail/fb':>7} {'max|i| [A]':>10} {'med/p99 [µs]':>13} {'result':>6}"
     )
     lines = [head, "-" * len(head)]
     for name, res, err in results:

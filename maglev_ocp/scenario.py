@@ -24,12 +24,15 @@ Every key (SI units):
     (``maglev_ocp.controllers.nmpc.NMPCSettings``, ``maglev_ocp.controllers.fl.FLSettings``,
     ``maglev_ocp.controllers.pid.PIDSettings``); e.g. ``delay_samples`` (the loop's
     computation delay the controller predicts through, FL and NMPC) and, for
-    FL and NMPC, ``model`` (a model file with constants and effects, e.g. the
-    ``model.yaml`` of ``maglev diagnose``, :mod:`maglev_ocp.controllers.model_file`; a
-    path from the working directory).
+    every controller, ``model``: the one way from a result to a controller, a
+    model file with constants and fitted effects (the ``model.yaml`` that
+    ``maglev calibrate`` and ``maglev diagnose`` write,
+    :mod:`maglev_ocp.controllers.model_file`); a relative path is read from
+    the scenario file's folder, like every file a scenario names.
 ``controller_params``
-    What the controller's model believes: ``file`` (a parameter YAML), single
-    entries (``C1: 14.5``), and ``cogging: false`` for a cogging-blind model.
+    Single entries replacing the controller's constants (``C1: 14.5``) and
+    ``cogging: false`` for a cogging-blind model; ``file`` (a parameter YAML,
+    deprecated: write ``controller: {model: FILE}``).
 ``plant``
     ``profile`` (``default``, ``ideal``), ``file`` (a plant YAML), ``params``
     (the rig's nominal parameters, before the profile's random mismatch), and any
@@ -59,6 +62,7 @@ import importlib
 import json
 import math
 import os
+import warnings
 from pathlib import Path
 from typing import Any, Literal
 
@@ -303,7 +307,7 @@ class StartSpec(Strict):
         description="time the mover hovers at the start before the first target's move begins [s], as a rig "
         "lifts off and settles before it moves: the controllers' observers and disturbance estimates start from "
         "the first reading, and a minimum-time move begun at that instant carries their start-up transient into "
-        "the target (random_nmpc's first gap move: 10.8 um steady RMS at 0 s, 3.6 um at 0.06 s); 0: the first "
+        "the target (random_nmpc's first gap move: 10.8 µm steady RMS at 0 s, 3.6 µm at 0.06 s); 0: the first "
         "move starts at t = 0",
     )
 
@@ -637,6 +641,7 @@ def scenario_from_dict(data: Any, source: str = "scenario", root_dir: str | os.P
     """Validate a scenario mapping (one-line ConfigError naming ``source`` and the key)."""
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: expected a mapping at the top level, got {type(data).__name__}")
+    data = _model_path_from(data, root_dir)
     try:
         sc = parse_model(Scenario, data, source)
     except ConfigError:
@@ -651,6 +656,31 @@ def scenario_from_dict(data: Any, source: str = "scenario", root_dir: str | os.P
         msg = str(err)
         raise ConfigError(msg if msg.startswith(source) else f"{source}: {msg}") from None
     return sc
+
+
+def _model_path_from(data: dict, root_dir: str | os.PathLike) -> dict:
+    """``controller.model`` read from the scenario file's folder (``root_dir``) when relative, like every file
+    a scenario names; ``controller_params.file`` with ``controller.model`` is refused (two sources of constants),
+    and ``controller_params.file`` alone still works with a one-line deprecation warning."""
+    ctrl = data.get("controller")
+    cp = data.get("controller_params")
+    old = cp.get("file") if isinstance(cp, dict) else None
+    model = ctrl.get("model") if isinstance(ctrl, dict) else None
+    if old is not None and model is not None:
+        raise ConfigError(
+            "controller_params.file: give the controller's constants once, in controller: {model: FILE} "
+            "(drop controller_params.file)"
+        )
+    if old is not None:
+        warnings.warn(
+            f"controller_params.file is deprecated: write controller: {{model: {old}}} (same file, read from the "
+            "scenario file's folder)",
+            FutureWarning,
+            stacklevel=3,
+        )
+    if isinstance(model, str) and model.strip() and not Path(model).is_absolute():
+        data = {**data, "controller": {**ctrl, "model": str(Path(root_dir) / model)}}
+    return data
 
 
 def load_scenario(path: str | os.PathLike) -> Scenario:

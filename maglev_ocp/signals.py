@@ -44,8 +44,8 @@ INPUTS: tuple[Signal, ...] = (
     Signal("i_d", "A", "direct current (normal force)"),
 )
 MEASUREMENTS: tuple[Signal, ...] = (
-    Signal("g", "m", "air gap as read by its 10 um encoder"),
-    Signal("d", "m", "horizontal position as read by its 10 um encoder"),
+    Signal("g", "m", "air gap as read by its 10 µm encoder"),
+    Signal("d", "m", "horizontal position as read by its 10 µm encoder"),
 )
 PARAMETERS: tuple[Signal, ...] = (
     Signal("C1", "m/s^2/A", "lumped thrust constant"),

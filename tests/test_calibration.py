@@ -110,7 +110,7 @@ def test_cogging_peak_force_falls_with_the_gap(small):
 def test_outputs_are_written_and_readable(small, tmp_path):
     _, _, res = small
     written = res.save(tmp_path / "cal")
-    p = load_params(tmp_path / "cal" / "params.yaml")
+    p = load_params(tmp_path / "cal" / "model.yaml")
     for n in NAMES:
         assert getattr(p, n) == pytest.approx(getattr(res.params, n), rel=1e-12)
     data = json.loads((tmp_path / "cal" / "calibration.json").read_text())
@@ -149,7 +149,7 @@ def test_cli_calibrate_and_its_errors(small, tmp_path, capsys):
     )
     out = capsys.readouterr().out
     assert "| C1 |" in out and "calibration took" in out
-    assert (tmp_path / "o" / "params.yaml").is_file()
+    assert (tmp_path / "o" / "model.yaml").is_file()
     assert main(["calibrate", str(tmp_path / "nope"), "--out", str(tmp_path / "x")]) == 2
     assert "no such folder" in capsys.readouterr().err
     assert main(["calibrate", str(folder), "--out", str(tmp_path / "x"), "--eps", "0.05"]) == 2
@@ -198,6 +198,7 @@ def test_acceptance_full_seed_calibration_with_random_constants(tmp_path):
         assert abs(getattr(res.params, n) / getattr(true, n) - 1) < 0.10, n
     assert abs(res.params.C4 - true.C4) < 2 * res.stderr["C4"]
     assert res.batch.rel_stderr("C4") == max(res.batch.rel_stderr(n) for n in res.batch.names)  # the weakest
+    assert res.trust_problems() == []  # the seed's full design identifies every constant: nothing refused
 
     # NPFISI "converges" (V.B, eps = 0.01): Sigma stays positive definite, C2 and C3 move by less than
     # 0.5 % over the last 20 % of the data and end within 1 % of the truth.
@@ -212,3 +213,45 @@ def test_acceptance_full_seed_calibration_with_random_constants(tmp_path):
         for e in (0.001, 0.01, 0.05)
     }
     assert err[0.001] < err[0.01] < err[0.05]
+
+
+def test_the_small_seed_design_identifies_every_constant(small):
+    """The seed's procedures, even on the small design, pin every constant down: nothing to refuse."""
+    _, _, res = small
+    assert res.trust_problems() == []
+    assert json.loads(json.dumps(res.to_dict()["trusted"])) is True
+
+
+@pytest.fixture(scope="module")
+def short_hover(tmp_path_factory):
+    """The issue's case: one 2 s hover at 20 mm, d = 0 (no excitation: C1..C4, xi0, ell are not separable)."""
+    folder = tmp_path_factory.mktemp("hover") / "hover"
+    argv = ["simulate", "--experiment", "hover", "--duration", "2", "--out", str(folder), "--quiet"]
+    assert main(argv) == 0
+    return folder
+
+
+def test_calibrate_refuses_a_short_hover_in_one_line_and_writes_nothing(short_hover, tmp_path, capsys):
+    out = tmp_path / "cal"
+    assert main(["calibrate", str(short_hover), "--out", str(out), "--quiet", "--no-figures"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    assert "cannot identify the constants" in err and "relative standard error" in err and "--force" in err
+    assert not out.exists()
+
+
+def test_calibrate_force_writes_a_model_file_marked_untrusted_and_loaders_warn(short_hover, tmp_path, capsys):
+    from maglev_ocp.controllers.model_file import load_controller_model
+    from maglev_ocp.params import UntrustedModelWarning
+
+    out = tmp_path / "cal"
+    assert main(["calibrate", str(short_hover), "--out", str(out), "--quiet", "--no-figures", "--force"]) == 0
+    stdout = capsys.readouterr().out
+    assert "UNTRUSTED" in stdout and "controller: {model:" in stdout
+    text = (out / "model.yaml").read_text()
+    assert "trusted: false" in text and "controller: {model: model.yaml}" in text
+    assert json.loads((out / "calibration.json").read_text())["trusted"] is False
+    with pytest.warns(UntrustedModelWarning, match="untrusted"):
+        load_controller_model(out / "model.yaml")
+    with pytest.warns(UntrustedModelWarning):
+        load_params(out / "model.yaml")

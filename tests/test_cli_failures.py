@@ -26,8 +26,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from maglev_ocp.cli import main
-from maglev_ocp.config import MAX_YAML_DEPTH, check_output_dir, parse_yaml_text, replace_dir
+from maglev_ocp.config import MAX_YAML_DEPTH, parse_yaml_text
 from maglev_ocp.errors import ConfigError, DataError
+from maglev_ocp.output import check_output_dir, replace_dir
 from maglev_ocp.riglog import MAX_CELL_CHARS, MAX_COLUMNS, read_dataset, write_dataset
 
 REPO = Path(__file__).resolve().parents[1]
@@ -87,8 +88,8 @@ def _commands(tmp: Path, tiny: Path, dataset: Path, out: str) -> dict[str, list[
         "run": ["run", str(tiny), "--out", out, "--no-progress"],
         "calibrate": ["calibrate", str(dataset), "--out", out, "--no-progress"],
         "simulate": ["simulate", "--duration", "0.01", "--out", out, "--no-progress"],
-        "diagnose": ["diagnose", str(dataset), "--out", out],
-        "diagnose-generate": ["diagnose", "--generate", out, "--runs", "2", "--duration", "2"],
+        "diagnose": ["diagnose", "run", str(dataset), "--out", out],
+        "diagnose-generate": ["diagnose", "generate", out, "--runs", "2", "--duration", "2"],
         "campaign": ["campaign", str(camp), "--out", out, "--quiet", "--workers", "1"],
         "codegen": ["codegen", "--controllers", "observer", "--out", out],
         "bench": ["bench", "--controllers", "pid", "--backends", "python", "--out", out],
@@ -164,7 +165,7 @@ def test_a_folder_that_is_not_an_earlier_result_is_never_replaced(tmp_path, tiny
     for args in (
         ["codegen", "--controllers", "observer", "--out", str(mine)],
         ["simulate", "--duration", "0.01", "--out", str(mine), "--no-progress"],
-        ["diagnose", "--generate", str(mine), "--runs", "2", "--duration", "2"],
+        ["diagnose", "generate", str(mine), "--runs", "2", "--duration", "2"],
     ):
         code, out, err = cli(*args)
         assert_one_line_failure(code, out, err, str(mine))
@@ -186,20 +187,25 @@ def test_rerun_without_figures_leaves_no_old_figures_and_keeps_other_scenarios(t
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary folders left
 
 
-def test_simulate_appends_to_an_existing_dataset(tmp_path):
+def test_simulate_appends_only_with_append_and_never_replaces_a_run(tmp_path):
     out = tmp_path / "ds"
-    assert cli("simulate", "--duration", "0.02", "--out", str(out), "--no-progress", "--plot")[0] == 0
-    assert cli("simulate", "--duration", "0.02", "--g", "18", "--out", str(out), "--no-progress")[0] == 0
+    assert cli("simulate", "--duration", "0.02", "--out", str(out), "--quiet", "--plot")[0] == 0
+    before = (out / "dataset.yaml").read_text()
+    # into an existing dataset without --append: one line, nothing written
+    code, o, e = cli("simulate", "--duration", "0.02", "--g", "18", "--out", str(out), "--quiet")
+    assert_one_line_failure(code, o, e, "--append")
+    assert (out / "dataset.yaml").read_text() == before
+    code, o, _ = cli("simulate", "--duration", "0.02", "--g", "18", "--out", str(out), "--quiet", "--append")
+    assert code == 0 and "appended 1 run(s)" in o and "hover_g18p0_d0p0.csv" in o
     ds = read_dataset(out)
     assert [r.file for r in ds.runs] == ["hover_g20p0_d0p0.csv", "hover_g18p0_d0p0.csv"]
-    # the same run again replaces its CSV (and drops its old figure), the other run stays
-    assert cli("simulate", "--duration", "0.03", "--out", str(out), "--no-progress")[0] == 0
-    ds = read_dataset(out)
-    assert sorted(r.file for r in ds.runs) == ["hover_g18p0_d0p0.csv", "hover_g20p0_d0p0.csv"]
-    assert len(ds.run("hover_g20p0_d0p0.csv")) == 30
-    assert not (out / "hover_g20p0_d0p0.png").exists()
+    # the same run again is refused, even with --append: a run is never replaced silently
+    before = (out / "dataset.yaml").read_text()
+    code, o, e = cli("simulate", "--duration", "0.03", "--out", str(out), "--quiet", "--append")
+    assert_one_line_failure(code, o, e, "hover_g20p0_d0p0.csv")
+    assert (out / "dataset.yaml").read_text() == before and len(read_dataset(out).run("hover_g20p0_d0p0.csv")) == 20
     # runs made with another seed keep the dataset-level metadata of their own simulation
-    assert cli("simulate", "--duration", "0.02", "--g", "16", "--seed", "5", "--out", str(out), "--no-progress")[0] == 0
+    assert cli("simulate", "--duration", "0.02", "--g", "16", "--seed", "5", "--out", str(out), "--append")[0] == 0
     ds = read_dataset(out)
     assert ds.meta["seed"] == 5 and len(ds.runs) == 3
     assert ds.run("hover_g18p0_d0p0.csv").meta["dataset_meta"]["seed"] == 0
@@ -211,7 +217,7 @@ def test_simulate_refuses_a_dataset_with_another_encoder_before_simulating(tmp_p
     ds = read_dataset(dataset)
     write_dataset(out, ds.runs, ds.sample_time, 1e-6)
     before = (out / "dataset.yaml").read_text()
-    code, o, e = cli("simulate", "--duration", "0.01", "--out", str(out), "--no-progress")
+    code, o, e = cli("simulate", "--duration", "0.01", "--out", str(out), "--quiet", "--append")
     assert_one_line_failure(code, o, e, "encoder_resolution")
     assert (out / "dataset.yaml").read_text() == before
 
@@ -546,7 +552,7 @@ def _fast_case(tmp: Path, target: str, out_kind: str, draw) -> tuple[list[str], 
             return ["run", str(f), "--out", out, "--no-progress", "--no-figures"], (0, 1, 2)
         if cmd == "codegen":
             return ["codegen", "--scenario", str(f), "--controllers", "observer", "--out", out], (0, 2)
-        return ["diagnose", "--scenario", str(f)], (2,)  # needs --effect: refused before any work
+        return ["diagnose", "closed-loop", str(f)], (2,)  # needs --from or --effect: refused before any work
     if target == "params":
         from maglev_ocp.params import NOMINAL
 
@@ -645,7 +651,8 @@ def test_slow_subcommands_on_mutated_inputs(tmp_path_factory, dataset_source, da
         args += ["--out", out + ".json" if out else out, "--json"]
     else:
         _fast_case(tmp, "dataset", "new", data.draw)
-        args = [command, str(tmp / "ds"), "--out", out] + (["--no-progress"] if command == "calibrate" else [])
+        head = ["diagnose", "run"] if command == "diagnose" else [command]
+        args = [*head, str(tmp / "ds"), "--out", out, "--quiet"]
     code, o, e = cli(*args)
     _check_outcome(code, o, e)
 

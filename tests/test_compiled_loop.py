@@ -20,7 +20,8 @@ from maglev_ocp.campaign import run_campaign
 from maglev_ocp.campaign.config import load_campaign
 from maglev_ocp.codegen.build import find_compiler
 from maglev_ocp.codegen.loop_c import nmpc_refs, run_scenario_compiled
-from maglev_ocp.config import dump_yaml, load_yaml
+from maglev_ocp.config import load_yaml
+from maglev_ocp.output import dump_yaml
 from maglev_ocp.runner import plan_run, run_scenario
 from maglev_ocp.scenario import scenario_from_dict
 

@@ -124,7 +124,7 @@ def test_compiled_loop_equals_python_where_the_plant_limiter_acts():
 
 @needs_cc
 def test_generate_dataset_compiled_equals_python(tmp_path):
-    """``maglev diagnose --generate``'s generator: the dataset is the same with loop: compiled and python
+    """``maglev diagnose generate``'s generator: the dataset is the same with loop: compiled and python
     (to 1e-9 column by column, and the saved files byte for byte)."""
     cfg = _config(effects={"cogging": {"enabled": True}})
     small = {"n_runs": 3, "run_duration": 2.5}

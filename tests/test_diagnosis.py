@@ -269,15 +269,15 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
     """Bad input: exit code 2 and one line naming the problem."""
     from maglev_ocp.cli import main
 
-    assert main(["diagnose", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
+    assert main(["diagnose", "run", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "dataset.yaml" in err[0]
-    assert main(["diagnose", "--selftest", "0"]) == 2
-    assert main(["diagnose", "--selftest", "2", "--workers", "0"]) == 2
+    assert main(["diagnose", "selftest", "0"]) == 2
+    assert main(["diagnose", "selftest", "2", "--workers", "0"]) == 2
     assert "--workers" in capsys.readouterr().err
-    assert main(["diagnose", "--scenario", "scenarios/tour_fl.yaml", "--effect", "gremlins"]) == 2
+    assert main(["diagnose", "closed-loop", "scenarios/tour_fl.yaml", "--effect", "gremlins"]) == 2
     assert "unknown effect" in capsys.readouterr().err
-    assert main(["diagnose", "--generate", str(tmp_path / "g"), "--effect", "friction", "--effect-param", "x"]) == 2
+    assert main(["diagnose", "generate", str(tmp_path / "g"), "--effect", "friction", "--effect-param", "x"]) == 2
     assert main(["diagnose"]) == 2
 
 

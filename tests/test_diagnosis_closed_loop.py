@@ -1,4 +1,4 @@
-"""``maglev diagnose --closed-loop SCENARIO --from report.json``: the report's own models against a rig log."""
+"""``maglev diagnose closed-loop SCENARIO --from report.json``: the report's own models against a rig log."""
 
 from __future__ import annotations
 
@@ -59,7 +59,7 @@ def test_closed_loop_from_report_cli(tmp_path):
     report, pm, em = _report(tmp_path / "rep")
     scen = _rig_scenario(tmp_path / "rig.yaml", pm, em)
     out = tmp_path / "cl"
-    cmd = [sys.executable, "-m", "maglev_ocp", "diagnose", "--closed-loop", str(scen), "--from", str(report)]
+    cmd = [sys.executable, "-m", "maglev_ocp", "diagnose", "closed-loop", str(scen), "--from", str(report)]
     proc = subprocess.run(
         [*cmd, "--out", str(out)],
         capture_output=True,
@@ -84,7 +84,7 @@ def test_closed_loop_from_report_needs_the_model_files(tmp_path):
     with pytest.raises(UserError, match=r"baseline\.yaml"):
         closed_loop_from_report(scen, report)
     proc = subprocess.run(
-        [sys.executable, "-m", "maglev_ocp", "diagnose", "--closed-loop", str(scen)],
+        [sys.executable, "-m", "maglev_ocp", "diagnose", "closed-loop", str(scen)],
         capture_output=True,
         text=True,
         timeout=120,

@@ -355,9 +355,17 @@ def test_structural_resonance_end_to_end_on_the_independent_rig(tmp_path):
     assert doc["unexplained"] and doc["noise_model"]["confirmed_peaks"]
     assert (out / "spectra.png").stat().st_size > 10_000
     assert load_plant_config(out / "model.yaml").enabled_effects() == ()
-    from maglev_ocp.params import load_params
+    from maglev_ocp.controllers.model_file import load_controller_model
 
-    assert load_params(out / "model_params.yaml").C2 == pytest.approx(d.baseline_params.C2)
+    # the one model file a controller loads (controller: {model: model.yaml}) carries the refit constants
+    assert load_controller_model(out / "model.yaml").params.C2 == pytest.approx(d.baseline_params.C2)
+    # the report and the file's header give the same instruction, and no other (no model_params.yaml)
+    from maglev_ocp.params import model_file_instruction
+
+    said = model_file_instruction("model.yaml")
+    assert said in (out / "model.yaml").read_text() and said in (out / "report.md").read_text()
+    assert "controller_params" not in (out / "report.md").read_text()
+    assert not (out / "model_params.yaml").exists()
 
 
 def test_a_large_lag_matters_in_closed_loop():

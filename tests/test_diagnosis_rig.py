@@ -50,13 +50,13 @@ def test_vectorized_candidate_functions_match_casadi_map():
 
 
 def test_generate_independent_cli_validates_effects_and_writes_the_truth(tmp_path, capsys):
-    """``--generate --plant independent``: effects, families and parameters from rigsim's catalogue (one-line
+    """``generate --generator independent``: effects, families and parameters from rigsim's catalogue (one-line
     errors, exit 2); a valid call writes a rig-log dataset with its truth.json (two effects, a Dahl law)."""
     from maglev_ocp.cli import main
     from maglev_ocp.riglog import read_dataset
 
     out = tmp_path / "g"
-    base = ["diagnose", "--generate", str(out), "--plant", "independent", "--runs", "2", "--duration", "2"]
+    base = ["diagnose", "generate", str(out), "--generator", "independent", "--runs", "2", "--duration", "2"]
     for bad, word in (
         (["--effect", "cogging,gremlin"], "gremlin"),
         (["--effect", "friction", "--effect-param", "family=viscoelastic"], "coulomb_viscous"),

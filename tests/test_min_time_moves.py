@@ -17,10 +17,10 @@ import pytest
 
 from benchmarks.min_time_moves import random_moves
 from maglev_ocp import constants as k
-from maglev_ocp.config import dump_yaml
 from maglev_ocp.effects import EffectSet
 from maglev_ocp.model import get_model
 from maglev_ocp.ocp.min_time import solve_min_time
+from maglev_ocp.output import dump_yaml
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.reference import (
     ReferenceSettings,

@@ -9,11 +9,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from maglev_ocp.config import dump_yaml
 from maglev_ocp.controllers.fl import FeedbackLinearization, FLSettings
 from maglev_ocp.controllers.model_file import effect_delta_function, load_controller_model
 from maglev_ocp.effects import EffectSet
 from maglev_ocp.errors import ConfigError
+from maglev_ocp.output import dump_yaml
 from maglev_ocp.runner import run_scenario
 
 FRICTION = {

@@ -16,11 +16,11 @@ import pytest
 
 from maglev_ocp import constants as k
 from maglev_ocp.codegen.build import find_compiler
-from maglev_ocp.config import dump_yaml
 from maglev_ocp.controllers.model_file import load_controller_model
 from maglev_ocp.controllers.nmpc import NMPC, NMPCSettings
 from maglev_ocp.effects import EFFECTS
 from maglev_ocp.errors import ConfigError
+from maglev_ocp.output import dump_yaml
 from maglev_ocp.runner import run_scenario
 from maglev_ocp.scenario import StartSpec, scenario_from_dict
 

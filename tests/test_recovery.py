@@ -28,9 +28,9 @@ from benchmarks.diagnosed_recovery import (
     tour_scenario,
 )
 from maglev_ocp.cli import main as cli_main
-from maglev_ocp.config import dump_yaml
 from maglev_ocp.controllers.model_file import load_controller_model
 from maglev_ocp.effects import EffectSet
+from maglev_ocp.output import dump_yaml
 from maglev_ocp.plant import Plant
 from maglev_ocp.scenario import scenario_from_dict
 

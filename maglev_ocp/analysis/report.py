@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..blocks import Controller, Reference
+from ..markdown import md_table
 from .controller_map import linearize_controller, minimal_part, settle
 from .delay_check import SimulatedDelayMargin, simulated_delay_margin
 from .margins import (
@@ -221,12 +222,11 @@ _COLUMNS = (
 
 def markdown_table(rows: Sequence[dict[str, object]]) -> str:
     """Markdown table of margins rows (one controller, one break point)."""
-    head = "| " + " | ".join(h for _, h, _ in _COLUMNS) + " |"
-    sep = "|" + "|".join("---:" for _ in _COLUMNS) + "|"
-    lines = [head, sep]
-    for r in rows:
-        lines.append("| " + " | ".join(f.format(r[key]) for key, _, f in _COLUMNS) + " |")
-    return "\n".join(lines)
+    return md_table(
+        [h for _, h, _ in _COLUMNS],
+        ([f.format(r[key]) for key, _, f in _COLUMNS] for r in rows),
+        align=["r"] * len(_COLUMNS),
+    )
 
 
 def _json_default(o):
@@ -307,18 +307,20 @@ def markdown_report(
             "Simulated: nonlinear closed loop with a delay of whole samples plus a fraction added to that current",
             "channel, bisection on the growth rate of the oscillation; 'simulated' is the middle of the bracket.",
             "",
-            "| controller | g [mm] | d [mm] | axis | computed [samples] | simulated: stable at | unstable at "
-            "| simulated [samples] | error |",
-            "|---|---:|---:|---|---:|---:|---:|---:|---:|",
         ]
+        head = ["controller", "g [mm]", "d [mm]", "axis", "computed [samples]", "simulated: stable at"]
+        head += ["unstable at", "simulated [samples]", "error"]
+        body = []
         for c in checks:
             r = c.row()
-            lines.append(
-                f"| {r['controller']} | {r['g_mm']:.0f} | {r['d_mm']:.0f} | {r['axis']} | "
-                f"{r['computed_samples']:.3f} | {r['bracket'][0]:.3f} | {r['bracket'][1]:.3f} | "
-                f"{r['simulated_samples']:.3f} | {100 * r['rel_error']:.1f} % |"
+            body.append(
+                [
+                    *(r["controller"], f"{r['g_mm']:.0f}", f"{r['d_mm']:.0f}", r["axis"]),
+                    *(f"{r['computed_samples']:.3f}", f"{r['bracket'][0]:.3f}", f"{r['bracket'][1]:.3f}"),
+                    *(f"{r['simulated_samples']:.3f}", f"{100 * r['rel_error']:.1f} %"),
+                ]
             )
-        lines.append("")
+        lines += [md_table(head, body, align=["", "r", "r", "", "r", "r", "r", "r", "r"]), ""]
     return "\n".join(lines)
 
 

@@ -228,7 +228,7 @@ class Campaign(Strict):
         """The base scenario as a plain mapping (overrides are applied on it).
 
         Files the scenario names relative to itself (``plant.file``,
-        ``controller_params.file``) are made absolute, so that a worker
+        ``controller_params.file``, ``controller.model``) are made absolute, so that a worker
         resolves them wherever it runs.
         """
         path = self.base_scenario_path()
@@ -239,6 +239,9 @@ class Campaign(Strict):
             sub = data.get(block)
             if isinstance(sub, dict) and isinstance(sub.get("file"), str) and not Path(sub["file"]).is_absolute():
                 sub["file"] = str((path.parent / sub["file"]).resolve())
+        ctrl = data.get("controller")
+        if isinstance(ctrl, dict) and isinstance(ctrl.get("model"), str) and not Path(ctrl["model"]).is_absolute():
+            ctrl["model"] = str((path.parent / ctrl["model"]).resolve())
         return data
 
 

@@ -48,8 +48,9 @@ from typing import Any
 
 import yaml
 
-from ..config import atomic_write_text, load_yaml
+from ..config import load_yaml
 from ..errors import UserError
+from ..output import atomic_write_text
 from ..parallel import local_client
 from .config import Campaign, SaveSettings
 from .expand import RunSpec, apply_overrides, expand

@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..config import atomic_write_text
+from ..output import atomic_write_text
 from . import CampaignResult, run_campaign
 from .config import load_campaign
 
@@ -32,7 +32,7 @@ def markdown_table(results: dict[str, CampaignResult]) -> str:
     """Markdown: per campaign and case, runs, success rate (95 % interval), settle and step times."""
     lines = [
         "| campaign | case | runs | failed | success [%] | 95 % interval [%] | settle median / p90 [ms] "
-        "| worst RMS median [um] | step median / worst p99 [us] |",
+        "| worst RMS median [µm] | step median / worst p99 [µs] |",
         "|---|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for name, res in results.items():

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import atomic_write_bytes, atomic_write_text
+from ..output import atomic_write_bytes, atomic_write_text
 from .execute import read_run_record, run_dir
 from .expand import RunSpec
 
@@ -329,7 +329,7 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
             ax.scatter([stp], [st], s=40, color=f"C{j % 10}", label=f"{lab} [{rate:.0f} % success]")
             ax.annotate(lab.split()[0], (stp, st), fontsize=7, xytext=(4, 3), textcoords="offset points")
         fig.legend(loc="lower center", fontsize=7, ncol=1 if n_g > 4 else 2, frameon=False)
-        ax.set_xlabel("controller step time, median over runs [us]")
+        ax.set_xlabel("controller step time, median over runs [µs]")
         ax.set_ylabel("slowest settle time, median over runs [ms]")
         ax.set_title(f"{s.name}: speed of motion vs computation per case")
         ax.grid(True, alpha=0.3)
@@ -338,10 +338,10 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
     # Metrics against each varied quantity.
     metrics_y = [
         ("settle_time_max_s", 1e3, "slowest settle time [ms]"),
-        ("rms_error_max_m", 1e6, "worst steady RMS error [um]"),
+        ("rms_error_max_m", 1e6, "worst steady RMS error [µm]"),
     ]
     if "m.step_time_us.p99" in t:
-        metrics_y.append(("m.step_time_us.p99", 1.0, "controller step time p99 [us]"))
+        metrics_y.append(("m.step_time_us.p99", 1.0, "controller step time p99 [µs]"))
     for col in [c for c in t.columns if c.startswith(("dev.", "grid."))]:
         fig, axs = plt.subplots(1, len(metrics_y), figsize=(4.2 * len(metrics_y), 3.8), squeeze=False)
         if col.startswith("dev."):

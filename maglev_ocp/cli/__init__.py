@@ -17,6 +17,7 @@ import pkgutil
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Sequence
 
 from ..errors import UserError, one_line
@@ -41,6 +42,46 @@ class OneLineParser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
+def add_quiet(p: argparse.ArgumentParser) -> None:
+    """The progress flag every command shares: ``--quiet`` (``--no-progress`` kept as a hidden alias)."""
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--no-progress", dest="quiet", action="store_true", help=argparse.SUPPRESS)
+
+
+def parse_list(flag: str, values: Sequence[str] | None) -> list[str]:
+    """A list flag the one way every command takes it: comma-separated (``--controllers fl,nmpc``).
+
+    Space-separated values are accepted too (``--controllers fl nmpc``); an
+    empty item is a one-line :class:`UserError`.
+    """
+    items = [x.strip() for v in (values or []) for x in str(v).split(",")]
+    if any(not x for x in items):
+        raise UserError(f"{flag}: empty item in {','.join(values or [])!r}; give a comma-separated list, e.g. a,b")
+    return items
+
+
+def _version() -> str:
+    """The installed package's version (``maglev --version``)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("maglev-ocp")
+    except PackageNotFoundError:  # pragma: no cover - run from a source tree without install
+        return "unknown (not installed)"
+
+
+_SHOWN: set[str] = set()
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings from the library as one line on stderr (``maglev: warning: ...``), not Python's two lines;
+    each text once per process (a file loaded twice warns once)."""
+    text = one_line(f"maglev: warning: {message}")
+    if text not in _SHOWN:
+        _SHOWN.add(text)
+        _say(text)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the top-level parser with every discovered subcommand."""
     parser = OneLineParser(
@@ -51,6 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=_Formatter,
     )
+    parser.add_argument("--version", action="version", version=f"maglev {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     pkg_dir = os.path.dirname(__file__)
     for info in sorted(pkgutil.iter_modules([pkg_dir]), key=lambda i: i.name):
@@ -72,13 +114,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = "maglev"
     interrupts: list[int] = []
     previous = _catch_sigint(interrupts)
+    shown = warnings.showwarning
+    warnings.showwarning = _show_warning
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
         if not getattr(args, "handler", None):
             parser.print_help()
             return 2
-        command = f"maglev {args.command}"
+        command = f"maglev {args.command}" + (f" {args.mode}" if getattr(args, "mode", None) else "")
         return int(args.handler(args) or 0)
     except KeyboardInterrupt:
         _say(f"{command}: interrupted")
@@ -93,6 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _say(f"{command}: {text}")
         return code
     finally:
+        warnings.showwarning = shown
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
 
@@ -154,6 +199,20 @@ def check_range(flag: str, v: float, lo: float, hi: float, unit: str = "", lo_op
         raise UserError(f"{flag}: NaN is not allowed; give a number in {lo:g}..{hi:g}{u}")
     if not (math.isfinite(v) and (lo < v if lo_open else lo <= v) and v <= hi):
         raise UserError(f"{flag}: {v:g}{u} is outside {'(' if lo_open else ''}{lo:g}..{hi:g}{u}")
+
+
+#: Bounds of the counts the commands take (every count and duration a user gives is bounded).
+MAX_SEED: int = 2**63 - 1
+MAX_WORKERS: int = 256
+MAX_WARMUP_STEPS: int = 10_000
+MAX_SELFTEST_DATASETS: int = 1000
+MAX_CAMPAIGN_LIMIT: int = 1_000_000
+
+
+def check_count(flag: str, v: int, lo: int, hi: int) -> None:
+    """A whole-number flag must be in ``lo..hi``; one-line UserError otherwise."""
+    if not lo <= v <= hi:
+        raise UserError(f"{flag}: {v} is outside {lo}..{hi}")
 
 
 def load_model_params(path: str | os.PathLike):

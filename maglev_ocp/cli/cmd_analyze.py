@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from . import check_range
+from . import add_quiet, check_range
 
 #: Files a results folder of ``maglev analyze`` holds (an existing folder must hold one to be replaced).
 RESULT_FILES: tuple[str, ...] = ("margins.md", "margins.json", "margins.csv")
@@ -28,9 +28,16 @@ def register(sub) -> None:
             "The delay margin is cross-checked by closed-loop simulation with an added delay.\n"
             "Writes margins.md/.csv/.json and Bode, Nyquist and |S|/|T| figures to --out."
         ),
-        example="maglev analyze --controller fl nmpc --gaps 15 20 25 --positions -40 0 40 --out results/analysis",
+        example="maglev analyze --controllers fl,nmpc --gaps 15 20 25 --positions -40 0 40 --out results/analysis",
     )
-    p.add_argument("--controller", nargs="+", default=["fl"], metavar="TYPE", help="fl, nmpc, pid (default: fl)")
+    p.add_argument(
+        "--controllers",
+        nargs="+",
+        default=["fl"],
+        metavar="LIST",
+        help="comma-separated subset of fl,nmpc,pid (default: fl)",
+    )
+    p.add_argument("--controller", dest="controllers", nargs="+", help=argparse.SUPPRESS)  # the old spelling
     p.add_argument("--scenario", default=None, metavar="YAML", help="take controller and plant from a scenario")
     p.add_argument("--gaps", nargs="+", type=float, default=[15, 20, 25], metavar="MM", help="gaps [mm]")
     p.add_argument("--positions", nargs="+", type=float, default=[-40, 0, 40], metavar="MM", help="positions d [mm]")
@@ -48,7 +55,7 @@ def register(sub) -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="controller setting (YAML value) for every --controller, e.g. --set omega_g=150; repeatable",
+        help="controller setting (YAML value) for every --controllers type, e.g. --set omega_g=150; repeatable",
     )
     p.add_argument(
         "--check-delay",
@@ -59,6 +66,7 @@ def register(sub) -> None:
     p.add_argument("--out", default=None, metavar="DIR", help="write tables and figures here")
     p.add_argument("--no-figures", action="store_true", help="tables only")
     p.add_argument("--json", action="store_true", help="print the margins as JSON instead of Markdown")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 
@@ -89,9 +97,11 @@ def _factories(args, delay: int):
         return {sc.controller.type: (lambda: cls(settings=settings, params=params))}, params, sc
     overrides = _settings_overrides(args.set)
     out = {}
-    for ctype in args.controller:
+    from . import parse_list
+
+    for ctype in dict.fromkeys(parse_list("--controllers", args.controllers)):
         if ctype not in CONTROLLERS:
-            raise UserError(f"--controller: unknown type {ctype!r}; choose from {', '.join(CONTROLLERS)}")
+            raise UserError(f"--controllers: unknown type {ctype!r}; choose from {', '.join(CONTROLLERS)}")
         settings_cls, cls = controller_classes(ctype)
         data = dict(overrides)
         if "delay_samples" in settings_cls.model_fields and "delay_samples" not in data:
@@ -101,13 +111,35 @@ def _factories(args, delay: int):
     return out, NOMINAL, None
 
 
+def _delay_checks(mode: str, factories: dict, plant, results: list, say) -> list:
+    """The delay margin cross-checked by simulation (``--check-delay``: none, center or all grid points)."""
+    from ..analysis.report import delay_cross_check
+
+    checks: list = []
+    if mode == "none":
+        return checks
+    for name, make in factories.items():
+        prs = [pr for pr in results if pr.controller == name]
+        if mode == "center":
+            prs = [min(prs, key=lambda pr: (abs(pr.g - 0.020) / 0.005) ** 2 + (abs(pr.d) / 0.04) ** 2)]
+        for pr in prs:
+            for axis in ("g", "d"):
+                c = delay_cross_check(make, plant, pr, axis)
+                checks.append(c)
+                say(
+                    f"{name} delay check g = {pr.g * 1e3:.0f} mm, d = {pr.d * 1e3:.0f} mm, {axis}: computed "
+                    f"{c.computed_samples:.3f}, simulated {c.simulated.delay_samples:.3f} samples"
+                )
+    return checks
+
+
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev analyze``."""
     from ..analysis.plant_model import AnalysisPlant
-    from ..analysis.report import analyze_grid, delay_cross_check, markdown_report, write_report
-    from ..config import check_output_dir, replace_dir
+    from ..analysis.report import analyze_grid, markdown_report, write_report
     from ..constants import d_stop, g_stop
     from ..errors import UserError
+    from ..output import check_output_dir, replace_dir
     from ..plant.config import PlantConfig
 
     for g in args.gaps:
@@ -131,25 +163,16 @@ def run(args: argparse.Namespace) -> int:
     plant = AnalysisPlant(params=params, lag_hz=lag.bandwidth_hz if lag.enabled else None, delay_samples=delay)
     gaps = [g * 1e-3 for g in args.gaps]
     positions = [d * 1e-3 for d in args.positions]
-    say = lambda s: print(f"maglev analyze: {s}", file=sys.stderr, flush=True)  # noqa: E731
+
+    def say(s: str) -> None:
+        if not args.quiet:
+            print(f"maglev analyze: {s}", file=sys.stderr, flush=True)
+
     try:
         results = analyze_grid(factories, plant, gaps, positions, progress=say)
     except (RuntimeError, ValueError) as err:
         raise UserError(f"the loop could not be linearized: {err}") from None
-    checks = []
-    if args.check_delay != "none":
-        for name, make in factories.items():
-            prs = [pr for pr in results if pr.controller == name]
-            if args.check_delay == "center":
-                prs = [min(prs, key=lambda pr: (abs(pr.g - 0.020) / 0.005) ** 2 + (abs(pr.d) / 0.04) ** 2)]
-            for pr in prs:
-                for axis in ("g", "d"):
-                    checks.append(delay_cross_check(make, plant, pr, axis))
-                    c = checks[-1]
-                    say(
-                        f"{name} delay check g = {pr.g * 1e3:.0f} mm, d = {pr.d * 1e3:.0f} mm, {axis}: computed "
-                        f"{c.computed_samples:.3f}, simulated {c.simulated.delay_samples:.3f} samples"
-                    )
+    checks = _delay_checks(args.check_delay, factories, plant, results, say)
     setup = {
         "controllers": ", ".join(factories),
         "plant": (

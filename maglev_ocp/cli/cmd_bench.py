@@ -8,6 +8,7 @@ import sys
 
 from ..codegen.bench import BACKENDS, CONTROLLER_TYPES, run_bench
 from ..errors import UserError
+from . import MAX_WARMUP_STEPS, add_quiet, check_count
 
 
 def register(sub) -> None:
@@ -31,7 +32,13 @@ def register(sub) -> None:
     p.add_argument("--scenario", default=None, metavar="FILE", help="scenario YAML (default: built-in steps)")
     p.add_argument("--controllers", default="nmpc,fl,pid", metavar="LIST", help="subset of nmpc,fl,pid")
     p.add_argument("--backends", default="python,c", metavar="LIST", help="subset of python,c")
-    p.add_argument("--warmup", type=int, default=50, metavar="N", help="steps dropped before timing (default 50)")
+    p.add_argument(
+        "--warmup",
+        type=int,
+        default=50,
+        metavar="N",
+        help=f"steps dropped before timing, 0..{MAX_WARMUP_STEPS} (default 50)",
+    )
     p.add_argument("--cflags", default=None, metavar="FLAGS", help="compiler flags of the C backend")
     p.add_argument(
         "--realtime",
@@ -40,6 +47,7 @@ def register(sub) -> None:
     )
     p.add_argument("--json", action="store_true", help="print the numbers as JSON instead of the table")
     p.add_argument("--out", default=None, metavar="FILE", help="also write the JSON to FILE")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 
@@ -55,10 +63,9 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev bench``."""
     controllers = _subset(args.controllers, CONTROLLER_TYPES, "--controllers")
     backends = _subset(args.backends, BACKENDS, "--backends")
-    if args.warmup < 0:
-        raise UserError(f"--warmup: must be >= 0, got {args.warmup}")
+    check_count("--warmup", args.warmup, 0, MAX_WARMUP_STEPS)
     if args.out is not None:
-        from ..config import check_output_file
+        from ..output import check_output_file
 
         check_output_file(args.out)
     scenario = None
@@ -72,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
         backends,
         warmup=args.warmup,
         cflags=args.cflags,
-        progress=not args.json,
+        progress=not (args.json or args.quiet),
         realtime=args.realtime,
     )
     if args.realtime and not res.meta.get("realtime"):

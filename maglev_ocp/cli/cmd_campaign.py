@@ -6,12 +6,10 @@ import argparse
 import os
 import sys
 
-from ..errors import UserError
-
 
 def register(sub) -> None:
     """Add the ``campaign`` subcommand."""
-    from . import add_command
+    from . import add_command, add_quiet
 
     p = add_command(
         sub,
@@ -53,7 +51,7 @@ def register(sub) -> None:
     p.add_argument("--retry-failed", action="store_true", help="re-run runs recorded as failed")
     p.add_argument("--plan", action="store_true", help="only print the expansion (cases and runs), run nothing")
     p.add_argument("--no-figures", action="store_true", help="write the summary tables only")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(p)
     p.set_defaults(handler=run)
 
 
@@ -61,13 +59,15 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev campaign``."""
     from ..campaign import load_campaign, run_campaign
     from ..campaign.expand import expand, validate_cases
-    from ..config import check_output_dir
+    from ..output import check_output_dir
 
     camp = load_campaign(args.campaign)  # refuses a campaign above the size limit before expanding
-    if args.workers is not None and args.workers < 1:
-        raise UserError(f"--workers: must be >= 1, got {args.workers}")
-    if args.limit is not None and args.limit < 0:
-        raise UserError(f"--limit: must be >= 0, got {args.limit}")
+    from . import MAX_CAMPAIGN_LIMIT, MAX_WORKERS, check_count
+
+    if args.workers is not None:
+        check_count("--workers", args.workers, 1, MAX_WORKERS)
+    if args.limit is not None:
+        check_count("--limit", args.limit, 0, MAX_CAMPAIGN_LIMIT)
     if not args.plan:
         check_output_dir(args.out, replaced=False, expect=("campaign.yaml", "plan.csv", "runs"))
     validate_cases(camp, source=str(args.campaign))  # bad settings on the grid: one line now, not per run

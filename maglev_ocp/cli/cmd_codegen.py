@@ -38,7 +38,12 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (replaced whole)")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--scenario", default=None, metavar="FILE", help="scenario YAML: controller settings and params")
-    src.add_argument("--params", default=None, metavar="FILE", help="parameter YAML (default: seed Table III)")
+    src.add_argument(
+        "--params",
+        default=None,
+        metavar="FILE",
+        help="nominal constants: a parameter file (maglev-params/1; default: seed Table III)",
+    )
     p.add_argument(
         "--controllers",
         default="nmpc,fl,observer",
@@ -52,7 +57,7 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev codegen``."""
-    from ..config import check_output_dir, replace_dir
+    from ..output import check_output_dir, replace_dir
     from ..params import NOMINAL
     from . import load_model_params
 

@@ -11,11 +11,24 @@ from ..errors import UserError
 from . import check_range
 
 DESCRIPTION = """\
-Diagnose the sim-to-real gap of a rig-log dataset (maglev-rig-log/1, closed- or
-open-loop, any controller, locked axes allowed):
+Diagnose the sim-to-real gap of a rig-log dataset, check the diagnosis blind, generate
+datasets for it, and see what a diagnosis changes in closed loop. One mode per subcommand:
 
+  run DATASET --out DIR       the diagnosis (below); writes report.json, report.md, figures and
+                              model.yaml (a model file: controller: {model: DIR/model.yaml})
+  selftest N                  blind self-check on N generated datasets (confusion matrix,
+                              localization accuracy, reduction vs the ideal one); --generator
+                              independent: on the independent rig (maglev_ocp.rigsim)
+  generate DIR                write a diagnosis dataset (--effect, --seed; --generator independent:
+                              from the independent rig, truth.json beside)
+  closed-loop SCENARIO        --from REPORT: the scenario on its plant against simulations of the
+                              report's baseline.yaml and model.yaml; --effect NAME: the scenario on
+                              the model, on the rig with the effect, and with the controller's
+                              model carrying the fitted effect
+
+The diagnosis (run):
   baseline      the nominal model with its cogging law (seed eq. 9), C1..C4, xi0 and ell
-                calibrated on the training runs with a prior at nominal (or --params as
+                calibrated on the training runs with a prior at nominal (or --given FILE as
                 given); whole runs are held out for scoring
   residuals     filtered equation error: the same zero-phase FIR on the measured
                 accelerations and on the model's (every current-carrying regressor),
@@ -26,124 +39,209 @@ open-loop, any controller, locked axes allowed):
                 on the held-out runs (reduction, significance, information criterion
                 with the effective sample size); confusable sets reported together
   verdict       none | <effect> | a|b (confusable) | a+b (two effects) | unexplained
-
-Writes DIR/report.json, DIR/report.md and figures.
-
-Other modes:
-  --selftest N --seed S   blind self-check on N generated datasets (confusion matrix,
-                          localization accuracy, reduction vs the ideal one); with
-                          --plant independent on the independent rig (maglev_ocp.rigsim:
-                          none, 1-3 effects with laws other than the library's, effects
-                          outside the library)
-  --generate DIR          write a diagnosis dataset from the plant (--effect, --seed);
-                          --plant independent: from the independent rig (truth.json beside)
-  --scenario FILE --effect NAME
-                          closed-loop view: the scenario on the model, on the rig with
-                          the effect, and with the controller's model carrying the
-                          fitted effect (settling time, steady error)
-  --closed-loop FILE --from REPORT
-                          how far the gap shrinks in closed loop, from the report
-                          itself: the scenario on its plant (the rig log) against
-                          simulations of the report's baseline.yaml and model.yaml
-                          (its verdict's fitted laws)
 """
 
+#: The modes of ``maglev diagnose`` (its subcommands).
+MODES: tuple[str, ...] = ("run", "selftest", "generate", "closed-loop")
 
 #: Files of a diagnosis report folder (an existing --out must hold one to be replaced).
 REPORT_FILES: tuple[str, ...] = ("report.json", "report.md")
 
 
 def register(sub) -> None:
-    """Add the ``diagnose`` subcommand."""
+    """Add ``diagnose`` with its subcommands ``run``, ``selftest``, ``generate`` and ``closed-loop``."""
     from . import add_command
 
     p = add_command(
         sub,
         "diagnose",
-        help="find, attribute and quantify the gap between model and data",
+        help="find, attribute and quantify the gap between model and data (run | selftest | generate | closed-loop)",
         description=DESCRIPTION,
-        example="maglev diagnose data/rig --out results/diagnosis   |   maglev diagnose --selftest 30 --seed 1",
+        example="maglev diagnose run data/rig --out results/diagnosis   |   maglev diagnose selftest 30 --seed 1",
     )
-    p.add_argument("dataset", nargs="?", help="rig-log dataset folder (with dataset.yaml)")
-    p.add_argument("--out", metavar="DIR", help="output folder (report.json, report.md, figures)")
-    p.add_argument("--params", metavar="FILE", help="parameter YAML: test this model as given (no calibration)")
-    p.add_argument("--candidates", nargs="+", metavar="EFFECT", help="restrict the candidate library")
-    p.add_argument("--seed", type=int, default=0, help="seed of the null draws / self-check / generation (default 0)")
-    p.add_argument("--fc", type=float, default=15.0, metavar="HZ", help="residual filter cut-off (default 15 Hz)")
-    p.add_argument("--no-figures", action="store_true", help="write report.json and report.md only")
-    p.add_argument("--selftest", type=int, metavar="N", help="run the blind self-check on N generated datasets")
-    p.add_argument(
-        "--baseline",
-        choices=("given", "calibrated"),
-        default="calibrated",
-        help="self-check: let the diagnosis calibrate the constants, or hand it the nominal model (default calibrated)",
+    p.set_defaults(handler=_no_mode)
+    modes = p.add_subparsers(dest="mode", metavar="MODE")
+    _register_run(modes)
+    _register_selftest(modes)
+    _register_generate(modes)
+    _register_closed_loop(modes)
+
+
+def _mode(modes, name: str, help: str, example: str):
+    from . import _Formatter, add_quiet
+
+    q = modes.add_parser(name, help=help, description=help, epilog=f"example:\n  {example}", formatter_class=_Formatter)
+    add_quiet(q)
+    return q
+
+
+def _seed(q) -> None:
+    q.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
+
+
+def _analysis_flags(q) -> None:
+    """Flags of the diagnosis itself (run, selftest)."""
+    q.add_argument(
+        "--candidates", nargs="+", metavar="LIST", help="restrict the candidate library (comma-separated effects)"
     )
-    p.add_argument("--runs", type=int, default=6, metavar="N", help="generated datasets: runs (default 6)")
-    p.add_argument(
-        "--duration", type=float, default=10.0, metavar="S", help="generated datasets: seconds per run (default 10)"
+    q.add_argument("--fc", type=float, default=15.0, metavar="HZ", help="residual filter cut-off (default 15 Hz)")
+
+
+def _generator_flags(q) -> None:
+    """Flags of generated datasets (selftest, generate)."""
+    q.add_argument(
+        "--generator",
+        dest="plant",
+        choices=("library", "independent"),
+        default="library",
+        help="the suite's plant with the library's effects (default), or the independent rig simulator "
+        "maglev_ocp.rigsim with its own law families and effects outside the library",
     )
-    p.add_argument(
+    q.add_argument("--runs", type=int, default=6, metavar="N", help="runs per dataset, 2..100 (default 6)")
+    q.add_argument("--duration", type=float, default=10.0, metavar="S", help="seconds per run, 2..600 (default 10)")
+    q.add_argument(
         "--loop",
         choices=("auto", "compiled", "python"),
         default="auto",
-        help="generated datasets: closed loop of the runs: compiled (one C call per run, equal to the Python loop), "
-        "python, or auto (compiled where a C compiler is found, default)",
+        help="closed loop of the runs: compiled (one C call per run, equal to the Python loop), python, or auto "
+        "(compiled where a C compiler is found, default)",
     )
-    p.add_argument("--keep-reports", action="store_true", help="self-check: write every dataset's report")
-    p.add_argument(
-        "--workers",
-        type=int,
-        default=None,
-        metavar="N",
-        help="self-check: local worker processes (Dask) the datasets are spread over; 1 runs in-process; the "
-        "result does not depend on it (default: CPU count)",
-    )
-    p.add_argument(
-        "--truths",
-        nargs="+",
-        metavar="NAME",
-        help="self-check: draw only these truths (library effects and/or none; default all)",
-    )
-    p.add_argument("--generate", metavar="DIR", help="write a diagnosis dataset from the plant into DIR")
-    p.add_argument(
-        "--plant",
-        choices=("library", "independent"),
-        default="library",
-        help="--generate / --selftest: the suite's plant with the library's effects (default), or the independent "
-        "rig simulator maglev_ocp.rigsim with its own law families and effects outside the library",
-    )
-    p.add_argument(
-        "--effect",
-        metavar="NAME",
-        help="effect for --generate / --scenario (library plant: one library effect or none; independent plant: "
-        "comma-separated rigsim effects, e.g. cogging,friction, or none)",
-    )
-    p.add_argument(
+
+
+def _effect_flags(q, what: str) -> None:
+    q.add_argument("--effect", metavar="NAME", help=what)
+    q.add_argument(
         "--effect-param",
         nargs="+",
         default=[],
         metavar="KEY=VALUE",
-        help="effect parameters in the plant (e.g. xi0=5 ell=0.004; independent plant: EFFECT.KEY=VALUE, "
-        "EFFECT.family=NAME, or KEY=VALUE with one effect)",
+        help="effect parameters, comma- or space-separated (e.g. xi0=5,ell=0.004; independent generator: "
+        "EFFECT.KEY=VALUE, EFFECT.family=NAME, or KEY=VALUE with one effect)",
     )
-    p.add_argument(
+
+
+def _register_run(modes) -> None:
+    q = _mode(modes, "run", "diagnose a rig-log dataset", "maglev diagnose run data/rig --out results/diagnosis")
+    q.add_argument("dataset", metavar="DATASET", help="rig-log dataset folder (with dataset.yaml)")
+    q.add_argument("--out", required=True, metavar="DIR", help="report folder (report.json, report.md, model.yaml)")
+    q.add_argument(
+        "--given",
+        metavar="FILE",
+        help="parameter file of the baseline, tested as given (no calibration; default: calibrate it)",
+    )
+    _analysis_flags(q)
+    _seed(q)
+    q.add_argument("--no-figures", action="store_true", help="write report.json, report.md and model.yaml only")
+    q.set_defaults(handler=lambda a: _dataset(_common(a)))
+
+
+def _register_selftest(modes) -> None:
+    q = _mode(
+        modes, "selftest", "blind self-check of the diagnosis on N generated datasets", "maglev diagnose selftest 30"
+    )
+    q.add_argument("selftest", type=int, metavar="N", help="number of generated datasets (1..1000)")
+    q.add_argument("--out", metavar="DIR", help="also write selftest.json / selftest.md here")
+    q.add_argument(
+        "--baseline",
+        choices=("given", "calibrated"),
+        default="calibrated",
+        help="let the diagnosis calibrate the constants, or hand it the nominal model (default calibrated)",
+    )
+    q.add_argument("--truths", nargs="+", metavar="LIST", help="draw only these truths (comma-separated; default all)")
+    q.add_argument("--keep-reports", action="store_true", help="write every dataset's report")
+    q.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="local worker processes (Dask) the datasets are spread over, 1..256; 1 runs in-process; the "
+        "result does not depend on it (default: CPU count)",
+    )
+    _analysis_flags(q)
+    _generator_flags(q)
+    _seed(q)
+    q.set_defaults(handler=lambda a: _selftest(_common(a)))
+
+
+def _register_generate(modes) -> None:
+    q = _mode(
+        modes,
+        "generate",
+        "write a diagnosis dataset from a plant with known effects",
+        "maglev diagnose generate data/friction --effect friction --seed 3",
+    )
+    q.add_argument("generate", metavar="DIR", help="dataset folder to write")
+    _effect_flags(
+        q,
+        "effect in the plant (library generator: one library effect or none; independent generator: "
+        "comma-separated rigsim effects, e.g. cogging,friction, or none)",
+    )
+    q.add_argument(
         "--extra",
         choices=("vibration", "guide_ripple"),
-        help="--generate: add an effect outside the library (7.3 Hz vibration, 8.6 mm guide ripple)",
+        help="add an effect outside the library (7.3 Hz vibration, 8.6 mm guide ripple)",
     )
-    p.add_argument("--scenario", metavar="FILE", help="closed-loop view on this scenario (needs --effect)")
-    p.add_argument(
-        "--fitted-from",
-        metavar="REPORT",
-        help="closed-loop view: take the fitted effect from this report.json (default: fit it)",
+    _generator_flags(q)
+    _seed(q)
+    q.set_defaults(handler=lambda a: _generate(_common(a)))
+
+
+def _register_closed_loop(modes) -> None:
+    q = _mode(
+        modes,
+        "closed-loop",
+        "what a diagnosis changes in closed loop: --from REPORT, or --effect NAME",
+        "maglev diagnose closed-loop scenarios/tour_fl.yaml --from results/diagnosis/report.json --out cl",
     )
-    p.add_argument(
-        "--closed-loop",
-        metavar="SCENARIO",
-        help="run SCENARIO on its plant and on the models of --from REPORT; compare (writes --out DIR)",
-    )
-    p.add_argument("--from", dest="from_report", metavar="REPORT", help="--closed-loop: the diagnosis report.json")
-    p.set_defaults(handler=run)
+    q.add_argument("scenario_path", metavar="SCENARIO", help="scenario YAML")
+    q.add_argument("--from", dest="from_report", metavar="REPORT", help="the diagnosis report.json")
+    _effect_flags(q, "the effect on the rig (without --from: fitted on generated data, or --fitted-from)")
+    q.add_argument("--fitted-from", metavar="REPORT", help="with --effect: take the fitted effect from this report")
+    q.add_argument("--out", metavar="DIR", help="write closed_loop.json / closed_loop.md here")
+    q.add_argument("--runs", type=int, default=6, metavar="N", help="--effect: runs of the fit's data (default 6)")
+    q.add_argument("--duration", type=float, default=10.0, metavar="S", help="--effect: seconds per run (10)")
+    q.set_defaults(handler=_closed_loop_mode)
+
+
+def _no_mode(args: argparse.Namespace) -> int:
+    raise UserError(f"give a mode: maglev diagnose {{{'|'.join(MODES)}}} ... (see maglev diagnose --help)")
+
+
+def _common(args: argparse.Namespace) -> argparse.Namespace:
+    """Checks shared by the modes (seed, lists) and the attributes a mode does not have, at their defaults."""
+    from . import MAX_SEED, check_count, parse_list
+
+    for name, default in (
+        ("candidates", None),
+        ("truths", None),
+        ("effect_param", []),
+        ("seed", 0),
+        ("fc", 15.0),
+        ("loop", "auto"),
+        ("extra", None),
+        ("effect", None),
+    ):
+        if not hasattr(args, name):
+            setattr(args, name, default)
+    check_count("--seed", args.seed, 0, MAX_SEED)
+    args.candidates = parse_list("--candidates", args.candidates) if args.candidates else None
+    args.truths = parse_list("--truths", args.truths) if args.truths else None
+    args.effect_param = parse_list("--effect-param", args.effect_param) if args.effect_param else []
+    return args
+
+
+def _closed_loop_mode(args: argparse.Namespace) -> int:
+    """``closed-loop SCENARIO``: exactly one of ``--from REPORT`` and ``--effect NAME``."""
+    _common(args)
+    if (args.from_report is None) == (args.effect is None):
+        raise UserError("closed-loop: give exactly one of --from REPORT (a diagnosis) or --effect NAME")
+    if args.from_report is not None:
+        if args.fitted_from or args.effect_param:
+            raise UserError("--from: --fitted-from and --effect-param go with --effect, not with --from")
+        args.closed_loop = args.scenario_path
+        return _closed_loop(args)
+    args.scenario = args.scenario_path
+    return _scenario(args)
 
 
 def _effect_number(key: str, text: str) -> float:
@@ -257,44 +355,21 @@ def _generator(args):
     return GeneratorSettings(n_runs=args.runs, run_duration=args.duration, loop=getattr(args, "loop", "auto"))
 
 
-def run(args: argparse.Namespace) -> int:
-    """Handler of ``maglev diagnose``."""
-    if args.seed < 0:
-        raise UserError(f"--seed: must be >= 0, got {args.seed}")
-    modes = [m for m in ("dataset", "selftest", "generate", "scenario", "closed_loop") if getattr(args, m) is not None]
-    if len(modes) != 1:
-        raise UserError(
-            "give exactly one of DATASET, --selftest N, --generate DIR, --scenario FILE, --closed-loop SCENARIO"
-        )
-    mode = modes[0]
-    if mode == "closed_loop":
-        return _closed_loop(args)
-    if mode == "selftest":
-        return _selftest(args)
-    if mode == "generate":
-        return _generate(args)
-    if mode == "scenario":
-        return _scenario(args)
-    return _dataset(args)
-
-
 def _dataset(args) -> int:
-    from ..config import check_output_dir, replace_dir
     from ..diagnosis import diagnose
     from ..diagnosis.report import write_report
+    from ..output import check_output_dir, replace_dir
     from ..riglog import read_dataset
     from . import load_model_params
 
-    if not args.out:
-        raise UserError("--out DIR is required")
     check_output_dir(args.out, expect=REPORT_FILES)
     folder = Path(args.dataset)
     if not (folder / "dataset.yaml").is_file():
         raise UserError(f"{folder}: not a dataset folder (no dataset.yaml)")
-    params = load_model_params(args.params) if args.params else None
+    params = load_model_params(args.given) if args.given else None
     st = _settings(args)
     ds = read_dataset(folder)
-    d = diagnose(ds, params=params, settings=st, progress=True)
+    d = diagnose(ds, params=params, settings=st, progress=not args.quiet)
     print(d.table())
     with replace_dir(args.out) as tmp:
         write_report(d, tmp, figures=not args.no_figures)
@@ -304,11 +379,11 @@ def _dataset(args) -> int:
 
 def _selftest(args) -> int:
     from ..diagnosis.selftest import DRAWS, SelftestSettings, run_selftest
+    from . import MAX_SELFTEST_DATASETS, MAX_WORKERS, check_count
 
-    if args.selftest < 1:
-        raise UserError(f"--selftest: N must be >= 1, got {args.selftest}")
-    if args.workers is not None and args.workers < 1:
-        raise UserError(f"--workers: must be >= 1, got {args.workers}")
+    check_count("N", args.selftest, 1, MAX_SELFTEST_DATASETS)
+    if args.workers is not None:
+        check_count("--workers", args.workers, 1, MAX_WORKERS)
     if args.plant == "independent":
         return _selftest_independent(args)
     if args.truths:
@@ -330,15 +405,15 @@ def _selftest(args) -> int:
 
 def _run_and_write(run_fn, st, args) -> int:
     """Run a self-check (``run_fn``: library or independent rig) and print its table; ``--out`` is replaced whole."""
-    from ..config import check_output_dir, replace_dir
+    from ..output import check_output_dir, replace_dir
 
     workers = args.workers or os.cpu_count() or 1
     if args.out:
         check_output_dir(args.out, expect=("selftest.json", "selftest.md"))
         with replace_dir(args.out) as tmp:
-            res = run_fn(st, progress=True, out_dir=tmp, keep_reports=args.keep_reports, workers=workers)
+            res = run_fn(st, progress=not args.quiet, out_dir=tmp, keep_reports=args.keep_reports, workers=workers)
     else:
-        res = run_fn(st, progress=True, out_dir=None, keep_reports=args.keep_reports, workers=workers)
+        res = run_fn(st, progress=not args.quiet, out_dir=None, keep_reports=args.keep_reports, workers=workers)
     print(res.table())
     if args.out:
         print(f"written: {Path(args.out) / 'selftest.md'}")
@@ -346,14 +421,16 @@ def _run_and_write(run_fn, st, args) -> int:
 
 
 def _selftest_independent(args) -> int:
-    """``--selftest N --plant independent``: the blind self-check on datasets of the independent rig."""
+    """``selftest N --generator independent``: the blind self-check on datasets of the independent rig."""
     from ..diagnosis.selftest import SelftestSettings
     from ..diagnosis.selftest_rig import run_rig_selftest
 
     if args.truths:
-        raise UserError("--truths: the independent rig draws its own scenarios (none, 1-3 effects, out of library)")
+        raise UserError("--truths: the independent generator draws its own truths (none, 1-3 effects, out of library)")
     if args.baseline != "calibrated":
-        raise UserError("--baseline given: the independent rig's constants are off nominal; only 'calibrated' applies")
+        raise UserError(
+            "--baseline given: the independent generator's constants are off nominal; only 'calibrated' applies"
+        )
     st = SelftestSettings(
         n=args.selftest, seed=args.seed, generator=_generator(args), diagnose=_settings(args, simulate=False)
     )
@@ -363,16 +440,16 @@ def _selftest_independent(args) -> int:
 def _generate(args) -> int:
     import numpy as np
 
-    from ..config import check_output_dir, replace_dir
     from ..diagnosis.generate import generate_dataset
     from ..diagnosis.selftest import selftest_plant
+    from ..output import check_output_dir, replace_dir
     from ..params import NOMINAL
     from ..riglog import read_dataset
 
     if args.plant == "independent":
         return _generate_independent(args)
     _check_effect(args.effect, allow_none=True)
-    check_output_dir(args.generate, "--generate", expect=("dataset.yaml",))
+    check_output_dir(args.generate, "DIR", expect=("dataset.yaml",))
     eff = _kv(args.effect_param)
     # The plant has the shared model's cogging (seed eq. (9), MODEL.md) at nominal, as a rig does; an effect adds
     # to it (``cogging``: slot harmonics and another decay beyond eq. (9)).
@@ -401,7 +478,7 @@ def _generate(args) -> int:
         settings=_generator(args),
         extra_force=force,
         extra_info=info,
-        progress=True,
+        progress=not args.quiet,
     )
     with replace_dir(args.generate) as tmp:  # a generated dataset carries its truth: replaced whole, not appended
         gen.save(tmp)
@@ -411,10 +488,10 @@ def _generate(args) -> int:
 
 
 def _generate_independent(args) -> int:
-    """``--generate DIR --plant independent``: a dataset (and its truth.json) from the independent rig."""
+    """``generate DIR --generator independent``: a dataset (and its truth.json) from the independent rig."""
     import json
 
-    from ..config import check_output_dir, replace_dir
+    from ..output import check_output_dir, replace_dir
     from ..riglog import read_dataset
     from ..rigsim import RigSettings, generate
 
@@ -423,7 +500,7 @@ def _generate_independent(args) -> int:
                         "(resonance, encoder_error, temperature_drift, cable)")  # fmt: skip
     effects = independent_effects(args.effect, args.effect_param)
     _generator(args)  # the same checks of --runs and --duration
-    check_output_dir(args.generate, "--generate", expect=("dataset.yaml",))
+    check_output_dir(args.generate, "DIR", expect=("dataset.yaml",))
     with replace_dir(args.generate) as tmp:
         generate(tmp, effects, args.seed, RigSettings(n_runs=args.runs, duration=args.duration))
     truth = json.loads((Path(args.generate) / "truth.json").read_text())
@@ -433,12 +510,10 @@ def _generate_independent(args) -> int:
 
 
 def _scenario(args) -> int:
-    from ..config import check_output_dir, replace_dir
     from ..diagnosis.closed_loop import closed_loop_view, fitted_from_report
     from ..diagnosis.generate import GeneratorSettings
+    from ..output import check_output_dir, replace_dir
 
-    if not args.effect:
-        raise UserError("--scenario needs --effect NAME")
     _check_effect(args.effect)
     if not Path(args.scenario).is_file():
         raise UserError(f"{args.scenario}: no such scenario file")
@@ -450,7 +525,7 @@ def _scenario(args) -> int:
         args.effect,
         _kv(args.effect_param),
         fitted,
-        progress=True,
+        progress=not args.quiet,
         fit_settings=GeneratorSettings(n_runs=max(args.runs, 3), run_duration=args.duration),
     )
     print(view.table())
@@ -464,13 +539,15 @@ def _scenario(args) -> int:
 def _closed_loop(args) -> int:
     from ..diagnosis.closed_loop import closed_loop_from_report
 
-    if not args.from_report:
-        raise UserError("--closed-loop needs --from REPORT (a diagnosis report.json)")
     if not Path(args.closed_loop).is_file():
         raise UserError(f"{args.closed_loop}: no such scenario file")
     if not Path(args.from_report).is_file():
         raise UserError(f"{args.from_report}: no such report")
-    res = closed_loop_from_report(args.closed_loop, args.from_report, progress=True)
+    if args.out:
+        from ..output import check_output_dir
+
+        check_output_dir(args.out, replaced=False, expect=("closed_loop.json", "closed_loop.md"))
+    res = closed_loop_from_report(args.closed_loop, args.from_report, progress=not args.quiet)
     print(res.table())
     if args.out:
         res.save(args.out)

@@ -34,7 +34,12 @@ def register(sub) -> None:
         metavar="MM",
         help="gaps in mm (default: 10 15 20 25)",
     )
-    p.add_argument("--params", default=None, metavar="FILE", help="parameter YAML (default: seed Table III)")
+    p.add_argument(
+        "--params",
+        default=None,
+        metavar="FILE",
+        help="nominal constants: a parameter file (maglev-params/1; default: seed Table III)",
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a text table")
     p.add_argument(
         "--plot",
@@ -75,7 +80,7 @@ def plot_table(path: str, params) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from ..config import atomic_write_bytes
+    from ..output import atomic_write_bytes
 
     gs = np.linspace(8.0, 32.0, 97)
     rows = table(gs, params)
@@ -101,7 +106,7 @@ def plot_table(path: str, params) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev model``."""
-    from ..config import check_output_file
+    from ..output import check_output_file
     from ..params import NOMINAL
     from . import load_model_params
 

@@ -21,7 +21,7 @@ RESULT_FILES: tuple[str, ...] = ("metrics.json", "error.txt", "scenario.yaml")
 
 def register(sub) -> None:
     """Add the ``run`` subcommand."""
-    from . import add_command
+    from . import add_command, add_quiet
 
     p = add_command(
         sub,
@@ -43,19 +43,21 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="results folder (one subfolder per scenario)")
     p.add_argument("--seed", type=int, default=None, help="replace every scenario's seed")
     p.add_argument("--no-figures", action="store_true", help="skip the figures (faster)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_quiet(p)
     p.add_argument("--details", action="store_true", help="also print each scenario's per-target table")
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``maglev run``."""
-    from ..config import check_output_dir
+    from ..output import check_output_dir
     from ..runner import summary_table
     from ..scenario import load_scenario
 
-    if args.seed is not None and not (0 <= args.seed < 2**63):
-        raise UserError(f"--seed: {args.seed} must be in [0, 2^63)")
+    if args.seed is not None:
+        from . import MAX_SEED, check_count
+
+        check_count("--seed", args.seed, 0, MAX_SEED)
     out = check_output_dir(args.out, replaced=False)  # OUT itself is kept; each OUT/<name>/ is replaced
     # Validate everything first: bad input never leaves half a results folder behind.
     scenarios = [load_scenario(path) for path in args.scenarios]
@@ -92,12 +94,12 @@ def _run_one(sc, folder: Path, args: argparse.Namespace, cache: dict):
     A scenario that crashes is reported and its folder holds ``error.txt`` (the
     traceback), so one scenario's crash never loses the others' results.
     """
-    from ..config import atomic_write_text, replace_dir
+    from ..output import atomic_write_text, replace_dir
     from ..runner import run_scenario
 
     with replace_dir(folder) as tmp:
         try:
-            res = run_scenario(sc, seed=args.seed, progress=not args.no_progress, cache=cache)
+            res = run_scenario(sc, seed=args.seed, progress=not args.quiet, cache=cache)
         except UserError:
             raise
         except Exception as err:

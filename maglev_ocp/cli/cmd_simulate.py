@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError, UserError
-from ..riglog import MAX_CELL_CHARS, MAX_COLUMNS, wide_csv_fields
+from ..riglog import MAX_CELL_CHARS, MAX_COLUMNS, PHYSICAL_RANGES, is_plain_number, wide_csv_fields
 
 EXAMPLES = """examples:
   maglev simulate --experiment hover --g 15 --duration 2 --out data/hover15
@@ -24,14 +24,14 @@ EXAMPLES = """examples:
 
 def register(sub) -> None:
     """Add the ``simulate`` subcommand."""
-    from . import add_command
+    from . import add_command, add_quiet
 
     p = add_command(
         sub,
         "simulate",
         help="run the plant simulator and write a rig-log dataset",
         description=(
-            "Run the plant simulator (the stand-in for the rig: shared model + noise, 10 um\n"
+            "Run the plant simulator (the stand-in for the rig: shared model + noise, 10 µm\n"
             "encoders, current limits, stops, fixtures and unmodelled effects, per a rig profile\n"
             "or a plant YAML) and write a maglev-rig-log/1 dataset (RIG_LOG.md).\n\n"
             "Experiments: 'hover' holds (g, d) with the seed's PID regulators; 'excitation'\n"
@@ -55,17 +55,28 @@ def register(sub) -> None:
     src.add_argument("--constant", nargs=2, type=float, metavar=("IQ", "ID"), help="open loop: constant currents [A]")
     prof = p.add_mutually_exclusive_group()
     prof.add_argument("--profile", default=None, help="rig profile: default or ideal (default: default)")
-    prof.add_argument("--plant", metavar="FILE", help="plant YAML (a profile plus overrides)")
-    p.add_argument("--params", metavar="FILE", help="nominal parameter YAML (default: seed Table III)")
+    prof.add_argument("--plant", metavar="FILE", help="plant file: a rig profile plus overrides (YAML)")
+    p.add_argument(
+        "--params",
+        metavar="FILE",
+        help="nominal constants: a parameter file (maglev-params/1; default: seed Table III)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
     p.add_argument("--duration", type=float, default=None, help="run length [s] (default 2; currents CSV: its length)")
     p.add_argument("--g", type=float, default=20.0, metavar="MM", help="gap set-point / lock position [mm] (20)")
     p.add_argument("--d", type=float, default=0.0, metavar="MM", help="horizontal set-point / lock position [mm] (0)")
     p.add_argument("--lock", choices=("none", "g", "d"), default=None, help="hold an axis in a fixture")
-    p.add_argument("--out", default="results/simulate", metavar="DIR", help="dataset folder (results/simulate)")
+    p.add_argument("--out", default=None, metavar="DIR", help="dataset folder (required; a new or empty folder)")
+    p.add_argument(
+        "--append",
+        action="store_true",
+        help="add the new runs to the dataset already in --out (a run of the same name is refused, never replaced)",
+    )
     p.add_argument("--plot", action="store_true", help="also plot each run to DIR/<run>.png")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--check", metavar="DATASET", help="only validate DATASET and print its summary")
+    add_quiet(p)
+    p.add_argument(
+        "--check", metavar="DATASET", help="only validate DATASET and print its summary (no other flag with it)"
+    )
     p.set_defaults(handler=run)
 
 
@@ -123,6 +134,12 @@ def _cell_value(path: Path, r: int, name: str, cell: str) -> float:
         raise DataError(f"{where}: not a number: {cell!r}") from None
     if not math.isfinite(v):
         raise DataError(f"{where}: non-finite value {cell!r}")
+    if not is_plain_number(cell):
+        raise DataError(f"{where}: {cell!r} is not a plain number (digits, '.', an optional exponent; no '_')")
+    if name in PHYSICAL_RANGES:
+        lo, hi, unit = PHYSICAL_RANGES[name]
+        if not lo <= v <= hi:
+            raise DataError(f"{where}: {v:g} {unit} is outside {lo:g}..{hi:g} {unit}")
     return v
 
 
@@ -150,7 +167,7 @@ def plot_run(run, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..config import atomic_write_bytes
+    from ..output import atomic_write_bytes
 
     t = run["t"]
     fig, ax = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
@@ -181,18 +198,25 @@ def run(args: argparse.Namespace) -> int:
 
     Everything is checked before the simulation (values, files, the output
     folder). The dataset is written into a temporary sibling folder and swapped
-    in whole; runs of an existing dataset at ``--out`` are kept (appended to).
+    in whole. An existing dataset at ``--out`` is refused unless ``--append``;
+    then its runs are kept, the new ones added (a new run with the name of an
+    old one is refused: nothing is replaced silently) and the added runs named.
     """
-    from ..config import check_output_dir, replace_dir
-    from ..riglog import merge_datasets, read_dataset
+    from ..output import check_output_dir, replace_dir
+    from ..riglog import merge_datasets, read_dataset, read_header
 
     if args.check:
+        _check_alone(args)
         ds = read_dataset(args.check)
         print(ds.table())
         return 0
     job = _prepare(args)
+    if not args.out:
+        raise UserError("--out DIR is required (a new or empty folder; --append adds to an existing dataset)")
     out = check_output_dir(args.out)
     previous = _existing_dataset(out, job["cfg"])
+    if previous and not args.append:
+        raise UserError(f"--out: {out} already holds a dataset; give a new folder, or --append to add these runs to it")
     t0 = time.perf_counter()
     with replace_dir(out) as tmp:
         if job["experiment"] == "seed-calibration":
@@ -201,13 +225,22 @@ def run(args: argparse.Namespace) -> int:
             sim_time = None
         else:
             sim_time, events = _simulate_runs(tmp, args, job)
+        added = [e["file"] for e in read_header(tmp)["runs"]]
         if previous:
+            clash = sorted(set(added) & {e["file"] for e in read_header(out)["runs"]})
+            if clash:
+                raise UserError(
+                    f"--append: {out} already has run(s) {', '.join(clash)}; nothing written (a run is never "
+                    "replaced: change --g/--d/--lock or give another folder)"
+                )
             merge_datasets(tmp, out)
     wall = time.perf_counter() - t0
     ds = read_dataset(out)
     print(ds.table())
     for e in events:
         print(f"stop event: {e}")
+    if previous:
+        print(f"appended {len(added)} run(s) to {out}: {', '.join(added)} ({len(ds.runs)} runs now)")
     if sim_time is None:
         print(f"wrote {out} in {wall:.1f} s")
     else:
@@ -215,14 +248,36 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Flags that make no sense with ``--check`` (it only reads a dataset): flag -> attribute and its default.
+_SIMULATION_FLAGS: tuple[tuple[str, str, object], ...] = (
+    ("--out", "out", None),
+    ("--append", "append", False),
+    ("--experiment", "experiment", None),
+    ("--currents", "currents", None),
+    ("--constant", "constant", None),
+    ("--profile", "profile", None),
+    ("--plant", "plant", None),
+    ("--params", "params", None),
+    ("--duration", "duration", None),
+    ("--lock", "lock", None),
+    ("--plot", "plot", False),
+)
+
+
+def _check_alone(args: argparse.Namespace) -> None:
+    """``--check`` only validates a dataset: any simulation flag with it is a conflict (one-line UserError)."""
+    given = [flag for flag, attr, default in _SIMULATION_FLAGS if getattr(args, attr) != default]
+    if given:
+        raise UserError(f"--check only validates a dataset; leave out {', '.join(given)} (they set up a simulation)")
+
+
 def _prepare(args: argparse.Namespace) -> dict:
     """Check the command-line values and load the settings files (nothing is simulated or written)."""
     from ..params import NOMINAL
     from ..plant import PlantConfig, load_plant_config
-    from . import load_model_params
+    from . import MAX_SEED, check_count, load_model_params
 
-    if args.seed < 0:
-        raise UserError(f"--seed: must be >= 0, got {args.seed}")
+    check_count("--seed", args.seed, 0, MAX_SEED)
     if args.duration is not None:
         _check_range("--duration", args.duration, 0.002, 3600.0, "s")
     _check_range("--g", args.g, 5.0, 40.0, "mm")
@@ -280,7 +335,7 @@ def _seed_calibration(folder: Path, args: argparse.Namespace, job: dict) -> None
     from ..loop.experiments import generate_seed_calibration
 
     generate_seed_calibration(
-        folder, seed=args.seed, plant_config=job["cfg"], params=job["params"], progress=not args.no_progress
+        folder, seed=args.seed, plant_config=job["cfg"], params=job["params"], progress=not args.quiet
     )
 
 
@@ -299,7 +354,7 @@ def _simulate_runs(folder: Path, args: argparse.Namespace, job: dict) -> tuple[f
     ss_plant, ss_ref = ss.spawn(2)
     plant = Plant(cfg, job["params"], seed=ss_plant)
     x0 = np.array([g, 0.0, d, 0.0])
-    progress = not args.no_progress
+    progress = not args.quiet
     if experiment == "open-loop":
         if job["currents"] is not None:
             t_file, u_file = job["currents"]
@@ -360,4 +415,4 @@ def _closed_loop(
             fade_in=base.fade_in,
         )
         ref = SumOfSines(exc, seed=ss_ref)
-    return run_closed_loop(plant, ctrl, ref, duration, x0=x0, file=file, progress=not args.no_progress)
+    return run_closed_loop(plant, ctrl, ref, duration, x0=x0, file=file, progress=not args.quiet)

@@ -62,7 +62,7 @@ def compile_codes(codes: list[ControllerCode], cflags: str | None = None, progre
 
 
 class _Timed:
-    """A :class:`CompiledFunction` that remembers how long its last C call took [us].
+    """A :class:`CompiledFunction` that remembers how long its last C call took [µs].
 
     ``last_us`` is wall-clock time, ``last_cpu_us`` the thread's CPU time (without
     the time the OS gave to other processes).
@@ -280,7 +280,7 @@ class CompiledObserver:
 
     @property
     def last_us(self) -> float:
-        """Time of the last C call [us]."""
+        """Time of the last C call [µs]."""
         return self._f.last_us
 
 

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import atomic_write_text
+from ..output import atomic_write_text
 from ..runner import build_controller, run_scenario
 from ..scenario import Scenario, load_scenario, scenario_from_dict
 from .backend import build_c_controller, default_cflags
@@ -76,7 +76,7 @@ def realtime_priority(enabled: bool = True, priority: int = 10):
 
 
 def stats_us(values: np.ndarray, prefix: str = "") -> dict[str, float]:
-    """Median, p99 and max of a timing series [us] under ``<prefix>median_us`` etc."""
+    """Median, p99 and max of a timing series [µs] under ``<prefix>median_us`` etc."""
     v = np.asarray(values, dtype=float)
     v = v[np.isfinite(v)]
     if v.size == 0:
@@ -89,7 +89,7 @@ def stats_us(values: np.ndarray, prefix: str = "") -> dict[str, float]:
 
 
 class StepTimer:
-    """Wraps a controller (its other attributes pass through) and times every ``step`` [us].
+    """Wraps a controller (its other attributes pass through) and times every ``step`` [µs].
 
     Per step: ``step_us`` (wall clock), ``cpu_us`` (this thread's CPU time) and the step's
     ``kernel_us`` / ``kernel_cpu_us`` statistics (the compiled kernel alone; NaN where a step
@@ -156,7 +156,7 @@ class BenchResult:
             f"{'controller':<10} {'backend':<7} {'steps':>6} {'median':>9} {'p99':>9} {'max':>9} "
             f"{'C median':>9} {'C p99':>9} {'C max':>9} {'C cpu p99':>10}"
         )
-        lines = [head, f"{'':<25} {'step() [us]':^29} {'compiled kernel alone [us]':^40}", "-" * len(head)]
+        lines = [head, f"{'':<25} {'step() [µs]':^29} {'compiled kernel alone [µs]':^40}", "-" * len(head)]
 
         def f(v):
             return f"{v:9.1f}" if v is not None else f"{'-':>9}"

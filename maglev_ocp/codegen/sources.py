@@ -22,7 +22,7 @@ import casadi as ca
 import numpy as np
 
 from .. import constants as k
-from ..config import atomic_write_text
+from ..output import atomic_write_text
 from . import templates as tpl
 from .functions import CodeUnit, ControllerCode, Port
 

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 #: Default compiler flags: portable (no -march), no fast-math (IEEE results equal to the Python
 #: backend's; the NaN checks of the fallback stay valid); -fno-math-errno lets sqrt inline.
-#: Measured on the NMPC step (GCC 12, N = 20, CPU median per step): -O1 141 us (25 s to compile),
-#: -O1 -finline-small-functions 126 us, -O2 95 us (43 s), -O2 -march=native 108 us, -O3 -march=native
-#: 137 us (44 s): -O2 it is. Override with ``make CFLAGS=...`` or ``$MAGLEV_CODEGEN_CFLAGS``.
+#: Measured on the NMPC step (GCC 12, N = 20, CPU median per step): -O1 141 µs (25 s to compile),
+#: -O1 -finline-small-functions 126 µs, -O2 95 µs (43 s), -O2 -march=native 108 µs, -O3 -march=native
+#: 137 µs (44 s): -O2 it is. Override with ``make CFLAGS=...`` or ``$MAGLEV_CODEGEN_CFLAGS``.
 DEFAULT_CFLAGS = "-O2 -fno-math-errno"
 
 MAKEFILE = """\
@@ -261,7 +261,7 @@ static void ref_at(const Table *t, const Refs *rf, int r, double out[6]) {
   static casadi_int v##_iw[SZ##_SZ_IW + 1];                                                 \
   static casadi_real v##_w[SZ##_SZ_W + 1]
 
-/* Call fn on the work arrays v_*, timing it: wall clock into dt, thread CPU time into dc [us]. */
+/* Call fn on the work arrays v_*, timing it: wall clock into dt, thread CPU time into dc [µs]. */
 #define TIMED_CALL(fn, v, mem, dt, dc)                                                       \
   do {                                                                                      \
     double c0_ = cpu_us(), t0_ = now_us();                                                  \

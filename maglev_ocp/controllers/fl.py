@@ -103,7 +103,14 @@ from maglev_ocp.observers import (
 from maglev_ocp.params import NOMINAL, Params
 from maglev_ocp.signals import REF_FIELDS
 
-from .model_file import SIGN_WIDTH_SIGMAS, ModelEffects, check_model_path, load_controller_model, velocity_noise
+from .model_file import (
+    MODEL_SETTING_DESCRIPTION,
+    SIGN_WIDTH_SIGMAS,
+    ModelEffects,
+    check_model_path,
+    load_controller_model,
+    velocity_noise,
+)
 
 #: Order of the gain / limit vector fed to :func:`fl_law_function`.
 GAIN_FIELDS: tuple[str, ...] = ("kp_g", "kd_g", "ki_g", "kp_d", "kd_d", "ki_d", "i_axis_max", "i_amp_max", "Ts")
@@ -349,9 +356,7 @@ class FLSettings(AdaptSettings):
     delay_samples: int = Field(
         0, ge=0, le=10, description="computation delay compensated by the predictor [control periods]"
     )
-    model: str | None = Field(
-        None, description="model file: constants and fitted effects (maglev_ocp.controllers.model_file)"
-    )
+    model: str | None = Field(None, description=MODEL_SETTING_DESCRIPTION)
     adapt_noise: float | None = Field(
         4e-6,
         gt=0,

@@ -1,7 +1,9 @@
 """Model files for controllers: constants plus fitted effects, the format of the plant profiles' ``effects:``.
 
-A model file is what a diagnosis writes and what ``controller: {model: FILE}``
-loads: the model constants (the keys of a parameter file,
+A model file is what ``maglev calibrate`` and ``maglev diagnose`` write
+(``model.yaml``) and what every controller loads with ``controller: {model:
+FILE}`` (in a scenario, a relative path is read from the scenario file's
+folder): the model constants (the keys of a parameter file,
 :class:`maglev_ocp.params.ParamsFile`) and an ``effects:`` block in the plant
 profiles' format (``{name: {enabled: true, <param>: value, ...}}``, see
 :mod:`maglev_ocp.effects`)::
@@ -50,7 +52,14 @@ from maglev_ocp.config import load_yaml, parse_model
 from maglev_ocp.effects import EFFECTS, EffectSet, effect_delta_function
 from maglev_ocp.errors import ConfigError
 from maglev_ocp.fastcall import BufferedFunction
-from maglev_ocp.params import Params, ParamsFile
+from maglev_ocp.params import Params, ParamsFile, warn_if_untrusted
+
+#: Description of every controller's ``model`` setting (FL, NMPC, PID): the one key that loads a model file.
+MODEL_SETTING_DESCRIPTION: str = (
+    "model file (maglev_ocp.controllers.model_file): the constants and fitted effects that maglev calibrate and "
+    "maglev diagnose write as model.yaml; its constants replace the controller's parameters. In a scenario a "
+    "relative path is read from the scenario file's folder"
+)
 
 #: Plant-file keys that describe the rig, not its model (ignored when a plant file is loaded as a model file).
 RIG_KEYS: tuple[str, ...] = (
@@ -118,6 +127,7 @@ def load_controller_model(path: str | os.PathLike) -> ControllerModel:
     delay = _plant_delay(path, data.pop("delay_samples", 0))
     data = {**_mismatch_constants(path, data.pop("mismatch", None)), **data}
     consts = parse_model(ParamsFile, data, str(path))  # one line: file, key, what is allowed
+    warn_if_untrusted(consts, path)  # trusted: false (e.g. maglev calibrate --force): said on every load
     params = Params(**{f.name: getattr(consts, f.name) for f in fields(Params)})
     on: dict[str, dict[str, float]] = {}
     for name, block in effects.items():
@@ -229,9 +239,14 @@ class ModelEffects:
 
 
 def check_model_path(path: str | None) -> str | None:
-    """Settings validator of a ``model:`` key: the file must exist (its content is checked when loaded)."""
+    """Settings validator of a ``model:`` key: the file must exist (its content is checked when loaded).
+
+    A scenario hands the path already joined to its own folder (a relative
+    ``model:`` is read from the scenario file's folder); settings built in
+    Python take it as given (from the working directory).
+    """
     if path is not None and not os.path.isfile(path):
-        raise ValueError(f"no such model file: {path!r} (a path from the working directory)")
+        raise ValueError(f"no such model file: {path!r} (in a scenario, a relative path is read from its folder)")
     return path
 
 
@@ -263,6 +278,7 @@ def _mismatch_constants(path: str | os.PathLike, block: object) -> dict:
 
 __all__ = [
     "DYNAMIC_EFFECTS",
+    "MODEL_SETTING_DESCRIPTION",
     "QUANTIZATION_STD",
     "RIG_KEYS",
     "SIGN_WIDTHS",

@@ -49,7 +49,7 @@ from maglev_ocp.model import get_model
 from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL, Params
 
-from .model_file import ModelEffects, check_model_path, load_controller_model
+from .model_file import MODEL_SETTING_DESCRIPTION, ModelEffects, check_model_path, load_controller_model
 
 
 class PIDSettings(Strict):
@@ -94,9 +94,7 @@ class PIDSettings(Strict):
     observer_eps: float = Field(4e-3, gt=1e-4, le=1.0)
     i_axis_max: float = Field(k.i_axis_max, gt=0, le=100)
     i_amp_max: float = Field(k.i_amp_max, gt=0, le=100)
-    model: str | None = Field(
-        None, description="model file: constants and fitted effects (maglev_ocp.controllers.model_file)"
-    )
+    model: str | None = Field(None, description=MODEL_SETTING_DESCRIPTION)
 
     @field_validator("model")
     @classmethod

@@ -47,9 +47,9 @@ import numpy as np
 
 from .. import constants as k
 from ..blocks import ControlOutput, Measurement, Reference
-from ..config import atomic_write_bytes, atomic_write_text, make_dir
 from ..effects import EFFECTS
 from ..errors import UserError
+from ..output import atomic_write_bytes, atomic_write_text, make_dir
 from ..params import Params
 from ..plant.config import deep_merge
 from ..runner import _as_scenario, build_controller, run_scenario

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..config import atomic_write_bytes, atomic_write_text, plain_data
-from ..params import NOMINAL
+from ..output import atomic_write_bytes, atomic_write_text, plain_data
+from ..params import model_file_instruction
 from ..signals import label
 from .result import Diagnosis, report_json, summary_table
 
@@ -399,8 +399,13 @@ def _noise_markdown(d: Diagnosis) -> list[str]:
 def _consequence_markdown(d: Diagnosis) -> list[str]:
     """Size-and-consequence section of the effects found."""
     c = d.consequences
-    if c is None or not c.sizes:
+    if c is None:
         return []
+    if not c.sizes:  # no effect found: the model file still is the refit baseline, loaded the one way
+        return [
+            f"\nThe refit model is written as a model file, `model.yaml` (the baseline as `baseline.yaml`). "
+            f"{model_file_instruction('model.yaml')}."
+        ]
     md = ["\n## Size and closed-loop consequence of the effects found\n"]
     md.append(
         "| effect | peak force g / d [N] | % of weight | delay [µs] | FL max error [µm] | NMPC max error [µm] | |"
@@ -420,9 +425,9 @@ def _consequence_markdown(d: Diagnosis) -> list[str]:
             + " |"
         )
     md.append(
-        "\nThe augmented model is written as a plant file, `model.yaml` (the baseline as `baseline.yaml`); "
-        "a scenario runs it with `plant: {file: model.yaml}`. Its constants are also in `model_params.yaml` "
-        "(a parameter file, e.g. `controller_params: {file: model_params.yaml}`)."
+        f"\nThe augmented model is written as a model file, `model.yaml` (constants and fitted effects; the "
+        f"baseline as `baseline.yaml`). {model_file_instruction('model.yaml')}. "
+        "The same file is a plant file: `plant: {file: model.yaml}` simulates the model as a rig."
     )
     if c.dropped:
         md.append(f"Fitted terms a plant file cannot carry: {', '.join(c.dropped)}.")
@@ -430,31 +435,25 @@ def _consequence_markdown(d: Diagnosis) -> list[str]:
 
 
 def write_model_files(d: Diagnosis, out_dir: str | os.PathLike) -> list[Path]:
-    """Write ``model.yaml`` (augmented model) and ``baseline.yaml`` as plant files (see :mod:`.consequence`),
-    and ``model_params.yaml``, the augmented model's constants as a parameter file."""
+    """Write ``model.yaml`` (augmented model) and ``baseline.yaml``: model files, which are plant files too
+    (see :mod:`.consequence` and :mod:`maglev_ocp.controllers.model_file`), with the one load instruction."""
     out = Path(out_dir)
     written = []
     if d.consequences is None:
         return written
     c = d.consequences
     head = (
-        "# {what} of a gap diagnosis (maglev diagnose), as a plant file: constants in mismatch.overrides,\n"
-        "# every library effect with its fitted law or off. Load with maglev_ocp.plant.load_plant_config,\n"
-        "# or in a scenario: plant: {{file: {name}}}.\n"
+        "# {what} of a gap diagnosis (maglev diagnose): a model file, constants in mismatch.overrides and\n"
+        "# every library effect with its fitted law or off. {instruction}.\n"
+        "# It is a plant file too: plant: {{file: {name}}} simulates the model as a rig.\n"
     )
     for name, data, what in (
         ("model.yaml", c.model_file, f"Augmented model ({c.label})"),
         ("baseline.yaml", c.baseline_file, "Baseline model"),
     ):
-        atomic_write_text(
-            out / name, head.format(what=what, name=name) + yaml.safe_dump(plain_data(data), sort_keys=False)
-        )
+        text = head.format(what=what, name=name, instruction=model_file_instruction(name))
+        atomic_write_text(out / name, text + yaml.safe_dump(plain_data(data), sort_keys=False))
         written.append(out / name)
-    # The augmented model's constants as a parameter file, for a controller's model (``--params``,
-    # ``controller_params: {file: ...}``); its effects are in model.yaml.
-    consts = {n: float(v) for n, v in c.model_file["mismatch"]["overrides"].items()}
-    NOMINAL.with_(**consts).save(out / "model_params.yaml")
-    written.append(out / "model_params.yaml")
     return written
 
 

@@ -52,8 +52,9 @@ from pathlib import Path
 import numpy as np
 from pydantic import Field
 
-from ..config import Strict, atomic_write_text, make_dir
+from ..config import Strict
 from ..effects import EFFECTS
+from ..output import atomic_write_text, make_dir
 from ..parallel import map_ordered
 from ..params import NOMINAL, Params
 from ..plant import PlantConfig

@@ -34,7 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import atomic_write_text
+from ..markdown import md_table
+from ..output import atomic_write_text
 from ..parallel import map_ordered
 from ..riglog import read_dataset
 from ..rigsim import RigSettings, draw, generate
@@ -225,15 +226,14 @@ class RigSelftestResult(SelftestResult):
     def markdown(self) -> str:
         """Markdown view: the confusion matrix over sets, one row per true set with the verdicts it got."""
         rows, cols, m = self.confusion()
-        md = ["| truth | datasets | right | verdicts (count) |", "|---|---|---|---|"]
+        body = []
         for i, r in enumerate(rows):
-            # A confusable set's "|" would end the table cell: escaped.
-            got = ", ".join(
-                f"`{cols[j]}`".replace("|", "\\|") + f" {m[i, j]}" for j in np.argsort(-m[i], kind="stable") if m[i, j]
-            )
+            # A confusable set's "|" would end the table cell: md_table escapes it.
+            got = ", ".join(f"`{cols[j]}` {m[i, j]}" for j in np.argsort(-m[i], kind="stable") if m[i, j])
             right = sum(1 for c in self.cases if c.truth == r and c.right)
-            md.append(f"| `{r}` | {int(m[i].sum())} | {right} | {got} |")
-        return "\n".join([*md, "", *(f"- {x}" for x in self._lines())])
+            body.append([f"`{r}`", int(m[i].sum()), right, got])
+        md = md_table(["truth", "datasets", "right", "verdicts (count)"], body)
+        return "\n".join([md, "", *(f"- {x}" for x in self._lines())])
 
     def save(self, out_dir: str | os.PathLike) -> Path:
         """Write ``selftest.json`` and ``selftest.md``."""

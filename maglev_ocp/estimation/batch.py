@@ -52,9 +52,9 @@ import scipy.sparse as sp
 from tqdm import tqdm
 
 from .. import constants as k
-from ..config import atomic_write_text
 from ..effects import Friction
 from ..model import get_model
+from ..output import atomic_write_text
 from ..params import NOMINAL, Params
 from ..signals import PARAM_NAMES
 from .data import RunData, eval_samples
@@ -106,7 +106,7 @@ class BatchSettings:
         Parameters to fit (subset of :data:`BATCH_PARAMS`); the others stay at the prior.
     sigma_t : float
         Standard deviation of the Gaussian zero-phase filter [s] (10 ms: -3 dB
-        near 19 Hz; filters 10 um quantization to a few mm/s^2).
+        near 19 Hz; filters 10 µm quantization to a few mm/s^2).
     support : float
         Half-width of the kernel in units of ``sigma_t``.
     decimate : int, optional

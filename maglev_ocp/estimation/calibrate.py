@@ -6,7 +6,9 @@ high-gain observer, runs every procedure of :mod:`.procedures` the runs allow
 parameters (:mod:`.batch`), and returns a :class:`CalibrationResult`. Its
 :meth:`~CalibrationResult.save` writes
 
-* ``params.yaml`` - the calibrated parameters (:func:`maglev_ocp.params.load_params` reads it);
+* ``model.yaml`` - the calibrated constants as a model file (:func:`maglev_ocp.params.write_model_file`;
+  a controller loads it with ``controller: {model: model.yaml}``), written only when
+  :meth:`CalibrationResult.trust_problems` finds nothing, or marked ``trusted: false`` with the reasons;
 * ``calibration.json`` - ``params``, ``stderr``, ``correlation``, ``procedures``, ... (SI units);
 * ``tables/`` - Table II, Table III, L1 by gap, cogging, batch (Markdown and CSV);
 * ``fig*.png`` - the seed's Fig. 3-9 and the estimator diagnostics.
@@ -32,9 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import atomic_write_text
 from ..errors import DataError, UserError
-from ..params import NOMINAL, Params
+from ..output import atomic_write_text
+from ..params import NOMINAL, Params, write_model_file
 from .batch import BATCH_PARAMS, BatchResult, BatchSettings, batch_estimate
 from .data import runs_from_dataset
 from .procedures import (
@@ -54,6 +56,14 @@ from .procedures import (
 
 #: Relative standard error above which a parameter is reported as weakly determined.
 WEAK_REL_STDERR = 0.02
+#: Relative standard error above which a calibrated constant is refused (untrusted): 10 %, i.e. a 95 % interval
+#: of about ±20 %, wider than the whole spread of the rig's constants the plant profiles assume (C1..C3 within
+#: ±2 %, C4 ±10 %): beyond it the data say less about the constant than what is known before calibrating.
+MAX_REL_STDERR = 0.10
+#: Largest condition number of the estimates' correlation matrix (the information matrix scaled to unit
+#: diagonal): 1/sqrt(machine epsilon), about 6.7e7. Beyond it the covariance, whose inverse it is, has lost
+#: half of its digits, so the standard errors themselves cannot be trusted (the constants are not separable).
+MAX_CONDITION = 1.0 / math.sqrt(float(np.finfo(float).eps))
 #: The seed's published Table II and III (for the side-by-side tables).
 SEED_TABLE_II = {
     0.001: {"C2": 790.97, "C3": 30.47, "C4": 0.11},
@@ -135,6 +145,43 @@ class CalibrationResult:
                 out[n] = f"relative standard error {100 * se / abs(v):.2g} %"
         return out
 
+    def trust_problems(self) -> list[str]:
+        """Why the calibrated constants cannot be trusted (empty: they can); one clause per reason.
+
+        Reasons: the batch fit's solver did not converge; a constant at its
+        bound (physical or guard, or refitted after crossing its physical bound);
+        the information matrix ill-conditioned (condition number of the
+        correlation matrix above :data:`MAX_CONDITION`); a relative standard
+        error above :data:`MAX_REL_STDERR`. Constants the dataset does not see
+        keep the prior's value and are not a reason (the table says so).
+        """
+        b = self.batch
+        if b is None:
+            return []
+        out = []
+        if not b.converged:
+            out.append("the batch fit did not converge")
+        at_bound = sorted(set(b.info.get("at_bound", [])) | set(b.info.get("below_physical_bound", {}) or {}))
+        at_bound = [n for n in at_bound if n in b.names]
+        if at_bound:
+            out.append(f"{', '.join(at_bound)} at a bound (the data do not fit the model)")
+        if len(b.names) > 1:
+            corr = np.asarray(b.correlation, dtype=float)
+            cond = float(np.linalg.cond(corr)) if np.all(np.isfinite(corr)) else math.inf
+            if not cond <= MAX_CONDITION:
+                out.append(
+                    f"information matrix ill-conditioned (condition number {cond:.2g} > {MAX_CONDITION:.2g}; "
+                    "the constants are not separable on these runs)"
+                )
+        weak = [(n, b.rel_stderr(n)) for n in b.names if not b.rel_stderr(n) <= MAX_REL_STDERR]
+        if weak:
+            out.append(
+                "relative standard error "
+                + ", ".join(f"{n} {100 * r:.3g} %" for n, r in weak)
+                + f" > {100 * MAX_REL_STDERR:g} %"
+            )
+        return out
+
     def least_determined(self) -> str:
         """One line on the parameter with the largest relative standard error and its strongest correlation."""
         if self.batch is None or not self.batch.names:
@@ -182,6 +229,8 @@ class CalibrationResult:
             "procedures": procs,
             "batch": self.batch.to_dict() if self.batch is not None else None,
             "converged": self.converged,
+            "trusted": not self.trust_problems(),
+            "untrusted_because": self.trust_problems(),
             "warnings": self.warnings,
             "runs": self.groups.summary(),
             "timing_s": self.timing,
@@ -267,12 +316,23 @@ class CalibrationResult:
 
     # ----------------------------------------------------------------- output
     def save(self, out: str | os.PathLike, figures: bool = True) -> list[Path]:
-        """Write ``params.yaml``, ``calibration.json``, ``tables/`` and the figures into ``out``."""
+        """Write ``model.yaml``, ``calibration.json``, ``tables/`` and the figures into ``out``.
+
+        ``model.yaml`` is marked ``trusted: false`` with the reasons when
+        :meth:`trust_problems` finds any (the caller decides whether to write at all).
+        """
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         written = []
-        self.params.save(out / "params.yaml")
-        written.append(out / "params.yaml")
+        problems = self.trust_problems()
+        write_model_file(
+            out / "model.yaml",
+            self.params,
+            written_by=f"maglev calibrate on {Path(self.dataset).name}",
+            trusted=not problems,
+            untrusted_because=problems,
+        )
+        written.append(out / "model.yaml")
         atomic_write_text(out / "calibration.json", json.dumps(_plain(self.to_dict()), indent=2))
         written.append(out / "calibration.json")
         tables = {"summary": self.table(), "table_II": self.table_ii(), "table_III": self.table_iii()}

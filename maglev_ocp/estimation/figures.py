@@ -15,8 +15,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ..config import atomic_write_bytes
 from ..model import get_model
+from ..output import atomic_write_bytes
 from ..params import Params
 from .batch import BatchResult
 from .procedures import (

@@ -36,8 +36,8 @@ import casadi as ca
 import numpy as np
 
 from .. import constants as k
-from ..config import atomic_write_bytes, atomic_write_text
 from ..model import LINEAR_PARAMS, get_model
+from ..output import atomic_write_bytes, atomic_write_text
 from ..params import NOMINAL, Params
 from ..signals import PARAM_NAMES
 from .data import RunData, call_numpy, eval_samples

@@ -55,7 +55,7 @@ class StepRecord:
     u : ndarray (2,)
         The commanded currents handed to the plant (``out.u`` as floats).
     dt_us : float
-        The controller's computation time [us] (wall clock).
+        The controller's computation time [µs] (wall clock).
     y_next : Measurement
         The plant's measurement one period later (its ``info`` tells what the
         limiter did and which current the amplifiers carried).

@@ -32,10 +32,11 @@ from maglev_ocp.controllers.pid import PIDController, PIDSettings
 
 from .. import constants as k
 from ..blocks import ControlOutput, Measurement, Reference
-from ..config import Strict, atomic_write_text
+from ..config import Strict
 from ..estimation.batch import BATCH_PARAMS
 from ..estimation.calibrate import CalibrationResult, calibrate
 from ..model import get_model
+from ..output import atomic_write_text
 from ..params import NOMINAL, Params
 from ..plant import Plant, PlantConfig
 from ..plant.excitation import AxisExcitation, ExcitationSettings, SumOfSines

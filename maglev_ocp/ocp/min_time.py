@@ -29,8 +29,8 @@ import casadi as ca
 import numpy as np
 
 from .. import constants as k
-from ..config import atomic_write_bytes, atomic_write_text, make_dir
 from ..model import get_model, rk4
+from ..output import atomic_write_bytes, atomic_write_text, make_dir
 from ..params import NOMINAL, Params
 
 

@@ -26,10 +26,11 @@ import numpy as np
 from pydantic import Field, create_model, field_validator, model_validator
 
 from .. import constants as k
-from ..config import Strict, dump_yaml, load_yaml, parse_model
+from ..config import Strict, load_yaml, parse_model
 from ..effects import EFFECTS, EffectSet
 from ..errors import ConfigError
 from ..model import get_model
+from ..output import dump_yaml
 from ..params import ParamOverrides, Params
 from .disturbances import Cable, Disturbance
 
@@ -183,7 +184,7 @@ class PlantConfig(Strict):
     measurement_noise : MeasurementNoise
         Encoder noise std [m], added before quantization.
     quantization : Quantization
-        Encoder resolution (10 um), switchable.
+        Encoder resolution (10 µm), switchable.
     current_limits : CurrentLimits
         ±8 A per axis and 8 A amplitude, switchable.
     stops : Stops

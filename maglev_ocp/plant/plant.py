@@ -264,7 +264,7 @@ class Plant:
         self._meas_on = bool(self._meas_std.any())
         self._stops_on = st.enabled
 
-        # CasADi buffers: evaluating through the buffer API costs ~20 us instead of ~120 us per call
+        # CasADi buffers: evaluating through the buffer API costs ~20 µs instead of ~120 µs per call
         nxa = 6 if self._has_lag else 4
         self._xa = np.zeros(nxa)
         self._u = np.zeros(2)

@@ -2,7 +2,7 @@
 
 :func:`draw` picks ``none``, one library effect, two or three library effects
 at once, or an effect outside the library, each with a random law family and
-parameters in physically plausible ranges that matter against the 10 um
+parameters in physically plausible ranges that matter against the 10 µm
 encoder quantization (the ranges follow NOTES.md and the library self-check's
 sizes: cogging of a few N, friction of tenths of N, a few % of ripple, lags of
 0.1-1 kHz and delays of up to 2.5 samples, saturation losing 10-35 % at the

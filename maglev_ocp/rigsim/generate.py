@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from .. import constants as k
-from ..config import atomic_write_text
+from ..output import atomic_write_text
 from ..riglog import RunLog, write_dataset
 from .excite import references
 from .laws import LAWS, Law, make_law

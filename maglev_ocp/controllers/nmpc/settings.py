@@ -19,7 +19,7 @@ from maglev_ocp import constants as k
 from maglev_ocp.config import Strict
 from maglev_ocp.observers import AdaptSettings
 
-from ..model_file import check_model_path
+from ..model_file import MODEL_SETTING_DESCRIPTION, check_model_path
 
 
 class NMPCWeights(Strict):
@@ -233,9 +233,7 @@ class NMPCSettings(AdaptSettings):
         "is applied at k + N; the step propagates its estimate N samples with the commands in flight and "
         "optimises from there (0: no delay model)",
     )
-    model: str | None = Field(
-        None, description="model file: constants and fitted effects (maglev_ocp.controllers.model_file)"
-    )
+    model: str | None = Field(None, description=MODEL_SETTING_DESCRIPTION)
     force_failure_steps: list[int] = Field(default_factory=list)
 
     @field_validator("model")
