@@ -1,6 +1,7 @@
 # Two commands set up a fresh machine (only Python needed):
 #   make run    - create .venv, install, run the headline job (writes results/)
 #   make test   - create .venv, install, run the test suite (not-slow, then slow)
+#   make docs   - create .venv, install, build the documentation site -> docs/_build/html/index.html
 #   make peer   - create .venv-peer (project + acados, apart from .venv), run benchmarks/peer_acados.py
 PYTHON ?= python3
 VENV   ?= .venv
@@ -13,12 +14,12 @@ PEER_BIN    = $(PEER_VENV)/bin
 PEER_STAMP  = $(PEER_VENV)/.installed
 PEER_ARGS  ?=
 
-.PHONY: run test test-fast test-slow selfcheck lint bench peer clean-venv
+.PHONY: run test test-fast test-slow selfcheck lint bench docs peer clean-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,campaign,bench]'
+	$(BIN)/python -m pip install --quiet -e '.[test,campaign,bench,docs]'
 	touch $(STAMP)
 
 run: $(STAMP)
@@ -44,6 +45,10 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks.run_all
+
+# Warnings are errors; the gallery's examples (examples/) run during the build and must not fail.
+docs: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/sphinx-build -W --keep-going -b html docs docs/_build/html
 
 $(PEER_STAMP): pyproject.toml
 	$(PYTHON) -m venv $(PEER_VENV)
