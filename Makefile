@@ -1,6 +1,7 @@
 # Two commands set up a fresh machine (only Python needed):
 #   make run    - create .venv, install, run the headline job (writes results/)
 #   make test   - create .venv, install, lint, run the tests CI runs (default set + bounded slow set, 2 processes)
+#   make docs   - create .venv, install, build the documentation site -> docs/_build/html/index.html
 # Other tiers:
 #   make test-fast   - the default set only (every capability, a few minutes)
 #   make check-long  - the long statistical checks (self-checks over many datasets, recovery table; not in CI);
@@ -22,12 +23,12 @@ PEER_ARGS  ?=
 XDIST  ?= -n 2
 PYTEST  = $(BIN)/python -m pytest
 
-.PHONY: run test test-fast test-slow check-long lint bench peer clean-venv
+.PHONY: run test test-fast test-slow check-long lint bench docs peer clean-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,campaign,bench]'
+	$(BIN)/python -m pip install --quiet -e '.[test,campaign,bench,docs]'
 	touch $(STAMP)
 
 run: $(STAMP)
@@ -52,6 +53,10 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks.run_all
+
+# Warnings are errors; the gallery's examples (examples/) run during the build and must not fail.
+docs: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/sphinx-build -W --keep-going -b html docs docs/_build/html
 
 $(PEER_STAMP): pyproject.toml
 	$(PYTHON) -m venv $(PEER_VENV)
