@@ -367,9 +367,10 @@ def hover_envelope_error(params: Params, limit: float | None = None) -> str | No
     if nonpos or params.xi0 < 0:
         keys = ", ".join([*nonpos, *(["xi0"] if params.xi0 < 0 else [])])
         return f"{keys}: C1..C4, ell, Mh, Mv must be > 0 and xi0 >= 0 (got {_values(params, keys)})"
-    u_eq = get_model().u_eq
-    for g, d in _envelope_grid():
-        u = np.asarray(u_eq(g, d, p), dtype=float).ravel()
+    grid = _envelope_grid()
+    # one call for the whole grid (CasADi evaluates horizontally repeated arguments column by column)
+    U = np.asarray(get_model().u_eq(np.array([[g for g, _ in grid]]), np.array([[d for _, d in grid]]), p), float)
+    for (g, d), u in zip(grid, U.T, strict=True):
         where = f"g = {g * 1e3:.1f} mm, d = {d * 1e3:.1f} mm"
         if not np.all(np.isfinite(u)):
             # vertical balance C4 f4 i^2 - C3 f3 i + (C2 f2 + ... - G) = 0 has no real root there

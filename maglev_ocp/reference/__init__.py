@@ -32,6 +32,19 @@ sample, accelerations averaged over the coming 1 ms period, which is what a
 zero-order-held current can deliver), and a controller with a horizon can
 read ahead with :meth:`ReferencePlan.sample` (the runner calls a controller's
 ``set_reference_plan(plan)`` if it has one).
+
+``shaping: min_time`` (the NMPC's default) plans instead the minimum-time move
+within the fractions of the limits (:mod:`.min_time`): by default the
+time-optimal parameterization of a few paths (:mod:`.profile_plan`, a few
+milliseconds per move, within 1 % of the minimum-time NLP), or the NLP itself
+(``min_time_solver: nlp``).
+
+Modules: :mod:`.settings` (the ``reference:`` block), :mod:`.profiles` (the
+jerk-limited unit move, :class:`Move`, :class:`TabulatedMove`),
+:mod:`.feasibility` (the model-inverse check of a move's currents),
+:mod:`.trajectory` (``shaping: trajectory``), :mod:`.min_time` and
+:mod:`.profile_plan` (``shaping: min_time``), :mod:`.plan` (a scenario's
+:class:`ReferencePlan`).
 """
 
 from .feasibility import PlanEffects, planning_inverse_function

@@ -158,7 +158,7 @@ def _profile_table(
         if profiles is None:
             return None
         if len(shapes) > 1:  # bent paths: iterated with their speed
-            profiles += path_profiles(p0, p1, params, *lims, effects, shapes[1:]) or []
+            profiles += path_profiles(p0, p1, params, *lims, effects, shapes[1:], prune_above=profiles[0].T) or []
         for prof in sorted(profiles, key=lambda pr: pr.T):
             if not np.isfinite(prof.T):
                 continue

@@ -54,6 +54,8 @@ PROFILE_BISECTIONS = 15
 #: Fixed-point iterations of a bent path's bounds with its speed (the iteration stops earlier when
 #: every duration changed by less than :data:`PROFILE_TOLERANCE` of itself).
 PROFILE_ITERATIONS = 5
+#: A bent path this much slower than the best one after two iterations is dropped (:func:`path_profiles`).
+PROFILE_PRUNE = 0.02
 #: Relative change of the durations at which the fixed-point iteration stops.
 PROFILE_TOLERANCE = 1e-4
 #: ``(alpha, weight)`` of the gap following ``d`` (:class:`PathShape`, :func:`candidate_shapes`).
@@ -278,6 +280,7 @@ def path_profiles(
     effects: PlanEffects | None = None,
     shapes: tuple[PathShape, ...] = (STRAIGHT,),
     n: int = PROFILE_GRID,
+    prune_above: float | None = None,
 ) -> list[PathProfile] | None:
     """Time-optimal rest-to-rest parameterizations of the paths ``shapes`` from ``p0`` to ``p1``, all at once.
 
@@ -292,6 +295,9 @@ def path_profiles(
     ``sigma'^2`` (its ``p''`` term), so they are iterated with it (fixed
     point, :data:`PROFILE_ITERATIONS`); the straight path is exact at once. A
     profile is only a candidate: the caller checks the sampled move on the model.
+    From the second iteration on, a path more than :data:`PROFILE_PRUNE` slower
+    than the best one so far (or than ``prune_above`` [s], e.g. the straight
+    path's duration) is no longer iterated and comes back with ``T = inf``.
 
     Returns
     -------
@@ -309,46 +315,67 @@ def path_profiles(
     # every array below: the K paths' n points, then the same for braking (sign -1)
     pg, cg, pd, cd = (np.tile(v, 2) for v in (pg, cg, pd, cd))
     sign = np.concatenate([np.ones(K * n), -np.ones(K * n)])
-    v2 = np.zeros(2 * K * n)  # sigma'^2 at every point, as the bounds see it
 
-    if effects is None or not effects.names:
+    coefficients = effects is None or not effects.names
+    if coefficients:
         (c,) = _mapped_coefficients(K * n)(x, np.tile(pv[:, None], (1, K * n)))
         cc = np.tile(c.reshape(K * n, 6).T, (1, 2))
-
-        def admissible(s2: np.ndarray) -> np.ndarray:
-            return _admissible(cc, s2 * pg + cg * v2, s2 * pd + cd * v2, lim_q, lim_d, lim_amp)
-
     else:
         inv = _mapped_inverse(2 * K * n, effects.names)
         xx, P = np.tile(x, (1, 2)), np.tile(pv[:, None], (1, 2 * K * n))
         th = np.tile(np.asarray(effects.theta, dtype=float)[:, None], (1, 2 * K * n))
 
-        def admissible(s2: np.ndarray) -> np.ndarray:
+    def admissible_on(sel: np.ndarray, v2: np.ndarray):
+        """``admissible(s2)`` on the points ``sel`` (of the ``2 K n``) at ``sigma'^2 = v2`` there."""
+        if coefficients:
+            c_s, pg_s, pd_s, ag0, ad0 = cc[:, sel], pg[sel], pd[sel], cg[sel] * v2, cd[sel] * v2
+
+            def admissible(s2: np.ndarray) -> np.ndarray:
+                return _admissible(c_s, s2 * pg_s + ag0, s2 * pd_s + ad0, lim_q, lim_d, lim_amp)
+
+            return admissible
+        assert sel.size == 2 * K * n  # the mapped inverse has one size: every point, no pruning
+
+        def admissible_eff(s2: np.ndarray) -> np.ndarray:
             u, unr = inv(xx, np.vstack([s2 * pg + cg * v2, s2 * pd + cd * v2]), P, th)
             i_q, i_d = u.reshape(-1, 2).T
             with np.errstate(invalid="ignore"):
                 return (unr < 0.5) & (np.abs(i_q) <= lim_q) & (np.abs(i_d) <= lim_d) & (i_q**2 + i_d**2 <= lim_amp**2)
 
-    if not admissible(np.zeros(2 * K * n))[:n].all():
+        return admissible_eff
+
+    every = np.arange(2 * K * n)
+    if not admissible_on(every, np.zeros(2 * K * n))(np.zeros(2 * K * n))[:n].all():
         return None  # holding still on the first path already needs more than the limits
     scale = max(abs(delta[0]), abs(delta[1]))
     ds = np.diff(sig)
-    bounds, x2, T_prev = None, np.zeros((K, n)), None
+    bounds = np.zeros(2 * K * n)
+    x2, T, T_prev = np.zeros((K, n)), np.full(K, np.inf), None
+    active = np.ones(K, dtype=bool)  # paths still iterated (a bent path far slower than the best is dropped)
     bent = any(sh.alpha != 1.0 for sh in shapes)
-    for _ in range(PROFILE_ITERATIONS if bent else 1):
-        bounds = _bounds(admissible, sign, scale, bounds)
-        b = bounds.reshape(2, K, n)
+    for it in range(PROFILE_ITERATIONS if bent else 1):
+        sel = (np.arange(2)[:, None, None] * K * n + np.flatnonzero(active)[None, :, None] * n + np.arange(n)).ravel()
+        k_act = int(active.sum())
+        bounds[sel] = _bounds(
+            admissible_on(sel, np.tile(x2[active].ravel(), 2)), sign[sel], scale, None if it == 0 else bounds[sel]
+        )
+        b = bounds.reshape(2, K, n)[:, active]
         acc, brk = np.minimum(b[0, :, 1:], b[0, :, :-1]), np.minimum(b[1, :, 1:], b[1, :, :-1])
-        fwd = np.concatenate([np.zeros((K, 1)), np.cumsum(2.0 * acc * ds, axis=1)], axis=1)
-        bwd = np.concatenate([np.cumsum((2.0 * brk * ds)[:, ::-1], axis=1)[:, ::-1], np.zeros((K, 1))], axis=1)
-        x2 = np.minimum(fwd, bwd)
-        v = np.sqrt(x2)
+        fwd = np.concatenate([np.zeros((k_act, 1)), np.cumsum(2.0 * acc * ds, axis=1)], axis=1)
+        bwd = np.concatenate([np.cumsum((2.0 * brk * ds)[:, ::-1], axis=1)[:, ::-1], np.zeros((k_act, 1))], axis=1)
+        x2[active] = np.minimum(fwd, bwd)
+        v = np.sqrt(x2[active])
         with np.errstate(divide="ignore"):
-            T = np.sum(2.0 * ds / (v[:, 1:] + v[:, :-1]), axis=1)
-        if T_prev is not None and np.all(np.abs(T - T_prev) <= PROFILE_TOLERANCE * np.abs(T)):
+            T[active] = np.sum(2.0 * ds / (v[:, 1:] + v[:, :-1]), axis=1)
+        if T_prev is not None and np.all(np.abs(T[active] - T_prev[active]) <= PROFILE_TOLERANCE * T[active]):
             break
-        T_prev = T
-        v2 = np.tile(x2.ravel(), 2)
+        T_prev = T.copy()
+        if it >= 1 and coefficients and prune_above is not None:
+            best = min(float(np.min(T[active])), prune_above)
+            active &= T <= (1.0 + PROFILE_PRUNE) * best
+            if not active.any():
+                break
+    T[~active] = np.inf
     v = np.sqrt(x2)
     out = []
     for j, sh in enumerate(shapes):
@@ -356,7 +383,7 @@ def path_profiles(
             dt = 2.0 * ds / (v[j, 1:] + v[j, :-1])
         t = np.concatenate([[0.0], np.cumsum(dt)])
         u = (x2[j, 1:] - x2[j, :-1]) / (2.0 * ds)
-        out.append(PathProfile(sh, float(t[-1]), t, sig, u))
+        out.append(PathProfile(sh, float(t[-1]) if active[j] else np.inf, t, sig, u))
     return out
 
 
