@@ -1,5 +1,6 @@
 # Two commands set up a fresh machine (only Python needed):
-#   make run    - create .venv, install, run the headline job (writes results/)
+#   make run    - create .venv, install, run the headline job (writes build/results/, untracked: git status stays
+#                 clean; `make results` regenerates the committed snapshot results/ instead)
 #   make test   - create .venv, install, run the test suite (not-slow, then slow)
 #   make peer   - create .venv-peer (project + acados, apart from .venv), run benchmarks/peer_acados.py
 PYTHON ?= python3
@@ -13,7 +14,7 @@ PEER_BIN    = $(PEER_VENV)/bin
 PEER_STAMP  = $(PEER_VENV)/.installed
 PEER_ARGS  ?=
 
-.PHONY: run test test-fast test-slow selfcheck lint bench peer clean-venv
+.PHONY: run results test test-fast test-slow selfcheck lint bench peer clean-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,7 +22,13 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test,campaign,bench]'
 	touch $(STAMP)
 
+RUN_OUT ?= build/results
+
 run: $(STAMP)
+	$(BIN)/python -m maglev_ocp.main_job --out $(RUN_OUT)
+
+# The committed snapshot results/ (timings and dates change it on every run: commit it on purpose).
+results: $(STAMP)
 	$(BIN)/python -m maglev_ocp.main_job --out results
 
 test: $(STAMP) lint
