@@ -424,8 +424,18 @@ class Scenario(Strict):
         return out
 
     def controller_model_params(self) -> Params:
-        """What the controller's model believes (:class:`ControllerParams`)."""
-        return self.controller_params.resolve(self.root_dir)
+        """What the controller's model believes: the constants of ``controller.model`` if given (every
+        consumer, the compiled loops included, then uses the model file's), else :class:`ControllerParams`."""
+        path = getattr(self.controller.settings, "model", None)
+        if not path:
+            return self.controller_params.resolve(self.root_dir)
+        from maglev_ocp.controllers.model_file import load_controller_model  # the controllers' format, lazily
+
+        cp = self.controller_params
+        p = ParamOverrides(**{n: getattr(cp, n) for n in ParamOverrides.model_fields}).apply(
+            load_controller_model(path).params
+        )
+        return p if cp.cogging else p.without_cogging()
 
     def planning_model(self) -> tuple[Params, PlanEffects | None]:
         """The model the moves are planned on: the one the controller loads.
