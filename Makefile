@@ -1,5 +1,7 @@
 # Two commands set up a fresh machine (only Python needed):
-#   make run    - create .venv, install, run the headline job (writes results/)
+#   make run    - create .venv, install, run the headline job -> results/ (its outputs are not tracked: git status
+#                 stays clean; the tracked tables under results/ are the long checks' and benchmarks', each with its
+#                 command)
 #   make test   - create .venv, install, lint, run the tests CI runs (default set + bounded slow set, 2 processes)
 #   make docs   - create .venv, install, build the documentation site -> docs/_build/html/index.html
 # Other tiers:
@@ -31,8 +33,10 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test,campaign,bench,docs]'
 	touch $(STAMP)
 
+RUN_OUT ?= results
+
 run: $(STAMP)
-	$(BIN)/python -m maglev_ocp.main_job --out results
+	$(BIN)/python -m maglev_ocp.main_job --out $(RUN_OUT)
 
 test: $(STAMP) lint
 	$(PYTEST) -q $(XDIST) -m "not long" --durations=25

@@ -278,7 +278,7 @@ class RandomTargets(Strict):
 
     n: int = Field(ge=1, le=1000)
     hold: float = Field(0.4, gt=0, le=3600)
-    seed: int | None = Field(None, ge=0)
+    seed: int | None = Field(None, ge=0, lt=2**63)
     g: tuple[float, float] = k.g_envelope
     d: tuple[float, float] = k.d_envelope
     resolution: float = Field(1e-5, gt=0, le=1e-3)
@@ -335,9 +335,9 @@ class Checks(Strict):
     all_settled: bool = True
     no_stop_hits: bool = True
     currents_within_limits: bool = True
-    max_settle_time_s: float | None = Field(None, gt=0)
-    max_rms_error_m: float | None = Field(None, gt=0)
-    min_settled_s: float = Field(0.05, ge=0)
+    max_settle_time_s: float | None = Field(None, gt=0, le=3600)
+    max_rms_error_m: float | None = Field(None, gt=0, le=0.1)
+    min_settled_s: float = Field(0.05, ge=0, le=3600)
 
 
 class Scenario(Strict):
@@ -424,8 +424,18 @@ class Scenario(Strict):
         return out
 
     def controller_model_params(self) -> Params:
-        """What the controller's model believes (:class:`ControllerParams`)."""
-        return self.controller_params.resolve(self.root_dir)
+        """What the controller's model believes: the constants of ``controller.model`` if given (every
+        consumer, the compiled loops included, then uses the model file's), else :class:`ControllerParams`."""
+        path = getattr(self.controller.settings, "model", None)
+        if not path:
+            return self.controller_params.resolve(self.root_dir)
+        from maglev_ocp.controllers.model_file import load_controller_model  # the controllers' format, lazily
+
+        cp = self.controller_params
+        p = ParamOverrides(**{n: getattr(cp, n) for n in ParamOverrides.model_fields}).apply(
+            load_controller_model(path).params
+        )
+        return p if cp.cogging else p.without_cogging()
 
     def planning_model(self) -> tuple[Params, PlanEffects | None]:
         """The model the moves are planned on: the one the controller loads.

@@ -83,3 +83,9 @@ def test_a_model_file_with_effects_as_a_parameter_file_says_what_to_write(tmp_pa
 def test_the_model_file_header_prints_the_one_instruction(tmp_path):
     write_model_file(tmp_path / "model.yaml", NOMINAL, written_by="t")
     assert model_file_instruction("model.yaml") in (tmp_path / "model.yaml").read_text()
+
+
+def test_the_scenario_hands_every_consumer_the_model_files_constants(layout):
+    """The compiled loops and the analysis take ``controller_model_params()``: the model file's constants too."""
+    (layout / "sc.yaml").write_text(SCENARIO.format(ctype="pid", model="model.yaml"))
+    assert load_scenario(layout / "sc.yaml").controller_model_params().C3 == 33.0

@@ -118,6 +118,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings.showwarning = _show_warning
     try:
         parser = build_parser()
+        old = _old_form(list(sys.argv[1:] if argv is None else argv))
+        if old:
+            command = "maglev diagnose"
+            raise UserError(old)
         args = parser.parse_args(argv)
         if not getattr(args, "handler", None):
             parser.print_help()
@@ -140,6 +144,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         warnings.showwarning = shown
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
+
+
+def _old_form(argv: list[str]) -> str | None:
+    """A command line of a form that changed (``maglev diagnose --selftest N``): what to write instead."""
+    from .cmd_diagnose import old_form_error
+
+    return old_form_error(argv)
 
 
 def _catch_sigint(interrupts: list[int]):

@@ -81,5 +81,5 @@ def run(args: argparse.Namespace) -> int:
     print(f"\ncalibration took {res.timing['total']:.1f} s; wrote {model} and {Path(args.out) / 'calibration.json'}")
     if problems:
         print(f"UNTRUSTED (--force): {'; '.join(problems)}; {model} is marked trusted: false")
-    print(f"{model}: {model_file_instruction(str(model))}")
+    print(f"{model}: {model_file_instruction(str(model.resolve()))}")  # absolute: right from any scenario folder
     return 0

@@ -203,6 +203,27 @@ def _register_closed_loop(modes) -> None:
     q.set_defaults(handler=_closed_loop_mode)
 
 
+#: The flags that chose a mode before the subcommands, and the subcommand that replaces each.
+OLD_MODE_FLAGS: dict[str, str] = {
+    "--selftest": "selftest N",
+    "--generate": "generate DIR",
+    "--closed-loop": "closed-loop SCENARIO --from REPORT",
+    "--scenario": "closed-loop SCENARIO --effect NAME",
+}
+
+
+def old_form_error(argv: list[str]) -> str | None:
+    """What to write instead of a pre-subcommand ``maglev diagnose`` command line (None: not an old form)."""
+    if not argv or argv[0] != "diagnose" or len(argv) < 2 or argv[1] in (*MODES, "-h", "--help"):
+        return None
+    for flag, new in OLD_MODE_FLAGS.items():
+        if flag in argv[1:]:
+            return f"'diagnose {flag}' is now a subcommand: maglev diagnose {new} (see maglev diagnose --help)"
+    if not argv[1].startswith("-"):
+        return f"name the mode: maglev diagnose run {argv[1]} --out DIR (see maglev diagnose --help)"
+    return None
+
+
 def _no_mode(args: argparse.Namespace) -> int:
     raise UserError(f"give a mode: maglev diagnose {{{'|'.join(MODES)}}} ... (see maglev diagnose --help)")
 
