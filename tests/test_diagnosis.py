@@ -11,6 +11,7 @@ import pytest
 from maglev_ocp import constants as k
 from maglev_ocp.diagnosis import DiagnoseSettings, diagnose
 from maglev_ocp.diagnosis.candidates import CandidateSpec, residuals_with
+from maglev_ocp.diagnosis.diagnose import STAGES
 from maglev_ocp.diagnosis.generate import GeneratorSettings, generate_dataset, vibration_force
 from maglev_ocp.diagnosis.localize import PERIOD_FALSE_ALARM, Samples, channel_floor, gumbel_threshold, period_scan
 from maglev_ocp.diagnosis.report import write_report
@@ -225,11 +226,15 @@ def test_verdict_none_on_a_clean_dataset(clean_dataset, tmp_path):
     for f in d.floors.values():
         assert not f.significant
         assert f.floor < 0.05
+    # Every stage is timed, and the stages' times account for the whole diagnosis (nothing runs outside them).
+    stages = [d.timing[f"{s}_s"] for s in STAGES]
+    assert all(t >= 0 for t in stages) and sum(stages) <= d.timing["total_s"] <= sum(stages) + 1.0
     write_report(d, tmp_path)
     rep = json.loads((tmp_path / "report.json").read_text())
     assert rep["verdict"] == "none"
     for key in ("effects", "regions", "noise_floor", "baseline_params"):
         assert key in rep
+    assert "Time per stage: split " in (tmp_path / "report.md").read_text()
 
 
 def test_cogging_is_attributed_with_its_parameters(cogging_dataset, tmp_path):

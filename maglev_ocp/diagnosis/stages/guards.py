@@ -1,4 +1,4 @@
-"""Stage 6, guards: checks that can overturn a verdict, each returning a new record instead of editing it.
+"""Stage 5, guards: checks that can overturn a verdict, each returning a new record instead of editing it.
 
 A lag whose improvement lies in a narrow resonance is not counted (:func:`lag_guards`,
 :func:`apply_resonance_guard`); a verdict whose model leaves a channel's gap mostly open, many times the

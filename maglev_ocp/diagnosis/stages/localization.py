@@ -147,7 +147,7 @@ def localize_gap(split: Split, base: Baseline, st: DiagnoseSettings, rng: np.ran
 def noise_stage(
     split: Split, base: Baseline, loc: Localization, q: float, seed: int = 0, excess_min: float = 1.5
 ) -> tuple[NoiseFindings, Localization]:
-    """Stage 3b: noise-model floors, whiteness and spectral peaks of the baseline residual (:mod:`.noise`).
+    """Stage 3b (noise): noise-model floors, whiteness and spectral peaks of the baseline residual (:mod:`.noise`).
 
     Adds to the localization's evidence of a gap what the data-based floor
     hides: peaks (resonances, lines) beyond the noise model that the training

@@ -1,4 +1,4 @@
-"""Stage 5, refit: the constants calibrated on the clean samples, and the final model on the resolved ones.
+"""Stage 6, refit: the constants calibrated on the clean samples, and the final model on the resolved ones.
 
 :func:`clean_calibration` calibrates C1..C4 also on the training samples outside the regions the
 localization flags (reported, not the residual baseline); :func:`resolved_refit` refits the final model on
