@@ -22,7 +22,8 @@ at most half the blind one on each axis (an axis already below :data:`TRACKING_F
 held to staying below it), steady RMS no worse than blind + 1 um (mean over targets), every target
 settled, no stop hit.
 
-Run (about 5-10 min per rig on 2 busy cores; the diagnoses dominate)::
+Run (the diagnoses dominate: 10-15 CPU minutes per rig with the default 6 runs of 10 s, the 6 tours per
+rig about 1 CPU minute; on a machine shared by many jobs an hour per rig)::
 
     python -m benchmarks.diagnosed_vs_blind --out results/benchmarks
     python -m benchmarks.diagnosed_vs_blind --out results/benchmarks --rigs foreign --reuse
