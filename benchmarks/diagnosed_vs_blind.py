@@ -22,7 +22,8 @@ at most half the blind one on each axis (an axis already below :data:`TRACKING_F
 held to staying below it), steady RMS no worse than blind + 1 um (mean over targets), every target
 settled, no stop hit.
 
-Run (about 5-10 min per rig on 2 busy cores; the diagnoses dominate)::
+Run (the diagnoses dominate: 10-15 CPU minutes per rig with the default 6 runs of 10 s, the 6 tours per
+rig about 1 CPU minute; on a machine shared by many jobs an hour per rig)::
 
     python -m benchmarks.diagnosed_vs_blind --out results/benchmarks
     python -m benchmarks.diagnosed_vs_blind --out results/benchmarks --rigs foreign --reuse
@@ -381,19 +382,22 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     out = Path(a.out)
     work = Path(a.work) if a.work else out / "work_diagnosed_vs_blind"
-    rows = []
-    with tqdm(total=len(a.rigs) * len(a.controllers) * 2, desc="tours", unit="run") as bar:
-        for name in a.rigs:
-            rows.append(run_rig(name, work, a, bar))
     command = "python -m benchmarks.diagnosed_vs_blind " + " ".join(argv if argv is not None else sys.argv[1:])
     out.mkdir(parents=True, exist_ok=True)
     (out / "diagnosed_vs_blind_models").mkdir(exist_ok=True)
-    for name in a.rigs:
-        shutil.copyfile(work / name / "diagnosis" / "model.yaml", out / "diagnosed_vs_blind_models" / f"{name}.yaml")
-    doc = {"command": command.strip(), "tour": TOUR, "rigs": {n: RIGS[n] for n in a.rigs}, "rows": rows}
-    atomic_write_text(out / "diagnosed_vs_blind.json", json.dumps(doc, indent=2) + "\n")
-    md = markdown(rows, command.strip())
-    atomic_write_text(out / "diagnosed_vs_blind.md", md)
+    rows: list[dict[str, Any]] = []
+    md = ""
+    with tqdm(total=len(a.rigs) * len(a.controllers) * 2, desc="tours", unit="run") as bar:
+        for name in a.rigs:
+            rows.append(run_rig(name, work, a, bar))
+            # written after each rig: a long run interrupted keeps the rigs it finished
+            model = work / name / "diagnosis" / "model.yaml"
+            shutil.copyfile(model, out / "diagnosed_vs_blind_models" / f"{name}.yaml")
+            done = [r["rig"] for r in rows]
+            doc = {"command": command.strip(), "tour": TOUR, "rigs": {n: RIGS[n] for n in done}, "rows": rows}
+            atomic_write_text(out / "diagnosed_vs_blind.json", json.dumps(doc, indent=2) + "\n")
+            md = markdown(rows, command.strip())
+            atomic_write_text(out / "diagnosed_vs_blind.md", md)
     print(md)
     return 0
 
