@@ -732,7 +732,7 @@ class Region:
 def regions_from_map(
     bs: BinStats, channel: str, band: list[float] | None, floor: float, alpha: float = 0.01, max_regions: int = 6
 ) -> list[Region]:
-    """Connected groups (8-neighbourhood) of bins whose mean exceeds the floor (``|z|`` above a Bonferroni threshold)."""
+    """Connected groups (8-neighbourhood) of bins whose mean exceeds the floor (``|z|`` above a Bonferroni bound)."""
     finite = np.isfinite(bs.z)
     n_bins = max(int(finite.sum()), 1)
     z_crit = float(st.norm.isf(alpha / (2 * n_bins)))
