@@ -118,7 +118,7 @@ sphinx_gallery_conf = {
 # -- HTML ----------------------------------------------------------------------------------------------------
 html_theme = "pydata_sphinx_theme"
 html_title = f"maglev-ocp {release}"
-html_static_path = ["_static"]
+html_static_path: list[str] = []
 html_theme_options = {
     "navigation_depth": 2,
     "show_toc_level": 2,
