@@ -20,6 +20,7 @@ matplotlib.use("Agg")  # no display: every figure is rendered to a file
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "docs" / "_ext"))  # cli_parser: the maglev parser for sphinx-argparse
 
 import maglev_ocp  # noqa: E402
 
@@ -117,7 +118,7 @@ sphinx_gallery_conf = {
 # -- HTML ----------------------------------------------------------------------------------------------------
 html_theme = "pydata_sphinx_theme"
 html_title = f"maglev-ocp {release}"
-html_static_path = ["_static"]
+html_static_path: list[str] = []
 html_theme_options = {
     "navigation_depth": 2,
     "show_toc_level": 2,
@@ -128,3 +129,26 @@ html_theme_options = {
 html_context = {"commit": COMMIT}
 rst_epilog = f"\n.. |commit| replace:: ``{COMMIT}``\n"
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+def _literal_constraints() -> None:
+    """Show each field constraint's value as an inline literal (autodoc-pydantic writes it as plain reST).
+
+    A pattern such as ``^[A-Za-z0-9_.\\-]{1,80}$`` is otherwise read as reST markup (``0-9_`` as a link target),
+    which fails the build under ``-W``.
+    """
+    from sphinxcontrib.autodoc_pydantic.directives.autodocumenters import PydanticFieldDocumenter
+
+    def add_constraints(self) -> None:
+        constraints = self.pydantic.inspect.fields.get_constraints(self.pydantic_field_name)
+        if constraints:
+            source_name = self.get_sourcename()
+            self.add_line(":Constraints:", source_name)
+            for key, value in constraints.items():
+                self.add_line(f"   - **{key}** = ``{value}``", source_name)
+            self.add_line("", source_name)
+
+    PydanticFieldDocumenter.add_constraints = add_constraints
+
+
+_literal_constraints()

@@ -249,7 +249,7 @@ class Friction(Effect):
 
     @staticmethod
     def stiffness(theta: Mapping[str, float], Mh: float = k.Mh, Mv: float = k.Mv) -> float:
-        """Largest |d a / d v| [1/s] of the friction law (for the integrator's stability check)."""
+        """Largest ``|d a / d v|`` [1/s] of the friction law (for the integrator's stability check)."""
         worst = 0.0
         for ax, M in (("g", Mv), ("d", Mh)):
             s = (theta[f"coulomb_{ax}"] + theta[f"stribeck_{ax}"]) / theta["v_reg"] + theta[f"viscous_{ax}"]

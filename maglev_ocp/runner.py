@@ -37,9 +37,10 @@ Files written by :meth:`RunResult.save` into ``DIR``:
 ``timing.csv``
     ``t, step_time_us``: the controller's computation time per step (wall
     clock, so it differs from run to run; kept out of ``log.csv`` for that).
-``metrics.json``, ``scenario.yaml`` (as resolved), ``dataset.yaml`` (so the
-run folder is a ``maglev-rig-log/1`` dataset), ``positions.png``,
-``currents.png``, ``solver_time.png``.
+``metrics.json``, ``scenario.yaml``, ``dataset.yaml``, figures
+    The metrics, the scenario as resolved, ``dataset.yaml`` (so the run folder
+    is a ``maglev-rig-log/1`` dataset), ``positions.png``, ``currents.png``,
+    ``solver_time.png``.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@
 * :mod:`.controller_map` - any controller as the map ``(memory, reading) -> (memory, command)``:
   steady state, Jacobians by finite differences of its public ``step`` (or CasADi AD of its step
   Function), the part of the memory that takes part in the loop;
-* :mod:`.margins` - broken loops per axis and their gain, phase, disk and delay margins, |S|/|T|
+* :mod:`.margins` - broken loops per axis and their gain, phase, disk and delay margins, ``|S|``/``|T|``
   peaks and bandwidth (python-control);
 * :mod:`.delay_check` - the delay margin found by simulating the nonlinear loop with an added delay;
 * :mod:`.report` - the grid of operating points, tables and figures.

@@ -9,7 +9,7 @@ For each controller and each hover point ``(g, d)`` of the grid:
    and compute the margins (:func:`.margins.loop_margins`).
 
 :func:`write_report` writes ``margins.csv``, ``margins.json``, ``margins.md`` and the figures
-(Bode, Nyquist, |S| and |T| per controller, every operating point overlaid).
+(Bode, Nyquist, ``|S|`` and ``|T|`` per controller, every operating point overlaid).
 """
 
 from __future__ import annotations
@@ -325,7 +325,7 @@ def markdown_report(
 
 
 def plot_figures(results: Sequence[PointResult], out_dir: str | os.PathLike) -> dict[str, str]:
-    """Bode, Nyquist and |S|/|T| figures per controller (input breaks, all operating points overlaid)."""
+    """Bode, Nyquist and ``|S|``/``|T|`` figures per controller (input breaks, all operating points overlaid)."""
     import matplotlib
 
     matplotlib.use("Agg")

@@ -287,7 +287,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       stroke (a commutation encoder scale off the position encoder's);
     - ``end_effect``: ``free profile``: the overhang loss scaled and bent
       (``edge_gain``, ``edge_quad``); ``spline profile``: a loss of any
-      smooth shape in |d| that never falls as the overhang grows (a cubic
+      smooth shape in ``|d|`` that never falls as the overhang grows (a cubic
       B-spline with non-negative steps, the same at both ends, so it also
       takes a loss that levels off), and the cogging's share of the loss;
     - the amplifier lag searches a continuous effective delay (whole samples

@@ -580,7 +580,7 @@ class Region:
         Size of the gap there relative to the noise: rms of the region's bin means (or the
         amplitude of a spectral line) divided by the channel's noise floor rms.
     mean_abs_m_s2 : float
-        Mean |bin mean| in the region [m/s^2].
+        Mean ``|bin mean|`` in the region [m/s^2].
     n_bins : int
         Bins in the region (0 for a spectral line, which has no place in gap x position).
     z : float
@@ -617,7 +617,7 @@ class Region:
 def regions_from_map(
     bs: BinStats, channel: str, band: list[float] | None, floor: float, alpha: float = 0.01, max_regions: int = 6
 ) -> list[Region]:
-    """Connected groups (8-neighbourhood) of bins whose mean exceeds the floor (|z| above a Bonferroni threshold)."""
+    """Connected groups (8-neighbourhood) of bins whose mean exceeds the floor (``|z|`` above a Bonferroni bound)."""
     finite = np.isfinite(bs.z)
     n_bins = max(int(finite.sum()), 1)
     z_crit = float(st.norm.isf(alpha / (2 * n_bins)))

@@ -184,7 +184,7 @@ class Consequences:
 
 @dataclass
 class Diagnosis:
-    """Everything a diagnosis found (see :mod:`.report` for the files it writes).
+    """Everything a diagnosis found (see :mod:`maglev_ocp.diagnosis.report` for the files it writes).
 
     Attributes
     ----------

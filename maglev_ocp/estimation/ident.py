@@ -87,7 +87,7 @@ def second_difference(h: np.ndarray) -> np.ndarray:
 
 
 def filtered_acceleration(pos: np.ndarray, h: np.ndarray, Ts: float) -> np.ndarray:
-    """Zero-phase filtered acceleration ``h * a`` from positions, at samples ``half+1 .. N-half-2``.
+    """Zero-phase filtered acceleration ``h * a`` from positions, at samples ``half+1`` to ``N-half-2``.
 
     Exact discrete identity: ``h * (Delta^2 pos) = (Delta^2 h) * pos``.
     """

@@ -1,7 +1,7 @@
 """Minimum-time point-to-point OCP on the shared model (CasADi Opti + IPOPT).
 
 The bound any controller is measured against: the shortest rest-to-rest move
-between two hover positions that the current limits allow,
+between two hover positions that the current limits allow::
 
     min T   s.t.  x_{k+1} = RK4(x_k, u_k, p; T/N)        (multiple shooting, ZOH currents)
                   x_0 = (g0, 0, d0, 0),  x_N = (g1, 0, d1, 0)

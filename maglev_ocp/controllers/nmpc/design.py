@@ -4,7 +4,7 @@
 resolved reference mode into a :class:`StepDesign`: the state layout, the
 prediction model (RK4 of the shared model plus the observer's disturbance) and
 its RTI Jacobians, the LQR terminal weight and fallback gain, and the observer
-gain. The stage modules (:mod:`.observer`, :mod:`.planner`, :mod:`.reference`,
+gain. The stage modules (:mod:`.observer`, :mod:`.planner`, :mod:`maglev_ocp.controllers.nmpc.reference`,
 :mod:`.prediction`, :mod:`.admm`, :mod:`.fallback`) read the settings through
 ``design.settings``; nothing is renamed.
 """

@@ -1,7 +1,7 @@
 """The NMPC's QP as plain data, its exact solution (interior point, second-order cones) and a KKT check.
 
 The QP our step solves at every RTI step (stage 4 of :mod:`maglev_ocp.controllers.nmpc.step`)
-is, in the ``2 N`` input corrections ``v`` about the shifted plan ``ubar``,
+is, in the ``2 N`` input corrections ``v`` about the shifted plan ``ubar``::
 
     min_v  1/2 v' H v + q' v + sum_i  w1 s_i + w2/2 s_i^2,   s_i = max(0, G_i v - gub_i, glb_i - G_i v)
     s.t.   |ubar_k + v_k|_2 <= r              (current disk per stage, k = 0..N-1)

@@ -3,7 +3,7 @@
 The same QP and the same ADMM iteration as :mod:`maglev_ocp.controllers.nmpc.qp` (OSQP's
 iteration with the current disks and the soft gap bounds as the ``z`` block,
 the same penalty ``rho`` from the trace of the condensed Hessian), but the
-equality-constrained x-update
+equality-constrained x-update::
 
     min  sum_k 1/2 |dx_k + E_k|^2_{W_k} + 1/2 |du_k + e_k|^2_R + sigma/2 |du - x|^2
          + rho/2 |du - z_u + y_u/rho|^2 + rho_g/2 |1e3 dx_gap - z_g + y_g/rho_g|^2

@@ -4,7 +4,7 @@
 
 1. observer (:mod:`.observer`): extended-state high-gain observer on the
    quantized encoders, state and a constant acceleration disturbance per axis;
-2. reference (:mod:`.planner`, :mod:`.reference`): a jerk-limited bang-bang
+2. reference (:mod:`.planner`, :mod:`maglev_ocp.controllers.nmpc.reference`): a jerk-limited bang-bang
    move planned when the target changes (``plan`` mode) or the runner's
    reference over the horizon (``preview`` mode), plus feed-forward currents
    from the inverted model;
