@@ -16,7 +16,7 @@ The path of a control engineer bringing up a stage, on a simulated rig:
    generated harness over the closed-loop log.
 
 Every step below is the Python API behind a ``maglev`` command (``maglev
-diagnose --generate``, ``maglev calibrate``, ``maglev diagnose``, ``maglev run``,
+diagnose generate``, ``maglev calibrate``, ``maglev diagnose run``, ``maglev run``,
 ``maglev codegen``; see :doc:`/cli`). The datasets are small so the example
 runs in well under a minute; on your rig, record more and longer runs (the
 defaults: 6 runs of 10 s).
@@ -77,13 +77,16 @@ from maglev_ocp.estimation.calibrate import calibrate
 cal = calibrate(work / "rig_logs", eps_list=(0.01,), progress=False)
 cal.save(work / "calibration", figures=False)
 print(cal.table())
+# A calibration that cannot identify a constant says so (``maglev calibrate`` then refuses to write
+# unless ``--force``, which marks the file ``trusted: false``).
+print("trust problems:", cal.trust_problems() or "none")
 
 # %%
 # 3. Diagnose
 # -----------
 # :func:`~maglev_ocp.diagnosis.diagnose` calibrates a baseline on the training
 # runs, localizes where the residual exceeds the noise floor, fits the effect
-# library's candidates and scores them on held-out runs (``maglev diagnose
+# library's candidates and scores them on held-out runs (``maglev diagnose run
 # DATASET --out DIR``; the method is in :doc:`/diagnosis`). To keep the example
 # short it tries three candidates; leave ``candidates`` unset on a rig (all of
 # the library's effects are tried).
@@ -220,7 +223,7 @@ else:
 # %%
 # Files written
 # -------------
-# Everything above is in one folder: the rig logs, ``calibration/params.yaml``,
+# Everything above is in one folder: the rig logs, ``calibration/model.yaml``,
 # ``diagnosis/report.md`` with ``model.yaml``, each run's ``log.csv`` and
 # ``metrics.json``, and the C sources.
 print(work)
