@@ -155,14 +155,12 @@ def load_controller_model(path: str | os.PathLike) -> ControllerModel:
 def velocity_noise(L: np.ndarray, Ts: float = k.Ts, sigma: float = QUANTIZATION_STD) -> float:
     """Standard deviation of a high-gain observer's velocity estimate from white reading noise [m/s].
 
-        The observer of one axis (:class:`maglev_ocp.observers.HighGainObserver`, gain ``L`` of 2 or
-        3 entries: position, velocity, disturbance) has the estimation error
-        ``e+ = (I - L H) F e - L n`` for a reading error ``n``; its stationary covariance solves the
-        discrete Lyapunov equation ``S = A S A^T + sigma^2 L L^T`` with ``A = (I - L H) F`` (summed by
-    doubling), and the
-        velocity's standard deviation is ``sqrt(S[1, 1])``. With ``sigma`` the quantization of a
-        10 um encoder (2.9 um) this is the resolution of the velocity the controller knows: 1.2 mm/s
-        for the FL's observer (2 ms, with disturbance), 0.45 mm/s at 4 ms.
+    The observer of one axis (:class:`maglev_ocp.observers.HighGainObserver`, gain ``L`` of 2 or 3 entries:
+    position, velocity, disturbance) has the estimation error ``e+ = (I - L H) F e - L n`` for a reading error
+    ``n``; its stationary covariance solves the discrete Lyapunov equation ``S = A S A^T + sigma^2 L L^T`` with
+    ``A = (I - L H) F`` (summed by doubling), and the velocity's standard deviation is ``sqrt(S[1, 1])``. With
+    ``sigma`` the quantization of a 10 µm encoder (2.9 µm) this is the resolution of the velocity the controller
+    knows: 1.2 mm/s for the FL's observer (2 ms, with disturbance), 0.45 mm/s at 4 ms.
     """
     L = np.asarray(L, dtype=float).ravel()
     n = len(L)
