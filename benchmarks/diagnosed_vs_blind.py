@@ -209,7 +209,7 @@ def diagnose_rig(name: str, work: Path, runs: int, duration: float, reuse: bool)
     """Steps 1-2 for rig ``name``: the dataset, then ``maglev diagnose``; ``(dataset, model.yaml, info)``."""
     spec = RIGS[name]
     data, rep = work / name / "dataset", work / name / "diagnosis"
-    diag = ["diagnose", str(data), "--out", str(rep), "--no-figures"]
+    diag = ["diagnose", "run", str(data), "--out", str(rep), "--no-figures"]
     if not (reuse and (rep / "model.yaml").is_file()):
         if data.exists():
             shutil.rmtree(data)

@@ -76,7 +76,7 @@ def pytest_make_collect_report(collector):
 
 #: Per-test time limits by tier [s] (pytest-timeout; the ini's ``timeout`` is the default set's). A hung test
 #: fails with its stack instead of eating CI's budget; a test that needs more says so with its own marker.
-TIER_TIMEOUT = {"slow": 600, "long": 6 * 3600}
+TIER_TIMEOUT = {"slow": 900, "long": 6 * 3600}
 
 
 def pytest_collection_modifyitems(config, items):

@@ -10,6 +10,7 @@ test over every subcommand with mutated inputs and random output paths.
 from __future__ import annotations
 
 import contextlib
+import importlib
 import io
 import json
 import os
@@ -105,8 +106,9 @@ def test_output_under_a_regular_file_is_one_line_before_any_work(tmp_path, tiny,
     blocker = tmp_path / "afile"
     blocker.write_text("not a folder\n")
     target = str(blocker / "sub")
+    argv = _commands(tmp_path, tiny, dataset, target)[command]  # writes the commands' own input files
     before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
-    code, out, err = cli(*_commands(tmp_path, tiny, dataset, target)[command])
+    code, out, err = cli(*argv)
     assert_one_line_failure(code, out, err, str(blocker))
     assert blocker.read_text() == "not a folder\n"
     # nothing written anywhere (no partial result, no temporary folder left behind)
@@ -353,7 +355,7 @@ def _campaign(tmp_path: Path, tiny: Path, **extra) -> Path:
 def test_huge_campaign_is_refused_before_expanding(tmp_path, tiny, monkeypatch):
     """A million-case grid is refused from its size alone: the cases are never drawn (``_draw`` would fail the
     test if called); a grid just inside the limit is accepted, so the refusal is the limit's, not the grid's."""
-    import maglev_ocp.campaign.expand as expand_mod
+    expand_mod = sys.modules[importlib.import_module("maglev_ocp.campaign.expand").__name__]
 
     grid = {"controller.kp_g": list(range(1000)), "controller.kd_g": list(range(1000))}
     f = _campaign(tmp_path, tiny, n_runs=1000, vary={"grid": grid})
@@ -367,7 +369,7 @@ def test_huge_campaign_is_refused_before_expanding(tmp_path, tiny, monkeypatch):
     assert_one_line_failure(code, out, err, str(f), "limit")
     assert not (tmp_path / "o").exists()
     monkeypatch.setattr(expand_mod, "_draw", draw)
-    small = _campaign(tmp_path, tiny, n_runs=1, vary={"grid": {"controller.kp_g": [1.0e3, 1.1e3]}})
+    small = _campaign(tmp_path, tiny, n_runs=1, vary={"grid": {"controller.omega_g": [70.0, 80.0]}})
     code, out, err = cli("campaign", str(small), "--out", str(tmp_path / "o2"), "--plan")
     assert code == 0, err
 

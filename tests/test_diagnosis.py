@@ -357,6 +357,7 @@ def test_cogging_of_the_shared_law_is_part_of_the_calibrated_baseline(cogging_da
     assert rep["baseline_calibration"]["all_training_samples"]["xi0"] == pytest.approx(d.baseline_params.xi0)
 
 
+@pytest.mark.long
 def test_a_cogging_blind_baseline_names_the_shared_law_as_cogging(cogging_dataset):
     """The same rig against the seed's eq. (2) (``baseline_cogging=False``): cogging, with the constants
     of the joint refit within 3 % of the plant's and how far they moved from the calibration."""
@@ -370,6 +371,7 @@ def test_a_cogging_blind_baseline_names_the_shared_law_as_cogging(cogging_datase
         assert math.isfinite(v["change_pct"]) and math.isfinite(v["change_in_stderr"])
 
 
+@pytest.mark.long
 def test_two_effects_are_named_with_their_shares():
     """Cogging beyond seed eq. (9) (slot harmonics) and friction at once, constants off nominal, baseline
     calibrated: both named (not a confusable pair), each with a share of the gap; the constants within 3 %."""

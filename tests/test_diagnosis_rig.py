@@ -170,6 +170,7 @@ def test_end_effect_spline_profile_nests_the_geometric_law_and_follows_other_pro
         assert np.sqrt(np.mean(err**2)) < tol_rms * np.max(loss), family
 
 
+@pytest.mark.long
 def test_an_end_effect_that_levels_off_is_named_with_its_profile(tmp_path):
     """Independent rig, one end effect whose overhang loss levels off along a half cosine (25 % of the force
     lost beyond 42 mm, a second ripple harmonic, cogging untouched by the overhang): named `end_effect`, with
@@ -193,6 +194,7 @@ def test_an_end_effect_that_levels_off_is_named_with_its_profile(tmp_path):
     assert len(d.noise.coverage) == 2 and all(r["closes"] >= 0.9 for r in d.noise.coverage), d.noise.coverage
 
 
+@pytest.mark.long
 def test_an_encoder_scale_error_is_not_taken_for_an_end_effect(tmp_path):
     """Independent rig, encoder scale errors (gap +2.6 %, position -1.5 %; outside the library): the commutation
     angle then drifts along the stroke and the force changes with |d|. A free end-effect profile whose steps

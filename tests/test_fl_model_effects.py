@@ -191,7 +191,7 @@ def test_fl_with_a_lag_model_predicts_through_its_delay(tmp_path):
     assert rms["model"] < 0.5 * rms["blind"], rms
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_fl_blind_vs_diagnosed_on_the_issues_foreign_rig(tmp_path):
     """From rig logs to the loaded model, nothing handed over: the independent rig of the issue (rigsim: +-15 %
     constants, foreign cogging, Stribeck friction, 800 Hz lag with a one-period delay, 5 deg commutation) is
