@@ -36,15 +36,20 @@ def _in_ci() -> bool:
     return os.environ.get("CI", "").lower() in ("1", "true", "yes")
 
 
+def _skip_fails(rep, what: str) -> None:
+    """Turn the skipped report ``rep`` into a failure that keeps the skip's reason."""
+    reason = rep.longrepr[2] if isinstance(rep.longrepr, tuple) else str(rep.longrepr)
+    rep.outcome = "failed"
+    rep.longrepr = f"{what} under CI=true, where nothing may be skipped: {reason}"
+
+
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item, call):
     """Under ``CI=true`` turn a skip into a failure (unless the test is marked ``optional``)."""
     outcome = yield
     rep = outcome.get_result()
     if rep.skipped and _in_ci() and item.get_closest_marker("optional") is None and not hasattr(rep, "wasxfail"):
-        reason = rep.longrepr[2] if isinstance(rep.longrepr, tuple) else str(rep.longrepr)
-        rep.outcome = "failed"
-        rep.longrepr = f"skipped under CI=true, where nothing may be skipped: {reason}"
+        _skip_fails(rep, "skipped")
 
 
 @pytest.fixture(scope="session")
@@ -69,9 +74,7 @@ def pytest_make_collect_report(collector):
     outcome = yield
     rep = outcome.get_result()
     if rep.skipped and _in_ci():
-        reason = rep.longrepr[2] if isinstance(rep.longrepr, tuple) else str(rep.longrepr)
-        rep.outcome = "failed"
-        rep.longrepr = f"module skipped under CI=true, where nothing may be skipped: {reason}"
+        _skip_fails(rep, "module skipped")
 
 
 #: Per-test time limits by tier [s] (pytest-timeout; the ini's ``timeout`` is the default set's). A hung test
