@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ..effects import EFFECTS, EndEffect
 from ..params import Params
@@ -70,6 +70,12 @@ class CandidateSpec:
         What was held fixed and why.
     law : str
         Member of the effect's law family (see :func:`family_specs`).
+    flexible : bool
+        A learned-shape member (splines or Fourier series inside the effect's
+        physical signature) rather than a closed-form law: it may only enter a
+        verdict by beating the refitted other effects on held-out runs (the
+        no-false-claim guard), and the closed-form members are the
+        parsimonious alternatives it must beat.
     """
 
     name: str
@@ -80,6 +86,7 @@ class CandidateSpec:
     lag: bool = False
     note: str = ""
     law: str = "default"
+    flexible: bool = False
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -90,11 +97,11 @@ class CandidateSpec:
         """Copy with more fitted parameters (e.g. the baseline's C1..C4 re-fitted jointly)."""
         keys = {f.key for f in extra}
         free = tuple(extra) + tuple(f for f in self.free if f.key not in keys)
-        return CandidateSpec(self.name, self.effects, free, self.fixed, self.ties, self.lag, self.note, self.law)
+        return replace(self, free=free)
 
     def renamed(self, name: str) -> CandidateSpec:
         """Copy under another name."""
-        return CandidateSpec(name, self.effects, self.free, self.fixed, self.ties, self.lag, self.note, self.law)
+        return replace(self, name=name)
 
 
 def _eb(effect: str, param: str) -> tuple[float, float]:
@@ -512,6 +519,7 @@ def combine(a: CandidateSpec, b: CandidateSpec) -> CandidateSpec:
         a.lag or b.lag,
         f"{a.note}; {b.note}",
         "; ".join(x for x in (a.law, b.law) if x),
+        a.flexible or b.flexible,
     )
 
 
