@@ -121,6 +121,9 @@ class Metrics:
     max_rms_error_d_m: float | None
     error: str | None = None
     failed_checks: list[str] = field(default_factory=list)
+    #: Why the controller's model file is not to be relied on (its writer marked it ``trusted: false``, e.g.
+    #: ``maglev calibrate --force``); ``None`` for a trusted or no model file. Flags the result, does not fail it.
+    model_untrusted: str | None = None
 
     @property
     def passed(self) -> bool:
@@ -164,6 +167,8 @@ class Metrics:
         )
         if self.error:
             lines.append(f"ERROR: {self.error}")
+        if self.model_untrusted:
+            lines.append(f"UNTRUSTED MODEL: {self.model_untrusted}")
         lines.append("PASS" if self.passed else "FAIL: " + "; ".join(self.failed_checks or ["run did not finish"]))
         return "\n".join(lines)
 

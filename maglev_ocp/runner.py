@@ -384,6 +384,7 @@ def finish_run(
     """
     cols, stat_cols = run_columns(rp, trace, done)
     metrics = run_metrics(sc, rp, trace, done, stat_cols, plant, error)
+    metrics.model_untrusted = sc.model_untrusted()  # flagged in the result's own files, not only warned once
     res = RunResult(sc, cols, trace.step_time_us[:done], rp.plan, metrics, wall_s=time.perf_counter() - t_wall)
     if out_dir is not None:
         res.save(out_dir, figures=figures)
@@ -463,8 +464,10 @@ def summary_table(results: list[tuple[str, RunResult | None, str | None]]) -> st
         lines.append(
             f"{name:<28} {m.controller:>5} {f'{n_ok}/{len(m.targets)}':>8} {ts:>11} {rg:>10} {rd:>10} "
             f"{m.stop_hits:>5} {f'{m.solver_failures}/{m.fallbacks}':>7} {m.max_current_A:10.2f} {tm:>13} "
-            f"{'PASS' if m.passed else 'FAIL':>6}"
+            f"{'PASS' if m.passed else 'FAIL':>6}{'  UNTRUSTED MODEL' if m.model_untrusted else ''}"
         )
+    untrusted = [(name, res.metrics.model_untrusted) for name, res, _ in results if res and res.metrics.model_untrusted]
+    lines += [f"UNTRUSTED MODEL ({name}): {why}" for name, why in untrusted]
     return "\n".join(lines)
 
 

@@ -455,6 +455,24 @@ class Scenario(Strict):
         effects = PlanEffects(cm.effects, tuple(float(v) for v in cm.theta)) if cm.effects else None
         return cm.params, effects
 
+    def model_untrusted(self) -> str | None:
+        """Why the controller's model file cannot be relied on, or ``None``.
+
+        A model file whose writer could not vouch for it (``trusted: false``,
+        e.g. ``maglev calibrate --force`` on data that do not identify the
+        constants) is loaded with a warning; a run with it carries the reasons in
+        its own result files (``metrics.json``), so a table built from them later
+        still shows it.
+        """
+        path = getattr(self.controller.settings, "model", None)
+        if not path:
+            return None
+        data = load_yaml(path) or {}
+        if not isinstance(data, dict) or data.get("trusted", True) is not False:
+            return None
+        why = data.get("untrusted_because") or ["no reason given"]
+        return f"{path}: " + "; ".join(str(w) for w in why)
+
     def plant_config(self):
         """The plant's :class:`~maglev_ocp.plant.PlantConfig`."""
         return self.plant.config(self.root_dir, self.source)
