@@ -58,6 +58,7 @@ Every key (SI units):
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import json
 import math
@@ -658,9 +659,17 @@ class Scenario(Strict):
         }
 
     def key(self) -> str:
-        """JSON of what a built controller depends on (type, backend, settings, believed parameters)."""
+        """JSON of what a built controller depends on (type, backend, settings, believed parameters, and the
+        content of its model file: a file rewritten between two runs, e.g. by a new ``maglev diagnose``, must
+        not reuse the controller built from its old content)."""
+        path = getattr(self.controller.settings, "model", None)
+        model = hashlib.sha256(Path(path).read_bytes()).hexdigest() if path and Path(path).is_file() else None
         return json.dumps(
-            {"controller": self.controller.to_dict(), "params": self.controller_model_params().as_dict()},
+            {
+                "controller": self.controller.to_dict(),
+                "params": self.controller_model_params().as_dict(),
+                "model_file_sha256": model,
+            },
             sort_keys=True,
         )
 

@@ -311,3 +311,21 @@ def test_cli_bad_scenario_exits_2_with_one_line(tmp_path):
     assert len(lines) == 1 and "targets.0.g" in lines[0] and str(bad) in lines[0]
     assert "Traceback" not in r.stderr
     assert not out.exists()  # validated before anything runs
+
+
+def test_the_controller_key_follows_the_model_files_content_not_its_path(tmp_path):
+    """A model file rewritten between two runs (same path, same constants, other effects) must not reuse the
+    controller built from its old content (the runner's controller cache is keyed by :meth:`Scenario.key`)."""
+    from maglev_ocp.params import NOMINAL, model_file_text
+
+    model = tmp_path / "model.yaml"
+    model.write_text(model_file_text(NOMINAL, written_by="test"))
+    data = {**GOOD, "controller": {"type": "fl", "model": str(model)}}
+    before = scenario_from_dict(data).key()
+    params_before = scenario_from_dict(data).controller_model_params()
+    assert scenario_from_dict(data).key() == before  # same content, same key
+    fr = {"friction": {"enabled": True, "coulomb_g": 0.3, "coulomb_d": 0.2}}
+    model.write_text(model_file_text(NOMINAL, fr, written_by="test"))
+    after = scenario_from_dict(data).key()
+    assert after != before
+    assert scenario_from_dict(data).controller_model_params() == params_before  # only the effects changed
