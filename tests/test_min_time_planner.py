@@ -83,15 +83,25 @@ def _spec_thrust_at_hover(g: float, amp: float, lim_d: float) -> float:
 
 @pytest.mark.parametrize("g", [0.017, 0.022])
 def test_constant_gap_move_is_the_closed_form_bang_bang(g):
-    """Without cogging, d -40 -> 40 mm at a constant gap: T = 2 sqrt(D / a_max) with a_max from the spec."""
+    """Without cogging, d -40 -> 40 mm along the straight path at a constant gap: T = 2 sqrt(D / a_max) with
+    a_max from the spec. The planner itself may close the gap mid-move (a dip: more thrust per ampere), so its
+    move is at most that long and stays within the gap envelope."""
+    from maglev_ocp.reference.profile_plan import STRAIGHT, path_profiles
+
     st = ReferenceSettings(shaping="min_time", current_fraction=0.97, i_d_fraction=0.85)
     params = NOMINAL.without_cogging()
-    tab = min_time_table((g, -0.04), (g, 0.04), params, st)
     a_max = _spec_thrust_at_hover(g, 0.97 * k.i_amp_max, 0.85 * k.i_axis_max)
     expected = 2.0 * math.sqrt(0.08 / a_max)
-    # the planner keeps a 2e-4 margin from the limits and takes each grid segment's weaker end: >= expected
-    assert unsmoothed_duration(tab) == pytest.approx(expected, rel=2e-3)
-    assert unsmoothed_duration(tab) >= expected * (1 - 1e-6)
+    keep = 1.0 - 2e-4  # the planner's first margin from the limits
+    lims = (keep * 0.97 * k.i_axis_max, keep * 0.85 * k.i_axis_max, keep * 0.97 * k.i_amp_max)
+    (straight,) = path_profiles((g, -0.04), (g, 0.04), params, *lims, shapes=(STRAIGHT,))
+    # the 2e-4 margin and each grid segment's weaker end: >= expected, and close to it
+    assert straight.T == pytest.approx(expected, rel=2e-3)
+    assert straight.T >= expected * (1 - 1e-6)
+    tab = min_time_table((g, -0.04), (g, 0.04), params, st)
+    assert unsmoothed_duration(tab) <= straight.T * (1 + 1e-9)
+    gaps = tab[2][:, 0]
+    assert k.g_envelope[0] - 1e-9 <= gaps.min() and gaps.max() <= g + 1e-9  # a dip only closes the gap
 
 
 def test_repeated_moves_come_from_the_cache():
@@ -111,3 +121,21 @@ def test_min_time_solver_is_validated():
         ReferenceSettings(shaping="min_time", min_time_solver="fast")
     assert ReferenceSettings().min_time_solver == "profile"
     np.testing.assert_equal(ReferenceSettings(min_time_solver="nlp").min_time_solver, "nlp")
+
+
+def test_a_dip_is_a_smooth_gap_excursion_inside_the_envelope():
+    """The dip's bump has the derivatives its path uses (finite differences), and is offered only where the
+    path stays within the gap envelope."""
+    from maglev_ocp.reference.profile_plan import PathShape, bump, candidate_shapes
+
+    s = np.linspace(0.0, 1.0, 2001)
+    b0, b1, b2 = bump(s)
+    assert b0.max() == pytest.approx(1.0) and b0[0] == b0[-1] == 0.0 and b1[0] == b1[-1] == 0.0
+    np.testing.assert_allclose(np.gradient(b0, s)[5:-5], b1[5:-5], atol=1e-4)
+    np.testing.assert_allclose(np.gradient(b1, s)[5:-5], b2[5:-5], atol=1e-3)
+    mid = candidate_shapes(0.0, 0.03, 0.020)
+    assert any(sh.dip < 0 for sh in mid)
+    assert not any(sh.dip for sh in candidate_shapes(0.0, 0.03, k.g_envelope[0] + 1e-4))  # no room below
+    assert not any(sh.dip for sh in candidate_shapes(0.008, 0.01, 0.017))  # the gap's own change: bends
+    (g, _, _), _ = PathShape(dip=-1e-3).axes(s, (0.0, 0.03))
+    assert g.min() == pytest.approx(-1e-3)

@@ -31,7 +31,7 @@ from ..errors import ConfigError
 from ..ocp.min_time import MinTimeSettings, solve_min_time
 from ..params import Params
 from .feasibility import PlanEffects, _limits_ok
-from .profile_plan import PROFILE_MARGINS, candidate_shapes, path_profiles, table_length
+from .profile_plan import PROFILE_MARGINS, candidate_shapes, path_profiles, refined_shapes, table_length
 from .profiles import Move, TabulatedMove
 from .settings import ReferenceSettings
 from .trajectory import plan_move
@@ -150,7 +150,7 @@ def _profile_table(
     """
     params = Params.from_vector(np.asarray(pvec))
     lim_axes = np.array([lim_q, lim_d])
-    shapes = candidate_shapes(p1[0] - p0[0], p1[1] - p0[1])
+    shapes = candidate_shapes(p1[0] - p0[0], p1[1] - p0[1], p0[0])
     for margin in PROFILE_MARGINS:
         keep = 1.0 - margin
         lims = (keep * lim_q, keep * lim_d, keep * lim_amp)
@@ -159,6 +159,10 @@ def _profile_table(
             return None
         if len(shapes) > 1:  # bent paths: iterated with their speed
             profiles += path_profiles(p0, p1, params, *lims, effects, shapes[1:], prune_above=profiles[0].T) or []
+            fastest = min(profiles, key=lambda pr: pr.T)
+            finer = refined_shapes(fastest.shape, p0[0], p1[0] - p0[0])
+            if finer:  # the candidates are a coarse grid of continuous families: a second pass around the best
+                profiles += path_profiles(p0, p1, params, *lims, effects, finer, prune_above=fastest.T) or []
         for prof in sorted(profiles, key=lambda pr: pr.T):
             if not np.isfinite(prof.T):
                 continue

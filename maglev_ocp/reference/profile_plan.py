@@ -20,8 +20,13 @@ full acceleration until the braking curve is met, full braking after it
 The paths are the straight line and, for a move that changes the gap and
 ``d``, a few gap timings (:func:`candidate_shapes`): the NLP's moves accelerate at
 the smaller gap, where the thrust per ampere is larger, and open the gap while
-braking, where that needs less ``i_d``. The fastest path whose move passes
-the check on the model wins (:func:`maglev_ocp.reference.min_time._profile_table`).
+braking, where that needs less ``i_d``. A move mostly in ``d`` also tries
+the gap closing mid-move and reopening (a *dip*): the NLP's short moves in
+``d`` do so even when the gap does not change overall. The candidates are a
+coarse grid of these continuous families, so a second pass tries the
+neighbours of the fastest (:func:`refined_shapes`). The fastest path whose
+move passes the check on the model wins
+(:func:`maglev_ocp.reference.min_time._profile_table`).
 
 The bounds come from the shared model's accelerations written as polynomials
 in the currents (:func:`inverse_coefficients_function`: coefficients by
@@ -42,6 +47,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from .. import constants as k
 from ..fastcall import BufferedFunction
 from ..model import get_model
 from ..params import Params
@@ -50,12 +56,13 @@ from .feasibility import PlanEffects, _mapped_inverse
 #: Points along the path at which the acceleration bounds are computed.
 PROFILE_GRID = 121
 #: Bisection steps of the bounds (relative resolution ``2**-PROFILE_BISECTIONS`` of the bracket).
-PROFILE_BISECTIONS = 15
+PROFILE_BISECTIONS = 13
+
 #: Fixed-point iterations of a bent path's bounds with its speed (the iteration stops earlier when
 #: every duration changed by less than :data:`PROFILE_TOLERANCE` of itself).
 PROFILE_ITERATIONS = 5
 #: A bent path this much slower than the best one after two iterations is dropped (:func:`path_profiles`).
-PROFILE_PRUNE = 0.02
+PROFILE_PRUNE = 0.01
 #: Relative change of the durations at which the fixed-point iteration stops.
 PROFILE_TOLERANCE = 1e-4
 #: ``(alpha, weight)`` of the gap following ``d`` (:class:`PathShape`, :func:`candidate_shapes`).
@@ -64,6 +71,18 @@ GAP_BENDS: tuple[tuple[float, float], ...] = ((2.0, 0.25), (2.0, 0.5), (2.0, 1.0
 D_BENDS: tuple[tuple[float, float], ...] = ((2.0, 0.25), (2.0, 0.5), (2.0, 1.0))
 #: Smallest change of both the gap and ``d`` [m] for which bent paths are tried.
 MIN_BENT_MOVE_M = 2e-4
+#: Gap dips tried on the straight path, as fractions of ``|dd|`` (:class:`PathShape` ``dip``, :func:`candidate_shapes`).
+GAP_DIPS: tuple[float, ...] = (0.02, 0.05)
+#: Largest gap dip [m].
+MAX_DIP_M = 2e-3
+#: Dips are tried (besides the bends) when the gap changes by less than this fraction of ``|dd|``: a bend's gap
+#: excursion scales with the gap's change, so a move mostly in ``d`` needs the dip to close the gap at all.
+DIP_BELOW = 0.25
+#: ``(alpha factor, weight factor)`` of the neighbours of the fastest bend tried in a second pass
+#: (:func:`refined_shapes`); the timing of the NLP's moves varies continuously with the move.
+BEND_STEPS: tuple[tuple[float, float], ...] = ((1.5, 1.0), (1.0, 0.5), (1.25, 0.5))
+#: Factors on the fastest dip tried in the second pass.
+DIP_STEPS: tuple[float, ...] = (0.7, 1.4)
 #: Margins (fractions of the limits) tried in turn until the smoothed move passes the model check.
 PROFILE_MARGINS: tuple[float, ...] = (2e-4, 2e-3, 1e-2)
 
@@ -193,12 +212,19 @@ class PathShape:
     weight : float
         Share of the bent timing in the follower's progress, the rest straight
         (``(1 - w) sigma + w S``, ``0 < w <= 1``: a milder bend).
+    dip : float
+        A gap excursion [m] added along the path, ``dip * 16 sigma^2 (1 - sigma)^2``
+        (peak at mid-move, zero slope and curvature-bounded at both ends; negative:
+        the gap closes). The minimum-time NLP's moves in ``d`` close the gap while
+        they accelerate and brake, even when the gap does not change overall: the
+        thrust per ampere ``L1 = C1 f1`` grows as the gap shrinks (seed eq. (2)).
     """
 
     alpha: float = 1.0
     lead: str = "d"
     late: bool = True
     weight: float = 1.0
+    dip: float = 0.0
 
     def axes(self, sigma: np.ndarray, delta: tuple[float, float]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """``[(s, s', s'') of g, (s, s', s'') of d]`` at ``sigma`` scaled by ``delta = (dg, dd)``."""
@@ -207,27 +233,66 @@ class PathShape:
         w = self.weight
         fol = ((1.0 - w) * sigma + w * S, (1.0 - w) + w * S1, w * S2)
         order = (fol, lin) if self.lead == "d" else (lin, fol)
-        return [(dl * a, dl * b, dl * c) for dl, (a, b, c) in zip(delta, order, strict=True)]
+        out = [(dl * a, dl * b, dl * c) for dl, (a, b, c) in zip(delta, order, strict=True)]
+        if self.dip:
+            b0, b1, b2 = bump(sigma)
+            g, g1, g2 = out[0]
+            out[0] = (g + self.dip * b0, g1 + self.dip * b1, g2 + self.dip * b2)
+        return out
+
+
+def bump(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``16 sigma^2 (1 - sigma)^2`` (1 at ``sigma = 1/2``, 0 with zero slope at both ends) and its derivatives."""
+    r = sigma * (1.0 - sigma)
+    return 16.0 * r**2, 32.0 * r * (1.0 - 2.0 * sigma), 32.0 * ((1.0 - 2.0 * sigma) ** 2 - 2.0 * r)
 
 
 STRAIGHT = PathShape()
 
 
-def candidate_shapes(dg: float, dd: float) -> tuple[PathShape, ...]:
+def candidate_shapes(dg: float, dd: float, g0: float | None = None) -> tuple[PathShape, ...]:
     """The paths tried for a move of ``(dg, dd)`` [m]: the straight one first, bent ones if both axes move.
 
     The bends go the way the minimum-time moves do (:func:`follower_progress`):
     a gap that opens does so late in the move, one that closes early. With
     ``d`` leading, the gap follows with each of :data:`GAP_BENDS`; with the gap
     leading (the same direction seen from the other axis, better for moves of
-    a few mm in both), ``d`` follows with each of :data:`D_BENDS`.
+    a few mm in both), ``d`` follows with each of :data:`D_BENDS`. A move in
+    ``d`` also tries the straight path with the gap closing mid-move by each of
+    :data:`GAP_DIPS` of ``|dd|`` (:class:`PathShape` ``dip``), as long as the
+    path stays within the gap envelope (``g0``: the start gap; no dips without it).
     """
-    if min(abs(dg), abs(dd)) < MIN_BENT_MOVE_M:
-        return (STRAIGHT,)
-    opening = dg >= 0.0
     out = [STRAIGHT]
+    if abs(dd) >= MIN_BENT_MOVE_M and abs(dg) < DIP_BELOW * abs(dd) and g0 is not None:
+        out += [sh for frac in GAP_DIPS if _inside(sh := PathShape(dip=-min(frac * abs(dd), MAX_DIP_M)), g0, dg)]
+    if min(abs(dg), abs(dd)) < MIN_BENT_MOVE_M:
+        return tuple(out)
+    opening = dg >= 0.0
     out += [PathShape(a, "d", opening, w) for a, w in GAP_BENDS]
     out += [PathShape(a, "g", not opening, w) for a, w in D_BENDS]
+    return tuple(out)
+
+
+def _inside(shape: PathShape, g0: float, dg: float) -> bool:
+    """The path's gap stays within the gap envelope (a dip must not take the mover below it)."""
+    sig = np.linspace(0.0, 1.0, 41)
+    return bool(np.min(g0 + dg * sig + shape.dip * bump(sig)[0]) >= k.g_envelope[0] - 1e-12)
+
+
+def refined_shapes(best: PathShape, g0: float, dg: float) -> tuple[PathShape, ...]:
+    """Neighbours of the fastest path of the first pass (a bend's timing and share, a dip's depth), for a
+    second pass: the candidates are a coarse grid of a continuous family, so the optimum lies between them."""
+    if best.dip:
+        out = [PathShape(dip=max(best.dip * f, -MAX_DIP_M)) for f in DIP_STEPS]
+        return tuple(sh for sh in out if _inside(sh, g0, dg) and sh != best)
+    if best.alpha == 1.0:
+        return ()
+    out = []
+    for fa, fw in BEND_STEPS:
+        a, w = max(best.alpha * fa, 2.0), min(best.weight * fw, 1.0)
+        sh = PathShape(a, best.lead, best.late, w)
+        if sh != best and sh not in out:
+            out.append(sh)
     return tuple(out)
 
 
@@ -352,7 +417,7 @@ def path_profiles(
     bounds = np.zeros(2 * K * n)
     x2, T, T_prev = np.zeros((K, n)), np.full(K, np.inf), None
     active = np.ones(K, dtype=bool)  # paths still iterated (a bent path far slower than the best is dropped)
-    bent = any(sh.alpha != 1.0 for sh in shapes)
+    bent = any(sh.alpha != 1.0 or sh.dip for sh in shapes)
     for it in range(PROFILE_ITERATIONS if bent else 1):
         sel = (np.arange(2)[:, None, None] * K * n + np.flatnonzero(active)[None, :, None] * n + np.arange(n)).ravel()
         k_act = int(active.sum())
@@ -395,16 +460,19 @@ def table_length(T: float, step: float) -> int:
 __all__ = [
     "D_BENDS",
     "GAP_BENDS",
+    "GAP_DIPS",
     "PROFILE_BISECTIONS",
     "PROFILE_GRID",
     "PROFILE_ITERATIONS",
     "PROFILE_MARGINS",
     "PathProfile",
     "PathShape",
+    "bump",
     "candidate_shapes",
     "currents",
     "follower_progress",
     "inverse_coefficients_function",
     "path_profiles",
+    "refined_shapes",
     "table_length",
 ]
