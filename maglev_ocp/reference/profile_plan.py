@@ -154,7 +154,7 @@ def _bounds(admissible, sign: np.ndarray, scale: float, start: np.ndarray | None
     if start is not None:  # the bounds move little from one iteration to the next: a narrow bracket first
         below = 0.8 * start
         lo = np.where(admissible(sign * below) & ok0, below, 0.0)
-        steps = PROFILE_BISECTIONS - 2  # the bracket [0.8, 1.25] of the last bounds: 0.006 % of them
+        steps = PROFILE_BISECTIONS - 2  # the bracket [0.8, 1.25] of the last bounds: 0.45 / 2^11, 0.02 % of them
     grow = ok0.copy()
     for _ in range(60):  # bracket: double until inadmissible
         ok = admissible(sign * hi) & grow
