@@ -267,8 +267,10 @@ def test_chunks_cover_every_run_once_and_balance(n: int, workers: int) -> None:
     sizes = chunk_sizes(n, workers)
     assert sum(sizes) == n
     assert min(sizes) >= 1
-    assert max(sizes) - min(sizes) <= 1  # near-equal chunks
-    assert len(sizes) == min(n, 16 * workers)  # few tasks, but enough for load balance
+    assert sizes == sorted(sizes, reverse=True)  # shrinking: the last chunks are the small ones
+    assert sizes[-1] <= 4  # the finish is balanced to a few runs
+    assert sizes[0] <= max(4, -(-n // (4 * workers)))  # no worker takes more than its share at once
+    assert len(sizes) <= 4 * workers * (1 + math.log(max(n, 1))) + 4  # tens of tasks, not one per run
 
 
 def test_worker_cache_builds_once_per_key() -> None:

@@ -83,8 +83,9 @@ def run_campaign(
     """
     camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
     base = camp.base_scenario_dict()
-    report = execute(camp, out_dir, base=base, **execute_options)
-    summary = summarize(out_dir, expand(camp, base), camp.name)
+    specs = expand(camp, base)  # once: the runs and the summary share it
+    report = execute(camp, out_dir, base=base, specs=specs, **execute_options)
+    summary = summarize(out_dir, specs, camp.name)
     result = CampaignResult(report, summary)
     result.save(figures=figures)
     return result

@@ -536,9 +536,11 @@ def closed_loop_from_report(
         data = json.loads(json.dumps(sc.resolved(), default=_jsonable))
         data["plant"] = {"file": f}
         runs[run] = scenario_from_dict(data, source=f"{sc.source} on {f}", root_dir=sc.root_dir)
+    from ..codegen.loop_c import run_scenario_on  # the loop choice (codegen is heavy to import)
+
     metrics, logs = {}, {}
     for run, scn in runs.items():
-        res = run_scenario(scn, progress=progress, figures=False)
+        res = run_scenario_on(scn, progress=progress)  # the compiled loop where it can run (same maths)
         metrics[run] = res.metrics.to_dict()
         logs[run] = {c: np.asarray(res.columns[c], float) for c in ("t", *COMPARED)}
     rig = logs["rig"]

@@ -34,7 +34,6 @@ import numpy as np
 from .. import constants as k
 from ..effects import EFFECTS, EffectSet
 from ..errors import ConfigError
-from ..runner import run_scenario
 from ..signals import PARAM_NAMES
 from .fit import FitResult, accel_series, lag_features
 from .library import CandidateSpec
@@ -238,12 +237,14 @@ def closed_loop_consequence(
         "added_rms_m", "diff_max_m"}}``; ``diff_max_m`` is the largest distance between the two
         trajectories (same seed, same references), the effect's own footprint.
     """
+    from ..codegen.loop_c import run_scenario_on  # the loop choice (codegen is heavy to import)
+
     off = {n: {"enabled": False} for n in EFFECTS}
     p0 = params_without if params_without is not None else params
     out = {}
     for ctrl in controllers:
-        a = run_scenario(consequence_scenario(ctrl, p0, off, seed), progress=False, figures=False)
-        b = run_scenario(consequence_scenario(ctrl, params, effects, seed, p0), progress=False, figures=False)
+        a = run_scenario_on(consequence_scenario(ctrl, p0, off, seed))  # the compiled loop where it can run
+        b = run_scenario_on(consequence_scenario(ctrl, params, effects, seed, p0))
         ea, eb = _errors(a), _errors(b)
         n = min(len(a.columns["t"]), len(b.columns["t"]))
         dg = a.columns["g_true"][:n] - b.columns["g_true"][:n]
