@@ -29,7 +29,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         *range(0, 14),  # the tests' small draws (plants, noise, excitation, random targets)
         21, 23, 31, 45, 47, 59, 61, 71, 77, 83, 97, 99, 101, 113, 131,  # diagnosis self-checks and cases
         2024, 2026, 7301, 7302,  # calibration acceptance, rig law cases (test_diagnosis_laws)
-        2029, 757454926, 910001, 142846040,  # the profile planner's benchmark: developed on 2029 (and 7); the fresh seed it met, spent
+        2029, 757454926, 910001, 142846040,  # planner benchmark: developed on 2029, 7, 910001; fresh ones spent
         121212, 424242, 20240607, 20240608,  # shipped campaigns and scenarios
         3144656969, 3234358082, 3583959361,  # single cases re-drawn from self-check seeds (test_diagnosis*)
     }
