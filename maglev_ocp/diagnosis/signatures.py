@@ -173,20 +173,34 @@ def _stack(res: Sequence[Residual], c: int) -> tuple[np.ndarray, Feat, np.ndarra
     return np.concatenate(rs), feat, np.concatenate(ids)
 
 
+def _orth(x: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of the column span of ``x`` (rank-revealing: dependent columns dropped)."""
+    if x.shape[1] == 0:
+        return x
+    u, sv, _ = np.linalg.svd(x, full_matrices=False)
+    return u[:, sv > 1e-9 * max(float(sv[0]), 1e-300)]
+
+
+class _Increment:
+    """Share of a vector's energy that the columns ``b`` explain beyond the columns ``a`` (least squares),
+    with both spans factored once, so that many null draws cost two matrix-vector products each."""
+
+    def __init__(self, a: np.ndarray, b: np.ndarray) -> None:
+        self.qa = _orth(a)
+        self.qab = _orth(np.column_stack([a, b]) if a.shape[1] else b)
+
+    def __call__(self, y: np.ndarray) -> float:
+        yy = float(y @ y)
+        if yy <= 0:
+            return 0.0
+        pa = self.qa.T @ y if self.qa.shape[1] else np.zeros(0)
+        pab = self.qab.T @ y if self.qab.shape[1] else np.zeros(0)
+        return max(float(pab @ pab) - float(pa @ pa), 0.0) / yy
+
+
 def _share(y: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     """Share of ``y``'s energy that the columns ``b`` explain beyond the columns ``a`` (least squares)."""
-    yy = float(y @ y)
-    if yy <= 0 or b.shape[1] == 0:
-        return 0.0
-
-    def sse(x: np.ndarray) -> float:
-        if x.shape[1] == 0:
-            return yy
-        coef = np.linalg.lstsq(x, y, rcond=None)[0]
-        e = y - x @ coef
-        return float(e @ e)
-
-    return max(sse(a) - sse(np.column_stack([a, b])), 0.0) / yy
+    return _Increment(a, b)(y) if b.shape[1] else 0.0
 
 
 def _normalized(x: np.ndarray) -> np.ndarray:
@@ -258,8 +272,9 @@ def evidence(
         a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != effect]
         a = _normalized(np.column_stack(a)) if a and sum(x.shape[1] for x in a) else np.zeros((len(y), 0))
         a = np.column_stack([np.ones(len(y)), a])
-        share = _share(y, a, b)
-        null = [_share(_shifted(y, ids, rng), a, b) for _ in range(n_null)]
+        inc = _Increment(a, b)
+        share = inc(y)
+        null = [inc(_shifted(y, ids, rng)) for _ in range(n_null)]
         q = float(np.quantile(null, 1 - alpha)) if null else math.inf
         fl = floors.get(ch, math.nan)
         over = math.sqrt(share * float(np.mean(y**2))) / fl if np.isfinite(fl) and fl > 0 else math.nan
@@ -277,12 +292,21 @@ def period_scan(
     if periods_m is None:
         periods_m = np.geomspace(4e-3, 0.12, 160)
     shares = np.zeros(len(periods_m))
-    if len(y) < 20:
+    yy = float(y @ y) if len(y) else 0.0
+    if len(y) < 20 or yy <= 0:
         return periods_m, shares
-    a = np.ones((len(y), 1))
-    for j, p in enumerate(periods_m):
-        w = 2 * math.pi / p
-        shares[j] = _share(y, a, np.column_stack([np.sin(w * feat["d"]), np.cos(w * feat["d"])]))
+    # Beyond a constant: everything centred; the 2x2 normal equations of (sin, cos) at all periods at once.
+    ph = np.outer(feat["d"], 2 * math.pi / np.asarray(periods_m))
+    sn, cs = np.sin(ph), np.cos(ph)
+    sn -= sn.mean(axis=0)
+    cs -= cs.mean(axis=0)
+    yc = y - y.mean()
+    ss, cc, sc = np.sum(sn * sn, 0), np.sum(cs * cs, 0), np.sum(sn * cs, 0)
+    sy, cy = yc @ sn, yc @ cs
+    det = ss * cc - sc**2
+    ok = det > 1e-12 * np.maximum(ss * cc, 1e-300)
+    expl = np.where(ok, (cc * sy**2 - 2 * sc * sy * cy + ss * cy**2) / np.where(ok, det, 1.0), 0.0)
+    shares[:] = np.maximum(expl, 0.0) / yy
     return periods_m, shares
 
 
@@ -317,8 +341,8 @@ def locate_gap(
         if not np.any(np.abs(p / lib - 1.0) < tol) and not np.any(np.abs(p / (2 * lib) - 1.0) < tol):
             w = 2 * math.pi / p
             b = np.column_stack([np.sin(w * feat["d"]), np.cos(w * feat["d"])])
-            a = np.ones((len(y), 1))
-            null = [_share(_shifted(y, ids, rng), a, b) for _ in range(n_null)]
+            inc = _Increment(np.ones((len(y), 1)), b)
+            null = [inc(_shifted(y, ids, rng)) for _ in range(n_null)]
             over = math.sqrt(shares[j] * ms) / fl
             if shares[j] > float(np.quantile(null, 1 - alpha)) and over >= min_over_floor:
                 out.append(dict(channel=ch, kind="period", variable="d", period_m=p, rms_over_floor=over,
@@ -332,11 +356,12 @@ def locate_gap(
             span = max(float(np.ptp(feat["t"][ids == i])), 1e-9)
             cols += [sel, sel * t / span, sel * (t / span) ** 2]
         b = np.column_stack(cols)
-        a = np.column_stack([np.ones(len(y))] + [s.matrix(feat, ch) for s in SIGNATURES.values()])
-        share = _share(y, a, b)
+        a = _normalized(np.column_stack([np.ones(len(y))] + [s.matrix(feat, ch) for s in SIGNATURES.values()]))
+        inc = _Increment(a, b)
+        share = inc(y)
         over = math.sqrt(share * ms) / fl
         if over >= min_over_floor:
-            null = [_share(_shifted(y, ids, rng), a, b) for _ in range(n_null)]
+            null = [inc(_shifted(y, ids, rng)) for _ in range(n_null)]
             if share > float(np.quantile(null, 1 - alpha)):
                 out.append(dict(channel=ch, kind="drift", variable="t", rms_over_floor=over,
                                 what=f"{ch}: a drift in time that no signature's variables explain "
