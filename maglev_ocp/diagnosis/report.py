@@ -379,6 +379,7 @@ def _noise_markdown(d: Diagnosis) -> list[str]:
             f"\n`{d.noise.partial['model']}` explains part of the gap only; the verdict is **unexplained** "
             "(the library does not account for the channels marked **no**)."
         )
+    md += _claims_md(d.noise.claims)
     for n, g in d.noise.guards.items():
         if g.peaks_hz:
             md.append(
@@ -473,6 +474,29 @@ def write_report(d: Diagnosis, out_dir: str | os.PathLike, figures: bool = True)
     atomic_write_text(out / "report.json", json.dumps(report_json(d), indent=2))
     atomic_write_text(out / "report.md", report_markdown(d, written))
     return out
+
+
+def _claims_md(claims: dict) -> list[str]:
+    """The no-false-claim guard's table: per effect, its signature's evidence and its own gain."""
+    if not claims or not claims.get("effects"):
+        return []
+    md = ["\nNo effect claimed that is not there (signature in the residual without it; gain over the others "
+          "at full freedom, held-out):\n", "| effect | signature shows (explained / null, rms / floor) | own gain z "
+          "(region / all) | kept |", "|---|---|---|---|"]  # fmt: skip
+    for e, rec in claims["effects"].items():
+        sig = rec["signature"]
+        parts = ", ".join(
+            f"{ch} {c['explained']:.2f}/{c['null_q']:.2f}, {c['rms_explained_over_floor']:.1f}x"
+            for ch, c in sig["per_channel"].items()
+        )
+        g = rec.get("own_gain") or {}
+        zg = f"{g['z_region']:.1f} / {g['z_all']:.1f}" if g.get("z_region") is not None else "-"
+        md.append(f"| {e} | {'yes' if sig['shows'] else '**no**'} ({parts}) | {zg} | "
+                  f"{'yes' if rec['kept'] else '**no**'} |")  # fmt: skip
+    if claims.get("gap"):
+        md.append("\nGap the effects found leave, that no library signature has (**partly explained**):\n")
+        md += [f"- {g['what']}" for g in claims["gap"]]
+    return md
 
 
 __all__ = ["FIGURES", "report_json", "report_markdown", "summary_table", "write_model_files", "write_report"]
