@@ -1,0 +1,101 @@
+"""Active diagnosis (issue 27, item 3): the excitation chosen for a confusable pair, its SNR, the run plan file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from maglev_ocp.diagnosis.experiment import Alternative, MenuEntry, design, effect_accelerations, score_entry
+from maglev_ocp.errors import UserError
+from maglev_ocp.loop.run_plan import RunPlan, RunSpec, load_plan, simulate_plan, write_plan, write_reference_csvs
+from maglev_ocp.params import NOMINAL
+from maglev_ocp.plant import PlantConfig
+
+FIT_GAP_MM = 20.0
+FLOORS = {"vertical": 0.05, "horizontal": 0.05}
+NO_COULOMB = {"coulomb_g": 0.0, "coulomb_d": 0.0, "stribeck_g": 0.0, "stribeck_d": 0.0, "viscous_g": 0.0}
+
+
+def _traverse(gap: float, speed: float) -> RunSpec:
+    return RunSpec(kind="d_traverse", gap_mm=gap, amplitude_mm=20.0, speed_mm_s=speed, duration_s=1.6)
+
+
+def _pair(c_eddy: float) -> tuple[Alternative, Alternative]:
+    """Eddy drag and the viscous friction that a dataset at one gap (20 mm) cannot tell from it.
+
+    The friction's coefficient is its least-squares fit to the eddy drag's horizontal acceleration on a traverse
+    at the fitting gap: what a refit on data at that gap gives.
+    """
+    eddy = Alternative("eddy_drag", ("eddy_drag",), {"eddy_drag": {"c_eddy": c_eddy}})
+    unit = Alternative("friction", ("friction",), {"friction": {**NO_COULOMB, "viscous_d": 1.0}})
+    (log,) = simulate_plan(RunPlan(runs=[_traverse(FIT_GAP_MM, 100.0)]), PlantConfig.from_profile("ideal"), NOMINAL)
+    a, b = effect_accelerations(eddy, log, NOMINAL)[:, 1], effect_accelerations(unit, log, NOMINAL)[:, 1]
+    c = float(a @ b / (b @ b))
+    return eddy, Alternative("friction", ("friction",), {"friction": {**NO_COULOMB, "viscous_d": c}})
+
+
+def _menu() -> list[MenuEntry]:
+    hold = RunSpec(kind="hold", gap_mm=15.0, duration_s=1.0)
+    sine = RunSpec(kind="gap_sine", gap_mm=18.0, amplitude_mm=3.0, freq_hz=2.0, duration_s=1.6, lock="d")
+    return [
+        MenuEntry("holds", (hold,), "hold"),
+        MenuEntry("gap_sine", (sine,), "gap sine, d locked"),
+        MenuEntry("velocity_sweep_one_gap", (_traverse(FIT_GAP_MM, 50.0), _traverse(FIT_GAP_MM, 150.0)), "one gap"),
+        MenuEntry("velocity_sweep_two_gaps", (_traverse(13.0, 50.0), _traverse(27.0, 150.0)), "two gaps"),
+    ]
+
+
+def test_eddy_drag_against_viscous_friction_chooses_velocity_sweeps_at_two_gaps():
+    """B(g)^2 makes eddy drag depend on the gap, viscous friction does not: only other gaps separate them."""
+    eddy, fric = _pair(200.0)
+    d = design([eddy, fric], NOMINAL, FLOORS, menu=_menu(), target_snr=10.0)
+    assert d.plan.excitation == "velocity_sweep_two_gaps"
+    by = {s.name: s for s in d.scores}
+    # at rest or with d locked the two predict no horizontal residual at all
+    assert by["holds"].snr < 1e-6 and by["gap_sine"].snr < 1e-6
+    # at the fitting gap they are (nearly) the same model: far less separation than at two other gaps
+    assert by["velocity_sweep_one_gap"].snr < 0.1 * by["velocity_sweep_two_gaps"].snr
+    assert d.plan.predicted_snr >= 10.0
+    assert by["velocity_sweep_two_gaps"].per_channel["vertical"] == 0.0  # neither effect acts vertically here
+    assert d.plan.slot == ["eddy_drag", "friction"]
+
+
+def test_snr_is_linear_in_the_effect_size():
+    """Doubling the drag doubles the predicted difference (both alternatives are linear in their coefficient)."""
+    entry = _menu()[3]
+    s1 = score_entry(entry, _pair(100.0), NOMINAL, FLOORS).snr
+    s2 = score_entry(entry, _pair(200.0), NOMINAL, FLOORS).snr
+    assert s1 > 1.0
+    assert s2 / s1 == pytest.approx(2.0, rel=0.02)
+    # and inversely proportional to the noise floor
+    s3 = score_entry(entry, _pair(100.0), NOMINAL, {c: 2 * v for c, v in FLOORS.items()}).snr
+    assert s3 == pytest.approx(s1 / 2, rel=1e-6)
+
+
+def test_run_plan_round_trip_and_reference_csv(tmp_path):
+    plan = RunPlan(excitation="x", slot=["a", "b"], predicted_snr=3.0, why="w", runs=[_traverse(15.0, 100.0)])
+    path = write_plan(plan, tmp_path / "experiment.yaml")
+    assert load_plan(path) == plan
+    (csv,) = write_reference_csvs(plan, tmp_path)
+    tab = np.loadtxt(csv, delimiter=",", skiprows=1)
+    assert tab.shape == (1600, 5)
+    # a triangle of d at 100 mm/s between -20 and +20 mm, the gap held
+    assert tab[:, 2].max() == pytest.approx(0.020, abs=2e-4) and tab[:, 2].min() == pytest.approx(-0.020, abs=2e-4)
+    assert np.allclose(np.abs(tab[:, 4]), 0.1) and np.allclose(tab[:, 1], 0.015)
+
+
+@pytest.mark.parametrize(
+    ("text", "needle"),
+    [
+        ("runs: [{kind: hold, speed: 3}]", "speed"),
+        ("runs: [{kind: d_traverse, amplitude_mm: 50, d_mm: 20}]", "55"),
+        ("runs: [{kind: gap_sine, lock: g}]", "lock"),
+        ("runs: []", "runs"),
+    ],
+)
+def test_bad_run_plan_is_refused_naming_the_key(tmp_path, text, needle):
+    p = tmp_path / "plan.yaml"
+    p.write_text(text)
+    with pytest.raises(UserError) as err:
+        load_plan(p)
+    assert "plan.yaml" in str(err.value) and needle in str(err.value)
