@@ -99,3 +99,37 @@ def test_bad_run_plan_is_refused_naming_the_key(tmp_path, text, needle):
     with pytest.raises(UserError) as err:
         load_plan(p)
     assert "plan.yaml" in str(err.value) and needle in str(err.value)
+
+
+def test_pooled_datasets_keep_held_out_runs_of_each(tmp_path):
+    """Two datasets pooled: run names tagged by dataset, and the split holds out runs of both."""
+    from maglev_ocp.diagnosis.pool import dataset_tag, pool_datasets
+    from maglev_ocp.diagnosis.stages.split import runs_from_dataset, split_runs
+    from maglev_ocp.errors import DataError
+    from maglev_ocp.riglog import Dataset
+
+    def ds(n: int, gap: float, ts: float = 1e-3) -> Dataset:
+        runs = []
+        for i in range(n):
+            t = np.arange(50) * ts
+            cols = {
+                "t": t,
+                "g": np.full(50, gap + 1e-4 * i),
+                "d": np.zeros(50),
+                "i_q": np.zeros(50),
+                "i_d": np.ones(50),
+            }
+            from maglev_ocp.riglog import RunLog
+
+            runs.append(RunLog(f"r{i}.csv", cols, (), {}))
+        return Dataset(sample_time=ts, encoder_resolution=1e-5, runs=runs)
+
+    pooled = pool_datasets([ds(6, 0.02), ds(3, 0.015)])
+    names = [r.file for r in pooled.runs]
+    assert len(names) == 9 and len(set(names)) == 9
+    train, test = split_runs(runs_from_dataset(pooled), every=3)
+    assert {dataset_tag(r.name) for r in test} == {"ds1", "ds2"}
+    assert {dataset_tag(r.name) for r in train} == {"ds1", "ds2"}
+    assert len(train) + len(test) == 9
+    with pytest.raises(DataError, match="sample times"):
+        pool_datasets([ds(3, 0.02), ds(3, 0.02, ts=2e-3)])

@@ -47,6 +47,7 @@ import numpy as np
 
 from ..effects import EffectSet, effect_delta_function
 from ..loop.run_plan import RunPlan, RunSpec, simulate_plan
+from ..model import get_model
 from ..params import Params
 from ..plant import PlantConfig
 from ..riglog import RunLog
@@ -68,11 +69,14 @@ class Alternative:
         The effect set of the alternative's model (the slot member and any effects common to all alternatives).
     params : dict
         ``{effect: {param: value}}`` fitted on the existing data; missing ones take their defaults.
+    constants : dict
+        The model constants the alternative's fit moved (``{"C1": ...}``); the others are the baseline's.
     """
 
     name: str
     effects: tuple[str, ...]
     params: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    constants: Mapping[str, float] = field(default_factory=dict)
 
     def theta(self) -> np.ndarray:
         """The parameter vector in the effect library's order."""
@@ -218,14 +222,26 @@ def _state_inputs(log: RunLog) -> tuple[np.ndarray, np.ndarray]:
 
 
 def effect_accelerations(alt: Alternative, log: RunLog, params: Params) -> np.ndarray:
-    """What ``alt``'s effects add to the model's accelerations along ``log``, shape (N, 2) [m/s^2]."""
-    if not alt.effects:
-        return np.zeros((log.n, 2))
+    """What ``alt`` adds to the baseline model's accelerations along ``log``, shape (N, 2) [m/s^2].
+
+    Its effects' accelerations (:func:`~maglev_ocp.effects.effect_delta_function`) plus, when its fit moved
+    model constants, the shared model's change with them (MODEL.md's equations with the alternative's constants).
+    """
     x, u = _state_inputs(log)
-    f = effect_delta_function(tuple(alt.effects)).map(len(x))
-    p = np.tile(np.asarray(params.vector(), float)[:, None], (1, len(x)))
-    th = np.tile(alt.theta()[:, None], (1, len(x)))
-    return np.asarray(f(x.T, u.T, p, th), float).T
+    n = len(x)
+    out = np.zeros((n, 2))
+    p_alt = params.with_(**alt.constants) if alt.constants else params
+    p = np.tile(np.asarray(p_alt.vector(), float)[:, None], (1, n))
+    if alt.effects:
+        f = effect_delta_function(tuple(alt.effects)).map(n)
+        th = np.tile(alt.theta()[:, None], (1, n))
+        out += np.asarray(f(x.T, u.T, p, th), float).T
+    if alt.constants:
+        fm = get_model().f.map(n)
+        p0 = np.tile(np.asarray(params.vector(), float)[:, None], (1, n))
+        fa, f0 = np.asarray(fm(x.T, u.T, p), float), np.asarray(fm(x.T, u.T, p0), float)
+        out += (fa - f0)[[1, 3], :].T
+    return out
 
 
 def _filtered(sig: np.ndarray, filt: ZeroPhaseFilter) -> np.ndarray:
