@@ -133,3 +133,28 @@ def test_pooled_datasets_keep_held_out_runs_of_each(tmp_path):
     assert len(train) + len(test) == 9
     with pytest.raises(DataError, match="sample times"):
         pool_datasets([ds(3, 0.02), ds(3, 0.02, ts=2e-3)])
+
+
+def test_fitted_candidate_values_split_into_effect_parameters_and_model_constants():
+    """A fit's free, fixed and tied values become the alternative's effect parameters and moved constants."""
+    from maglev_ocp.diagnosis.active import _effect_values
+    from maglev_ocp.diagnosis.fit import FitResult
+    from maglev_ocp.diagnosis.library import CandidateSpec, Free
+
+    spec = CandidateSpec(
+        "friction",
+        ("friction",),
+        free=(Free("p.C1", 1, 30, 14, 1), Free("friction.viscous_d", 0, 100, 1, 1)),
+        fixed=(("friction.coulomb_d", 0.0),),
+        ties=(("friction.viscous_g", "friction.viscous_d"),),
+    )
+    fit = FitResult(spec, np.array([14.5, 3.25]), np.zeros(2), 1.0, 10, 1.0)
+    eff, consts = _effect_values(fit)
+    assert consts == {"C1": 14.5}
+    assert eff == {"friction": {"viscous_d": 3.25, "coulomb_d": 0.0, "viscous_g": 3.25}}
+    alt = Alternative("friction", ("friction",), eff, consts)
+    (log,) = simulate_plan(RunPlan(runs=[_traverse(15.0, 100.0)]), PlantConfig.from_profile("ideal"), NOMINAL)
+    moved = effect_accelerations(alt, log, NOMINAL)
+    alone = effect_accelerations(Alternative("friction", ("friction",), eff), log, NOMINAL)
+    # C1 (the thrust constant) scales the horizontal force, so the moved constant adds (C1'/C1 - 1) of it
+    assert np.abs(moved - alone).max() > 1e-3
