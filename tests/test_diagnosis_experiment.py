@@ -158,3 +158,45 @@ def test_fitted_candidate_values_split_into_effect_parameters_and_model_constant
     alone = effect_accelerations(Alternative("friction", ("friction",), eff), log, NOMINAL)
     # C1 (the thrust constant) scales the horizontal force, so the moved constant adds (C1'/C1 - 1) of it
     assert np.abs(moved - alone).max() > 1e-3
+
+
+def test_a_confusable_verdict_writes_the_plan_the_references_and_the_report_section(tmp_path):
+    """write_experiment on a verdict eddy_drag|friction: experiment.yaml, reference CSVs, report.md and .json."""
+    import json
+    from types import SimpleNamespace
+
+    from maglev_ocp.diagnosis.active import write_experiment
+    from maglev_ocp.diagnosis.fit import FitResult
+    from maglev_ocp.diagnosis.library import CandidateSpec, Free
+    from maglev_ocp.diagnosis.verdict import EffectSets, Verdict
+
+    eddy, fric = _pair(200.0)
+
+    def score(alt: Alternative) -> SimpleNamespace:
+        ((eff, vals),) = alt.params.items()
+        spec = CandidateSpec(alt.name, alt.effects, free=tuple(Free(f"{eff}.{k}", 0, 1e3, 1, 1) for k in vals))
+        return SimpleNamespace(
+            name=alt.name, fit=FitResult(spec, np.array(list(vals.values())), np.zeros(len(vals)), 1, 1, 1)
+        )
+
+    diag = SimpleNamespace(
+        verdict=Verdict(EffectSets.parse("eddy_drag|friction"), ["eddy_drag", "friction"], True, []),
+        scores=[score(eddy), score(fric)],
+        final_score=None,
+        floors={c: SimpleNamespace(floor=v) for c, v in FLOORS.items()},
+        settings=None,
+        baseline_params=NOMINAL,
+    )
+    (tmp_path / "report.md").write_text("# report\n")
+    (tmp_path / "report.json").write_text("{}")
+    plan = write_experiment(diag, tmp_path, menu=_menu())
+    assert plan is not None and plan.excitation == "velocity_sweep_two_gaps"
+    assert load_plan(tmp_path / "experiment.yaml") == plan
+    assert len(list((tmp_path / "experiment_references").glob("*.csv"))) == len(plan.runs)
+    md = (tmp_path / "report.md").read_text()
+    assert "## Experiment to separate" in md and "velocity_sweep_two_gaps" in md
+    rep = json.loads((tmp_path / "report.json").read_text())
+    assert rep["experiment"]["predicted_snr"] == plan.predicted_snr >= 10.0
+    # a verdict without a confusable slot writes nothing
+    diag.verdict = Verdict(EffectSets.parse("eddy_drag"), ["eddy_drag"], True, [])
+    assert write_experiment(diag, tmp_path / "x", menu=_menu()) is None and not (tmp_path / "x").exists()

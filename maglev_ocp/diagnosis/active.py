@@ -17,11 +17,12 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 from ..loop.run_plan import RunPlan, write_plan, write_reference_csvs
 from ..output import atomic_write_text
-from .experiment import Alternative, Design, design
+from .experiment import Alternative, Design, MenuEntry, design
 from .fit import FitResult
 from .result import Diagnosis
 
@@ -100,8 +101,13 @@ def experiment_markdown(plan: RunPlan, dz: Design) -> str:
     return "\n".join(lines)
 
 
-def write_experiment(d: Diagnosis, out_dir: str | os.PathLike, progress: bool = False) -> RunPlan | None:
-    """For a confusable verdict: design the separating experiment and write it (module docstring); else None."""
+def write_experiment(
+    d: Diagnosis, out_dir: str | os.PathLike, progress: bool = False, menu: Sequence[MenuEntry] | None = None
+) -> RunPlan | None:
+    """For a confusable verdict: design the separating experiment and write it (module docstring); else None.
+
+    ``menu`` (default :func:`.experiment.default_menu`) is what the design chooses from.
+    """
     slot = confusable_slot(d)
     if slot is None:
         return None
@@ -121,7 +127,7 @@ def write_experiment(d: Diagnosis, out_dir: str | os.PathLike, progress: bool = 
     from .residuals import ResidualSettings
 
     rs = ResidualSettings(st.fc_hz, st.numtaps | 1, st.decimate) if st is not None else ResidualSettings()
-    dz = design(alts, d.baseline_params, floors, residual=rs, progress=progress)
+    dz = design(alts, d.baseline_params, floors, menu=menu, residual=rs, progress=progress)
     write_plan(dz.plan, out / "experiment.yaml")
     write_reference_csvs(dz.plan, out / REFERENCES_DIR)
     atomic_write_text(out / "report.md", (out / "report.md").read_text() + "\n" + experiment_markdown(dz.plan, dz))
