@@ -200,3 +200,28 @@ def test_a_confusable_verdict_writes_the_plan_the_references_and_the_report_sect
     # a verdict without a confusable slot writes nothing
     diag.verdict = Verdict(EffectSets.parse("eddy_drag"), ["eddy_drag"], True, [])
     assert write_experiment(diag, tmp_path / "x", menu=_menu()) is None and not (tmp_path / "x").exists()
+
+
+def test_simulate_runs_a_plan_file_and_refuses_what_the_plan_sets(tmp_path, capsys):
+    """``maglev simulate --experiment PLAN.yaml``: one run per plan entry, at the plan's gap and lock."""
+    from maglev_ocp.cli import main
+    from maglev_ocp.riglog import read_dataset
+
+    plan = RunPlan(
+        runs=[
+            _traverse(15.0, 100.0),
+            RunSpec(kind="gap_sine", gap_mm=22.0, amplitude_mm=2.0, freq_hz=2.0, duration_s=1.0, lock="d"),
+        ]
+    )
+    path = write_plan(plan, tmp_path / "plan.yaml")
+    out = tmp_path / "data"
+    assert main(["simulate", "--experiment", str(path), "--seed", "3", "--out", str(out), "--quiet"]) == 0
+    ds = read_dataset(out)
+    assert [r.file for r in ds.runs] == ["plan_01_d_traverse.csv", "plan_02_gap_sine.csv"]
+    trav, sine = ds.runs
+    assert np.mean(trav["g"]) == pytest.approx(0.015, abs=1e-4) and np.ptp(trav["d"]) == pytest.approx(0.04, rel=0.05)
+    assert sine.locked == ("d",) and np.ptp(sine["g"]) == pytest.approx(0.004, rel=0.1)
+    capsys.readouterr()
+    assert main(["simulate", "--experiment", str(path), "--g", "18", "--out", str(tmp_path / "o2")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--g" in err[0] and not (tmp_path / "o2").exists()
