@@ -302,7 +302,7 @@ def _prepare(args: argparse.Namespace) -> dict:
     job = {"params": params, "cfg": cfg, "experiment": experiment, "currents": None}
     if experiment.lower().endswith((".yaml", ".yml")):
         return _prepare_plan(args, job)
-    if experiment not in EXPERIMENTS:
+    if not open_loop and experiment not in EXPERIMENTS:
         raise UserError(
             f"--experiment: {experiment!r} is neither an experiment ({', '.join(EXPERIMENTS)}) nor a run plan .yaml"
         )
