@@ -96,3 +96,20 @@ def test_end_effect_profile_uses_the_shared_basis() -> None:
     assert cumulative([1.0, 2.0, 3.0]) == [1.0, 3.0, 6.0]
     assert cumulative([1.0, 2.0, 3.0], reverse=True) == [6.0, 5.0, 3.0]
     assert float(bspline(0.0, [0.0], 1.0, [2.0])) == pytest.approx(4 / 3)
+
+
+def test_shape_report_curves_follow_the_effect_definitions() -> None:
+    """The report's curves meet each effect's documented meaning: ``loss_8mm`` is the loss at g = 8 mm, no
+    overhang loss mid-stroke, ``delta`` in degrees; a learned saturation loss is stated at the lower stop."""
+    from maglev_ocp.diagnosis.shape_report import SHAPES
+
+    sat = {**Saturation.defaults(), "loss_8mm": 0.12}
+    assert SHAPES["saturation"].curve(sat, np.array([8.0]))[0] == pytest.approx(12.0, abs=1e-9)
+    assert "12.00 %" in SHAPES["saturation"].size(sat)
+    learned = {**Saturation.defaults(), "loss_8mm": 0.0, Saturation.shape_names()[0]: 0.2}
+    loss = SHAPES["saturation"].curve(learned, np.array([8.0, 32.0]))
+    assert 0.0 < loss[0] <= 20.0 and loss[1] == pytest.approx(0.0, abs=1e-12)
+    end = EndEffect.defaults()
+    assert abs(SHAPES["end_effect"].curve(end, np.array([0.0]))[0]) < 0.1
+    off = {"delta": math.radians(5.0), "drift": 0.0}
+    assert SHAPES["commutation_offset"].curve(off, np.array([-30.0, 30.0])) == pytest.approx([5.0, 5.0])

@@ -291,7 +291,11 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       magnets' attraction nothing) and
       ``per term`` (a free share for each); and the loss's profile in g:
       ``knee`` (and ``field``, ``current terms``) a logistic step whose knee is
-      free, nesting the exponential at ``knee = 0``;
+      free, nesting the exponential at ``knee = 0``; ``shape`` and ``shape
+      current terms`` (flexible): a learned loss of any shape that never falls
+      as the gap closes (a cubic B-spline in g with non-negative steps,
+      :meth:`~maglev_ocp.effects.Saturation.shape_loss`), on every magnetic
+      term or on the current terms;
     - ``commutation_offset``: ``drift``: the offset grows linearly along the
       stroke (a commutation encoder scale off the position encoder's);
     - ``end_effect``: ``free profile``: the overhang loss scaled and bent
