@@ -17,6 +17,7 @@ from ..output import atomic_write_bytes, atomic_write_text, plain_data
 from ..params import model_file_instruction
 from ..signals import label
 from .result import Diagnosis, report_json, summary_table
+from .shape_report import shape_figure, shape_sizes
 
 
 # --------------------------------------------------------------------------- figures
@@ -232,6 +233,12 @@ def fig_candidates(d: Diagnosis):
     return fig
 
 
+def fig_shapes(d: Diagnosis):
+    """Fitted shape of each effect found vs its variable (:mod:`.shape_report`)."""
+    plt = _plt()
+    return shape_figure(d, plt) or _empty(plt, "no effect with a shape was found")
+
+
 FIGURES = {
     "residual_maps.png": (fig_maps, "Residual over gap x position (bin means; dots exceed 4 floors)"),
     "spectra.png": (
@@ -242,6 +249,7 @@ FIGURES = {
     "binned.png": (fig_bins, "Residual binned over states, currents and current rates (+-2 floors)"),
     "overlay.png": (fig_overlay, "Measured vs simulated short windows on a held-out run"),
     "candidates.png": (fig_candidates, "Held-out reduction per candidate"),
+    "shapes.png": (fig_shapes, "Fitted shapes of the effects found vs their variable"),
 }
 
 
@@ -334,6 +342,9 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
             )
     md += _consequence_markdown(d)
     md.append("\n## Figures\n")
+    sizes = shape_sizes(d)
+    if sizes:
+        md += ["\n## Physical size of the effects found\n", *sizes, ""]
     for f in figures:
         md.append(f"### {FIGURES[f][1]}\n\n![{f}]({f})\n")
     md.append(f"\nDiagnosis time: {d.timing.get('total_s', float('nan')):.1f} s.\n")
