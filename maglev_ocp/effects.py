@@ -39,6 +39,7 @@ import numpy as np
 
 from . import constants as k
 from .model import get_model
+from .shapes import bspline, cumulative, cumulative_bspline
 from .signals import PARAM_NAMES
 
 Expr = Any  # casadi SX or MX expression
@@ -360,15 +361,8 @@ class EndEffect(Effect):
         the ends, fitted where the training runs reached one end less far than the held-out runs, extrapolated
         badly: held-out reduction 46 % against 88 % without it).
         """
-        h = cls.KNOT_STEP
-        out, coef = 0.0, 0.0
-        for c in cls.KNOTS:
-            coef = coef + theta[_knot_name(c)]
-            for side in (d, -d):
-                t = ca.fmin(ca.fmax((side - c) / h, -2.0), 2.0)
-                tp = [ca.fmax(t - s, 0.0) ** 3 for s in (-2.0, -1.0, 0.0, 1.0, 2.0)]
-                out = out + coef * (tp[0] - 4 * tp[1] + 6 * tp[2] - 4 * tp[3] + tp[4]) / 6.0
-        return out
+        coefs = cumulative([theta[_knot_name(c)] for c in cls.KNOTS])
+        return sum(bspline(side, cls.KNOTS, cls.KNOT_STEP, coefs) for side in (d, -d))
 
     def modify(self, terms, x, u, p, theta) -> None:
         d = x[2]
@@ -443,6 +437,11 @@ class AmplifierLag(Effect):
         return i_n + mean_gain * (u - i_n)
 
 
+#: Centres [m] of the saturation's learned-loss coefficients in g: every 3 mm from 5 mm (below the lower stop, so
+#: the spline is not cut there) to 23 mm (the loss vanishes above 29 mm).
+_SAT_KNOTS: tuple[float, ...] = tuple(round(0.005 + 0.003 * j, 4) for j in range(7))
+
+
 class Saturation(Effect):
     """Magnetic saturation of the stator iron at small gaps (NOTES.md).
 
@@ -469,7 +468,17 @@ class Saturation(Effect):
         EffectParam("w_rel", 1.0, -1.0, 3.0, "-", "share of the loss on the reluctance term (C4)"),
         EffectParam("w_thrust", 1.0, -1.0, 3.0, "-", "share of the loss on the thrust (C1)"),
         EffectParam("knee", 0.0, 0.0, 1e4, "-", "logistic knee exp((g_knee - 8 mm) / ell_sat); 0: exponential"),
+        *(
+            EffectParam(
+                f"sloss_{round(c * 1e3):.0f}", 0.0, 0.0, 0.5, "-", f"step of the learned loss at g = {c * 1e3:.0f} mm"
+            )
+            for c in _SAT_KNOTS
+        ),
     )
+    #: Centres [m] of the learned loss's B-spline coefficients in g (:meth:`shape_loss`).
+    KNOTS: ClassVar[tuple[float, ...]] = _SAT_KNOTS
+    #: Knot spacing [m] of the learned loss.
+    KNOT_STEP: ClassVar[float] = 0.003
     #: Weight of each magnetic term.
     TERM_WEIGHT: ClassVar[dict[str, str]] = {
         "a_pm": "w_pm",
@@ -486,7 +495,25 @@ class Saturation(Effect):
     def factor(g: Expr, theta: Mapping[str, Expr], weight: Expr = 1.0) -> Expr:
         """Force factor ``k_sat(g)`` (<= 1 for a positive weight, smallest at small gaps)."""
         b = theta["knee"]
-        return 1 - weight * (theta["loss_8mm"] * (1 + b) / (b + ca.exp((g - k.g_stop[0]) / theta["ell_sat"])))
+        closed = theta["loss_8mm"] * (1 + b) / (b + ca.exp((g - k.g_stop[0]) / theta["ell_sat"]))
+        return 1 - weight * (closed + Saturation.shape_loss(g, theta))
+
+    @classmethod
+    def shape_names(cls) -> tuple[str, ...]:
+        """Names of the learned loss's steps, one per knot (:attr:`KNOTS`), in knot order."""
+        return tuple(f"sloss_{round(c * 1e3):.0f}" for c in cls.KNOTS)
+
+    @classmethod
+    def shape_loss(cls, g: Expr, theta: Mapping[str, Expr]) -> Expr:
+        """The learned loss at gap ``g`` (0 with the default steps), a non-increasing function of g.
+
+        Cubic B-spline in g with coefficients summed from the largest gap down
+        (:func:`maglev_ocp.shapes.cumulative_bspline`, ``reverse``): non-negative
+        steps make the loss grow monotonically as the gap closes (the iron
+        saturates more as the flux density grows), of any shape, and
+        nothing above the last knot's support.
+        """
+        return cumulative_bspline(g, cls.KNOTS, cls.KNOT_STEP, [theta[n] for n in cls.shape_names()], reverse=True)
 
     def modify(self, terms, x, u, p, theta) -> None:
         for term in sorted(MAGNETIC_TERMS):

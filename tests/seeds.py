@@ -41,6 +41,8 @@ VALIDATION_SEEDS: dict[str, int] = {
     "rig_truth_none": 710_003,
     "rig_truth_lag": 710_011,
     "rig_truth_friction": 710_019,
+    # a one-period delay + second-order amplifier beside Stribeck friction (issue 29's lag on a foreign rig)
+    "rig_truth_lag_friction": 710_027,
 }
 
 #: Every seed at or above this bound that is not in the registry has never been looked at.

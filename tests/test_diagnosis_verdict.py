@@ -70,3 +70,42 @@ def test_a_verdict_built_from_text_reads_as_that_text():
     """``Verdict("a|b", ...)`` holds the parsed sets; ``verdict`` is the report's text."""
     v = Verdict("friction|eddy_drag", ["friction", "eddy_drag"], True, [])
     assert v.sets == EffectSets.of([["friction", "eddy_drag"]]) and v.verdict == "friction|eddy_drag" and v.named
+
+
+@pytest.mark.parametrize(
+    ("text", "slots"),
+    [
+        ("cogging+unexplained", (("cogging",),)),
+        ("cogging+friction+unexplained", (("cogging",), ("friction",))),
+        ("friction|eddy_drag+unexplained", (("friction", "eddy_drag"),)),
+    ],
+)
+def test_a_partly_explained_verdict_round_trips(text, slots):
+    """``a+unexplained``: the effects found and a located gap they leave; it names its effects only."""
+    v = EffectSets.parse(text)
+    assert v.slots == slots and v.gap and v.named and not v.unexplained
+    assert str(v) == text and EffectSets.parse(str(v)) == v
+    assert "unexplained" not in v.names
+    assert v.partly(False) == EffectSets(slots)
+
+
+def test_partly_explained_is_refused_where_it_means_nothing():
+    """A gap flag needs effects; ``unexplained`` is the last part only; ``none`` with a gap is unexplained."""
+    with pytest.raises(ValueError):
+        EffectSets((), gap=True)
+    with pytest.raises(ValueError):
+        EffectSets.parse("unexplained+cogging")
+    assert EffectSets.none().partly() == EffectSets.gap_unexplained()
+    assert str(EffectSets.parse("cogging+friction+unexplained").without(["friction"])) == "cogging+unexplained"
+
+
+def test_partly_explained_scores_right_for_the_named_effects_only():
+    """The self-checks: a right set plus a located gap is right; a partly explained verdict never matches
+    ``unexplained`` or ``none``, and a wrong set with a gap stays wrong."""
+    assert same_set("cogging+unexplained", "cogging")
+    assert same_set("friction+cogging+unexplained", "cogging+friction")
+    assert not same_set("cogging+unexplained", "unexplained")
+    assert not same_set("cogging+unexplained", "none")
+    assert not same_set("saturation+unexplained", "cogging")
+    assert not same_set("cogging", "cogging+unexplained")
+    assert canonical("friction+cogging+unexplained") == "cogging+friction+unexplained"

@@ -35,10 +35,13 @@ CONSTANT_TOL = {"C1": 0.01, "C2": 0.01, "C3": 0.01, "C4": 0.10}
 SIZE_TOL = 0.20
 
 
-def _dataset(tmp_path, label: str, effect: str | None):
+def _dataset(tmp_path, label: str, effect: str | dict | None):
     seed = VALIDATION_SEEDS[label]
     assert seed not in DEVELOPMENT_SEEDS
-    effects = {} if effect is None else {effect: DRAWS[effect](np.random.default_rng(seed))}
+    if isinstance(effect, dict):
+        effects = effect
+    else:
+        effects = {} if effect is None else {effect: DRAWS[effect](np.random.default_rng(seed))}
     folder = generate(tmp_path / label, effects, seed, RigSettings(n_runs=4, duration=8.0))
     truth = json.loads((folder / "truth.json").read_text())
     d = diagnose(read_dataset(folder), settings=DiagnoseSettings(seed=seed % 2**31, simulate=False))
@@ -99,3 +102,19 @@ def test_friction_is_fitted_with_its_force(tmp_path):
     axis = "g" if t["peak_force_g_n"] >= t["peak_force_d_n"] else "d"
     want = t[f"peak_force_{axis}_n"]
     assert abs(size.peak_force_n[axis] / want - 1) <= SIZE_TOL, (axis, size.peak_force_n, want, t)
+
+
+@pytest.mark.long  # fails today (issue 29): the backward check drops the lag; kept as the acceptance it must meet
+def test_a_one_period_delay_and_second_order_lag_beside_friction_is_named(tmp_path):
+    """Issue 29: an amplifier of second order (natural frequency drawn in 400-800 Hz from the seed, zeta 0.6)
+    behind a one-period delay, next to Stribeck friction: the lag is named and its effective delay is within
+    20 % of the generator's (the single-effect check above does not meet another effect's misfit)."""
+    fn = float(np.random.default_rng(VALIDATION_SEEDS["rig_truth_lag_friction"]).uniform(400.0, 800.0))
+    lag = {"family": "second", "fn_hz": fn, "zeta": 0.6, "delay_samples": 1.0}
+    truth, d = _dataset(tmp_path, "rig_truth_lag_friction", {"amplifier_lag": lag, "friction": {"family": "stribeck"}})
+    assert "amplifier_lag" in d.verdict.verdict.split("+"), (d.verdict.reasons, d.table())
+    size = _size(d, "amplifier_lag")
+    want = true_effective_delay("second", lag)
+    assert truth["effects"]["amplifier_lag"]["effective_delay_s"] == pytest.approx(want, rel=1e-12)
+    assert size.delay_us is not None
+    assert abs(size.delay_us * 1e-6 / want - 1) <= SIZE_TOL, (size.delay_us, want * 1e6, truth["effects"])

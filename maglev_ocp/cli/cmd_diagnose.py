@@ -15,7 +15,11 @@ Diagnose the sim-to-real gap of a rig-log dataset, check the diagnosis blind, ge
 datasets for it, and see what a diagnosis changes in closed loop. One mode per subcommand:
 
   run DATASET --out DIR       the diagnosis (below); writes report.json, report.md, figures and
-                              model.yaml (a model file: controller: {model: DIR/model.yaml})
+                              model.yaml (a model file: controller: {model: DIR/model.yaml}); a
+                              confusable verdict (a|b) also writes experiment.yaml, the run plan
+                              that separates them (maglev simulate --experiment DIR/experiment.yaml,
+                              or a rig following DIR/experiment_references/*.csv)
+  run DATA1 DATA2 --out DIR   the diagnosis on the datasets pooled (each keeps held-out runs)
   selftest N                  blind self-check on N generated datasets (confusion matrix,
                               localization accuracy, reduction vs the ideal one); --generator
                               independent: on the independent rig (maglev_ocp.rigsim)
@@ -122,7 +126,13 @@ def _effect_flags(q, what: str) -> None:
 
 def _register_run(modes) -> None:
     q = _mode(modes, "run", "diagnose a rig-log dataset", "maglev diagnose run data/rig --out results/diagnosis")
-    q.add_argument("dataset", metavar="DATASET", help="rig-log dataset folder (with dataset.yaml)")
+    q.add_argument(
+        "dataset",
+        metavar="DATASET",
+        nargs="+",
+        help="rig-log dataset folder(s) (with dataset.yaml); several are pooled (e.g. the data and the run of a "
+        "confusable verdict's experiment.yaml), each keeping held-out runs of its own",
+    )
     q.add_argument("--out", required=True, metavar="DIR", help="report folder (report.json, report.md, model.yaml)")
     q.add_argument(
         "--given",
@@ -378,23 +388,34 @@ def _generator(args):
 
 def _dataset(args) -> int:
     from ..diagnosis import diagnose
+    from ..diagnosis.active import write_experiment
+    from ..diagnosis.pool import pool_datasets
     from ..diagnosis.report import write_report
     from ..output import check_output_dir, replace_dir
     from ..riglog import read_dataset
     from . import load_model_params
 
     check_output_dir(args.out, expect=REPORT_FILES)
-    folder = Path(args.dataset)
-    if not (folder / "dataset.yaml").is_file():
-        raise UserError(f"{folder}: not a dataset folder (no dataset.yaml)")
+    folders = [Path(f) for f in args.dataset]
+    for folder in folders:
+        if not (folder / "dataset.yaml").is_file():
+            raise UserError(f"{folder}: not a dataset folder (no dataset.yaml)")
+    if len({f.resolve() for f in folders}) < len(folders):
+        raise UserError("DATASET: a dataset is given twice (its runs would count twice)")
     params = load_model_params(args.given) if args.given else None
     st = _settings(args)
-    ds = read_dataset(folder)
+    ds = pool_datasets([read_dataset(f) for f in folders])
     d = diagnose(ds, params=params, settings=st, progress=not args.quiet)
     print(d.table())
     with replace_dir(args.out) as tmp:
         write_report(d, tmp, figures=not args.no_figures)
+        plan = write_experiment(d, tmp, progress=not args.quiet)
     print(f"report: {Path(args.out) / 'report.md'}")
+    if plan is not None:
+        print(
+            f"confusable: {' | '.join(plan.slot)}; run plan {Path(args.out) / 'experiment.yaml'} "
+            f"({plan.excitation}, predicted SNR {plan.predicted_snr:.1f}); run it, then diagnose both datasets"
+        )
     return 0
 
 

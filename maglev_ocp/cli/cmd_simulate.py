@@ -19,6 +19,7 @@ EXAMPLES = """examples:
   maglev simulate --constant -0.5 0 --lock g --g 20 --d -50 --duration 0.5 --out data/parabola
   maglev simulate --currents my_currents.csv --lock d --plant my_rig.yaml --out data/open
   maglev simulate --experiment seed-calibration --seed 1 --out data/seed_cal
+  maglev simulate --experiment report/experiment.yaml --seed 2 --out data/experiment  (a run plan)
   maglev simulate --check data/excite          (validate a dataset and print its summary)"""
 
 
@@ -36,7 +37,10 @@ def register(sub) -> None:
             "or a plant YAML) and write a maglev-rig-log/1 dataset (RIG_LOG.md).\n\n"
             "Experiments: 'hover' holds (g, d) with the seed's PID regulators; 'excitation'\n"
             "tracks a sum-of-sines reference around (g, d) as the seed did for identification;\n"
-            "'seed-calibration' writes the seed's whole calibration dataset. With --currents or\n"
+            "'seed-calibration' writes the seed's whole calibration dataset. A path to a run plan\n"
+            "(maglev-run-plan/1 YAML, as 'maglev diagnose run' writes for a confusable verdict)\n"
+            "runs each of its closed-loop references with the seed's PID regulators; the plan's\n"
+            "reference CSVs (written next to it) are what a rig's own loop follows. With --currents or\n"
             "--constant the currents are applied open loop instead (an unlocked gap then falls\n"
             "to a stop: recorded as an event, not an error). --lock g|d holds that axis in a\n"
             "fixture at --g / --d, as in the seed's section V."
@@ -46,9 +50,10 @@ def register(sub) -> None:
     p.epilog = EXAMPLES
     p.add_argument(
         "--experiment",
-        choices=("hover", "excitation", "seed-calibration"),
         default=None,
-        help="closed-loop experiment (default: hover, or open loop with --currents/--constant)",
+        metavar="NAME|PLAN.yaml",
+        help="closed-loop experiment: hover, excitation, seed-calibration, or a run plan file (.yaml) "
+        "(default: hover, or open loop with --currents/--constant)",
     )
     src = p.add_mutually_exclusive_group()
     src.add_argument("--currents", metavar="CSV", help="open loop: CSV with columns t,i_q,i_d (ZOH between rows)")
@@ -223,6 +228,8 @@ def run(args: argparse.Namespace) -> int:
             _seed_calibration(tmp, args, job)
             events: list = []
             sim_time = None
+        elif job["experiment"] == "plan":
+            sim_time, events = _plan_runs(tmp, args, job)
         else:
             sim_time, events = _simulate_runs(tmp, args, job)
         added = [e["file"] for e in read_header(tmp)["runs"]]
@@ -293,6 +300,12 @@ def _prepare(args: argparse.Namespace) -> dict:
         raise UserError("--experiment is a closed-loop experiment; leave it out with --currents / --constant")
     experiment = "open-loop" if open_loop else (args.experiment or "hover")
     job = {"params": params, "cfg": cfg, "experiment": experiment, "currents": None}
+    if experiment.lower().endswith((".yaml", ".yml")):
+        return _prepare_plan(args, job)
+    if not open_loop and experiment not in EXPERIMENTS:
+        raise UserError(
+            f"--experiment: {experiment!r} is neither an experiment ({', '.join(EXPERIMENTS)}) nor a run plan .yaml"
+        )
     if experiment == "seed-calibration":
         return job
     g, d = args.g * 1e-3, args.d * 1e-3
@@ -309,6 +322,70 @@ def _prepare(args: argparse.Namespace) -> dict:
     if args.currents:
         job["currents"] = read_current_sequence(args.currents)
     return job
+
+
+#: The named closed-loop experiments (a run plan is given by its .yaml path instead).
+EXPERIMENTS: tuple[str, ...] = ("hover", "excitation", "seed-calibration")
+
+
+def _prepare_plan(args: argparse.Namespace, job: dict) -> dict:
+    """Load a run plan (``--experiment PLAN.yaml``); the plan sets gaps, positions, locks and durations."""
+    from ..loop.run_plan import load_plan
+
+    given = [f for f, v in (("--duration", args.duration), ("--lock", args.lock)) if v is not None]
+    given += [f for f, v, dflt in (("--g", args.g, 20.0), ("--d", args.d, 0.0)) if v != dflt]
+    if given:
+        raise UserError(f"--experiment {args.experiment}: the run plan sets each run; leave out {', '.join(given)}")
+    if not Path(args.experiment).is_file():
+        raise UserError(f"--experiment: run plan {args.experiment} not found")
+    plan = load_plan(args.experiment)
+    cfg = job["cfg"]
+    if cfg.stops.enabled:
+        for i, r in enumerate(plan.runs):
+            lo_g, hi_g = r.gap_mm - (r.amplitude_mm if r.kind.startswith("gap") else 0.0), r.gap_mm
+            hi_g += r.amplitude_mm if r.kind.startswith("gap") else 0.0
+            span_d = r.amplitude_mm if r.kind == "d_traverse" else 0.0
+            if (
+                lo_g * 1e-3 <= cfg.stops.g[0]
+                or hi_g * 1e-3 >= cfg.stops.g[1]
+                or not (cfg.stops.d[0] < (r.d_mm - span_d) * 1e-3 and (r.d_mm + span_d) * 1e-3 < cfg.stops.d[1])
+            ):
+                raise UserError(f"{args.experiment}: runs[{i}] ({r.label()}) reaches the plant's stops")
+    job.update(experiment="plan", plan=plan)
+    return job
+
+
+def _plan_runs(folder: Path, args: argparse.Namespace, job: dict) -> tuple[float, list]:
+    """Every run of the plan on one plant (seed ``--seed``), written as a dataset into ``folder``."""
+    from ..loop.run_plan import simulate_run
+    from ..plant import Plant
+    from ..riglog import write_dataset
+
+    plan, cfg = job["plan"], job["cfg"]
+    plant = Plant(cfg, job["params"], seed=np.random.SeedSequence(args.seed))
+    runs = []
+    for i, r in enumerate(plan.runs):
+        if not args.quiet:
+            print(f"run {i + 1}/{len(plan.runs)}: {r.label()}")
+        runs.append(simulate_run(plant, job["params"], r, r.file_name(i), progress=not args.quiet))
+    meta = {
+        "generator": "maglev simulate",
+        "experiment": f"run plan {Path(args.experiment).name} ({plan.excitation})",
+        "seed": args.seed,
+        **plant.dataset_meta(),
+    }
+    write_dataset(
+        folder,
+        runs,
+        plant.Ts,
+        cfg.quantization.resolution,
+        meta=meta,
+        description=f"maglev simulate --experiment {Path(args.experiment).name}",
+    )
+    if args.plot:
+        for r in runs:
+            plot_run(r, folder / (Path(r.file).stem + ".png"))
+    return sum(r.duration for r in runs) + plant.Ts * len(runs), list(plant.events)
 
 
 def _existing_dataset(out: Path, cfg) -> bool:

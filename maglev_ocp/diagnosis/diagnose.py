@@ -18,8 +18,11 @@ own result and none writing into another's:
    library effect fitted and scored on the held-out runs, law families,
    forward selection with joint refits and a backward check, confusable slots,
    shares, laws chosen again in the joint model;
-5. **guards** (:mod:`.stages.guards`): a lag that absorbs a resonance is not
-   counted; a verdict that leaves a channel's gap open is ``unexplained``;
+5. **guards** (:mod:`.stages.guards`, :mod:`.stages.claims`): a lag that absorbs
+   a resonance is not counted; an effect whose signature does not show in the
+   residual without it, or whose gain is another effect's misfit, is not
+   claimed; a verdict that leaves a channel's gap open is ``unexplained``, one
+   that leaves a located gap no signature has is partly explained;
 6. **refit** (:mod:`.stages.refit`): the constants calibrated on the clean
    samples (reported) and the final model on the samples the velocities
    resolve (the report's constants and ``model.yaml``);
@@ -149,7 +152,7 @@ def diagnose(
         settle_verdict(base, att)
 
     clock.run("forward", select)
-    guarded = clock.run("guards", run_guards, split, base, att, noise, st)
+    guarded = clock.run("guards", run_guards, split, base, att, noise, st, progress)
     att = clock.run("resolved_refit", resolved_refit, split, base, guarded.attribution, st)
     q = clock.run("quantify", quantify, split, base, loc, att, st, rng)
     verdict = replace(att.verdict, selected=list(att.verdict.selected), reasons=[*att.verdict.reasons, *q.reasons])
@@ -163,6 +166,7 @@ def diagnose(
         guards=guarded.guards,
         coverage=guarded.coverage,
         partial=guarded.partial,
+        claims=guarded.claims.to_dict() if guarded.claims is not None else {},
     )
     timing = clock.close()
     final = att.final_fit is not None
@@ -189,7 +193,7 @@ def diagnose(
         settings=st,
         quantization_floor=base.q_floor,
         heldout=HeldOut(split.test, split.u_test, base.fvec, base.b_test),
-        warnings=[*split.stops, *base.warnings, *run.warnings],
+        warnings=[*split.stops, *base.warnings, *run.warnings, *guarded.warnings],
         noise=noise,
         consequences=cons,
         effects_found=list(verdict.selected) if final else [],

@@ -14,7 +14,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
-from ..effects import EFFECTS, EndEffect
+from ..effects import EFFECTS, EndEffect, Saturation
 from ..params import Params
 
 
@@ -169,6 +169,8 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     # 0: exponential; knee at 8 mm + ell_sat ln(knee), at most 4.6 ell_sat above the stop: a knee far above the
     # gaps visited makes the loss a constant factor, which the calibrated C1..C4 already are.
     "saturation.knee": (0.0, 100.0, 1.0, 10.0),
+    # saturation's learned loss: non-negative steps (a loss non-increasing in g), start 0.01 per step
+    **{f"saturation.{n}": (0.0, 0.5, 0.01, 0.05) for n in Saturation.shape_names()},
     # one-parameter effects (the effect's own bounds)
     "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
     "commutation_offset.drift": (*_eb("commutation_offset", "drift"), 0.0, 1.0),
@@ -289,7 +291,11 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       magnets' attraction nothing) and
       ``per term`` (a free share for each); and the loss's profile in g:
       ``knee`` (and ``field``, ``current terms``) a logistic step whose knee is
-      free, nesting the exponential at ``knee = 0``;
+      free, nesting the exponential at ``knee = 0``; ``shape`` and ``shape
+      current terms`` (flexible): a learned loss of any shape that never falls
+      as the gap closes (a cubic B-spline in g with non-negative steps,
+      :meth:`~maglev_ocp.effects.Saturation.shape_loss`), on every magnetic
+      term or on the current terms;
     - ``commutation_offset``: ``drift``: the offset grows linearly along the
       stroke (a commutation encoder scale off the position encoder's);
     - ``end_effect``: ``free profile``: the overhang loss scaled and bent
@@ -382,6 +388,24 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             fixed=(("saturation.loss_8mm", 1.0),),
             note="a free loss at g = 8 mm for each magnetic term (w_*), one decay length",
             law="per term",
+        ),
+        *(
+            CandidateSpec(
+                "saturation",
+                ("saturation",),
+                free=_free(*(f"saturation.{n}" for n in Saturation.shape_names())),
+                fixed=(("saturation.loss_8mm", 0.0), *w),
+                note=(
+                    f"learned loss of {what}: a cubic B-spline in g (knots every "
+                    f"{Saturation.KNOT_STEP * 1e3:.0f} mm), non-increasing in g (non-negative steps)"
+                ),
+                law=law,
+                flexible=True,
+            )
+            for law, what, w in (
+                ("shape", "every magnetic term", ()),
+                ("shape current terms", "the current terms (shares as 'current terms')", w1),
+            )
         ),
     )
     out["commutation_offset"] += (

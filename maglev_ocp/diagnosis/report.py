@@ -17,6 +17,7 @@ from ..output import atomic_write_bytes, atomic_write_text, plain_data
 from ..params import model_file_instruction
 from ..signals import label
 from .result import Diagnosis, report_json, summary_table
+from .shape_report import shape_figure, shape_sizes
 
 
 # --------------------------------------------------------------------------- figures
@@ -232,6 +233,12 @@ def fig_candidates(d: Diagnosis):
     return fig
 
 
+def fig_shapes(d: Diagnosis):
+    """Fitted shape of each effect found vs its variable (:mod:`.shape_report`)."""
+    plt = _plt()
+    return shape_figure(d, plt) or _empty(plt, "no effect with a shape was found")
+
+
 FIGURES = {
     "residual_maps.png": (fig_maps, "Residual over gap x position (bin means; dots exceed 4 floors)"),
     "spectra.png": (
@@ -242,6 +249,7 @@ FIGURES = {
     "binned.png": (fig_bins, "Residual binned over states, currents and current rates (+-2 floors)"),
     "overlay.png": (fig_overlay, "Measured vs simulated short windows on a held-out run"),
     "candidates.png": (fig_candidates, "Held-out reduction per candidate"),
+    "shapes.png": (fig_shapes, "Fitted shapes of the effects found vs their variable"),
 }
 
 
@@ -334,6 +342,9 @@ def report_markdown(d: Diagnosis, figures: list[str]) -> str:
             )
     md += _consequence_markdown(d)
     md.append("\n## Figures\n")
+    sizes = shape_sizes(d)
+    if sizes:
+        md += ["\n## Physical size of the effects found\n", *sizes, ""]
     for f in figures:
         md.append(f"### {FIGURES[f][1]}\n\n![{f}]({f})\n")
     md.append(f"\nDiagnosis time: {d.timing.get('total_s', float('nan')):.1f} s.\n")
@@ -379,6 +390,7 @@ def _noise_markdown(d: Diagnosis) -> list[str]:
             f"\n`{d.noise.partial['model']}` explains part of the gap only; the verdict is **unexplained** "
             "(the library does not account for the channels marked **no**)."
         )
+    md += _claims_md(d.noise.claims)
     for n, g in d.noise.guards.items():
         if g.peaks_hz:
             md.append(
@@ -473,6 +485,29 @@ def write_report(d: Diagnosis, out_dir: str | os.PathLike, figures: bool = True)
     atomic_write_text(out / "report.json", json.dumps(report_json(d), indent=2))
     atomic_write_text(out / "report.md", report_markdown(d, written))
     return out
+
+
+def _claims_md(claims: dict) -> list[str]:
+    """The no-false-claim guard's table: per effect, its signature's evidence and its own gain."""
+    if not claims or not claims.get("effects"):
+        return []
+    md = ["\nNo effect claimed that is not there (signature in the residual without it; gain over the others "
+          "at full freedom, held-out):\n", "| effect | signature shows (explained / null, rms / floor) | own gain z "
+          "(region / all) | kept |", "|---|---|---|---|"]  # fmt: skip
+    for e, rec in claims["effects"].items():
+        sig = rec["signature"]
+        parts = ", ".join(
+            f"{ch} {c['explained']:.2f}/{c['null_q']:.2f}, {c['rms_explained_over_floor']:.1f}x"
+            for ch, c in sig["per_channel"].items()
+        )
+        g = rec.get("own_gain") or {}
+        zg = f"{g['z_region']:.1f} / {g['z_all']:.1f}" if g.get("z_region") is not None else "-"
+        md.append(f"| {e} | {'yes' if sig['shows'] else '**no**'} ({parts}) | {zg} | "
+                  f"{'yes' if rec['kept'] else '**no**'} |")  # fmt: skip
+    if claims.get("gap"):
+        md.append("\nGap the effects found leave, that no library signature has (**partly explained**):\n")
+        md += [f"- {g['what']}" for g in claims["gap"]]
+    return md
 
 
 __all__ = ["FIGURES", "report_json", "report_markdown", "summary_table", "write_model_files", "write_report"]

@@ -116,6 +116,9 @@ class NoiseFindings:
         When a verdict was turned ``unexplained`` because a channel's gap stayed
         open: the effect set and its per-channel coverage (it explains part of
         the gap); empty otherwise.
+    claims : dict
+        The no-false-claim guard's evidence per effect, the effects it dropped and the located gap
+        (:class:`~.stages.claims.ClaimChecks`); empty when it did not run.
     """
 
     checks: dict[str, NoiseCheck]
@@ -126,6 +129,7 @@ class NoiseFindings:
     guards: dict[str, ResonanceGuard] = field(default_factory=dict)
     coverage: list[dict] = field(default_factory=list)
     partial: dict = field(default_factory=dict)
+    claims: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """JSON-ready view."""
@@ -137,6 +141,7 @@ class NoiseFindings:
             "resonance_guard": {n: g.to_dict() for n, g in self.guards.items()},
             "channel_coverage": self.coverage,
             "partly_explained_by": self.partial,
+            "claim_guard": self.claims,
         }
 
 

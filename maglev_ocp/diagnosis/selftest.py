@@ -642,8 +642,12 @@ def canonical(verdict: str) -> str:
 
 
 def same_set(verdict: str, truth: str) -> bool:
-    """The verdict names exactly the truth's effects (in any order; a confusable set is not right)."""
-    return canonical(verdict) == canonical(truth)
+    """The verdict names exactly the truth's effects (in any order; a confusable set is not right).
+
+    A partly explained verdict (``cogging+unexplained``: the effects found and a located gap they leave) is
+    right for the effects it names (:meth:`~.verdict.EffectSets.matches`).
+    """
+    return EffectSets.parse(verdict).matches(EffectSets.parse(truth), LIBRARY)
 
 
 def _library_job(job: tuple[int, str, np.random.SeedSequence, SelftestSettings, Path | None]) -> Case:

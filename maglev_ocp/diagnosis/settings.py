@@ -115,6 +115,19 @@ class DiagnoseSettings(Strict):
         most 1.9x there, and where they leave more (up to 27x, a steep end
         effect's law misfit) they close at least 66 %; a cable spring taken up
         by a commutation drift leaves 19-32x and closes 33-47 %.
+    claim_guard : bool
+        The no-false-claim guard (:mod:`.stages.claims`): an effect stays in the verdict only when its
+        signature shows in the held-out residual of the model without it and its gain survives the other
+        effects refitted at full freedom; a named verdict leaving a gap no signature has is partly explained.
+    signature_null : int
+        Circular shifts of the null reference of a signature test (:func:`.signatures.evidence`).
+    signature_alpha : float
+        The signature must explain more than the null's ``1 - signature_alpha`` quantile.
+    signature_min_floor : float
+        ... and at least this rms over the channel's noise floor.
+    gap_min_floor : float
+        A located gap (a period in d that is no library period, a drift in time) is reported when it explains
+        at least this rms over the channel's noise floor (0: no search).
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -144,6 +157,11 @@ class DiagnoseSettings(Strict):
     resolved_min: float = Field(0.1, ge=0.0, le=1.0)
     resolved_z: float = Field(1.0, ge=0.0)
     remainder_max: float = Field(3.0, ge=1.0, le=100.0)
+    claim_guard: bool = True
+    signature_null: int = Field(60, ge=20, le=1000)
+    signature_alpha: float = Field(0.01, gt=0.0, lt=0.5)
+    signature_min_floor: float = Field(0.3, ge=0.0, le=10.0)
+    gap_min_floor: float = Field(1.0, ge=0.0, le=100.0)
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""

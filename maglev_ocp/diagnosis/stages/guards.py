@@ -2,8 +2,10 @@
 
 A lag whose improvement lies in a narrow resonance is not counted (:func:`lag_guards`,
 :func:`apply_resonance_guard`); a verdict whose model leaves a channel's gap mostly open, many times the
-noise floor, is ``unexplained`` (:func:`channel_coverage`, :func:`apply_coverage`). :func:`run_guards`
-applies both in order and returns a :class:`Guarded`.
+noise floor, is ``unexplained`` (:func:`channel_coverage`, :func:`apply_coverage`); an effect enters the
+verdict only when its own signature closes the gap it claims (:mod:`.claims`, the no-false-claim guard) and a
+named verdict that leaves a located gap no library signature has is partly explained (``a+unexplained``).
+:func:`run_guards` applies them in order and returns a :class:`Guarded`.
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ from ..result import NoiseFindings
 from ..settings import DiagnoseSettings, VerdictRules
 from ..verdict import EffectSets
 from .baseline import Baseline
-from .models import Attribution, settle_verdict
+from .claims import ClaimChecks, check_claims
+from .models import Attribution, Run, settle_verdict
 from .split import Split
 
 
@@ -201,20 +204,40 @@ class Guarded:
         Per channel, what the verdict's model closes of the gap (:func:`channel_coverage`).
     partial : dict
         When the coverage turned the verdict ``unexplained``: the effect set and its coverage; else empty.
+    claims : ClaimChecks or None
+        The no-false-claim guard's evidence per effect and the located gap (:func:`.claims.check_claims`).
+    warnings : tuple of str
+        Fits of the guards whose solver did not converge.
     """
 
     attribution: Attribution
     guards: dict[str, ResonanceGuard]
     coverage: list[dict]
     partial: dict
+    claims: ClaimChecks | None = None
+    warnings: tuple[str, ...] = ()
 
 
-def run_guards(split: Split, base: Baseline, att: Attribution, noise: NoiseFindings, st: DiagnoseSettings) -> Guarded:
-    """The guards in order: the lags' resonance guard, then the channel coverage (each may overturn the verdict)."""
+def run_guards(
+    split: Split,
+    base: Baseline,
+    att: Attribution,
+    noise: NoiseFindings,
+    st: DiagnoseSettings,
+    progress: bool = False,
+) -> Guarded:
+    """The guards in order: the lags' resonance guard, the no-false-claim guard (each effect's signature and
+    its gain over the others' full freedom), then the channel coverage (each may overturn the verdict)."""
     guards = lag_guards(split, base, att, noise)
     att = apply_resonance_guard(base, att, guards)
+    claims = None
+    run = Run(split, base, st, progress=progress)
+    if st.claim_guard and att.verdict.named:
+        att = _own(att)
+        att.models = dict(att.models)
+        claims = check_claims(run, att, noise)
     att, coverage, partial = apply_coverage(base, att, noise, st)
-    return Guarded(att, guards, coverage, partial)
+    return Guarded(att, guards, coverage, partial, claims, tuple(run.warnings))
 
 
 __all__ = [

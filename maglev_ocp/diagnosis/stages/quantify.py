@@ -115,8 +115,9 @@ def unexplained_stage(
     model, or a filtered residual still above 1.5x the model floor and not
     white, is listed in ``noise.unexplained`` with channel, band / peak /
     damping and region. A ``none`` verdict with such a remainder becomes
-    ``unexplained``; an effect verdict keeps its effects and says what stays
-    unexplained. Returns its findings and the verdict (a new one when it changes).
+    ``unexplained``; an effect verdict keeps its effects, says what stays
+    unexplained and, with a remaining peak, is partly explained (``a+unexplained``).
+    Returns its findings and the verdict (a new one when it changes).
     """
     after = q.residuals_after
     checks_after: dict[str, NoiseCheck] = {}
@@ -179,6 +180,9 @@ def unexplained_stage(
     if not v.named and not v.sets.unexplained and peaks_left:
         v.sets, v.selected, v.gap_detected = EffectSets.gap_unexplained(), [], True
         v.reasons.append("the noise model leaves spectral peaks the data-based floor had absorbed: unexplained")
+    if v.named and peaks_left:
+        # The effects found and a gap they leave, located: partly explained (``a+unexplained``).
+        v.sets = v.sets.partly()
     if peaks_left:
         v.reasons.append("unexplained: " + "; ".join(u["what"] for u in peaks_left))
     return Unexplained(checks_after, remaining_peaks, unexplained, v)

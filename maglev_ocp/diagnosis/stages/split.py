@@ -15,6 +15,7 @@ import numpy as np
 from ... import constants as k
 from ...errors import DataError
 from ...riglog import Dataset as RigDataset
+from ..pool import dataset_tag
 from ..residuals import PreparedRun, ResidualSettings, RunInput, ZeroPhaseFilter, prepare_run
 from ..settings import DiagnoseSettings
 
@@ -84,8 +85,18 @@ def split_runs(runs: Sequence[RunInput], every: int = 3) -> tuple[list[RunInput]
 
     With fewer than three runs, each run is first cut into three contiguous
     pieces (named ``<file>#1/3`` ...), so that scoring still uses data the fit
-    has not seen.
+    has not seen. Pooled datasets (:func:`..pool.pool_datasets`) are split each
+    on its own, so that every dataset has held-out runs.
     """
+    tags = sorted({dataset_tag(r.name) for r in runs})
+    if len(tags) > 1:
+        parts = [_split_one([r for r in runs if dataset_tag(r.name) == t], every) for t in tags]
+        return [r for tr, _ in parts for r in tr], [r for _, te in parts for r in te]
+    return _split_one(runs, every)
+
+
+def _split_one(runs: Sequence[RunInput], every: int) -> tuple[list[RunInput], list[RunInput]]:
+    """:func:`split_runs` on the runs of one dataset."""
     runs = list(runs)
     if len(runs) < 3:
         pieces = []

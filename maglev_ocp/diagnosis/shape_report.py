@@ -1,0 +1,137 @@
+"""Fitted shapes of the effects found, as functions of their variable, and their physical sizes.
+
+A diagnosis names effects with fitted parameters; a learned-shape member
+(:class:`~.library.CandidateSpec` ``flexible``) is only meaningful to a reader
+as the curve it fitted. One small function per effect kind (:data:`SHAPES`)
+evaluates the effect's own law of :mod:`maglev_ocp.effects` (never a copy of
+it) on its variable's range and states the effect's physical size.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import constants as k
+from ..effects import EFFECTS, EndEffect, Saturation
+from .attribution import EffectScore
+from .result import Diagnosis
+
+
+def effect_theta(score: EffectScore, name: str) -> dict[str, float]:
+    """All parameters of effect ``name`` in a fitted score: defaults, then the spec's fixed, fitted and tied values."""
+    theta = dict(EFFECTS[name].defaults())
+    prefix = f"{name}."
+    spec = score.fit.spec if score.fit is not None else None
+    if spec is not None:
+        theta.update({key[len(prefix) :]: v for key, v in spec.fixed if key.startswith(prefix)})
+    theta.update({key[len(prefix) :]: float(v) for key, v in score.params.items() if key.startswith(prefix)})
+    if spec is not None:
+        theta.update({key[len(prefix) :]: float(score.params[src]) for key, src in spec.ties if key.startswith(prefix)})
+    return theta
+
+
+@dataclass(frozen=True)
+class Shape:
+    """How one effect kind is drawn: its variable, range, curve and physical size."""
+
+    xlabel: str
+    ylabel: str
+    x: np.ndarray
+    curve: Callable[[dict[str, float], np.ndarray], np.ndarray]
+    size: Callable[[dict[str, float]], str]
+
+
+def _sat_loss(theta: dict[str, float], g_mm: np.ndarray) -> np.ndarray:
+    """Loss [%] of a magnetic term of unit share at gap ``g`` [mm] (:meth:`Saturation.factor`)."""
+    return np.array([100.0 * (1.0 - float(Saturation.factor(g * 1e-3, theta))) for g in g_mm])
+
+
+def _end_loss(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
+    """Overhang loss [%] of the magnetic terms at position ``d`` [mm] (:class:`EndEffect`)."""
+    out = []
+    for d in d_mm * 1e-3:
+        fac = EndEffect.overhang_factor(
+            d, theta["d_edge"], theta["edge_width"], theta["edge_gain"], theta["edge_quad"], theta["edge_skew"],
+            theta["gain_skew"],
+        )  # fmt: skip
+        out.append(100.0 * (1.0 - float(fac - EndEffect.profile_loss(d, theta))))
+    return np.array(out)
+
+
+def _offset_deg(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
+    """Commutation offset [deg] along the stroke (:class:`CommutationOffset`: ``delta + drift d``)."""
+    return np.degrees(theta["delta"] + theta["drift"] * d_mm * 1e-3)
+
+
+_G_MM = np.linspace(k.g_stop[0] * 1e3, k.g_stop[1] * 1e3, 121)
+_D_MM = np.linspace(k.d_stop[0] * 1e3, k.d_stop[1] * 1e3, 241)
+
+#: Effect kinds with a shape figure.
+SHAPES: dict[str, Shape] = {
+    "saturation": Shape(
+        "gap g [mm]",
+        "force loss (unit share) [%]",
+        _G_MM,
+        _sat_loss,
+        lambda th: (
+            f"loss at the lower stop (g = {k.g_stop[0] * 1e3:.0f} mm) "
+            f"{_sat_loss(th, np.array([k.g_stop[0] * 1e3]))[0]:.2f} % of a term of unit share "
+            "(shares " + ", ".join(f"{w} {th[w]:.2f}" for w in ("w_pm", "w_id", "w_rel", "w_thrust")) + ")"
+        ),
+    ),
+    "end_effect": Shape(
+        "position d [mm]",
+        "overhang force loss [%]",
+        _D_MM,
+        _end_loss,
+        lambda th: (
+            "overhang loss at the stops "
+            + ", ".join(f"{v:.2f} %" for v in _end_loss(th, np.array([k.d_stop[0] * 1e3, k.d_stop[1] * 1e3])))
+        ),
+    ),
+    "commutation_offset": Shape(
+        "position d [mm]",
+        "commutation offset [deg]",
+        _D_MM,
+        _offset_deg,
+        lambda th: (
+            f"offset {math.degrees(th['delta']):.2f} deg at d = 0, drift {math.degrees(th['drift']) * 1e-3:.3f} deg/mm"
+        ),
+    ),
+}
+
+
+def _found(d: Diagnosis) -> list[tuple[str, dict[str, float]]]:
+    score = d.final_score
+    if score is None:
+        return []
+    return [(n, effect_theta(score, n)) for n in d.effects_found if n in SHAPES]
+
+
+def shape_sizes(d: Diagnosis) -> list[str]:
+    """One Markdown line per effect found with a shape: its physical size."""
+    return [f"- `{n}`: {SHAPES[n].size(th)}" for n, th in _found(d)]
+
+
+def shape_figure(d: Diagnosis, plt):
+    """The fitted shape of each effect found vs its variable (units on the axes), or ``None`` if there is none."""
+    found = _found(d)
+    if not found:
+        return None
+    fig, axes = plt.subplots(1, len(found), figsize=(4.5 * len(found), 3.5), squeeze=False)
+    for ax, (n, th) in zip(axes[0], found, strict=True):
+        s = SHAPES[n]
+        ax.plot(s.x, s.curve(th, s.x), color="tab:red")
+        ax.set_xlabel(s.xlabel)
+        ax.set_ylabel(s.ylabel)
+        ax.set_title(n)
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+__all__ = ["SHAPES", "Shape", "effect_theta", "shape_figure", "shape_sizes"]
