@@ -9,7 +9,7 @@ import time
 
 from .draw import draw
 from .generate import generate
-from .laws import LAWS
+from .laws_new import ALL_EFFECTS as LAWS
 from .sim import RigSettings
 
 
