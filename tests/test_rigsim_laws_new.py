@@ -15,8 +15,7 @@ import pytest
 from maglev_ocp import constants as k
 from maglev_ocp.rigsim import RigSettings, draw, generate
 from maglev_ocp.rigsim.generate import build_laws, expected_verdict
-from maglev_ocp.rigsim.laws import make_law
-from maglev_ocp.rigsim.laws_new import NEW_LAWS
+from maglev_ocp.rigsim.laws_new import NEW_LAWS, make_law
 
 G_LO, G_HI = k.g_stop
 

@@ -21,7 +21,8 @@ from __future__ import annotations
 
 from .draw import draw
 from .generate import expected_verdict, generate
-from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY, make_law
+from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
+from .laws_new import make_law
 from .physics import NOMINAL, Constants
 from .sim import RigSettings
 

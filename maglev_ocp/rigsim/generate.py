@@ -25,8 +25,8 @@ from .. import constants as k
 from ..output import atomic_write_text
 from ..riglog import RunLog, write_dataset
 from .excite import references
-from .laws import Law, make_law
-from .laws_new import ALL_EFFECTS, AmplifierNew
+from .laws import Law
+from .laws_new import ALL_EFFECTS, AmplifierNew, make_law
 from .physics import NOMINAL, Constants
 from .sim import Rig, RigSettings, Trajectory, simulate
 

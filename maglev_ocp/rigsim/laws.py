@@ -30,7 +30,6 @@ resonance have states of their own and are handled by the simulator
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
@@ -530,16 +529,6 @@ LIBRARY_EFFECTS: tuple[str, ...] = tuple(n for n, c in LAWS.items() if c.library
 OUT_OF_LIBRARY: tuple[str, ...] = tuple(n for n, c in LAWS.items() if not c.library)
 
 
-def make_law(name: str, spec: Mapping[str, Any] | None = None) -> Law:
-    """Build effect ``name`` from ``{"family": ..., <param>: value, ...}`` (defaults for the rest)."""
-    from .laws_new import law_class  # the new families build on the classes here
-
-    spec = dict(spec or {})
-    params = dict(spec.pop("params", {}) or {})
-    params.update({a: b for a, b in spec.items() if a not in ("family", "library", "new_law")})
-    return law_class(name, spec.get("family"))(spec.get("family"), **params)
-
-
 __all__ = [
     "LAWS",
     "LIBRARY_EFFECTS",
@@ -555,5 +544,4 @@ __all__ = [
     "Resonance",
     "Saturation",
     "TemperatureDrift",
-    "make_law",
 ]

@@ -12,6 +12,7 @@ each law (author, title, year, equation) is in its docstring and in the table of
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
@@ -471,6 +472,17 @@ def law_class(name: str, family: str | None) -> type[Law]:
     raise ValueError(f"{name}: family must be one of {fams}, got {family!r}")
 
 
+def make_law(name: str, spec: Mapping[str, Any] | None = None) -> Law:
+    """Build effect ``name`` from ``{"family": ..., <param>: value, ...}`` (defaults for the rest).
+
+    The family picks the class: one of the first laws (:mod:`.laws`) or a new one (this module).
+    """
+    spec = dict(spec or {})
+    params = dict(spec.pop("params", {}) or {})
+    params.update({a: b for a, b in spec.items() if a not in ("family", "library", "new_law")})
+    return law_class(name, spec.get("family"))(spec.get("family"), **params)
+
+
 __all__ = [
     "ALL_EFFECTS",
     "ALL_LIBRARY",
@@ -486,4 +498,5 @@ __all__ = [
     "SaturationNew",
     "SensorCrosstalk",
     "law_class",
+    "make_law",
 ]
