@@ -250,3 +250,49 @@ def test_a_new_law_dataset_is_seeded_byte_for_byte_and_marks_new_laws(tmp_path):
     assert truth["effects"]["eddy_drag"]["new_law"] is True
     assert truth["effects"]["friction"]["new_law"] is True and truth["effects"]["friction"]["peak_force_n"] > 0.05
     assert truth["expected_verdict"] == expected_verdict(build_laws(effects)) == "eddy_drag+friction"
+
+
+def test_every_new_family_runs_in_the_closed_loop_and_changes_the_data():
+    from maglev_ocp.rigsim.excite import ExcitationSettings, references
+    from maglev_ocp.rigsim.physics import NOMINAL
+    from maglev_ocp.rigsim.sim import Rig, simulate
+
+    s = RigSettings(n_runs=1, duration=0.6, excitation=ExcitationSettings(g_range=(11e-3, 16e-3)))
+    ref = references(1, 600, s.Ts, s.excitation, np.random.default_rng(11))
+    base = simulate(Rig(NOMINAL, [], s), ref, np.random.default_rng(12))
+    for name, cls in NEW_LAWS.items():
+        for fam in cls.families:
+            traj = simulate(Rig(NOMINAL, build_laws({name: {"family": fam}}), s), ref, np.random.default_rng(12))
+            assert np.all(np.isfinite(traj.X)), (name, fam)
+            assert np.max(np.abs(traj.X[0, :, 0] - base.X[0, :, 0])) < 2e-3, (name, fam)  # still levitating
+            # same noise streams: the difference is the law's, more than 2 mA RMS in the commands or
+            # 20 um in the readings
+            du = np.sqrt(np.mean((traj.u - base.u) ** 2))
+            dy = np.max(np.abs(traj.y - base.y))
+            assert du > 0.002 or dy >= 2e-5, (name, fam, du, dy)
+
+
+@pytest.mark.filterwarnings("ignore:All-NaN slice")  # the fabricated cases carry no fitted constants
+def test_rig_selftest_summary_splits_old_and_new_laws():
+    from maglev_ocp.diagnosis.selftest import Case, SelftestSettings
+    from maglev_ocp.diagnosis.selftest_rig import RigSelftestResult
+
+    def case(i, kind, effects, truth, verdict):
+        params = {"kind": kind, "effects": effects, "peak_force_n": {}, "effective_delay_s": {}}
+        return Case(i, truth, params, verdict, truth == verdict, 0.0, 0.5, False, 1.0, 1.0, [])
+
+    old, new = {"family": "dahl", "new_law": False}, {"family": "karnopp", "new_law": True}
+    cases = [
+        case(0, "single", {"friction": old}, "friction", "friction"),
+        case(1, "single", {"friction": new}, "friction", "none"),
+        case(2, "pair", {"friction": old, "eddy_drag": {"family": "reitz", "new_law": True}}, "a", "a"),
+        case(3, "out_of_library", {"cable": {"family": "spring", "new_law": False}}, "unexplained", "unexplained"),
+        case(4, "out_of_library", {"sensor_crosstalk": {"new_law": True}}, "unexplained", "friction"),
+        case(5, "none", {}, "none", "none"),
+    ]
+    s = RigSelftestResult(SelftestSettings(), cases).summary()
+    assert s["right_on_library_effect_sets_by_laws"] == {"old": 1.0, "new": 0.5}
+    assert s["library_effect_sets_by_laws"] == {"old": 1, "new": 2}
+    assert s["out_of_library_unexplained_by_laws"] == {"old": 1.0, "new": 0.0}
+    text = RigSelftestResult(SelftestSettings(), cases).table()
+    assert "named set right old 100% of 1, new 50% of 2" in text
