@@ -296,3 +296,19 @@ def test_rig_selftest_summary_splits_old_and_new_laws():
     assert s["out_of_library_unexplained_by_laws"] == {"old": 1.0, "new": 0.0}
     text = RigSelftestResult(SelftestSettings(), cases).table()
     assert "named set right old 100% of 1, new 50% of 2" in text
+
+
+def test_cli_draws_new_laws_and_refuses_an_unknown_law_set(tmp_path, capsys):
+    import json
+
+    from maglev_ocp.rigsim.__main__ import main
+
+    out = tmp_path / "ds"
+    args = ["--out", str(out), "--seed", "2", "--draw", "--laws", "new", "--runs", "1", "--duration", "0.3"]
+    assert main(args) == 0
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["effects"] and all(e["new_law"] for e in truth["effects"].values())
+    with pytest.raises(SystemExit) as e:
+        main(["--out", str(tmp_path / "x"), "--draw", "--laws", "newest"])
+    assert e.value.code == 2 and "invalid choice" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()

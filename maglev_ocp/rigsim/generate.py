@@ -184,6 +184,9 @@ def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
         F1 = F0
     elif law.has_held:
         F1 = (F0[0] + traj.F_held[..., 0], F0[1] + traj.F_held[..., 1])
+        if law.has_force:  # a smooth part beside the hysteretic one (the cable slab's spring)
+            Fs = _forces(one, X, u, 1.0)
+            F1 = (F1[0] + Fs[0] - F0[0], F1[1] + Fs[1] - F0[1])
     else:
         F1 = _forces(one, X, u, 1.0)
     pg = float(np.max(np.abs(F1[0] - F0[0])))
