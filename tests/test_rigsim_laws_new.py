@@ -110,6 +110,8 @@ def test_cascade_amplifier_step_matches_the_two_pole_closed_form():
 def test_digital_amplifier_delay_is_computation_plus_half_a_sample():
     law = make_law("amplifier_lag", {"family": "digital", "n_comp": 2.0, "bandwidth_hz": 1000.0})
     assert law.p["delay_samples"] == 2.5
+    with pytest.raises(ValueError, match="n_comp"):
+        make_law("amplifier_lag", {"family": "digital", "n_comp": 1.0, "delay_samples": 2.0})
     # ZOH of a sampled sinusoid at low frequency: phase lag w Ts / 2, i.e. half a sample
     Ts, w = 1e-3, 2 * math.pi * 2.0
     t = np.linspace(0.0, 1.0, 200001)

@@ -283,7 +283,10 @@ class AmplifierNew(AmplifierLag):
     def __init__(self, family: str | None = None, **params: float):
         super().__init__(family, **params)
         if self.family == "digital":  # the delay is the law's own: computation + ZOH
-            self.p["delay_samples"] = float(self.p["n_comp"]) + 0.5
+            own = float(self.p["n_comp"]) + 0.5
+            if "delay_samples" in params and abs(float(params["delay_samples"]) - own) > 1e-12:
+                raise ValueError(f"amplifier_lag (digital): delay_samples must be n_comp + 0.5 = {own}")
+            self.p["delay_samples"] = own
 
     def natural(self) -> tuple[float, float]:
         """``(wn [rad/s], zeta)`` of the closed ``cascade`` loop."""
