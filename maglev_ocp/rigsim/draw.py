@@ -262,8 +262,9 @@ def _commutation_new(rng):
 def _eddy(rng):
     fam = _new_family(rng, "eddy_drag")
     if fam == "thin_plate":
-        return {"family": fam, "c0": _u(rng, 2.0, 10.0), "v_c": _u(rng, 0.05, 0.5)}
-    return {"family": fam, "F00": _u(rng, 0.3, 1.5), "w": _u(rng, 0.03, 0.3)}
+        # a thin conducting plate: c ~ sigma t B^2 A, tens of N s/m for copper; less for a laminated stator
+        return {"family": fam, "c0": _u(rng, 4.0, 20.0), "v_c": _u(rng, 0.05, 0.5)}
+    return {"family": fam, "F00": _u(rng, 1.0, 4.0), "w": _u(rng, 0.05, 0.3)}
 
 
 def _cable_hysteresis(rng):
