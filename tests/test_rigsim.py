@@ -14,6 +14,7 @@ from maglev_ocp.riglog import read_dataset
 from maglev_ocp.rigsim import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY, RigSettings, draw, expected_verdict, generate
 from maglev_ocp.rigsim.excite import ExcitationSettings
 from maglev_ocp.rigsim.generate import build_laws
+from maglev_ocp.rigsim.laws_new import ALL_LIBRARY, ALL_OUT_OF_LIBRARY
 from maglev_ocp.rigsim.physics import NOMINAL, accelerations, equilibrium_current, shape, vertical_pole
 from maglev_ocp.rigsim.sim import Rig, simulate
 
@@ -203,11 +204,14 @@ def test_draw_is_seeded_and_covers_the_kinds():
         assert len(laws) == n
         v = expected_verdict(laws)
         if sc["kind"] == "out_of_library":
-            assert v == "unexplained" and laws[0].name in OUT_OF_LIBRARY
+            assert v == "unexplained" and laws[0].name in ALL_OUT_OF_LIBRARY
         elif sc["kind"] == "none":
             assert v == "none"
         else:
-            assert set(v.split("+")) <= set(LIBRARY_EFFECTS)
+            assert set(v.split("+")) <= set(ALL_LIBRARY)
+        old = build_laws(draw(s, laws="old")["effects"])  # the first families only
+        assert {law.name for law in old} <= set(LIBRARY_EFFECTS) | set(OUT_OF_LIBRARY)
+        assert not any(law.new_law for law in old)
 
 
 def test_bad_effect_specs_are_refused():

@@ -6,7 +6,14 @@ harmonics, Coulomb/Stribeck/Dahl/LuGre friction, saturation of the field, the
 current terms or both, other overhang profiles, second-order amplifiers and
 fractional delays, drifting commutation offsets; and effects outside the
 library: a structural resonance, encoder errors, magnet temperature drift, a
-cable). The kinds (``none``, one, two or three library effects, one effect
+cable). Since issue 27 the draw also uses the new law families written from the
+literature (:mod:`maglev_ocp.rigsim.laws_new`: slot-harmonic / end-detent
+cogging, Maxwell-slip / Karnopp friction, entry-end / fringing end effects,
+Frohlich / Langevin saturation, cascade / digital current loops, pitch-error /
+cross-saturation commutation, eddy drag; a hysteretic cable slab and sensor
+cross-talk outside the library), each drawn effect new with probability one
+half; the summary reports the right-set rates separately for cases with a new
+law and cases with the first families only. The kinds (``none``, one, two or three library effects, one effect
 outside the library) are cycled through random permutations of a block of 20
 that follows :data:`maglev_ocp.rigsim.draw.KINDS` (3 none, 7 singles, 4 pairs,
 2 triples, 4 outside the library), so that every kind is represented once
@@ -44,6 +51,9 @@ from .diagnose import diagnose
 from .report import write_report
 from .selftest import Case, SelftestResult, SelftestSettings, canonical, same_set, save_partial
 
+#: Scenario kinds with library effects.
+LIBRARY_KINDS: tuple[str, ...] = ("single", "pair", "triple")
+
 #: One block of kinds (cycled in random order): the proportions of :data:`maglev_ocp.rigsim.draw.KINDS`.
 BLOCK: dict[str, int] = {"none": 3, "single": 7, "pair": 4, "triple": 2, "out_of_library": 4}
 
@@ -59,7 +69,7 @@ def kinds_order(n: int, rng: np.random.Generator) -> list[str]:
 
 def run_rig_case(index: int, kind: str, seed: int, settings: SelftestSettings, keep: Path | None = None) -> Case:
     """Draw one scenario of ``kind`` on the independent rig, generate its dataset and diagnose it blind."""
-    scen = draw(seed, kind)
+    scen = draw(seed, kind, laws="all")  # old and new law families (issue 27), new_law marked per effect
     truth = canonical(expected_verdict(build_laws(scen["effects"])))  # a set in library order, as verdicts are
     gs = settings.generator
     rs = RigSettings(n_runs=gs.n_runs, duration=gs.run_duration)
@@ -141,6 +151,23 @@ class RigSelftestResult(SelftestResult):
         sel = [c.right for c in self.cases if self.kind_of(c) in kinds]
         return float(np.mean(sel)) if sel else math.nan
 
+    def law_set_of(self, c: Case) -> str:
+        """``new`` when any drawn law of the case is one of the new families (``new_law`` in the draw,
+        :mod:`maglev_ocp.rigsim.laws_new`), ``old`` when all are the first families, ``""`` without effects."""
+        effects = c.truth_params.get("effects") or {}
+        if not effects:
+            return ""
+        return "new" if any(bool(e.get("new_law")) for e in effects.values()) else "old"
+
+    def right_fraction_laws(self, kinds: tuple[str, ...], law_set: str) -> float:
+        """Fraction of right verdicts among the cases of ``kinds`` whose laws are ``law_set`` (old / new)."""
+        sel = [c.right for c in self.cases if self.kind_of(c) in kinds and self.law_set_of(c) == law_set]
+        return float(np.mean(sel)) if sel else math.nan
+
+    def count_laws(self, kinds: tuple[str, ...], law_set: str) -> int:
+        """Number of cases of ``kinds`` whose laws are ``law_set``."""
+        return sum(1 for c in self.cases if self.kind_of(c) in kinds and self.law_set_of(c) == law_set)
+
     def gap_closed(self) -> np.ndarray:
         """Fraction of the held-out gap above the floor closed, on the right verdicts naming effects."""
         return np.array([c.ideal for c in self.cases if c.right and c.truth not in ("none", "unexplained")])
@@ -167,6 +194,14 @@ class RigSelftestResult(SelftestResult):
             "none_datasets": sum(1 for c in self.cases if c.truth == "none"),
             "effects_claimed_on_none": self.none_false_claims(),
             "out_of_library_unexplained": self.right_fraction(("out_of_library",)),
+            "right_on_library_effect_sets_by_laws": {
+                ls: self.right_fraction_laws(LIBRARY_KINDS, ls) for ls in ("old", "new")
+            },
+            "library_effect_sets_by_laws": {ls: self.count_laws(LIBRARY_KINDS, ls) for ls in ("old", "new")},
+            "out_of_library_unexplained_by_laws": {
+                ls: self.right_fraction_laws(("out_of_library",), ls) for ls in ("old", "new")
+            },
+            "out_of_library_by_laws": {ls: self.count_laws(("out_of_library",), ls) for ls in ("old", "new")},
             "gap_closed_median": float(np.median(g)) if len(g) else None,
             "gap_closed_min": float(np.min(g)) if len(g) else None,
             "sizes_compared": len(se),
@@ -187,6 +222,16 @@ class RigSelftestResult(SelftestResult):
             + ")",
             f"effects claimed on 'none' datasets: {s['effects_claimed_on_none']} of {s['none_datasets']}",
             f"out-of-library effects answered 'unexplained': {fmt(s['out_of_library_unexplained'])}",
+            "by law families (new: any law of rigsim.laws_new; old: the first families only): named set right "
+            + ", ".join(
+                f"{ls} {fmt(s['right_on_library_effect_sets_by_laws'][ls])} of {s['library_effect_sets_by_laws'][ls]}"
+                for ls in ("old", "new")
+            )
+            + "; out-of-library 'unexplained' "
+            + ", ".join(
+                f"{ls} {fmt(s['out_of_library_unexplained_by_laws'][ls])} of {s['out_of_library_by_laws'][ls]}"
+                for ls in ("old", "new")
+            ),
         ]
         if s["gap_closed_median"] is not None:
             out.append(
@@ -211,10 +256,13 @@ class RigSelftestResult(SelftestResult):
 
     def table(self) -> str:
         """Text view: cases, confusion matrix, summary."""
-        lines = [f"{'#':>3} {'kind':<15} {'truth':<36} {'verdict':<36} {'ok':>3} {'closed':>7} {'t [s]':>6}"]
+        lines = [
+            f"{'#':>3} {'kind':<15} {'laws':<4} {'truth':<36} {'verdict':<36} {'ok':>3} {'closed':>7} {'t [s]':>6}"
+        ]
         for c in self.cases:
             lines.append(
-                f"{c.index:>3} {self.kind_of(c):<15} {c.truth:<36} {c.verdict:<36} {'y' if c.right else 'n':>3} "
+                f"{c.index:>3} {self.kind_of(c):<15} {self.law_set_of(c) or '-':<4} {c.truth:<36} {c.verdict:<36} "
+                f"{'y' if c.right else 'n':>3} "
                 f"{c.ideal:7.0%} {c.seconds:6.1f}"
             )
         rows, cols, m = self.confusion()

@@ -21,13 +21,18 @@ from __future__ import annotations
 
 from .draw import draw
 from .generate import expected_verdict, generate
-from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY, make_law
+from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
+from .laws_new import ALL_EFFECTS, ALL_LIBRARY, ALL_OUT_OF_LIBRARY, NEW_LAWS, make_law
 from .physics import NOMINAL, Constants
 from .sim import RigSettings
 
 __all__ = [
+    "ALL_EFFECTS",
+    "ALL_LIBRARY",
+    "ALL_OUT_OF_LIBRARY",
     "LAWS",
     "LIBRARY_EFFECTS",
+    "NEW_LAWS",
     "NOMINAL",
     "OUT_OF_LIBRARY",
     "Constants",

@@ -9,7 +9,7 @@ import time
 
 from .draw import draw
 from .generate import generate
-from .laws import LAWS
+from .laws_new import ALL_EFFECTS as LAWS
 from .sim import RigSettings
 
 
@@ -20,6 +20,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0, help="seed of the rig, excitation and noise (and of --draw)")
     ap.add_argument("--effects", default="", help=f"comma-separated effects with default laws ({', '.join(LAWS)})")
     ap.add_argument("--draw", action="store_true", help="draw a random scenario from the seed (ignores --effects)")
+    ap.add_argument(
+        "--laws",
+        choices=("all", "old", "new"),
+        default="all",
+        help="with --draw: law families to draw from (old: the first ones; new: issue 27's; default all)",
+    )
     ap.add_argument("--runs", type=int, default=6, help="number of runs (default 6)")
     ap.add_argument("--duration", type=float, default=10.0, help="length of each run [s] (default 10)")
     ap.add_argument(
@@ -33,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         print(f"error: unknown effect(s) {unknown}; known: {', '.join(LAWS)}", file=sys.stderr)
         return 2
-    effects = draw(args.seed)["effects"] if args.draw else {n: None for n in names}
+    effects = draw(args.seed, laws=args.laws)["effects"] if args.draw else {n: None for n in names}
     if args.runs < 1 or not 0.01 <= args.duration <= 3600:
         print("error: --runs must be >= 1 and --duration within 0.01..3600 s", file=sys.stderr)
         return 2

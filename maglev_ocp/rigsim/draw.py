@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
+from .laws_new import ALL_EFFECTS, ALL_LIBRARY, ALL_OUT_OF_LIBRARY, NEW_LAWS
 
 Spec = dict[str, Any]
 
@@ -182,11 +183,128 @@ DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
     "cable": _cable,
 }
 
+
+# ------------------------------------------------------------------ new families (issue 27)
+def _new_family(rng: np.random.Generator, name: str) -> str:
+    return str(rng.choice(NEW_LAWS[name].families))
+
+
+def _cogging_new(rng):
+    fam = _new_family(rng, "cogging")
+    replace = bool(rng.uniform() < 0.5)
+    p: Spec = {"family": fam, "replace": float(replace), "kn": _u(rng, 0.5, 2.0)}
+    if fam == "slot_harmonic":
+        p.update(xi0=_u(rng, 3.0, 6.0) if replace else _u(rng, 1.5, 4.0), c1=_u(rng, 0.6, 1.0))
+        p.update(c2=_pm(rng, 0.2, 0.6), c3=_pm(rng, 0.0, 0.3), skew=_u(rng, 0.0, 0.3))
+        p.update(phi2=_u(rng, -math.pi, math.pi), phi3=_u(rng, -math.pi, math.pi))
+    else:
+        p.update(xi0=_u(rng, 2.0, 5.0) if replace else _u(rng, 1.0, 3.0), n=_u(rng, 1.0, 3.0))
+        p.update(a1=_u(rng, 0.6, 1.0), a2=_pm(rng, 0.1, 0.5), psi1=_u(rng, -math.pi, math.pi))
+        p["psi2"] = _u(rng, -math.pi, math.pi)
+    return p
+
+
+def _friction_new(rng):
+    fam = _new_family(rng, "friction")
+    p: Spec = {"family": fam, "Fc_g": _u(rng, 0.1, 0.4), "Fc_d": _u(rng, 0.1, 0.4)}
+    p.update(b_g=_u(rng, 0.0, 2.0), b_d=_u(rng, 0.0, 2.0))
+    if fam == "maxwell_slip":
+        p.update(Fs_g=_u(rng, 0.0, 0.15), Fs_d=_u(rng, 0.0, 0.15), vs=_u(rng, 2e-3, 1e-2))
+        p.update(xb=float(math.exp(rng.uniform(math.log(5e-6), math.log(5e-5)))), q=_u(rng, 0.3, 0.9))
+    else:
+        p.update(Fs_g=p["Fc_g"] * _u(rng, 1.1, 1.8), Fs_d=p["Fc_d"] * _u(rng, 1.1, 1.8), dv=_u(rng, 2e-4, 2e-3))
+    return p
+
+
+def _end_effect_new(rng):
+    fam = _new_family(rng, "end_effect")
+    p: Spec = {"family": fam, "r1": _u(rng, 0.02, 0.08), "p1": _u(rng, -math.pi, math.pi)}
+    p.update(r2=_u(rng, 0.0, 0.04), p2=_u(rng, -math.pi, math.pi), loss=_u(rng, 0.15, 0.4))
+    if fam == "entry_exp":
+        p.update(d_edge=_u(rng, 0.015, 0.03), delta=_u(rng, 5e-3, 2e-2))
+    else:
+        p.update(d_edge=_u(rng, 0.025, 0.045), w=_u(rng, 3e-3, 1e-2))
+    return p
+
+
+def _saturation_new(rng):
+    fam = _new_family(rng, "saturation")
+    p: Spec = {"family": fam, "target": str(rng.choice(["magnet", "current", "both"]))}
+    if fam == "frohlich":
+        p["beta"] = _u(rng, 0.15, 0.6)  # 10-28 % lost at the lower stop
+    else:
+        p["a"] = _u(rng, 1.5, 3.5)  # 12-37 % lost at the lower stop
+    return p
+
+
+def _amplifier_new(rng):
+    fam = _new_family(rng, "amplifier_lag")
+    if fam == "cascade":
+        bw = float(math.exp(rng.uniform(math.log(80), math.log(600))))
+        return {"family": fam, "bandwidth_hz": bw, "filter_hz": bw * _u(rng, 2.0, 16.0), "delay_samples": 0.0}
+    n_comp = float(rng.integers(0, 3))
+    bw = float(math.exp(rng.uniform(math.log(150), math.log(1500))))
+    return {"family": fam, "n_comp": n_comp, "bandwidth_hz": bw, "delay_samples": n_comp + 0.5}
+
+
+def _commutation_new(rng):
+    fam = _new_family(rng, "commutation_offset")
+    if fam == "pitch_error":
+        return {
+            "family": fam,
+            "delta0": _pm(rng, 0.0, 0.06),
+            "a": _u(rng, 0.04, 0.12),
+            "psi": _u(rng, -math.pi, math.pi),
+        }
+    return {"family": fam, "delta0": _pm(rng, 0.0, 0.06), "kappa_i": _pm(rng, 0.02, 0.08)}
+
+
+def _eddy(rng):
+    fam = _new_family(rng, "eddy_drag")
+    if fam == "thin_plate":
+        # a thin conducting plate: c ~ sigma t B^2 A, tens of N s/m for copper; less for a laminated stator
+        return {"family": fam, "c0": _u(rng, 4.0, 20.0), "v_c": _u(rng, 0.05, 0.5)}
+    return {"family": fam, "F00": _u(rng, 1.0, 4.0), "w": _u(rng, 0.05, 0.3)}
+
+
+def _cable_hysteresis(rng):
+    return {
+        "family": "jenkins",
+        "k0": _u(rng, 3.0, 15.0),
+        "d0": _u(rng, -0.1, -0.06),
+        "k_h": float(math.exp(rng.uniform(math.log(100), math.log(2000)))),
+        "F_y": _u(rng, 0.2, 0.6),
+    }
+
+
+def _crosstalk(rng):
+    return {"family": "linear", "c_gd": _pm(rng, 1e-3, 5e-3), "c_dg": _pm(rng, 2e-3, 1e-2)}
+
+
+#: Random parameters of the new families (:mod:`.laws_new`), by effect name.
+NEW_DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
+    "cogging": _cogging_new,
+    "friction": _friction_new,
+    "end_effect": _end_effect_new,
+    "saturation": _saturation_new,
+    "amplifier_lag": _amplifier_new,
+    "commutation_offset": _commutation_new,
+    "eddy_drag": _eddy,
+    "cable_hysteresis": _cable_hysteresis,
+    "sensor_crosstalk": _crosstalk,
+}
+
+#: Which laws :func:`draw` may use: ``old`` (the first families: same scenario per seed as before
+#: issue 27), ``new`` (only the new families and effects) or ``all`` (each drawn effect new with
+#: probability :data:`P_NEW`).
+LAW_SETS: tuple[str, ...] = ("all", "old", "new")
+P_NEW = 0.5
+
 #: Probability of each kind of scenario.
 KINDS: dict[str, float] = {"none": 0.15, "single": 0.35, "pair": 0.2, "triple": 0.1, "out_of_library": 0.2}
 
 
-def draw(seed: int, kind: str | None = None) -> dict[str, Any]:
+def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any]:
     """A random scenario: ``{"kind", "effects": {name: spec}, "seed"}``.
 
     Parameters
@@ -196,19 +314,38 @@ def draw(seed: int, kind: str | None = None) -> dict[str, Any]:
         spawned separately).
     kind : str, optional
         Force one of :data:`KINDS` (default: drawn with their probabilities).
+    laws : {"all", "old", "new"}
+        Law families to draw from (:data:`LAW_SETS`). ``old`` reproduces the scenarios drawn before
+        the new families existed; ``all`` and ``new`` draw the effects and their laws from a second
+        stream of the same seed. Every effect's spec carries ``new_law``.
     """
+    if laws not in LAW_SETS:
+        raise ValueError(f"laws must be one of {list(LAW_SETS)}, got {laws!r}")
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157]))
     kinds = list(KINDS)
     kind = kind or str(rng.choice(kinds, p=np.array([KINDS[x] for x in kinds])))
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {kinds}, got {kind!r}")
     n = {"none": 0, "single": 1, "pair": 2, "triple": 3}.get(kind, 0)
-    names = [str(x) for x in rng.choice(LIBRARY_EFFECTS, size=n, replace=False)]
+    if laws == "old":
+        names = [str(x) for x in rng.choice(LIBRARY_EFFECTS, size=n, replace=False)]
+        if kind == "out_of_library":
+            names = [str(rng.choice(OUT_OF_LIBRARY))]
+        order = list(LAWS)
+        effects = {nm: {**DRAWS[nm](rng), "new_law": False} for nm in sorted(names, key=order.index)}
+        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": effects}
+    rng2 = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157, 27]))
+    only_new = laws == "new"
+    lib = [x for x in ALL_LIBRARY if x in NEW_LAWS] if only_new else list(ALL_LIBRARY)
+    ool = [x for x in ALL_OUT_OF_LIBRARY if x in NEW_LAWS] if only_new else list(ALL_OUT_OF_LIBRARY)
+    names = [str(x) for x in rng2.choice(lib, size=n, replace=False)]
     if kind == "out_of_library":
-        names = [str(rng.choice(OUT_OF_LIBRARY))]
-    order = list(LAWS)
-    effects = {nm: DRAWS[nm](rng) for nm in sorted(names, key=order.index)}
-    return {"kind": kind, "seed": int(seed), "effects": effects}
+        names = [str(rng2.choice(ool))]
+    effects = {}
+    for nm in sorted(names, key=list(ALL_EFFECTS).index):
+        new = nm not in DRAWS or (nm in NEW_DRAWS and (only_new or rng2.uniform() < P_NEW))
+        effects[nm] = {**(NEW_DRAWS if new else DRAWS)[nm](rng2), "new_law": bool(new)}
+    return {"kind": kind, "seed": int(seed), "laws": laws, "effects": effects}
 
 
-__all__ = ["DRAWS", "KINDS", "draw"]
+__all__ = ["DRAWS", "KINDS", "LAW_SETS", "NEW_DRAWS", "P_NEW", "draw"]

@@ -25,7 +25,8 @@ from .. import constants as k
 from ..output import atomic_write_text
 from ..riglog import RunLog, write_dataset
 from .excite import references
-from .laws import LAWS, Law, make_law
+from .laws import Law
+from .laws_new import ALL_EFFECTS, AmplifierNew, make_law
 from .physics import NOMINAL, Constants
 from .sim import Rig, RigSettings, Trajectory, simulate
 
@@ -44,7 +45,7 @@ def build_laws(effects: EffectsArg) -> list[Law]:
     names = [law.name for law in laws]
     if len(set(names)) != len(names):
         raise ValueError(f"each effect at most once, got {names}")
-    order = list(LAWS)
+    order = list(ALL_EFFECTS)
     return sorted(laws, key=lambda law: order.index(law.name))
 
 
@@ -165,7 +166,10 @@ def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
     out: dict[str, Any] = {}
     if law.name == "amplifier_lag":
         F1 = _forces(base, X, traj.i_amp, 1.0)
-        out["effective_delay_s"] = effective_delay(law.family, law.p, rig.s.Ts)
+        if isinstance(law, AmplifierNew):
+            out["effective_delay_s"] = law.group_delay(rig.s.Ts)
+        else:
+            out["effective_delay_s"] = effective_delay(law.family, law.p, rig.s.Ts)
     elif law.name == "temperature_drift":
         F1 = _forces(base, X, u, traj.km)
         out["peak_field_change"] = float(np.max(np.abs(traj.km - 1.0)))
@@ -173,13 +177,16 @@ def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
         sdd = np.gradient(X[..., 5], traj.t, axis=1)
         F1 = (F0[0] + rig.c.Mv * sdd, F0[1])
         out["rms_m"] = float(np.sqrt(np.mean(X[..., 4] ** 2)))
-    elif law.name == "encoder_error":
+    elif law.has_read:
         gr, dr = law.read(X[..., 0], X[..., 2])
         out["peak_error_g_m"] = float(np.max(np.abs(gr - X[..., 0])))
         out["peak_error_d_m"] = float(np.max(np.abs(dr - X[..., 2])))
         F1 = F0
     elif law.has_held:
         F1 = (F0[0] + traj.F_held[..., 0], F0[1] + traj.F_held[..., 1])
+        if law.has_force:  # a smooth part beside the hysteretic one (the cable slab's spring)
+            Fs = _forces(one, X, u, 1.0)
+            F1 = (F1[0] + Fs[0] - F0[0], F1[1] + Fs[1] - F0[1])
     else:
         F1 = _forces(one, X, u, 1.0)
     pg = float(np.max(np.abs(F1[0] - F0[0])))

@@ -30,7 +30,6 @@ resonance have states of their own and are handled by the simulator
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
@@ -57,6 +56,7 @@ class Law:
 
     name: ClassVar[str] = ""
     library: ClassVar[bool] = True
+    new_law: ClassVar[bool] = False  #: one of the families added for issue 27's blind check (:mod:`.laws_new`)
     families: ClassVar[tuple[str, ...]] = ()
     DEFAULTS: ClassVar[dict[str, dict[str, float]]] = {}
     has_factors: ClassVar[bool] = False
@@ -78,7 +78,7 @@ class Law:
 
     def describe(self) -> dict[str, Any]:
         """Family and parameters, for the truth record."""
-        return {"family": self.family, "library": self.library, "params": dict(self.p)}
+        return {"family": self.family, "library": self.library, "new_law": self.new_law, "params": dict(self.p)}
 
     def reset(self, n_runs: int) -> None:
         """Clear internal states before a simulation of ``n_runs`` runs side by side."""
@@ -529,16 +529,6 @@ LIBRARY_EFFECTS: tuple[str, ...] = tuple(n for n, c in LAWS.items() if c.library
 OUT_OF_LIBRARY: tuple[str, ...] = tuple(n for n, c in LAWS.items() if not c.library)
 
 
-def make_law(name: str, spec: Mapping[str, Any] | None = None) -> Law:
-    """Build effect ``name`` from ``{"family": ..., <param>: value, ...}`` (defaults for the rest)."""
-    if name not in LAWS:
-        raise ValueError(f"unknown effect {name!r}; known: {', '.join(LAWS)}")
-    spec = dict(spec or {})
-    params = dict(spec.pop("params", {}) or {})
-    params.update({a: b for a, b in spec.items() if a not in ("family", "library")})
-    return LAWS[name](spec.get("family"), **params)
-
-
 __all__ = [
     "LAWS",
     "LIBRARY_EFFECTS",
@@ -554,5 +544,4 @@ __all__ = [
     "Resonance",
     "Saturation",
     "TemperatureDrift",
-    "make_law",
 ]
