@@ -532,7 +532,7 @@ def test_an_end_effect_beside_cogging_is_not_left_confusable_with_saturation(tmp
     from maglev_ocp.rigsim import RigSettings, draw, generate
 
     seed = 3234358082
-    scen = draw(seed, "pair")
+    scen = draw(seed, "pair", laws="old")
     assert set(scen["effects"]) == {"cogging", "end_effect"}
     folder = generate(tmp_path / "ds", scen["effects"], seed, RigSettings(n_runs=6, duration=10.0))
     d = diagnose(read_dataset(folder), settings=DiagnoseSettings(seed=seed % 2**31, simulate=False))
@@ -577,7 +577,7 @@ def test_a_crash_into_the_upper_stop_does_not_hide_a_saturation_of_the_current_t
     from maglev_ocp.rigsim import RigSettings, draw, generate
 
     seed = 3583959361
-    scen = draw(seed, "single")
+    scen = draw(seed, "single", laws="old")
     assert scen["effects"]["saturation"]["target"] == "current"
     folder = generate(tmp_path / "ds", scen["effects"], seed, RigSettings(n_runs=6, duration=10.0))
     d = diagnose(read_dataset(folder), settings=DiagnoseSettings(seed=seed % 2**31, simulate=False))
