@@ -67,9 +67,15 @@ def kinds_order(n: int, rng: np.random.Generator) -> list[str]:
     return out[:n]
 
 
-def run_rig_case(index: int, kind: str, seed: int, settings: SelftestSettings, keep: Path | None = None) -> Case:
-    """Draw one scenario of ``kind`` on the independent rig, generate its dataset and diagnose it blind."""
-    scen = draw(seed, kind, laws="all")  # old and new law families (issue 27), new_law marked per effect
+def run_rig_case(
+    index: int, kind: str, seed: int, settings: SelftestSettings, keep: Path | None = None, laws: str = "all"
+) -> Case:
+    """Draw one scenario of ``kind`` on the independent rig, generate its dataset and diagnose it blind.
+
+    ``laws``: the rig's law families drawn from, ``"all"`` (the self-check: old and new, issue 27), ``"old"``
+    or ``"new"`` (:func:`maglev_ocp.rigsim.draw`).
+    """
+    scen = draw(seed, kind, laws=laws)  # new_law marked per effect in the truth
     truth = canonical(expected_verdict(build_laws(scen["effects"])))  # a set in library order, as verdicts are
     gs = settings.generator
     rs = RigSettings(n_runs=gs.n_runs, duration=gs.run_duration)
