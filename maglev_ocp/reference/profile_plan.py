@@ -55,11 +55,13 @@ from .feasibility import PlanEffects, _mapped_inverse
 
 #: Points along the path at which the acceleration bounds are computed.
 PROFILE_GRID = 121
-#: Bisection steps of the bounds (relative resolution ``2**-PROFILE_BISECTIONS`` of the bracket).
-PROFILE_BISECTIONS = 13
+#: Bisection steps of the bounds (relative resolution ``2**-PROFILE_BISECTIONS`` of the bracket). 13 steps
+#: moved the planned moves enough to change a closed-loop comparison (the cogging-aware NMPC's tracking gain
+#: through the slots at 15 mm, ``tests/test_closed_loop_nmpc.py``: 25 % -> 19 %): kept at 15.
+PROFILE_BISECTIONS = 15
 #: Upper end of the first bracket of the bounds [m/s^2 along the path's longer axis]: the envelope's bounds are
 #: 20-65 m/s^2 (NMPC planning defaults), so at most two doublings or a bisection from 0 (resolution
-#: ``32 * 2**-13`` m/s^2, 0.02 % of the smallest bound).
+#: ``32 * 2**-15`` m/s^2, 0.005 % of the smallest bound).
 PROFILE_FIRST_BRACKET = 32.0
 #: Fixed-point iterations of a bent path's bounds with its speed (the iteration stops earlier when
 #: every duration changed by less than :data:`PROFILE_TOLERANCE` of itself).
@@ -162,7 +164,7 @@ def _bounds(admissible, sign: np.ndarray, scale: float, start: np.ndarray | None
     if start is not None:  # the bounds move little from one iteration to the next: a narrow bracket first
         below = 0.8 * start
         lo = np.where(admissible(sign * below) & ok0, below, 0.0)
-        steps = PROFILE_BISECTIONS - 2  # the bracket [0.8, 1.25] of the last bounds: 0.45 / 2^11, 0.02 % of them
+        steps = PROFILE_BISECTIONS - 4  # the bracket [0.8, 1.25] of the last bounds: 0.45 / 2^11, 0.02 % of them
     grow = ok0.copy()
     for _ in range(60):  # bracket: double until inadmissible
         ok = admissible(sign * hi) & grow
