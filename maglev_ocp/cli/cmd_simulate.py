@@ -359,7 +359,6 @@ def _plan_runs(folder: Path, args: argparse.Namespace, job: dict) -> tuple[float
     """Every run of the plan on one plant (seed ``--seed``), written as a dataset into ``folder``."""
     from ..loop.run_plan import simulate_run
     from ..plant import Plant
-    from ..riglog import write_dataset
 
     plan, cfg = job["plan"], job["cfg"]
     plant = Plant(cfg, job["params"], seed=np.random.SeedSequence(args.seed))
@@ -368,24 +367,8 @@ def _plan_runs(folder: Path, args: argparse.Namespace, job: dict) -> tuple[float
         if not args.quiet:
             print(f"run {i + 1}/{len(plan.runs)}: {r.label()}")
         runs.append(simulate_run(plant, job["params"], r, r.file_name(i), progress=not args.quiet))
-    meta = {
-        "generator": "maglev simulate",
-        "experiment": f"run plan {Path(args.experiment).name} ({plan.excitation})",
-        "seed": args.seed,
-        **plant.dataset_meta(),
-    }
-    write_dataset(
-        folder,
-        runs,
-        plant.Ts,
-        cfg.quantization.resolution,
-        meta=meta,
-        description=f"maglev simulate --experiment {Path(args.experiment).name}",
-    )
-    if args.plot:
-        for r in runs:
-            plot_run(r, folder / (Path(r.file).stem + ".png"))
-    return sum(r.duration for r in runs) + plant.Ts * len(runs), list(plant.events)
+    label = f"run plan {Path(args.experiment).name} ({plan.excitation})"
+    return _write_runs(folder, runs, plant, cfg, args, label, Path(args.experiment).name)
 
 
 def _existing_dataset(out: Path, cfg) -> bool:
@@ -423,7 +406,6 @@ def _simulate_runs(folder: Path, args: argparse.Namespace, job: dict) -> tuple[f
     """
     from ..loop import run_open_loop
     from ..plant import Plant
-    from ..riglog import write_dataset
 
     cfg, experiment = job["cfg"], job["experiment"]
     g, d = args.g * 1e-3, args.d * 1e-3
@@ -450,6 +432,16 @@ def _simulate_runs(folder: Path, args: argparse.Namespace, job: dict) -> tuple[f
         file = f"{experiment}_g{_mm_tag(args.g)}_d{_mm_tag(args.d)}.csv"
         run_log = _closed_loop(plant, job, (g, d), x0, ss_ref, args, file)
     runs = [run_log.renamed(file, experiment=experiment)]
+    return _write_runs(folder, runs, plant, cfg, args, experiment, experiment)
+
+
+def _write_runs(folder: Path, runs, plant, cfg, args, experiment: str, flag: str):
+    """Write the simulated runs as a dataset (and their plots with ``--plot``); ``(seconds simulated, events)``.
+
+    ``experiment``: the dataset's ``experiment`` entry; ``flag``: what ``--experiment`` named.
+    """
+    from ..riglog import write_dataset
+
     meta = {"generator": "maglev simulate", "experiment": experiment, "seed": args.seed, **plant.dataset_meta()}
     write_dataset(
         folder,
@@ -457,7 +449,7 @@ def _simulate_runs(folder: Path, args: argparse.Namespace, job: dict) -> tuple[f
         plant.Ts,
         cfg.quantization.resolution,
         meta=meta,
-        description=f"maglev simulate --experiment {experiment}",
+        description=f"maglev simulate --experiment {flag}",
     )
     if args.plot:
         for r in runs:
