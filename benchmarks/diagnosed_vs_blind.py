@@ -93,6 +93,30 @@ RIGS: dict[str, dict[str, Any]] = {
             "friction": {"family": "lugre", "Fc_g": 0.25, "Fc_d": 0.25, "Fs_g": 0.15, "Fs_d": 0.15},
         },
     },
+    # Validation rigs, added 2026-11-29 before their first run, after the lag fix developed on the three above:
+    # laws from rigsim's literature families (issue 27's), fresh seeds (tests/seeds.py fresh_seed at dba0058).
+    # A PI current loop (250 Hz, 2 kHz PWM filter) behind a one-period delay, Karnopp stick-slip friction,
+    # a commutation error growing with the pole pitch
+    "cascade_karnopp": {
+        "mismatch": 0.12,
+        "seed": 1575067531,
+        "effects": {
+            "amplifier_lag": {"family": "cascade", "delay_samples": 1.0},
+            "friction": {"family": "karnopp"},
+            "commutation_offset": {"family": "pitch_error"},
+        },
+    },
+    # A digital current loop (one period of computation, the hold's half period, a 500 Hz PWM lag),
+    # thin-plate eddy drag, slot-harmonic cogging
+    "digital_eddy": {
+        "mismatch": 0.1,
+        "seed": 628204662,
+        "effects": {
+            "amplifier_lag": {"family": "digital"},
+            "eddy_drag": {"family": "thin_plate"},
+            "cogging": {"family": "slot_harmonic"},
+        },
+    },
 }
 #: Controllers compared (each blind and diagnosed).
 CONTROLLERS: tuple[str, ...] = ("fl", "nmpc", "pid")

