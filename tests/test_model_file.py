@@ -88,3 +88,30 @@ def test_fl_with_the_true_friction_model_tracks_better(tmp_path):
         c = res.columns
         rms[label] = float(np.sqrt(np.mean((c["d_true"] - c["d_ref"]) ** 2)))
     assert rms["model"] < 0.3 * rms["blind"], rms
+
+
+def test_pid_feedforward_meets_a_declared_amplifier_delay(tmp_path):
+    """A plant whose amplifiers lag by two periods and 0.3 ms: the PID whose model file declares that lag takes its
+    feed-forward from the plan 2.3 periods ahead and tracks the moves in d far closer than the PID without it
+    (the error is the simulated mover's against the plan, which neither controller computes; measured: d RMS
+    760 um -> 89 um)."""
+    lag = {"enabled": True, "bandwidth_hz": 530.0, "delay_samples": 2}
+    f = tmp_path / "lag.yaml"
+    dump_yaml(f, {"effects": {"amplifier_lag": lag}})
+    cm = load_controller_model(f)
+    assert cm.delay_samples == 2 and cm.lag_time_s == pytest.approx(1 / (2 * np.pi * 530.0))
+    rms = {}
+    for label, ctrl in (("blind", {"type": "pid"}), ("model", {"type": "pid", "model": str(f)})):
+        sc = {
+            "name": f"pid_lag_{label}",
+            "seed": 5,
+            "controller": ctrl,
+            "plant": {"profile": "default", "effects": {"amplifier_lag": lag}},
+            "start": {"g": 0.02, "d": -0.03},
+            "targets": [{"g": 0.02, "d": 0.03, "hold": 0.4}, {"g": 0.02, "d": -0.03, "hold": 0.4}],
+        }
+        res = run_scenario(sc, progress=False)
+        assert res.metrics.all_settled and res.metrics.stop_hits == 0
+        c = res.columns
+        rms[label] = float(np.sqrt(np.mean((c["d_true"] - c["d_ref"]) ** 2)))
+    assert rms["model"] < 0.3 * rms["blind"], rms

@@ -105,6 +105,9 @@ class ControllerModel:
         Transport delay of a declared amplifier lag [control periods] (0 if none).
     source : str
         The file it came from.
+    lag_time_s : float
+        Time constant of a declared amplifier lag's first-order part, ``1 / (2 pi bandwidth_hz)`` [s] (0 if
+        none): below its bandwidth the lag delays a signal by about this much beyond ``delay_samples``.
     """
 
     params: Params
@@ -112,6 +115,7 @@ class ControllerModel:
     theta: np.ndarray
     delay_samples: int = 0
     source: str = ""
+    lag_time_s: float = 0.0
 
 
 def load_controller_model(path: str | os.PathLike) -> ControllerModel:
@@ -125,6 +129,7 @@ def load_controller_model(path: str | os.PathLike) -> ControllerModel:
     for key in ("name", "description", "profile", *RIG_KEYS):
         data.pop(key, None)
     delay = _plant_delay(path, data.pop("delay_samples", 0))
+    lag_time = 0.0
     data = {**_mismatch_constants(path, data.pop("mismatch", None)), **data}
     consts = parse_model(ParamsFile, data, str(path))  # one line: file, key, what is allowed
     warn_if_untrusted(consts, path)  # trusted: false (e.g. maglev calibrate --force): said on every load
@@ -138,6 +143,11 @@ def load_controller_model(path: str | os.PathLike) -> ControllerModel:
             continue
         if name in DYNAMIC_EFFECTS:
             delay += _plant_delay(f"{path}: effects.{name}", block.get("delay_samples", 0))
+            bw = block.get("bandwidth_hz")
+            if bw is not None:
+                if not (isinstance(bw, (int, float)) and math.isfinite(bw) and bw > 0):
+                    raise ConfigError(f"{path}: effects.{name}.bandwidth_hz: a positive finite frequency [Hz]")
+                lag_time += 1.0 / (2 * math.pi * float(bw))
             continue
         on[name] = {k: float(v) for k, v in block.items()}
     try:
@@ -149,7 +159,7 @@ def load_controller_model(path: str | os.PathLike) -> ControllerModel:
     bad = [n for n, v, a, b in zip(es.param_names, theta, lo, hi, strict=True) if not a <= v <= b]
     if bad:
         raise ConfigError(f"{path}: effects: {', '.join(bad)} outside the effect library's bounds")
-    return ControllerModel(params, es.names, theta, delay, str(path))
+    return ControllerModel(params, es.names, theta, delay, str(path), lag_time)
 
 
 def velocity_noise(L: np.ndarray, Ts: float = k.Ts, sigma: float = QUANTIZATION_STD) -> float:

@@ -25,9 +25,13 @@ static effects enter the feed-forward only: the feed-forward current is
 corrected, through the scheduled gains, by what the effects add at the
 *planned* state and velocity (:meth:`PIDController.effect_feedforward`), so no
 measured or estimated quantity passes through the fitted laws (the loops
-themselves stay linear). The PID has no predictor: a model file's delay is
-not compensated (the PID's slow poles leave it a phase margin for a sample
-or two).
+themselves stay linear). The PID has no predictor, but a model file's delay
+(its amplifier lag's ``delay_samples``, :func:`pid_lead_samples`) is met by
+the feed-forward: given the run's plan (:meth:`PIDController.set_reference_plan`),
+the equilibrium current, the reference accelerations and the effects'
+correction are taken from the plan that many periods ahead, when the command
+computed now acts (:mod:`maglev_ocp.controllers.preview`); the feedback still
+compares the estimate with the reference now.
 """
 
 from __future__ import annotations
@@ -50,6 +54,7 @@ from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL, Params
 
 from .model_file import MODEL_SETTING_DESCRIPTION, ModelEffects, check_model_path, load_controller_model
+from .preview import PlanPreview
 
 
 class PIDSettings(Strict):
@@ -115,6 +120,20 @@ def schedule_function() -> ca.Function:
     )
 
 
+def pid_lead_samples(settings: PIDSettings, model=None, Ts: float = k.Ts) -> float:
+    """How far ahead the PID's feed-forward reads the plan [control periods]: the model file's delay.
+
+    The amplifier lag's transport delay plus its first-order part's time constant (below its
+    bandwidth a lag delays a signal by about that much), in control periods. ``model`` is the
+    loaded model file of ``settings.model`` if the caller has it (else it is loaded here). Zero
+    without a model file, without a declared lag, or with ``feedforward`` off.
+    """
+    if not settings.feedforward or not settings.model:
+        return 0.0
+    model = model if model is not None else load_controller_model(settings.model)
+    return float(model.delay_samples) + float(model.lag_time_s) / Ts
+
+
 def hover_error(g: float, d: float) -> ConfigError:
     """The error of a reset where the controller's model has no hover current (0 A would drop the mover)."""
     return ConfigError(
@@ -170,6 +189,8 @@ class PIDController:
         self._buf.set_arg(2, memoryview(self._in_p))
         for i, a in enumerate(self._out):
             self._buf.set_res(i, memoryview(a))
+        self.lead = pid_lead_samples(self.settings, self.model, self.Ts)
+        self._preview: PlanPreview | None = None  # the plan read `lead` periods ahead (set_reference_plan)
         self._int = np.zeros(2)  # integral of the position errors (g, d) [m s]
         self._u_prev = np.zeros(2)
         self._ueq_good = (0.0, 0.0)  # last finite hover current (set at reset)
@@ -179,6 +200,13 @@ class PIDController:
         self._g_in[0], self._d_in[0] = g, d
         self._eval()
         return self._out[0].copy(), float(self._out[1][0]), float(self._out[2][0]), float(self._out[3][0])
+
+    def set_reference_plan(self, plan) -> None:
+        """Let the feed-forward read the plan ``lead`` periods ahead (a :class:`maglev_ocp.reference.ReferencePlan`).
+
+        Only used with a model file that declares a delay (:func:`pid_lead_samples`); ``None`` forgets the plan.
+        """
+        self._preview = PlanPreview(plan, self.lead, self.Ts) if plan is not None and self.lead else None
 
     def reset(self, y0: Measurement, ref: Reference) -> None:
         """Start at reading ``y0`` at rest; the previous current is the hover current there."""
@@ -223,10 +251,14 @@ class PIDController:
         ``stats["fallback"] = 1`` (counted in the run's metrics).
         """
         x_hat = self.observer.step(y.y, self._u_prev)
-        u_eq, b_v, a21, L1 = self.schedule(ref.g, ref.d)
         r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
+        # the feed-forward from the plan when the command computed now acts (lead periods ahead), the feedback
+        # against the reference now
+        r_ff = self._preview.at(y.t) if self._preview is not None else r
+        u_eq, b_v, a21, L1 = self.schedule(r_ff[0], r_ff[3])
         if self.effects is not None:
-            u_eq = u_eq + self.effect_feedforward(r, u_eq, b_v, L1)
+            u_eq = u_eq + self.effect_feedforward(r_ff, u_eq, b_v, L1)
+        r = feedforward_row(r, r_ff)
         out = pid_law(
             NUMERIC,
             self.settings,
@@ -246,6 +278,11 @@ class PIDController:
         if hover_fallback:  # the column appears only in runs that needed it (NaN = 0 in the other rows)
             stats["fallback"] = 1
         return ControlOutput(u=u, x_hat=x_hat, stats=stats)
+
+
+def feedforward_row(r, r_ff) -> tuple:
+    """The law's reference row: positions and velocities of ``r`` (feedback), accelerations of ``r_ff``."""
+    return (r[0], r[1], r_ff[2], r[3], r[4], r_ff[5])
 
 
 # ----------------------------------------------------------------------------- the law, numeric or symbolic
@@ -376,7 +413,9 @@ __all__ = [
     "PIDController",
     "PIDSettings",
     "clip_currents",
+    "feedforward_row",
     "hover_error",
     "pid_law",
+    "pid_lead_samples",
     "schedule_function",
 ]
