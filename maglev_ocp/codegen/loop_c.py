@@ -51,6 +51,7 @@ import casadi as ca
 import numpy as np
 
 from maglev_ocp.controllers.fl import fl_delay_samples
+from maglev_ocp.controllers.model_file import load_controller_model
 from maglev_ocp.controllers.nmpc.layout import STATS_NAMES, STATUS_TEXT
 from maglev_ocp.controllers.nmpc.reference import resolve_mode
 from maglev_ocp.controllers.pid import PIDController, hover_error
@@ -178,11 +179,13 @@ def plant_library(effects: tuple[str, ...], n_sub: int, dt: float) -> tuple[Comp
 
 
 @functools.lru_cache(maxsize=16)
-def _controller_library(ctype: str, settings_json: str, pvec: tuple[float, ...], mode: str, cflags: str):
+def _controller_library(
+    ctype: str, settings_json: str, pvec: tuple[float, ...], mode: str, cflags: str, model_hash: str = ""
+):
     from ..params import Params
 
     params = Params.from_vector(np.array(pvec))
-    key = _design_key(ctype, settings_json, pvec, mode, cflags)
+    key = _design_key(ctype, settings_json, pvec, mode, cflags, model_hash)
     lib = _lookup(ctype, key, "libmaglev_controller.so")
     if lib is None:
         if ctype == "nmpc":
@@ -203,11 +206,26 @@ def _controller_library(ctype: str, settings_json: str, pvec: tuple[float, ...],
     return CompiledLibrary(lib)
 
 
+def model_file_hash(settings: Any) -> str:
+    """SHA-256 of the content of the settings' model file (``""`` without one).
+
+    Part of the design key: the generated step bakes in the file's effects and delay, so a file
+    changed at the same path is a new design (the settings hold only the path).
+    """
+    path = getattr(settings, "model", None)
+    if not path:
+        return ""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
 def controller_library(ctype: str, settings: Any, params: Any, mode: str = "", cflags: str | None = None):
-    """The loaded ``backend: c`` library of a controller design (found through the design index, else built)."""
+    """The loaded ``backend: c`` library of a controller design (found through the design index, else built).
+
+    The design key holds the settings, the believed parameters, the reference mode, the flags, the
+    code's hash and the content hash of a model file (:func:`model_file_hash`)."""
     flags = cflags if cflags is not None else default_cflags()
     pvec = tuple(float(v) for v in params.vector())
-    return _controller_library(ctype, settings.model_dump_json(), pvec, mode, flags)
+    return _controller_library(ctype, settings.model_dump_json(), pvec, mode, flags, model_file_hash(settings))
 
 
 # ----------------------------------------------------------------------- controllers
@@ -274,9 +292,17 @@ def _nmpc_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> 
     return ControllerRun(step, st0.copy(), {3: p}, 3, np.ascontiguousarray(refs), fault, step.out_sizes)
 
 
+def _believed_params(sc: Scenario) -> Any:
+    """The parameters the FL and the PID run on: a model file's constants as the controllers load them
+    (:class:`~maglev_ocp.controllers.fl.FeedbackLinearization` takes the file's, whatever it is handed), else
+    :meth:`~maglev_ocp.scenario.Scenario.controller_model_params`."""
+    path = getattr(sc.controller.settings, "model", None)
+    return load_controller_model(path).params if path else sc.controller_model_params()
+
+
 def _fl_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> ControllerRun:
     s = sc.controller.settings
-    params = sc.controller_model_params()
+    params = _believed_params(sc)
     lib = controller_library("fl", s, params, "", cflags)
     init, step = lib.function("fl_init"), lib.function("fl_step")
     (st0,) = init(np.asarray(y0, dtype=float))
@@ -298,7 +324,7 @@ def _pid_controller_run(settings: Any, params: Any, y0: np.ndarray, refs: np.nda
 
 
 def _pid_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> ControllerRun:
-    return _pid_controller_run(sc.controller.settings, sc.controller_model_params(), y0, rp.refs, cflags)
+    return _pid_controller_run(sc.controller.settings, _believed_params(sc), y0, rp.refs, cflags)
 
 
 def fl_refs(rp: RunPlan, delay: int) -> np.ndarray:
@@ -499,12 +525,25 @@ def _error_text(code: int, done: int, u_last: np.ndarray) -> str | None:
     return f"controller raised at t = {t:.3f} s: RuntimeError: {what} returned an error"
 
 
+def compiled_unsupported(sc: Scenario) -> str | None:
+    """Why the compiled loop cannot run ``sc`` (None: it can).
+
+    The compiled loop runs the controllers whose whole step is a CasADi Function with C code
+    (:data:`COMPILED_TYPES`), model files included (their constants, delay and static effects
+    are in the generated FL, PID and NMPC steps); not an NMPC on ``solver: osqp``, whose QP is a
+    Python callback.
+    """
+    c = sc.controller
+    if c.type not in COMPILED_TYPES:
+        return f"the controller {c.type} has no compiled step (the compiled loop runs {', '.join(COMPILED_TYPES)})"
+    if c.type == "nmpc" and c.settings.solver != "admm":
+        return f"nmpc with solver: {c.settings.solver} (a Python callback; solver: admm is compiled)"
+    return None
+
+
 def compiled_supported(sc: Scenario) -> bool:
-    """Whether the compiled loop can run ``sc`` (its controller's step is a CasADi Function with C code:
-    not an NMPC on ``solver: osqp``, whose QP is a Python callback)."""
-    if sc.controller.type == "nmpc" and sc.controller.settings.solver != "admm":
-        return False
-    return sc.controller.type in COMPILED_TYPES
+    """Whether the compiled loop can run ``sc`` (:func:`compiled_unsupported` has no reason against it)."""
+    return compiled_unsupported(sc) is None
 
 
 def run_scenario_compiled(
@@ -521,11 +560,9 @@ def run_scenario_compiled(
     """
     t_wall = time.perf_counter()
     sc = sc.with_seed(seed)
-    if not compiled_supported(sc):
-        what = sc.controller.type
-        if what == "nmpc":
-            what = f"nmpc with solver: {sc.controller.settings.solver} (a Python callback; solver: admm is compiled)"
-        raise UserError(f"{sc.source}: the compiled loop runs {', '.join(COMPILED_TYPES)}, not {what}")
+    reason = compiled_unsupported(sc)
+    if reason is not None:
+        raise UserError(f"{sc.source}: the compiled loop cannot run this scenario: {reason}")
     rp = plan_run(sc)
     ss_plant, _ = sc.seed_sequences()
     plant = Plant(sc.plant_config(), params=sc.plant_params(), seed=ss_plant, Ts=k.Ts)
@@ -677,8 +714,16 @@ def run_scenario_on(
     if loop not in ("auto", "compiled", "python"):
         raise UserError(f"loop: {loop!r} is not one of auto, compiled, python")
     sc = _as_scenario(scenario)
-    if loop == "compiled" or (loop == "auto" and compiled_supported(sc) and find_compiler() is not None):
+    if loop == "compiled":
         return run_scenario_compiled(sc, seed=seed, figures=figures)
+    if loop == "auto":
+        reason = compiled_unsupported(sc)
+        if reason is None and find_compiler() is None:
+            reason = "no C compiler found (set CC or install cc/gcc/clang)"
+        if reason is None:
+            return run_scenario_compiled(sc, seed=seed, figures=figures)
+        level = logging.WARNING if reason.startswith("no C compiler") else logging.INFO
+        _log.log(level, "loop: auto runs the Python closed loop: %s", reason)
     return run_scenario(sc, seed=seed, progress=progress, figures=figures)
 
 
@@ -689,8 +734,10 @@ __all__ = [
     "LoopStruct",
     "code_version",
     "compiled_supported",
+    "compiled_unsupported",
     "controller_library",
     "fl_refs",
+    "model_file_hash",
     "nmpc_refs",
     "plant_library",
     "rig_loop",

@@ -12,13 +12,28 @@ gain-schedule Function (:func:`maglev_ocp.controllers.pid.schedule_function`) an
 
 ``pid_init(meas, p) -> state``: at rest at the reading, the previous current the
 (clipped) hover current there, as ``PIDController.reset``.
+
+With a model file (``settings.model``) whose effects the PID's feed-forward
+takes (:func:`maglev_ocp.controllers.pid.pid_model_effects`), the feed-forward
+correction is the controller's own :func:`maglev_ocp.controllers.pid.effect_correction`
+on the effects' expression (:meth:`maglev_ocp.controllers.model_file.ModelEffects.expr`,
+parameters baked in). The PID has no predictor: a model file's delay is not
+compensated, in Python or C.
 """
 
 from __future__ import annotations
 
 import casadi as ca
 
-from maglev_ocp.controllers.pid import SYMBOLIC, clip_currents, pid_law, schedule_function
+from maglev_ocp.controllers.model_file import load_controller_model
+from maglev_ocp.controllers.pid import (
+    SYMBOLIC,
+    clip_currents,
+    effect_correction,
+    pid_law,
+    pid_model_effects,
+    schedule_function,
+)
 
 from .. import constants as k
 from ..model import get_model
@@ -59,6 +74,8 @@ def pid_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]
     sched = schedule_function()
     np_ = get_model().np_
     sl = pid_state_slices()
+    model = load_controller_model(settings.model) if settings.model else None
+    eff = pid_model_effects(settings, model, model.params.vector()) if model is not None else None
 
     meas0, p0 = ca.SX.sym("meas", 2), ca.SX.sym("p", np_)
     u_eq0 = sched(meas0[0], meas0[1], p0)[0]
@@ -70,6 +87,10 @@ def pid_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]
     ref, p = ca.SX.sym("ref", len(REF_FIELDS)), ca.SX.sym("p", np_)
     x_hat, dist = observer_update(st[sl["x_hat"]], st[sl["dist"]], st[sl["u_prev"]], meas, p, L, Ts, True)
     u_eq, b_v, a21, L1 = sched(ref[0], ref[3], p)
+    if eff is not None:  # the model file's effects in the feed-forward, as PIDController.effect_feedforward
+        du = effect_correction(lambda x, u: eff.expr(ca.vertcat(*x), ca.vertcat(*u), p), ref, u_eq, b_v, L1)
+        ok = ca.logic_and(ca.fabs(u_eq[0]) + ca.fabs(u_eq[1]) < ca.inf, ca.logic_and(b_v != 0, L1 != 0))
+        u_eq = u_eq + ca.if_else(ok, ca.vertcat(*du), ca.SX.zeros(2))
     z, good = st[sl["z"]], st[sl["ueq_good"]]
     out = pid_law(
         SYMBOLIC,

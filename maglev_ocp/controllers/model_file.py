@@ -45,6 +45,7 @@ import math
 import os
 from dataclasses import dataclass, fields
 
+import casadi as ca
 import numpy as np
 
 from maglev_ocp import constants as k
@@ -219,7 +220,8 @@ class ModelEffects:
                     theta[i] = sign_width
         self.theta = theta
         self.p = np.asarray(params, dtype=float).copy()
-        self._fn = BufferedFunction(effect_delta_function(model.effects))
+        self.names = tuple(model.effects)
+        self._fn = BufferedFunction(effect_delta_function(self.names))
 
     def __call__(self, x: np.ndarray, u: np.ndarray, velocity: tuple[float, float] | None = None) -> np.ndarray:
         """Accelerations ``(dg_ddot, dd_ddot)`` [m/s^2] the effects add at state ``x`` and currents ``u``.
@@ -234,6 +236,21 @@ class ModelEffects:
             return np.zeros(2)
         (d,) = self._fn(x, u, self.p, self.theta)
         return d
+
+    def expr(self, x: ca.SX, u: ca.SX, p: ca.SX, velocity: tuple | None = None) -> ca.SX:
+        """The same accelerations as a CasADi expression (for a controller's generated step).
+
+        The very Function :meth:`__call__` evaluates (:func:`effect_delta_function` with the
+        widened :attr:`theta`, baked in as constants), called on symbols: state ``x`` (4),
+        currents ``u`` (2), parameter vector ``p``; ``velocity = (g_dot, d_dot)`` replaces the
+        state's velocities. Zero where ``x`` (with the velocities replaced) or ``u`` is not
+        finite, as :meth:`__call__`.
+        """
+        if velocity is not None:
+            x = ca.vertcat(x[0], velocity[0], x[2], velocity[1])
+        ok = ca.sum1(ca.fabs(ca.vertcat(x, u))) < ca.inf  # NaN compares false
+        d = effect_delta_function(self.names)(x, u, p, ca.DM(self.theta))
+        return ca.if_else(ok, d, ca.SX.zeros(2))
 
 
 def check_model_path(path: str | None) -> str | None:
