@@ -26,6 +26,7 @@ import casadi as ca
 import numpy as np
 
 from maglev_ocp.controllers.fl import FLAG_FIELDS, GAIN_FIELDS, fl_adapted, fl_delay_samples
+from maglev_ocp.controllers.model_file import load_controller_model
 from maglev_ocp.controllers.nmpc import step_functions
 from maglev_ocp.controllers.nmpc.layout import MEAS_TABLE, N_MEAS, STATS_TABLE
 from maglev_ocp.controllers.nmpc.reference import resolve_mode
@@ -366,7 +367,8 @@ def fl_code(settings, params: Params) -> ControllerCode:
     )
     step_unit = CodeUnit(
         step,
-        "one feedback-linearization period: observer update, model inversion with cogging, limits with anti-windup",
+        "one feedback-linearization period: observer update, model inversion with cogging (and a model file's "
+        "effects), limits with anti-windup",
         (state_in, _meas2_port(), ref, p_port, gains),
         (
             _u_port(),
@@ -391,7 +393,22 @@ def fl_code(settings, params: Params) -> ControllerCode:
         settings=_design(settings),
         notes=f"Observer time constant eps = {settings.observer_eps} s baked in "
         f"(disturbance estimate: {settings.disturbance}); p and gains are inputs."
-        + (f" Delay predictor: {delay} samples (ref is the reference {delay} samples ahead)." if delay else ""),
+        + (f" Delay predictor: {delay} samples (ref is the reference {delay} samples ahead)." if delay else "")
+        + _model_note(settings, "the observer's prediction, the delay predictor and the inverse"),
+    )
+
+
+def _model_note(settings, where: str) -> str:
+    """What a controller's model file puts into its generated step (empty without one)."""
+    path = getattr(settings, "model", None)
+    if not path:
+        return ""
+    m = load_controller_model(path)
+    if not m.effects:
+        return f" Model file {path}: its constants (p) and delay, no static effects."
+    return (
+        f" Model file {path}: the static effects {', '.join(m.effects)} are baked into {where} "
+        "(effect library expressions, parameters as constants; p is still an input)."
     )
 
 
@@ -431,7 +448,8 @@ def pid_code(settings, params: Params) -> ControllerCode:
         defines={"STATE_SIZE": PID_STATE_SIZE},
         settings=_design(settings),
         notes=f"Tuning and observer time constant eps = {settings.observer_eps} s baked in; p is an input. "
-        "pid_init gives a non-finite state where the model has no hover current at the reading: check it.",
+        "pid_init gives a non-finite state where the model has no hover current at the reading: check it."
+        + (_model_note(settings, "the feed-forward") if settings.feedforward else ""),
     )
 
 
