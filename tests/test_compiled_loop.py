@@ -217,6 +217,19 @@ def test_model_file_controller_is_the_same_in_python_c_and_the_compiled_loop(cty
 
 
 @needs_cc
+def test_nmpc_with_a_model_files_delay_is_the_same_on_the_compiled_loop(tmp_path):
+    """The NMPC adds a model file's lag delay to its own (``NMPC``); the compiled loop builds its step with the
+    same total and reads the plan that far ahead: its log equals the Python loop's with ``backend: c``."""
+    f = tmp_path / "model.yaml"
+    dump_yaml(f, MODEL_FILE)
+    d = _model_scenario("nmpc", f, "c")
+    d["controller"]["feedforward"] = "period_mean"
+    d["targets"] = d["targets"][:2]
+    assert _log_difference(run_scenario(scenario_from_dict(d), progress=False), run_scenario_compiled(
+        scenario_from_dict(d))) <= TOL  # fmt: skip
+
+
+@needs_cc
 def test_compiled_loop_follows_a_model_file_changed_at_the_same_path(tmp_path):
     """The compiled controller is keyed on the model file's content: rewriting the file at the same path (a new
     diagnosis) runs the new effects, equal to the Python FL on the new file, not the library of the old one."""

@@ -276,9 +276,21 @@ def nmpc_refs(mode: str, rp: RunPlan, N: int, ahead: int = 0, period_mean: bool 
     return out.reshape(n, -1)
 
 
+def nmpc_loop_settings(settings: Any) -> Any:
+    """The NMPC settings its step is built from: a model file's transport delay added to ``delay_samples``
+    (as :class:`~maglev_ocp.controllers.nmpc.NMPC` does), so the compiled loop's step predicts through it and
+    its reference is read that many periods ahead."""
+    from maglev_ocp.controllers.nmpc import NMPCSettings
+
+    n = load_controller_model(settings.model).delay_samples if settings.model else 0
+    if not n:
+        return settings
+    return NMPCSettings.model_validate({**settings.model_dump(), "delay_samples": settings.delay_samples + n})
+
+
 def _nmpc_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> ControllerRun:
-    s = sc.controller.settings
-    params = sc.controller_model_params()
+    s = nmpc_loop_settings(sc.controller.settings)
+    params = _believed_params(sc)
     mode = resolve_mode(s.reference, rp.plan.shaping)
     lib = controller_library("nmpc", s, params, mode, cflags)
     init, step = lib.function("nmpc_init"), lib.function("nmpc_step")
@@ -293,8 +305,8 @@ def _nmpc_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> 
 
 
 def _believed_params(sc: Scenario) -> Any:
-    """The parameters the FL and the PID run on: a model file's constants as the controllers load them
-    (:class:`~maglev_ocp.controllers.fl.FeedbackLinearization` takes the file's, whatever it is handed), else
+    """The parameters a controller runs on: a model file's constants as the controllers load them
+    (FL, PID and NMPC take the file's, whatever they are handed), else
     :meth:`~maglev_ocp.scenario.Scenario.controller_model_params`."""
     path = getattr(sc.controller.settings, "model", None)
     return load_controller_model(path).params if path else sc.controller_model_params()
@@ -738,6 +750,7 @@ __all__ = [
     "controller_library",
     "fl_refs",
     "model_file_hash",
+    "nmpc_loop_settings",
     "nmpc_refs",
     "plant_library",
     "rig_loop",
