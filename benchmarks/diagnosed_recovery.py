@@ -18,7 +18,7 @@ separates what the fitted law recovers from what the diagnosis's calibrated cons
 
 Run::
 
-    python -m benchmarks.diagnosed_recovery --out results/recovery            # all effects (~1 h)
+    python -m benchmarks.diagnosed_recovery --out results/recovery            # all effects (~40 min, 87 % diagnosing)
     python -m benchmarks.diagnosed_recovery --out results/recovery --effects friction cogging
     python -m benchmarks.diagnosed_recovery --out results/recovery --reuse    # keep existing diagnoses
 
