@@ -18,9 +18,14 @@ separates what the fitted law recovers from what the diagnosis's calibrated cons
 
 Run::
 
-    python -m benchmarks.diagnosed_recovery --out results/recovery            # all effects (~1 h)
+    python -m benchmarks.diagnosed_recovery --out results/recovery            # all effects (~40 min, 87 % diagnosing)
     python -m benchmarks.diagnosed_recovery --out results/recovery --effects friction cogging
     python -m benchmarks.diagnosed_recovery --out results/recovery --reuse    # keep existing diagnoses
+
+The tours run on the compiled closed loop (``--loop auto``, :func:`run_tour`: the controllers'
+generated steps carry the model files' constants, delay and effects, the same trajectories as the
+Python loop to 1e-9); ``--loop python`` steps the blocks in Python instead. The wall-clock time of the
+diagnoses and of the tours is written with the table.
 
 Writes ``OUT/recovery.md`` and ``OUT/recovery.json``; the datasets, reports and model files go to
 ``--work`` (default ``OUT/work``, ignored by git apart from the model files).
@@ -33,6 +38,7 @@ import json
 import math
 import shutil
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -200,11 +206,29 @@ def recovered(blind: float, diagnosed: float, true: float, min_gain: float = MIN
     return (blind - diagnosed) / gain
 
 
-def run_effect(effect: str, work: Path, seed: int, reuse: bool, backend: str, bar: tqdm) -> dict[str, Any]:
-    """Steps 1-4 for one effect: the diagnosis and the six tours, with the RMS and recovered fractions."""
-    from maglev_ocp.runner import run_scenario
+def run_tour(scenario: dict[str, Any], loop: str = "auto"):
+    """One tour on the closed loop ``loop`` chooses (:func:`maglev_ocp.codegen.loop_c.run_scenario_on`).
 
+    ``auto``: the compiled loop (one C call per tour, the controller's generated step with the model
+    file's constants, delay and effects; equal to the Python loop to 1e-9, ``tests/test_compiled_loop.py``)
+    wherever it can run the scenario, else the Python loop (the reason is logged); ``python``: the blocks'
+    ``reset``/``step`` in Python (the reference the timing is compared against).
+    """
+    from maglev_ocp.codegen.loop_c import run_scenario_on
+
+    return run_scenario_on(scenario, loop=loop, progress=False, figures=False)
+
+
+def run_effect(
+    effect: str, work: Path, seed: int, reuse: bool, backend: str, bar: tqdm, loop: str = "auto"
+) -> dict[str, Any]:
+    """Steps 1-4 for one effect: the diagnosis and the six tours, with the RMS and recovered fractions.
+
+    ``row["seconds"]`` holds the wall-clock time of the diagnosis (0 when reused) and of the tours.
+    """
+    t0 = time.perf_counter()
     data, diagnosed, info = generate_and_diagnose(effect, work, seed, reuse)
+    t_diag = time.perf_counter() - t0
     plant, true = rig_of_dataset(data)
     mdir = work / effect / "models"
     mdir.mkdir(parents=True, exist_ok=True)
@@ -214,12 +238,11 @@ def run_effect(effect: str, work: Path, seed: int, reuse: bool, backend: str, ba
     shutil.copyfile(diagnosed, files["diagnosed"])
     dump_yaml(files[ABLATION], law_only(load_yaml(diagnosed)))
     row: dict[str, Any] = {"effect": effect, "strong": STRONG[effect], **info, "controllers": {}}
+    t0 = time.perf_counter()
     for ctype in CONTROLLERS:
         res: dict[str, Any] = {}
         for model in (*MODELS, ABLATION):
-            r = run_scenario(
-                tour_scenario(effect, ctype, files[model], plant, backend=backend), progress=False, figures=False
-            )
+            r = run_tour(tour_scenario(effect, ctype, files[model], plant, backend=backend), loop)
             m = r.metrics
             res[model] = {
                 **tour_rms(m),
@@ -234,6 +257,7 @@ def run_effect(effect: str, work: Path, seed: int, reuse: bool, backend: str, ba
             res[f"recovered_{metric[:-2]}"] = recovered(b, d, t)
             res[f"recovered_{metric[:-2]}_{ABLATION}"] = recovered(b, res[ABLATION][metric], t)
         row["controllers"][ctype] = res
+    row["seconds"] = {"diagnosis": round(t_diag, 1), "tours": round(time.perf_counter() - t0, 1)}
     return row
 
 
@@ -247,13 +271,24 @@ def _frac(f: float | None) -> str:
     return f"**{f * 100:.0f} %**" if f < TARGET_FRACTION else f"{f * 100:.0f} %"
 
 
-def markdown(rows: list[dict[str, Any]], command: str) -> str:
-    """The recovery table (one line per effect and controller) with the commands."""
+def markdown(
+    rows: list[dict[str, Any]], command: str, loop: str = "auto", seconds: dict[str, float] | None = None
+) -> str:
+    """The recovery table (one line per effect and controller) with the commands and how long it took."""
     lines = [
         "# Closed-loop recovery of diagnosed models (issue 12)",
         "",
         f"`{command}`",
         "",
+    ]
+    if seconds is not None:
+        lines += [
+            f"Wall-clock time: {seconds['total']:.0f} s in all, {seconds['diagnosis']:.0f} s generating and "
+            f"diagnosing the datasets (0 where reused), {seconds['tours']:.0f} s for the tours on the "
+            f"`{loop}` closed loop.",
+            "",
+        ]
+    lines += [
         "Per effect (set strong, the other effects off, no random mismatch): a diagnosis dataset "
         "(`maglev diagnose generate`), a diagnosis with default settings (calibrated baseline, not told the "
         "effect), then the envelope tour (6 targets, g 15-25 mm, d +-50 mm, seed 7) on that rig with each "
@@ -316,17 +351,32 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=3, help="seed of the datasets (the tours use the scenario seed 7)")
     ap.add_argument("--reuse", action="store_true", help="keep existing diagnoses in WORK")
     ap.add_argument("--backend", default="python", choices=("python",), help="controller backend of the tours")
+    ap.add_argument(
+        "--loop",
+        default="auto",
+        choices=("auto", "compiled", "python"),
+        help="closed loop of the tours (auto: compiled wherever it can run them; python: the blocks stepped in "
+        "Python, the same trajectories to 1e-9, tens of times slower)",
+    )
     a = ap.parse_args(argv)
     out = Path(a.out)
     work = Path(a.work) if a.work else out / "work"
     rows = []
+    t_start = time.perf_counter()
     with tqdm(total=len(a.effects) * len(CONTROLLERS) * (len(MODELS) + 1), desc="tours", unit="run") as bar:
         for eff in a.effects:
-            rows.append(run_effect(eff, work, a.seed, a.reuse, a.backend, bar))
+            rows.append(run_effect(eff, work, a.seed, a.reuse, a.backend, bar, a.loop))
     command = "python -m benchmarks.diagnosed_recovery " + " ".join(argv if argv is not None else sys.argv[1:])
     out.mkdir(parents=True, exist_ok=True)
+    seconds = {
+        "total": round(time.perf_counter() - t_start, 1),
+        "diagnosis": round(sum(r["seconds"]["diagnosis"] for r in rows), 1),
+        "tours": round(sum(r["seconds"]["tours"] for r in rows), 1),
+    }
     doc = {
         "command": command.strip(),
+        "loop": a.loop,
+        "seconds": seconds,
         "min_gain_m": MIN_GAIN_M,
         "target_fraction": TARGET_FRACTION,
         "tour": TOUR,
@@ -336,7 +386,7 @@ def main(argv: list[str] | None = None) -> int:
     for eff in a.effects:  # the diagnosed model files, kept with the table (the datasets stay in WORK)
         shutil.copyfile(work / eff / "models" / "diagnosed.yaml", out / "models" / f"{eff}.yaml")
     atomic_write_text(out / "recovery.json", json.dumps(doc, indent=2) + "\n")
-    md = markdown(rows, command.strip())
+    md = markdown(rows, command.strip(), a.loop, seconds)
     atomic_write_text(out / "recovery.md", md)
     print(md)
     return 0

@@ -10,6 +10,7 @@ friction of the default profile, delays and disturbances are all on: the logs mu
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -22,6 +23,7 @@ from maglev_ocp.codegen.build import find_compiler
 from maglev_ocp.codegen.loop_c import nmpc_refs, run_scenario_compiled
 from maglev_ocp.config import load_yaml
 from maglev_ocp.output import dump_yaml
+from maglev_ocp.params import NOMINAL
 from maglev_ocp.runner import plan_run, run_scenario
 from maglev_ocp.scenario import scenario_from_dict
 
@@ -161,6 +163,90 @@ def test_fl_delay_campaign_runs_on_the_compiled_loop_and_equals_the_python_loop(
     assert cols
     for c in cols:
         np.testing.assert_allclose(a[c].to_numpy(float), b[c].to_numpy(float), rtol=0, atol=1e-9, err_msg=c)
+
+
+#: A model file with every kind of term the generated steps must carry: a constant off nominal, friction (its
+#: fitted 1 mm/s sign widened by the FL to its velocity estimate's resolution), cogging, a commutation offset,
+#: and an amplifier lag whose one-period transport delay the FL predicts through.
+MODEL_FILE = {
+    "C1": 14.9,
+    "effects": {
+        "friction": {"enabled": True, "coulomb_g": 0.3, "coulomb_d": 0.4, "stribeck_d": 0.1, "viscous_d": 2.0,
+                     "v_reg": 1e-3},
+        "cogging": {"enabled": True, "xi0": 5.0, "ell": 3.6e-3},
+        "commutation_offset": {"enabled": True, "delta": 0.0873},
+        "amplifier_lag": {"enabled": True, "bandwidth_hz": 800.0, "delay_samples": 1},
+    },
+}  # fmt: skip
+#: The rig the model file describes (its friction's sign not the fitted width, no cogging effect beyond the
+#: model's own law): what the controller with the model file runs on.
+MODEL_RIG = {
+    "friction": {"enabled": True, "coulomb_g": 0.3, "coulomb_d": 0.4, "stribeck_d": 0.1, "viscous_d": 2.0},
+    "commutation_offset": {"enabled": True, "delta": 0.0873},
+    "amplifier_lag": {"enabled": True, "bandwidth_hz": 800.0, "delay_samples": 1},
+}
+
+
+def _model_scenario(ctype: str, path: Path, backend: str = "python") -> dict:
+    d = _scenario(ctype, plant={"effects": MODEL_RIG})
+    d["controller"] = {"type": ctype, "backend": backend, "model": str(path)}
+    return d
+
+
+@needs_cc
+@pytest.mark.parametrize("ctype", ["fl", "pid"])
+def test_model_file_controller_is_the_same_in_python_c_and_the_compiled_loop(ctype, tmp_path):
+    """With a model file (constants, friction, cogging, commutation offset, a lag's delay) the Python controller,
+    its ``backend: c`` step and the compiled loop give the same log to 1e-9; the generated step holds the effects:
+    the compiled loop with the same file minus its effects commands other currents."""
+    from maglev_ocp.codegen.loop_c import compiled_supported
+
+    f = tmp_path / "model.yaml"
+    dump_yaml(f, MODEL_FILE)
+    sc = scenario_from_dict(_model_scenario(ctype, f))
+    assert compiled_supported(sc)
+    py = run_scenario(sc, progress=False)
+    assert py.metrics.error is None and py.metrics.stop_hits == 0
+    assert _log_difference(py, run_scenario(scenario_from_dict(_model_scenario(ctype, f, "c")), progress=False)) <= TOL
+    assert _log_difference(py, run_scenario_compiled(sc)) <= TOL
+    # the comparison can see the effects: without them (same constants and delay) the currents differ by > 10 mA
+    fb = tmp_path / "no_effects.yaml"
+    dump_yaml(fb, {**MODEL_FILE, "effects": {"amplifier_lag": MODEL_FILE["effects"]["amplifier_lag"]}})
+    cb = run_scenario_compiled(scenario_from_dict(_model_scenario(ctype, fb)))
+    assert max(np.max(np.abs(cb.columns[c] - py.columns[c])) for c in ("i_q", "i_d")) > 1e-2
+
+
+@needs_cc
+def test_nmpc_with_a_model_files_delay_is_the_same_on_the_compiled_loop(tmp_path):
+    """The NMPC adds a model file's lag delay to its own (``NMPC``); the compiled loop builds its step with the
+    same total and reads the plan that far ahead: its log equals the Python loop's with ``backend: c``."""
+    f = tmp_path / "model.yaml"
+    dump_yaml(f, MODEL_FILE)
+    d = _model_scenario("nmpc", f, "c")
+    d["controller"]["feedforward"] = "period_mean"
+    d["targets"] = d["targets"][:2]
+    assert _log_difference(run_scenario(scenario_from_dict(d), progress=False), run_scenario_compiled(
+        scenario_from_dict(d))) <= TOL  # fmt: skip
+
+
+@needs_cc
+def test_compiled_loop_follows_a_model_file_changed_at_the_same_path(tmp_path):
+    """The compiled controller is keyed on the model file's content: rewriting the file at the same path (a new
+    diagnosis) runs the new effects, equal to the Python FL on the new file, not the library of the old one."""
+    from maglev_ocp.codegen.loop_c import controller_library
+
+    f = tmp_path / "model.yaml"
+    dump_yaml(f, MODEL_FILE)
+    first = run_scenario_compiled(scenario_from_dict(_model_scenario("fl", f)))
+    lib_first = controller_library("fl", scenario_from_dict(_model_scenario("fl", f)).controller.settings, NOMINAL)
+    stronger = json.loads(json.dumps(MODEL_FILE))
+    stronger["effects"]["commutation_offset"]["delta"] = 0.15
+    dump_yaml(f, stronger)
+    sc = scenario_from_dict(_model_scenario("fl", f))
+    assert controller_library("fl", sc.controller.settings, NOMINAL).path != lib_first.path
+    second = run_scenario_compiled(sc)
+    assert np.max(np.abs(second.columns["i_q"] - first.columns["i_q"])) > 1e-3
+    assert _log_difference(run_scenario(sc, progress=False), second) <= TOL
 
 
 @needs_cc

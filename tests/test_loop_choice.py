@@ -86,3 +86,41 @@ def test_loop_choice_is_validated():
     """An unknown loop name is refused in one line."""
     with pytest.raises(UserError, match="not one of auto, compiled, python"):
         run_scenario_on({}, loop="fast")
+
+
+#: One short hold (the scenarios below are only checked, not run).
+HOLD = [{"g": 0.02, "d": 0.0, "hold": 0.1}]
+
+
+def test_auto_says_why_it_runs_the_python_loop(caplog, monkeypatch):
+    """What the C path cannot run is refused with its reason, and ``loop: auto`` logs it (as ``rig_loop``)."""
+    import maglev_ocp.runner as runner
+    from maglev_ocp.codegen.loop_c import compiled_supported, compiled_unsupported
+    from maglev_ocp.scenario import scenario_from_dict
+
+    d = {"name": "osqp", "controller": {"type": "nmpc", "solver": "osqp"}, "targets": HOLD}
+    sc = scenario_from_dict(d)
+    reason = compiled_unsupported(sc)
+    assert not compiled_supported(sc) and "solver: osqp" in reason
+    with pytest.raises(UserError, match="solver: osqp"):
+        run_scenario_on(sc, loop="compiled")
+    ran = []
+    monkeypatch.setattr(runner, "run_scenario", lambda sc, **kw: ran.append(sc.name) or "python loop")
+    with caplog.at_level("INFO", logger="maglev_ocp.codegen.loop_c"):
+        assert run_scenario_on(sc) == "python loop"
+    assert ran == ["osqp"]
+    assert any("auto runs the Python closed loop" in r.message and "solver: osqp" in r.message for r in caplog.records)
+
+
+def test_model_file_controllers_are_compiled_under_auto(tmp_path, monkeypatch):
+    """FL, PID and NMPC with a model file (effects and a lag's delay) have no reason against the compiled loop."""
+    from maglev_ocp.codegen.loop_c import compiled_unsupported
+    from maglev_ocp.output import dump_yaml
+    from maglev_ocp.scenario import scenario_from_dict
+
+    f = tmp_path / "model.yaml"
+    dump_yaml(f, {"effects": {"friction": {"enabled": True, "coulomb_d": 0.3}, "amplifier_lag": {
+        "enabled": True, "bandwidth_hz": 800.0, "delay_samples": 1}}})  # fmt: skip
+    for ctype in ("fl", "pid", "nmpc"):
+        d = {"name": ctype, "controller": {"type": ctype, "model": str(f)}, "targets": HOLD}
+        assert compiled_unsupported(scenario_from_dict(d)) is None, ctype

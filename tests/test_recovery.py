@@ -4,7 +4,8 @@
 effect and runs the tour on the blind, diagnosed and true model files. The fast
 tests check what the table is computed from (the recovered fraction, the
 per-tour RMS, and that the "true" model file is exactly the rig the tours and
-the dataset run on); the slow one runs the whole chain for one effect.
+the dataset run on, and that the tours' compiled loop gives the Python loop's figures); the slow one runs
+the whole chain for one effect.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from benchmarks.diagnosed_recovery import (
     tour_scenario,
 )
 from maglev_ocp.cli import main as cli_main
+from maglev_ocp.codegen.build import find_compiler
 from maglev_ocp.controllers.model_file import load_controller_model
 from maglev_ocp.effects import EffectSet
 from maglev_ocp.output import dump_yaml
@@ -92,3 +94,25 @@ def test_diagnosed_commutation_offset_recovers_the_true_models_gain(tmp_path):
     assert scored and min(scored) >= 0.7, row
     md = (tmp_path / "recovery.md").read_text()
     assert md.count("| commutation_offset | commutation_offset |") == 2  # FL and NMPC rows of the main table
+
+
+@pytest.mark.skipif(find_compiler() is None, reason="no C compiler: the compiled loop cannot be built here")
+def test_tours_run_on_the_compiled_loop_with_the_python_loops_figures(tmp_path, monkeypatch):
+    """The recovery tours go through the compiled loop (``--loop auto``) and give the Python loop's RMS figures:
+    FL on a model file with a fitted effect, on a rig with that effect."""
+    import maglev_ocp.codegen.loop_c as loop_c
+    from benchmarks.diagnosed_recovery import run_tour
+
+    f = tmp_path / "model.yaml"
+    law = {"enabled": True, **STRONG["commutation_offset"]}
+    dump_yaml(f, {**blind_model(), "effects": {"commutation_offset": law}})
+    plant = {"profile": "default", "effects": {"commutation_offset": law}}
+    sc = tour_scenario("commutation_offset", "fl", f, plant)
+    calls = []
+    real = loop_c.run_scenario_compiled
+    monkeypatch.setattr(loop_c, "run_scenario_compiled", lambda *a, **kw: calls.append(1) or real(*a, **kw))
+    auto, py = tour_rms(run_tour(sc, "auto").metrics), tour_rms(run_tour(sc, "python").metrics)
+    assert calls == [1]
+    assert math.isfinite(py["steady_m"]) and py["tracking_m"] > 1e-6  # a settled tour that tracked a plan
+    for key in ("steady_m", "tracking_m"):
+        assert auto[key] == pytest.approx(py[key], rel=0, abs=1e-9), key

@@ -218,6 +218,8 @@ class CompiledPID(PIDController):
         if self._state is None:
             raise RuntimeError("call reset() before step()")
         r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
+        if self.lead:  # the model file's lag: the feed-forward's row ahead follows (PIDController.step)
+            r = r + (self._preview.at(y.t) if self._preview is not None else r)
         u, st, xh, ueq, flags = self._c_step(self._state, y.y, r, self._pvec)
         self._state = st.copy()
         stats = {

@@ -20,6 +20,16 @@ updated with the oldest (the one applied over the last period) and the law runs
 on the FL's own predictor (:func:`maglev_ocp.controllers.fl.fl_predictor_function`, the
 shared model's RK4 step through the ``N`` commands in flight); the caller hands
 in the reference ``N`` samples ahead, as the Python FL reads it from its plan.
+
+A model file (``settings.model``): its delay is the predictor's (as above) and
+its static effects enter the step where the Python FL's enter it, as the same
+expressions (:func:`maglev_ocp.controllers.fl.fl_model_effects`,
+:meth:`maglev_ocp.controllers.model_file.ModelEffects.expr`: the effect
+library's ``effect_delta`` Function with the velocity signs widened, its
+parameters baked in as constants): the observer's prediction at its own
+estimate, the delay predictor's held acceleration at the planned velocity
+(``ref`` rows 1 and 4), and the inverse (two fixed-point passes of the law at
+the commanded current and the planned velocity).
 """
 
 from __future__ import annotations
@@ -33,9 +43,11 @@ from maglev_ocp.controllers.fl import (
     fl_adaptive_observer,
     fl_delay_samples,
     fl_law_function,
+    fl_model_effects,
     fl_predictor_function,
     ref_moving,
 )
+from maglev_ocp.controllers.model_file import load_controller_model
 
 from .. import constants as k
 from ..model import get_model
@@ -109,7 +121,10 @@ def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
     osettings = ObserverSettings(eps=settings.observer_eps, disturbance=settings.disturbance)
     L = observer_gain(osettings, Ts)
     m = get_model()
-    delay = fl_delay_samples(settings)
+    model = load_controller_model(settings.model) if settings.model else None
+    delay = fl_delay_samples(settings, model)
+    # the model file's effects, widened as the Python FL widens them (one construction: fl_model_effects)
+    eff = fl_model_effects(model, model.params.vector(), L, Ts) if model is not None else None
     n_adapt = len(fl_adapted(settings))
     sl = fl_state_slices(delay, n_adapt)
     size = sum(n for _, n, _, _ in fl_state(delay, n_adapt))
@@ -134,25 +149,45 @@ def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
         u_hover = ca.if_else(ca.fabs(u_hover[0]) + ca.fabs(u_hover[1]) < ca.inf, u_hover, ca.SX.zeros(2))
         sent = ca.if_else(started, st[sl["sent"]], ca.repmat(u_hover, delay + 1))
         u_applied = sent[:2]  # the command sent N + 1 samples ago: applied over the last period
+    # the model file's effects are part of the observer's prediction over the period, at its own estimate
+    # (FeedbackLinearization.step: added to the disturbance estimate before the update, taken off after);
+    # without the disturbance estimate the observer's prediction has no such term (as HighGainObserver.predict)
+    obs_eff = eff is not None and settings.disturbance
+    d_eff = eff.expr(x_old, u_applied, p) if obs_eff else None
+    d_in = d_old + d_eff if obs_eff else d_old
     p_law, ad_next = p, []
     if n_adapt:  # the adaptive observer (the Python FL's Function); the law inverts the corrected constants
         ad_old = st[sl["adapt"]]
         x_obs, d_obs, ad_new, p_hat = fl_adaptive_observer(settings, L, Ts)(
-            x_old, d_old, u_applied, meas, p, ad_old, ref_moving(ref)
+            x_old, d_in, u_applied, meas, p, ad_old, ref_moving(ref)
         )
         p_law = ca.if_else(started, p_hat, p)
         ad_next = [ca.if_else(started, ad_new, ad_old)]
-    else:
-        x_obs, d_obs = observer_update(x_old, d_old, u_applied, meas, p, L, Ts, settings.disturbance)
+    else:  # a reading that is not finite: prediction only, as the Python FL
+        x_obs, d_obs = observer_update(x_old, d_in, u_applied, meas, p, L, Ts, settings.disturbance, True)
+    if obs_eff:
+        d_obs = d_obs - d_eff  # what is left is the residual disturbance
     # first step after reset: the estimate is the reset reading (no prediction), as in the Python class
     x_hat = ca.if_else(started, x_obs, x_old)
     dist = ca.if_else(started, d_obs, d_old)
     x_law = x_hat
+    v_plan = (ref[1], ref[4])  # the planned velocities (the reference N samples ahead): what the effects see
     if delay:  # the FL's own predictor: the estimate N samples ahead through the commands in flight
-        x_law = fl_predictor_function(delay, Ts)(x_hat, dist, sent[2:], p_law)
-    u, z_next, v, flags = law(x_law, dist, ref, z, p_law, gains)
+        # over the periods predicted through, the effects act as they do now (held, as the disturbance)
+        d_pred = dist + eff.expr(x_hat, sent[-2:], p, v_plan) if eff is not None else dist
+        x_law = fl_predictor_function(delay, Ts)(x_hat, d_pred, sent[2:], p_law)
+    out = law(x_law, dist, ref, z, p_law, gains)
+    if eff is not None:
+        # the inverse with the effects at the command (two fixed-point passes, stopped by a non-finite current)
+        for _ in range(2):
+            u = out[0]
+            ok = ca.fabs(u[0]) + ca.fabs(u[1]) < ca.inf
+            new = law(x_law, dist + eff.expr(x_law, u, p, v_plan), ref, z, p_law, gains)
+            out = [ca.if_else(ok, a, b) for a, b in zip(new, out, strict=True)]
+    u, z_next, v, flags = out
     finite = ca.fabs(u[0]) + ca.fabs(u[1]) < ca.inf  # never command NaN/inf (NaN compares false)
     u = ca.if_else(finite, u, ca.SX.zeros(2))
+    z_next = ca.if_else(finite, z_next, z)  # a failed law keeps its integrators (as the Python FL)
     state = ca.vertcat(x_hat, dist, z_next, u, 1, *([sent[2:], u] if delay else []), *ad_next)
     fl_step = ca.Function(
         "fl_step",

@@ -26,9 +26,11 @@ import casadi as ca
 import numpy as np
 
 from maglev_ocp.controllers.fl import FLAG_FIELDS, GAIN_FIELDS, fl_adapted, fl_delay_samples
+from maglev_ocp.controllers.model_file import load_controller_model
 from maglev_ocp.controllers.nmpc import step_functions
 from maglev_ocp.controllers.nmpc.layout import MEAS_TABLE, N_MEAS, STATS_TABLE
 from maglev_ocp.controllers.nmpc.reference import resolve_mode
+from maglev_ocp.controllers.pid import pid_lead_samples
 
 from .. import constants as k
 from ..errors import UserError
@@ -366,7 +368,8 @@ def fl_code(settings, params: Params) -> ControllerCode:
     )
     step_unit = CodeUnit(
         step,
-        "one feedback-linearization period: observer update, model inversion with cogging, limits with anti-windup",
+        "one feedback-linearization period: observer update, model inversion with cogging (and a model file's "
+        "effects), limits with anti-windup",
         (state_in, _meas2_port(), ref, p_port, gains),
         (
             _u_port(),
@@ -391,7 +394,22 @@ def fl_code(settings, params: Params) -> ControllerCode:
         settings=_design(settings),
         notes=f"Observer time constant eps = {settings.observer_eps} s baked in "
         f"(disturbance estimate: {settings.disturbance}); p and gains are inputs."
-        + (f" Delay predictor: {delay} samples (ref is the reference {delay} samples ahead)." if delay else ""),
+        + (f" Delay predictor: {delay} samples (ref is the reference {delay} samples ahead)." if delay else "")
+        + _model_note(settings, "the observer's prediction, the delay predictor and the inverse"),
+    )
+
+
+def _model_note(settings, where: str) -> str:
+    """What a controller's model file puts into its generated step (empty without one)."""
+    path = getattr(settings, "model", None)
+    if not path:
+        return ""
+    m = load_controller_model(path)
+    if not m.effects:
+        return f" Model file {path}: its constants (p) and delay, no static effects."
+    return (
+        f" Model file {path}: the static effects {', '.join(m.effects)} are baked into {where} "
+        "(effect library expressions, parameters as constants; p is still an input)."
     )
 
 
@@ -402,6 +420,18 @@ def pid_code(settings, params: Params) -> ControllerCode:
     pieces = tuple(Piece(*q) for q in PID_STATE)
     state0, state_in, state_out = _state_ports(PID_STATE_SIZE, pieces)
     ref = _ref_row_port()
+    lead = pid_lead_samples(settings) if settings.model else 0.0
+    if lead:  # a model file's lag: the feed-forward's row the lag's delay ahead follows the row now
+        ff = _ref_row_port()
+        ref = Port(
+            "ref",
+            2 * ref.rows,
+            1,
+            ref.unit,
+            f"reference now (feedback), then the plan {lead:.3g} control periods ahead (feed-forward: the model "
+            "file's amplifier lag delays the command by that much)",
+            ref.pieces + tuple(Piece("ff_" + pc.name, pc.size, pc.unit, pc.description + " ahead") for pc in ff.pieces),
+        )
     p_port = params_port(len(params.vector()))
     init_unit = CodeUnit(
         init,
@@ -431,7 +461,8 @@ def pid_code(settings, params: Params) -> ControllerCode:
         defines={"STATE_SIZE": PID_STATE_SIZE},
         settings=_design(settings),
         notes=f"Tuning and observer time constant eps = {settings.observer_eps} s baked in; p is an input. "
-        "pid_init gives a non-finite state where the model has no hover current at the reading: check it.",
+        "pid_init gives a non-finite state where the model has no hover current at the reading: check it."
+        + (_model_note(settings, "the feed-forward") if settings.feedforward else ""),
     )
 
 

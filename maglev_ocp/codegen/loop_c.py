@@ -51,9 +51,10 @@ import casadi as ca
 import numpy as np
 
 from maglev_ocp.controllers.fl import fl_delay_samples
+from maglev_ocp.controllers.model_file import load_controller_model
 from maglev_ocp.controllers.nmpc.layout import STATS_NAMES, STATUS_TEXT
 from maglev_ocp.controllers.nmpc.reference import resolve_mode
-from maglev_ocp.controllers.pid import PIDController, hover_error
+from maglev_ocp.controllers.pid import PIDController, hover_error, pid_lead_samples
 
 from .. import constants as k
 from ..blocks import Reference
@@ -178,11 +179,13 @@ def plant_library(effects: tuple[str, ...], n_sub: int, dt: float) -> tuple[Comp
 
 
 @functools.lru_cache(maxsize=16)
-def _controller_library(ctype: str, settings_json: str, pvec: tuple[float, ...], mode: str, cflags: str):
+def _controller_library(
+    ctype: str, settings_json: str, pvec: tuple[float, ...], mode: str, cflags: str, model_hash: str = ""
+):
     from ..params import Params
 
     params = Params.from_vector(np.array(pvec))
-    key = _design_key(ctype, settings_json, pvec, mode, cflags)
+    key = _design_key(ctype, settings_json, pvec, mode, cflags, model_hash)
     lib = _lookup(ctype, key, "libmaglev_controller.so")
     if lib is None:
         if ctype == "nmpc":
@@ -203,11 +206,26 @@ def _controller_library(ctype: str, settings_json: str, pvec: tuple[float, ...],
     return CompiledLibrary(lib)
 
 
+def model_file_hash(settings: Any) -> str:
+    """SHA-256 of the content of the settings' model file (``""`` without one).
+
+    Part of the design key: the generated step bakes in the file's effects and delay, so a file
+    changed at the same path is a new design (the settings hold only the path).
+    """
+    path = getattr(settings, "model", None)
+    if not path:
+        return ""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
 def controller_library(ctype: str, settings: Any, params: Any, mode: str = "", cflags: str | None = None):
-    """The loaded ``backend: c`` library of a controller design (found through the design index, else built)."""
+    """The loaded ``backend: c`` library of a controller design (found through the design index, else built).
+
+    The design key holds the settings, the believed parameters, the reference mode, the flags, the
+    code's hash and the content hash of a model file (:func:`model_file_hash`)."""
     flags = cflags if cflags is not None else default_cflags()
     pvec = tuple(float(v) for v in params.vector())
-    return _controller_library(ctype, settings.model_dump_json(), pvec, mode, flags)
+    return _controller_library(ctype, settings.model_dump_json(), pvec, mode, flags, model_file_hash(settings))
 
 
 # ----------------------------------------------------------------------- controllers
@@ -258,9 +276,21 @@ def nmpc_refs(mode: str, rp: RunPlan, N: int, ahead: int = 0, period_mean: bool 
     return out.reshape(n, -1)
 
 
+def nmpc_loop_settings(settings: Any) -> Any:
+    """The NMPC settings its step is built from: a model file's transport delay added to ``delay_samples``
+    (as :class:`~maglev_ocp.controllers.nmpc.NMPC` does), so the compiled loop's step predicts through it and
+    its reference is read that many periods ahead."""
+    from maglev_ocp.controllers.nmpc import NMPCSettings
+
+    n = load_controller_model(settings.model).delay_samples if settings.model else 0
+    if not n:
+        return settings
+    return NMPCSettings.model_validate({**settings.model_dump(), "delay_samples": settings.delay_samples + n})
+
+
 def _nmpc_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> ControllerRun:
-    s = sc.controller.settings
-    params = sc.controller_model_params()
+    s = nmpc_loop_settings(sc.controller.settings)
+    params = _believed_params(sc)
     mode = resolve_mode(s.reference, rp.plan.shaping)
     lib = controller_library("nmpc", s, params, mode, cflags)
     init, step = lib.function("nmpc_init"), lib.function("nmpc_step")
@@ -274,9 +304,17 @@ def _nmpc_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> 
     return ControllerRun(step, st0.copy(), {3: p}, 3, np.ascontiguousarray(refs), fault, step.out_sizes)
 
 
+def _believed_params(sc: Scenario) -> Any:
+    """The parameters a controller runs on: a model file's constants as the controllers load them
+    (FL, PID and NMPC take the file's, whatever they are handed), else
+    :meth:`~maglev_ocp.scenario.Scenario.controller_model_params`."""
+    path = getattr(sc.controller.settings, "model", None)
+    return load_controller_model(path).params if path else sc.controller_model_params()
+
+
 def _fl_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> ControllerRun:
     s = sc.controller.settings
-    params = sc.controller_model_params()
+    params = _believed_params(sc)
     lib = controller_library("fl", s, params, "", cflags)
     init, step = lib.function("fl_init"), lib.function("fl_step")
     (st0,) = init(np.asarray(y0, dtype=float))
@@ -285,8 +323,16 @@ def _fl_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> Co
     return ControllerRun(step, st0.copy(), consts, 2, np.ascontiguousarray(refs), np.zeros(rp.n), step.out_sizes)
 
 
-def _pid_controller_run(settings: Any, params: Any, y0: np.ndarray, refs: np.ndarray, cflags: str | None):
-    """The PID's part of a compiled run on ``refs`` (``n x 6``, ``signals.REF_FIELDS`` order)."""
+def _pid_controller_run(
+    settings: Any, params: Any, y0: np.ndarray, refs: np.ndarray, cflags: str | None, refs_ff: np.ndarray | None = None
+):
+    """The PID's part of a compiled run on ``refs`` (``n x 6``, ``signals.REF_FIELDS`` order).
+
+    With a model file's lag (:func:`~maglev_ocp.controllers.pid.pid_lead_samples`) the step also takes the
+    feed-forward's rows ``refs_ff`` (the plan that far ahead; without a plan, ``refs`` themselves, as the
+    Python PID without one)."""
+    if pid_lead_samples(settings):
+        refs = np.hstack([refs, refs if refs_ff is None else refs_ff])
     lib = controller_library("pid", settings, params, "", cflags)
     init, step = lib.function("pid_init"), lib.function("pid_step")
     p = params.vector()
@@ -298,12 +344,16 @@ def _pid_controller_run(settings: Any, params: Any, y0: np.ndarray, refs: np.nda
 
 
 def _pid_run(sc: Scenario, rp: RunPlan, y0: np.ndarray, cflags: str | None) -> ControllerRun:
-    return _pid_controller_run(sc.controller.settings, sc.controller_model_params(), y0, rp.refs, cflags)
+    s = sc.controller.settings
+    lead = pid_lead_samples(s)
+    refs_ff = fl_refs(rp, lead) if lead else None  # the rows PIDController's PlanPreview reads
+    return _pid_controller_run(s, _believed_params(sc), y0, rp.refs, cflags, refs_ff)
 
 
-def fl_refs(rp: RunPlan, delay: int) -> np.ndarray:
+def fl_refs(rp: RunPlan, delay: float) -> np.ndarray:
     """FL's ``ref`` input of every step (``n x 6``): the runner's rows, or with a delay of ``N`` samples the plan
-    ``N`` samples ahead, as :meth:`maglev_ocp.controllers.fl.FeedbackLinearization.set_reference_plan` makes it read."""
+    ``N`` samples ahead, as :meth:`maglev_ocp.controllers.fl.FeedbackLinearization.set_reference_plan` makes it read
+    (and the PID's feed-forward rows, :class:`maglev_ocp.controllers.preview.PlanPreview`, ``N`` a fraction too)."""
     if not delay:
         return rp.refs
     Ts, plan = k.Ts, rp.plan
@@ -499,12 +549,25 @@ def _error_text(code: int, done: int, u_last: np.ndarray) -> str | None:
     return f"controller raised at t = {t:.3f} s: RuntimeError: {what} returned an error"
 
 
+def compiled_unsupported(sc: Scenario) -> str | None:
+    """Why the compiled loop cannot run ``sc`` (None: it can).
+
+    The compiled loop runs the controllers whose whole step is a CasADi Function with C code
+    (:data:`COMPILED_TYPES`), model files included (their constants, delay and static effects
+    are in the generated FL, PID and NMPC steps); not an NMPC on ``solver: osqp``, whose QP is a
+    Python callback.
+    """
+    c = sc.controller
+    if c.type not in COMPILED_TYPES:
+        return f"the controller {c.type} has no compiled step (the compiled loop runs {', '.join(COMPILED_TYPES)})"
+    if c.type == "nmpc" and c.settings.solver != "admm":
+        return f"nmpc with solver: {c.settings.solver} (a Python callback; solver: admm is compiled)"
+    return None
+
+
 def compiled_supported(sc: Scenario) -> bool:
-    """Whether the compiled loop can run ``sc`` (its controller's step is a CasADi Function with C code:
-    not an NMPC on ``solver: osqp``, whose QP is a Python callback)."""
-    if sc.controller.type == "nmpc" and sc.controller.settings.solver != "admm":
-        return False
-    return sc.controller.type in COMPILED_TYPES
+    """Whether the compiled loop can run ``sc`` (:func:`compiled_unsupported` has no reason against it)."""
+    return compiled_unsupported(sc) is None
 
 
 def run_scenario_compiled(
@@ -521,11 +584,9 @@ def run_scenario_compiled(
     """
     t_wall = time.perf_counter()
     sc = sc.with_seed(seed)
-    if not compiled_supported(sc):
-        what = sc.controller.type
-        if what == "nmpc":
-            what = f"nmpc with solver: {sc.controller.settings.solver} (a Python callback; solver: admm is compiled)"
-        raise UserError(f"{sc.source}: the compiled loop runs {', '.join(COMPILED_TYPES)}, not {what}")
+    reason = compiled_unsupported(sc)
+    if reason is not None:
+        raise UserError(f"{sc.source}: the compiled loop cannot run this scenario: {reason}")
     rp = plan_run(sc)
     ss_plant, _ = sc.seed_sequences()
     plant = Plant(sc.plant_config(), params=sc.plant_params(), seed=ss_plant, Ts=k.Ts)
@@ -677,8 +738,16 @@ def run_scenario_on(
     if loop not in ("auto", "compiled", "python"):
         raise UserError(f"loop: {loop!r} is not one of auto, compiled, python")
     sc = _as_scenario(scenario)
-    if loop == "compiled" or (loop == "auto" and compiled_supported(sc) and find_compiler() is not None):
+    if loop == "compiled":
         return run_scenario_compiled(sc, seed=seed, figures=figures)
+    if loop == "auto":
+        reason = compiled_unsupported(sc)
+        if reason is None and find_compiler() is None:
+            reason = "no C compiler found (set CC or install cc/gcc/clang)"
+        if reason is None:
+            return run_scenario_compiled(sc, seed=seed, figures=figures)
+        level = logging.WARNING if reason.startswith("no C compiler") else logging.INFO
+        _log.log(level, "loop: auto runs the Python closed loop: %s", reason)
     return run_scenario(sc, seed=seed, progress=progress, figures=figures)
 
 
@@ -689,8 +758,11 @@ __all__ = [
     "LoopStruct",
     "code_version",
     "compiled_supported",
+    "compiled_unsupported",
     "controller_library",
     "fl_refs",
+    "model_file_hash",
+    "nmpc_loop_settings",
     "nmpc_refs",
     "plant_library",
     "rig_loop",

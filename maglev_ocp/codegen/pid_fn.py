@@ -12,13 +12,31 @@ gain-schedule Function (:func:`maglev_ocp.controllers.pid.schedule_function`) an
 
 ``pid_init(meas, p) -> state``: at rest at the reading, the previous current the
 (clipped) hover current there, as ``PIDController.reset``.
+
+With a model file (``settings.model``) whose effects the PID's feed-forward
+takes (:func:`maglev_ocp.controllers.pid.pid_model_effects`), the feed-forward
+correction is the controller's own :func:`maglev_ocp.controllers.pid.effect_correction`
+on the effects' expression (:meth:`maglev_ocp.controllers.model_file.ModelEffects.expr`,
+parameters baked in). A model file's lag delay (:func:`maglev_ocp.controllers.pid.pid_lead_samples`)
+makes the ``ref`` input twelve rows: the reference now (feedback) and the plan's
+row that many periods ahead (feed-forward), as the Python step reads them.
 """
 
 from __future__ import annotations
 
 import casadi as ca
 
-from maglev_ocp.controllers.pid import SYMBOLIC, clip_currents, pid_law, schedule_function
+from maglev_ocp.controllers.model_file import load_controller_model
+from maglev_ocp.controllers.pid import (
+    SYMBOLIC,
+    clip_currents,
+    effect_correction,
+    feedforward_row,
+    pid_law,
+    pid_lead_samples,
+    pid_model_effects,
+    schedule_function,
+)
 
 from .. import constants as k
 from ..model import get_model
@@ -59,6 +77,8 @@ def pid_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]
     sched = schedule_function()
     np_ = get_model().np_
     sl = pid_state_slices()
+    model = load_controller_model(settings.model) if settings.model else None
+    eff = pid_model_effects(settings, model, model.params.vector()) if model is not None else None
 
     meas0, p0 = ca.SX.sym("meas", 2), ca.SX.sym("p", np_)
     u_eq0 = sched(meas0[0], meas0[1], p0)[0]
@@ -67,9 +87,19 @@ def pid_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]
     pid_init = ca.Function("pid_init", [meas0, p0], [state0], ["meas", "p"], ["state"])
 
     st, meas = ca.SX.sym("state_in", PID_STATE_SIZE), ca.SX.sym("meas", 2)
-    ref, p = ca.SX.sym("ref", len(REF_FIELDS)), ca.SX.sym("p", np_)
+    # with a model file's lag (pid_lead_samples) the ref input is the row now (feedback) and the plan's row the
+    # lag's delay ahead (feed-forward), as PIDController.step reads them
+    nr = len(REF_FIELDS)
+    lead = pid_lead_samples(settings, model, Ts) if model is not None else 0.0
+    ref, p = ca.SX.sym("ref", 2 * nr if lead else nr), ca.SX.sym("p", np_)
+    r_now = [ref[i] for i in range(nr)]
+    r_ff = [ref[nr + i] for i in range(nr)] if lead else r_now
     x_hat, dist = observer_update(st[sl["x_hat"]], st[sl["dist"]], st[sl["u_prev"]], meas, p, L, Ts, True)
-    u_eq, b_v, a21, L1 = sched(ref[0], ref[3], p)
+    u_eq, b_v, a21, L1 = sched(r_ff[0], r_ff[3], p)
+    if eff is not None:  # the model file's effects in the feed-forward, as PIDController.effect_feedforward
+        du = effect_correction(lambda x, u: eff.expr(ca.vertcat(*x), ca.vertcat(*u), p), r_ff, u_eq, b_v, L1)
+        ok = ca.logic_and(ca.fabs(u_eq[0]) + ca.fabs(u_eq[1]) < ca.inf, ca.logic_and(b_v != 0, L1 != 0))
+        u_eq = u_eq + ca.if_else(ok, ca.vertcat(*du), ca.SX.zeros(2))
     z, good = st[sl["z"]], st[sl["ueq_good"]]
     out = pid_law(
         SYMBOLIC,
@@ -77,7 +107,7 @@ def pid_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]
         Ts,
         [x_hat[i] for i in range(4)],
         (u_eq[0], u_eq[1], b_v, a21, L1),
-        [ref[i] for i in range(len(REF_FIELDS))],
+        feedforward_row(r_now, r_ff),
         (z[0], z[1]),
         (good[0], good[1]),
     )

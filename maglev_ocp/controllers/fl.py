@@ -58,7 +58,8 @@ measurement noise into the current:
   went unpredicted and d rang at 15 um RMS at rest behind a one-period delay).
 
 The compiled FL (:mod:`maglev_ocp.codegen.fl_fn`) carries the model file's
-delay but not its effects.
+delay and its effects in the same three places, from the same expressions
+(:func:`fl_model_effects`, :meth:`~maglev_ocp.controllers.model_file.ModelEffects.expr`).
 
 Adaptive observer (``adapt``, default ``[C1, C3, C4]``, the NMPC's): a constant
 acceleration disturbance cannot follow an error of a constant that multiplies
@@ -400,6 +401,20 @@ def law_stats(flags, v, dist, law_failed: bool, fallback: int) -> dict[str, floa
     }
 
 
+def fl_model_effects(model, p: np.ndarray, L: np.ndarray, Ts: float = k.Ts) -> ModelEffects | None:
+    """The model file's static effects as the FL evaluates them (None without a model file or effects).
+
+    ``model`` is the loaded model file (or None), ``p`` the parameter vector the effects are
+    evaluated with, ``L`` the observer's gain: every regularized velocity sign is widened to
+    :data:`~maglev_ocp.controllers.model_file.SIGN_WIDTH_SIGMAS` standard deviations of the
+    observer's velocity noise (see the module docstring). The Python step and the generated
+    step (:mod:`maglev_ocp.codegen.fl_fn`) both take their effects from here.
+    """
+    if model is None or not model.effects:
+        return None
+    return ModelEffects(model, p, SIGN_WIDTH_SIGMAS * velocity_noise(L, Ts))
+
+
 def fl_delay_samples(settings: FLSettings, model=None) -> int:
     """The delay the FL predicts through [control periods]: ``settings.delay_samples`` plus the model file's.
 
@@ -454,10 +469,7 @@ class FeedbackLinearization:
         )
         # the model file's static effects (None: none), their velocity signs widened to the resolution of the
         # observer's velocity estimate (see the module docstring)
-        self.effects: ModelEffects | None = None
-        if self.model is not None and self.model.effects:
-            width = SIGN_WIDTH_SIGMAS * velocity_noise(self.observer.L, Ts)
-            self.effects = ModelEffects(self.model, self._p, width)
+        self.effects = fl_model_effects(self.model, self._p, self.observer.L, Ts)
         # adaptive observer (settings.adapt): the constants' relative errors, learnt from the moves
         self._adapt_fn = fl_adaptive_observer(self.settings, self.observer.L, Ts)
         self._adapt_fn = BufferedFunction(self._adapt_fn) if self._adapt_fn is not None else None
@@ -633,6 +645,7 @@ __all__ = [
     "fl_adaptive_observer_function",
     "fl_delay_samples",
     "fl_law_function",
+    "fl_model_effects",
     "fl_predictor_function",
     "law_stats",
     "ref_moving",

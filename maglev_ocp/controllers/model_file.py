@@ -45,6 +45,7 @@ import math
 import os
 from dataclasses import dataclass, fields
 
+import casadi as ca
 import numpy as np
 
 from maglev_ocp import constants as k
@@ -52,6 +53,7 @@ from maglev_ocp.config import load_yaml, parse_model
 from maglev_ocp.effects import EFFECTS, EffectSet, effect_delta_function
 from maglev_ocp.errors import ConfigError
 from maglev_ocp.fastcall import BufferedFunction
+from maglev_ocp.model import get_model
 from maglev_ocp.params import Params, ParamsFile, warn_if_untrusted
 
 #: Description of every controller's ``model`` setting (FL, NMPC, PID): the one key that loads a model file.
@@ -213,6 +215,8 @@ class ModelEffects:
         The parameters evaluated (the file's, the sign widths widened).
     widened : dict of str to tuple of float
         ``{parameter: (file's value, value used)}`` for each width that was widened.
+    function : casadi.Function
+        ``model_effects(x, u, p) -> delta``: the effects' accelerations with :attr:`theta` baked in.
     """
 
     def __init__(self, model: ControllerModel, params: np.ndarray, sign_width: float):
@@ -229,7 +233,14 @@ class ModelEffects:
                     theta[i] = sign_width
         self.theta = theta
         self.p = np.asarray(params, dtype=float).copy()
-        self._fn = BufferedFunction(effect_delta_function(model.effects))
+        self.names = tuple(model.effects)
+        # one Function with the parameters baked in, evaluated here and inlined into generated steps (expr):
+        # the same expression graph (constants folded alike) on both sides
+        m = get_model()
+        x, u, p = ca.SX.sym("x", 4), ca.SX.sym("u", 2), ca.SX.sym("p", m.np_)
+        d = effect_delta_function(self.names)(x, u, p, ca.DM(theta))
+        self.function = ca.Function("model_effects", [x, u, p], [d], ["x", "u", "p"], ["delta"])
+        self._fn = BufferedFunction(self.function)
 
     def __call__(self, x: np.ndarray, u: np.ndarray, velocity: tuple[float, float] | None = None) -> np.ndarray:
         """Accelerations ``(dg_ddot, dd_ddot)`` [m/s^2] the effects add at state ``x`` and currents ``u``.
@@ -242,8 +253,22 @@ class ModelEffects:
             x = np.array([x[0], velocity[0], x[2], velocity[1]])
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
             return np.zeros(2)
-        (d,) = self._fn(x, u, self.p, self.theta)
+        (d,) = self._fn(x, u, self.p)
         return d
+
+    def expr(self, x: ca.SX, u: ca.SX, p: ca.SX, velocity: tuple | None = None) -> ca.SX:
+        """The same accelerations as a CasADi expression (for a controller's generated step).
+
+        The very Function :meth:`__call__` evaluates (:attr:`function`: :func:`effect_delta_function`
+        with the widened :attr:`theta` baked in as constants), called on symbols: state ``x`` (4),
+        currents ``u`` (2), parameter vector ``p``; ``velocity = (g_dot, d_dot)`` replaces the
+        state's velocities. Zero where ``x`` (with the velocities replaced) or ``u`` is not
+        finite, as :meth:`__call__`.
+        """
+        if velocity is not None:
+            x = ca.vertcat(x[0], velocity[0], x[2], velocity[1])
+        ok = ca.sum1(ca.fabs(ca.vertcat(x, u))) < ca.inf  # NaN compares false
+        return ca.if_else(ok, self.function(x, u, p), ca.SX.zeros(2))
 
 
 def check_model_path(path: str | None) -> str | None:

@@ -134,6 +134,40 @@ def pid_lead_samples(settings: PIDSettings, model=None, Ts: float = k.Ts) -> flo
     return float(model.delay_samples) + float(model.lag_time_s) / Ts
 
 
+def pid_model_effects(settings: PIDSettings, model, p: np.ndarray) -> ModelEffects | None:
+    """The model file's static effects as the PID's feed-forward evaluates them (None: no correction).
+
+    Only with ``feedforward`` on and a model file with effects; evaluated at the planned state
+    only (no estimate), so the library's sign regularization is kept (no widening). The Python
+    step and the generated step (:mod:`maglev_ocp.codegen.pid_fn`) both take them from here.
+    """
+    if model is None or not model.effects or not settings.feedforward:
+        return None
+    return ModelEffects(model, p, 0.0)
+
+
+def effect_correction(effect: Callable[[Any, Any], Any], r, u_eq, b_v, L1) -> tuple[Any, Any]:
+    """Feed-forward correction ``(di_q, di_d)`` [A] for the effects (numeric or symbolic, as :func:`pid_law`).
+
+    ``effect(x, u)`` gives the effects' accelerations ``(da_g, da_d)`` [m/s^2] at a state and
+    currents (:class:`~maglev_ocp.controllers.model_file.ModelEffects` or its
+    :meth:`~maglev_ocp.controllers.model_file.ModelEffects.expr`); they are taken at the planned
+    state ``(g, g_dot, d, d_dot)`` of the reference row ``r`` and the feed-forward current (the
+    equilibrium current ``u_eq`` plus the reference accelerations through the scheduled gains,
+    as :func:`pid_law` adds them) and cancelled through those gains: ``di_d = -da_g / b_v``
+    (``b_v = d g_ddot / d i_d``) and ``di_q = da_d / L1`` (``d_ddot = -L1 i_q``); two
+    fixed-point passes for effects that depend on the current (a commutation offset). The caller
+    applies it only where ``u_eq`` is finite and ``b_v``, ``L1`` are not zero.
+    """
+    x_ref = (r[0], r[1], r[3], r[4])
+    u_ff = (u_eq[0] + -r[5] / L1, u_eq[1] + r[2] / b_v)
+    du = (0.0, 0.0)
+    for _ in range(2):
+        da = effect(x_ref, (u_ff[0] + du[0], u_ff[1] + du[1]))
+        du = (da[1] / L1, -da[0] / b_v)
+    return du
+
+
 def hover_error(g: float, d: float) -> ConfigError:
     """The error of a reset where the controller's model has no hover current (0 A would drop the mover)."""
     return ConfigError(
@@ -175,9 +209,7 @@ class PIDController:
         self.observer = HighGainObserver(params, ObserverSettings(eps=self.settings.observer_eps), self.Ts)
         # the model file's static effects, evaluated at the planned state only (no estimate: no sign to smooth
         # against noise, the library's regularization is kept)
-        self.effects: ModelEffects | None = None
-        if self.model is not None and self.model.effects and self.settings.feedforward:
-            self.effects = ModelEffects(self.model, params.vector(), 0.0)
+        self.effects = pid_model_effects(self.settings, self.model, params.vector())
         self._sched = schedule_function()
         # buffer evaluation: ~5 us instead of ~100 us for a numpy call
         self._in_p = params.vector()
@@ -221,22 +253,11 @@ class PIDController:
     def effect_feedforward(self, r, u_eq: np.ndarray, b_v: float, L1: float) -> np.ndarray:
         """Correction of the feed-forward current for the model file's effects [A] (zeros without effects).
 
-        The effects' accelerations ``(da_g, da_d)`` at the planned state ``(g, g_dot, d, d_dot)``
-        of the reference row ``r`` and the feed-forward current ``u_ff`` (the equilibrium current
-        plus the reference accelerations through the scheduled gains, as :func:`pid_law` adds
-        them) are cancelled through those gains: ``di_d = -da_g / b_v`` (``b_v = d g_ddot / d i_d``)
-        and ``di_q = da_d / L1`` (``d_ddot = -L1 i_q``); two fixed-point passes for effects that
-        depend on the current (a commutation offset).
+        :func:`effect_correction` at the reference row ``r`` with the schedule ``(u_eq, b_v, L1)``.
         """
-        du = np.zeros(2)
         if self.effects is None or not (np.all(np.isfinite(u_eq)) and b_v != 0.0 and L1 != 0.0):
-            return du
-        x_ref = np.array([r[0], r[1], r[3], r[4]])
-        u_ff = u_eq + np.array([-r[5] / L1, r[2] / b_v])
-        for _ in range(2):
-            da = self.effects(x_ref, u_ff + du)
-            du = np.array([da[1] / L1, -da[0] / b_v])
-        return du
+            return np.zeros(2)
+        return np.array(effect_correction(self.effects, r, u_eq, b_v, L1))
 
     def _clip(self, u: np.ndarray) -> tuple[np.ndarray, bool, bool]:
         """Limit: each axis to ±i_axis_max, then i_q to what the amplitude leaves after i_d."""
@@ -413,9 +434,11 @@ __all__ = [
     "PIDController",
     "PIDSettings",
     "clip_currents",
+    "effect_correction",
     "feedforward_row",
     "hover_error",
     "pid_law",
     "pid_lead_samples",
+    "pid_model_effects",
     "schedule_function",
 ]
