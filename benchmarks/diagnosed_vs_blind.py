@@ -323,7 +323,9 @@ def verdict(blind: dict[str, Any], diag: dict[str, Any]) -> list[str]:
         ok = d <= 0.5 * b or (b < TRACKING_FLOOR_M and d < TRACKING_FLOOR_M)
         if not (math.isfinite(d) and ok):
             miss.append(f"tracking {ax} {d * 1e6:.1f} > half of {b * 1e6:.1f} um")
-    if not diag["steady_mean_m"] <= blind["steady_mean_m"] + STEADY_MARGIN_M:
+    # a blind run that left a target unsettled has no steady RMS there: any settled diagnosed run is better
+    blind_steady = blind["steady_mean_m"] if blind["all_settled"] else math.inf
+    if not diag["steady_mean_m"] <= blind_steady + STEADY_MARGIN_M:
         miss.append(f"steady {diag['steady_mean_m'] * 1e6:.2f} > blind + 1 um")
     if not diag["all_settled"]:
         miss.append("not all settled")
