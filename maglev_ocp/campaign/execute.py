@@ -52,7 +52,7 @@ import yaml
 from ..config import load_yaml
 from ..errors import UserError
 from ..output import atomic_write_text
-from ..parallel import local_client
+from ..parallel import BackgroundCluster
 from .config import Campaign, SaveSettings
 from .expand import RunSpec, apply_overrides, expand
 
@@ -434,18 +434,53 @@ def _clean_tmp(out_dir: Path) -> None:
 
 
 class _WarmUp:
-    """Dask worker plugin: build the shared model once when a worker starts."""
+    """Dask worker plugin: what every run needs, built once when a worker starts (before the first run).
+
+    Parameters
+    ----------
+    runner : bool
+        Also import the scenario runner's modules (the compiled loop, the controllers, SciPy: about half a
+        second per process) and hash the code that names the compiled libraries; only for the shipped run
+        function (a campaign's own ``run_fn`` may need none of it).
+    """
 
     name = "maglev-warmup"
 
+    def __init__(self, runner: bool = True) -> None:
+        self.runner = runner
+
     def setup(self, worker: Any) -> None:
-        """Build the model's Functions in the worker process."""
+        """Build the model's Functions in the worker process (and load the runner, see ``runner``)."""
         from ..model import get_model
 
         get_model()
+        if self.runner:
+            from ..codegen.loop_c import code_version
+            from . import runner_adapter  # noqa: F401
+
+            code_version()
 
     def teardown(self, worker: Any) -> None:
         """Nothing to release."""
+
+
+def _warmup_plugin(runner: bool) -> Any:
+    """A :class:`_WarmUp` that is a Dask ``WorkerPlugin`` (dask imported only here)."""
+    from dask.distributed import WorkerPlugin
+
+    return type("MaglevWarmUp", (_WarmUp, WorkerPlugin), {})(runner)
+
+
+def start_cluster(workers: int, scheduler: str | None = None, runner: bool = True) -> BackgroundCluster | None:
+    """Start the campaign's LocalCluster in the background (``None`` for in-process runs or a remote scheduler).
+
+    The worker processes start and warm up (:class:`_WarmUp`) while the caller expands the campaign and
+    checks its folder; pass the result to :func:`execute` as ``cluster`` and close it when done.
+    ``runner``: the runs go through the shipped run function (:func:`run_real`).
+    """
+    if scheduler or workers <= 1:
+        return None
+    return BackgroundCluster(workers, functools.partial(_warmup_plugin, runner))
 
 
 def _preload_summary() -> None:
@@ -462,27 +497,32 @@ def _preload_summary() -> None:
 
 
 @contextlib.contextmanager
-def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
-    """A ``dask.distributed`` client on a LocalCluster or a remote scheduler."""
-    try:
-        from dask.distributed import Client, WorkerPlugin
-    except ImportError:
-        raise UserError("dask.distributed is not installed: pip install 'maglev-ocp[campaign]'") from None
-
-    plugin_cls = type("MaglevWarmUp", (_WarmUp, WorkerPlugin), {})
+def _client(workers: int, scheduler: str | None, cluster: BackgroundCluster | None, runner: bool) -> Iterator[Any]:
+    """A ``dask.distributed`` client: on ``cluster`` (left open), a remote scheduler, or a new LocalCluster."""
+    if cluster is not None:
+        yield cluster.client()
+        return
     if scheduler:
+        try:
+            from dask.distributed import Client
+        except ImportError:
+            raise UserError("dask.distributed is not installed: pip install 'maglev-ocp[campaign]'") from None
         try:
             client = Client(scheduler, timeout="20s")
         except (OSError, TimeoutError) as exc:
             raise UserError(f"--scheduler {scheduler}: cannot connect ({_one_line(exc)})") from None
         try:
-            client.register_plugin(plugin_cls())
+            client.register_plugin(_warmup_plugin(runner))
             yield client
         finally:
             client.close()
         return
-    with local_client(workers, plugin_cls()) as client:
-        yield client
+    started = start_cluster(workers, runner=runner)
+    assert started is not None
+    try:
+        yield started.client()
+    finally:
+        started.close()
 
 
 def _run_on_dask(
@@ -494,6 +534,8 @@ def _run_on_dask(
     workers: int,
     scheduler: str | None,
     record: Callable[[RunSpec, RunOutcome], None],
+    cluster: BackgroundCluster | None = None,
+    runner: bool = True,
 ) -> int:
     """Run ``todo`` in chunks on a Dask cluster; ``record`` each outcome as its chunk completes.
 
@@ -501,14 +543,15 @@ def _run_on_dask(
     """
     from dask.distributed import as_completed
 
-    with _client(workers, scheduler) as client:
+    with _client(workers, scheduler, cluster, runner) as client:
         if scheduler:
             workers = max(1, len(client.scheduler_info().get("workers", {})))
         base_f = client.scatter(base, broadcast=True)
         by_key: dict[str, list[RunSpec]] = {}
         futures = []
         start = 0
-        for size in chunk_sizes(len(todo), workers):
+        sizes = chunk_sizes(len(todo), workers)
+        for i, size in enumerate(sizes):
             chunk = todo[start : start + size]
             start += size
             fut = client.submit(
@@ -520,6 +563,9 @@ def _run_on_dask(
                 run_fn,
                 key=f"maglev-runs-{campaign_name}-{chunk[0].run_id}-{chunk[-1].run_id}-{chunk[0].digest()}",
                 pure=False,
+                # in submission order, large chunks first: submissions within Dask's FIFO window (100 ms) share
+                # a priority and ran last-submitted first, the smallest chunks first and the largest at the end
+                priority=len(sizes) - i,
             )
             by_key[fut.key] = chunk
             futures.append(fut)
@@ -553,6 +599,7 @@ def execute(
     progress: bool = True,
     base: dict[str, Any] | None = None,
     specs: list[RunSpec] | None = None,
+    cluster: BackgroundCluster | None = None,
 ) -> ExecutionReport:
     """Run every unfinished run of the campaign; finished ones are skipped.
 
@@ -579,6 +626,9 @@ def execute(
     specs : list of RunSpec, optional
         The campaign's expansion with ``base`` (default: expanded here), for a caller that needs it
         too (:func:`maglev_ocp.campaign.run_campaign` summarizes on it: one expansion, not two).
+    cluster : BackgroundCluster, optional
+        A LocalCluster already starting (:func:`start_cluster`), used instead of starting one here (and left
+        open: the caller closes it); ignored for in-process runs and with ``scheduler``.
 
     Returns
     -------
@@ -603,6 +653,7 @@ def execute(
     if limit is not None:
         todo = todo[:limit]
     save_d = camp.save.model_dump()
+    runner = run_fn is None
     if run_fn is None:  # the scenario runner, on the campaign's closed loop (a module-level partial: picklable)
         run_fn = functools.partial(run_real, loop=camp.execution.loop)
     counts = {"ok": n_ok, "failed": n_failed, "ran": 0, "failed_now": 0, "cpu_s": 0.0}
@@ -637,7 +688,8 @@ def execute(
             for s in todo:
                 _record(s, execute_one(s.to_dict(), base, camp.name, save_d, run_fn))
         else:
-            workers = _run_on_dask(todo, base, camp.name, save_d, run_fn, workers, scheduler, _record)
+            on = None if scheduler else cluster
+            workers = _run_on_dask(todo, base, camp.name, save_d, run_fn, workers, scheduler, _record, on, runner)
     except KeyboardInterrupt:
         interrupted = True
     finally:
