@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import itertools
 import json
 import os
 import shutil
@@ -548,12 +549,17 @@ def _run_on_dask(
             workers = max(1, len(client.scheduler_info().get("workers", {})))
         base_f = client.scatter(base, broadcast=True)
         by_key: dict[str, list[RunSpec]] = {}
-        futures = []
-        start = 0
+        futures: list[Any] = []
         sizes = chunk_sizes(len(todo), workers)
-        for i, size in enumerate(sizes):
-            chunk = todo[start : start + size]
-            start += size
+        bounds = [sum(sizes[:i]) for i in range(len(sizes) + 1)]
+        chunks = iter([todo[a:b] for a, b in itertools.pairwise(bounds)])
+        running = as_completed()
+
+        def submit_next() -> None:
+            """Hand out the next chunk (largest first), if any is left."""
+            chunk = next(chunks, None)
+            if chunk is None:
+                return
             fut = client.submit(
                 execute_chunk,
                 [s.to_dict() for s in chunk],
@@ -563,17 +569,23 @@ def _run_on_dask(
                 run_fn,
                 key=f"maglev-runs-{campaign_name}-{chunk[0].run_id}-{chunk[-1].run_id}-{chunk[0].digest()}",
                 pure=False,
-                # in submission order, large chunks first: submissions within Dask's FIFO window (100 ms) share
-                # a priority and ran last-submitted first, the smallest chunks first and the largest at the end
-                priority=len(sizes) - i,
             )
             by_key[fut.key] = chunk
             futures.append(fut)
+            running.add(fut)
+
+        # One chunk per worker at a time, the next handed out as one finishes (guided self-scheduling in the
+        # order of chunk_sizes). Submitted all at once, Dask's scheduler gave the chunks submitted within its
+        # 100 ms FIFO window one priority, assigned the first few to workers before it started queuing, and
+        # ran the rest last-submitted first: the smallest chunks first and the largest at the end.
+        for _ in range(workers):
+            submit_next()
         # the client waits on the workers from here on: it loads what the summary needs meanwhile (the
         # figures' matplotlib and the parquet writer, ~0.5-1 s that would otherwise follow the runs)
         threading.Thread(target=_preload_summary, name="maglev-preload-summary", daemon=True).start()
         try:
-            for fut in as_completed(futures):
+            for fut in running:
+                submit_next()  # before writing this chunk's folders: the worker does not wait on the client
                 chunk = by_key[fut.key]
                 try:
                     outcomes = fut.result()
