@@ -361,13 +361,14 @@ def stamped_run(scenario: dict, seed: int, workdir: Path, save) -> dict:
 
 def test_chunks_start_in_submission_order_on_a_local_cluster(camp_dir: Path) -> None:
     """On 2 worker processes the chunks start in the order of :func:`chunk_sizes`, largest first (guided
-    self-scheduling): submitted all at once, Dask ran them last-submitted first, the largest at the end."""
+    self-scheduling): submitted all at once, Dask ran them last-submitted first, the largest at the end. The
+    summary's figures, shared out between this process and a worker, are those one process draws."""
     import cloudpickle
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
     camp = load_campaign(camp_dir / "camp.yaml").model_copy(update={"n_runs": 30})
     camp._root_dir = load_campaign(camp_dir / "camp.yaml").root_dir
-    res = run_campaign(camp, camp_dir / "o", workers=2, run_fn=stamped_run, progress=False, figures=False)
+    res = run_campaign(camp, camp_dir / "o", workers=2, run_fn=stamped_run, progress=False, figures=True)
     assert res.report.ran == len(res.summary.table) == 30 * n_cases(camp) and res.report.remaining == 0
     specs = expand(camp)
     sizes = chunk_sizes(len(specs), 2)
@@ -383,3 +384,10 @@ def test_chunks_start_in_submission_order_on_a_local_cluster(camp_dir: Path) -> 
     # never before one submitted two or more places earlier.
     late = [(a, b) for a in range(len(starts)) for b in range(a + 2, len(starts)) if starts[b] < starts[a]]
     assert not late, (sizes, late)
+    # Half the figures were drawn on a worker: every figure is there, the same bytes as drawn in one process.
+    from maglev_ocp.campaign.summary import draw_figures, figure_names
+
+    here = draw_figures(res.summary)
+    assert list(here) == figure_names(res.summary) and len(here) >= 6
+    for name, png in here.items():
+        assert (camp_dir / "o" / name).read_bytes() == png, name
