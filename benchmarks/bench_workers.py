@@ -20,7 +20,8 @@ Printed for each: median and 99th percentile, and the ratio that matters:
   workers and on 1 (in-process), alternating (2, 1, 1, 2, 2, 1, ...) so that other jobs on a shared machine
   weigh on both; wall time of each command with the 1-minute load average before and after it, the median
   per worker count and their ratio (the speed-up of the whole command). Every command must succeed on every
-  run and write the same ``summary.csv`` (its columns that do not depend on timing, byte for byte).
+  run and write the same ``summary.csv`` (its columns that do not depend on timing, byte for byte). An untimed
+  command on 2 runs comes first: it compiles the loop's libraries if none are cached for this code version.
 """
 
 from __future__ import annotations
@@ -95,6 +96,9 @@ def campaign_speed(n_runs: int, repeat: int, keep: Path | None = None) -> list[d
     maglev = Path(sys.executable).parent / "maglev"
     rows = []
     try:
+        # untimed: compiles the loop's libraries if this code version has none cached yet
+        warm = [str(maglev), "campaign", str(copy), "--out", str(work / "warm-up"), "--limit", "2", "--quiet"]
+        subprocess.run([*warm, "--workers", "1"], capture_output=True, check=True)
         for r in range(repeat):
             for w in (2, 1) if r % 2 == 0 else (1, 2):
                 out = work / f"out-w{w}-r{r}"
