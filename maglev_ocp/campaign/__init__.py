@@ -14,6 +14,7 @@ Typical use::
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -86,7 +87,7 @@ def run_campaign(
     camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
     # The worker processes start (and warm up) while this process expands the campaign and checks its folder.
     cluster = start_cluster(
-        int(execute_options.get("workers", 1)),
+        int(execute_options.get("workers", 1)) if execute_options.get("limit") != 0 else 1,  # --limit 0: none
         execute_options.get("scheduler"),
         runner=execute_options.get("run_fn") is None,
     )
@@ -97,7 +98,10 @@ def run_campaign(
         report = execute(camp, out_dir, base=base, specs=specs, cluster=cluster, **execute_options)
         # On a LocalCluster the workers are done: one of them draws half the summary's figures, then they shut
         # down while this process writes the summary.
-        sharing = SharedDrawing(cluster.client()) if cluster is not None and figures else None
+        sharing = None
+        if cluster is not None and figures:
+            with contextlib.suppress(Exception):  # a cluster that failed to start: everything drawn here
+                sharing = SharedDrawing(cluster.client())
         summary = summarize(out_dir, specs, camp.name)
         drawn = sharing.draw(summary) if sharing is not None and len(summary.finished) else None
         if cluster is not None:

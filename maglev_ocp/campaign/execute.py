@@ -322,7 +322,8 @@ class ExecutionReport:
     remaining : int
         Runs still without a finished folder (``--limit`` or an interruption).
     wall_s : float
-        Wall time of the execution (cluster start-up included).
+        Wall time of the execution, from the start of :func:`execute` (the cluster's start-up included; of a
+        cluster the caller started in the background, the part not done by then).
     workers : int
         Worker processes used (1 = in-process).
     scheduler : str or None
