@@ -361,8 +361,7 @@ def stamped_run(scenario: dict, seed: int, workdir: Path, save) -> dict:
 
 def test_chunks_start_in_submission_order_on_a_local_cluster(camp_dir: Path) -> None:
     """On 2 worker processes the chunks start in the order of :func:`chunk_sizes`, largest first (guided
-    self-scheduling): submitted all at once, Dask ran them last-submitted first, the largest at the end. The
-    summary's figures, shared out between this process and a worker, are those one process draws."""
+    self-scheduling): submitted all at once, Dask ran them last-submitted first, the largest at the end."""
     import cloudpickle
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
@@ -384,7 +383,7 @@ def test_chunks_start_in_submission_order_on_a_local_cluster(camp_dir: Path) -> 
     # never before one submitted two or more places earlier.
     late = [(a, b) for a in range(len(starts)) for b in range(a + 2, len(starts)) if starts[b] < starts[a]]
     assert not late, (sizes, late)
-    # Half the figures were drawn on a worker: every figure is there, the same bytes as drawn in one process.
+    # The figures are written (drawn while the workers shut down), the same bytes as drawn again here.
     from maglev_ocp.campaign.summary import draw_figures, figure_names
 
     here = draw_figures(res.summary)

@@ -14,7 +14,6 @@ Typical use::
 
 from __future__ import annotations
 
-import contextlib
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +22,7 @@ from typing import Any
 from .config import Campaign, load_campaign
 from .execute import ExecutionReport, execute, start_cluster, worker_cache
 from .expand import RunSpec, expand
-from .summary import CampaignSummary, SharedDrawing, deterministic_columns, summarize
+from .summary import CampaignSummary, deterministic_columns, summarize
 
 __all__ = [
     "Campaign",
@@ -48,11 +47,9 @@ class CampaignResult:
     report: ExecutionReport
     summary: CampaignSummary
 
-    def save(
-        self, out_dir: str | os.PathLike | None = None, figures: bool = True, drawn: dict[str, bytes] | None = None
-    ) -> list[Path]:
-        """Write the summary table(s) and figures (default: into the campaign folder; ``drawn``: already drawn)."""
-        return self.summary.save(out_dir or self.report.out_dir, figures=figures, drawn=drawn)
+    def save(self, out_dir: str | os.PathLike | None = None, figures: bool = True) -> list[Path]:
+        """Write the summary table(s) and figures (default: into the campaign folder)."""
+        return self.summary.save(out_dir or self.report.out_dir, figures=figures)
 
     def __str__(self) -> str:
         return f"{self.report}\n{self.summary}"
@@ -96,18 +93,11 @@ def run_campaign(
         base = camp.base_scenario_dict()
         specs = expand(camp, base)  # once: the runs and the summary share it
         report = execute(camp, out_dir, base=base, specs=specs, cluster=cluster, **execute_options)
-        # On a LocalCluster the workers are done: one of them draws half the summary's figures, then they shut
-        # down while this process writes the summary.
-        sharing = None
-        if cluster is not None and figures:
-            with contextlib.suppress(Exception):  # a cluster that failed to start: everything drawn here
-                sharing = SharedDrawing(cluster.client())
-        summary = summarize(out_dir, specs, camp.name)
-        drawn = sharing.draw(summary) if sharing is not None and len(summary.finished) else None
-        if cluster is not None:
+        if cluster is not None:  # the workers shut down while the summary is drawn and written
             closing = cluster.close(background=True)
+        summary = summarize(out_dir, specs, camp.name)
         result = CampaignResult(report, summary)
-        result.save(figures=figures, drawn=drawn)
+        result.save(figures=figures)
     finally:
         if closing is not None:
             closing.join()

@@ -23,7 +23,6 @@ for the same campaign whatever executed it.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
@@ -200,14 +199,8 @@ class CampaignSummary:
             return f"campaign {self.name}: no finished runs"
         return f"campaign {self.name}:\n" + t.to_string(index=False, float_format=lambda x: f"{x:.1f}")
 
-    def save(
-        self, out_dir: str | os.PathLike, figures: bool = True, drawn: dict[str, bytes] | None = None
-    ) -> list[Path]:
-        """Write ``summary.csv`` (and ``summary.parquet`` if pyarrow is installed), ``by_case.csv``, figures.
-
-        ``drawn``: the figures already drawn (:func:`draw_figures`, e.g. shared out over a cluster's workers),
-        written as they are instead of being drawn here.
-        """
+    def save(self, out_dir: str | os.PathLike, figures: bool = True) -> list[Path]:
+        """Write ``summary.csv`` (and ``summary.parquet`` if pyarrow is installed), ``by_case.csv``, figures."""
         out = Path(out_dir)
         written = [out / "summary.csv", out / "by_case.csv"]
         atomic_write_text(written[0], self.table.to_csv(index=False))
@@ -226,7 +219,7 @@ class CampaignSummary:
             atomic_write_bytes(out / "summary.parquet", buf.getvalue())
             written.append(out / "summary.parquet")
         if figures and len(self.finished):
-            for name, png in (draw_figures(self) if drawn is None else drawn).items():
+            for name, png in draw_figures(self).items():
                 atomic_write_bytes(out / name, png)
                 written.append(out / name)
         return written
@@ -302,51 +295,6 @@ def figure_names(s: CampaignSummary) -> list[str]:
     return names + [f"vs_{col.replace('.', '_')}.png" for col in _vs_columns(s)]
 
 
-class SharedDrawing:
-    """The summary's figures drawn by this process and one worker of a Dask cluster together.
-
-    Made when the runs are done: the worker then imports the plotting libraries (it idles anyway) while this
-    process reads the run folders into the summary; :meth:`draw` has it draw every second figure while this
-    process draws the others. The bytes are the same as :func:`draw_figures` alone gives.
-
-    Parameters
-    ----------
-    client : dask.distributed.Client
-        Client of the cluster whose workers ran the campaign.
-    """
-
-    def __init__(self, client: Any) -> None:
-        self.client = client
-        self.worker: str | None = None
-        self.warm: Any = None
-        with contextlib.suppress(Exception):  # no worker: everything is drawn here
-            self.worker = sorted(client.scheduler_info().get("workers", {}))[0]
-            self.warm = client.submit(_import_plotting, workers=[self.worker], pure=False)
-
-    def draw(self, s: CampaignSummary) -> dict[str, bytes]:
-        """Every figure of ``s`` (:func:`draw_figures`), half of them drawn on the worker."""
-        names = figure_names(s)
-        theirs, fut = names[1::2], None
-        if self.worker is not None and theirs:
-            with contextlib.suppress(Exception):
-                fut = self.client.submit(draw_figures, s, theirs, workers=[self.worker], pure=False)
-        drawn = draw_figures(s, names if fut is None else names[0::2])
-        if fut is not None:
-            try:
-                drawn.update(fut.result())
-            except Exception:  # worker lost: drawn here instead
-                drawn.update(draw_figures(s, theirs))
-        return {n: drawn[n] for n in names}
-
-
-def _import_plotting() -> None:
-    """Import matplotlib (Agg) in this process: what :func:`draw_figures` needs first."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot
-
-
 def draw_figures(s: CampaignSummary, names: Collection[str] | None = None) -> dict[str, bytes]:
     """Figures: success rate and settle-time distribution per case, metrics vs each varied quantity.
 
@@ -355,7 +303,7 @@ def draw_figures(s: CampaignSummary, names: Collection[str] | None = None) -> di
     s : CampaignSummary
         The summary.
     names : collection of str, optional
-        Only these of :func:`figure_names` (default: all), so that processes can share the drawing out.
+        Only these of :func:`figure_names` (default: all).
 
     Returns
     -------
