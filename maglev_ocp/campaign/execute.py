@@ -22,9 +22,13 @@ Execution model
   files back as bytes; the client alone writes ``OUT`` (temporary folder, then
   rename), so workers need no shared filesystem and a stop at any instant
   leaves only finished run folders.
-* Each worker process builds the shared model once (a worker plugin warms it
-  up) and keeps what the runner builds per controller setting in a
-  per-process cache (:func:`worker_cache`), reused by every run it executes.
+* Each worker process builds the shared model and imports the runner once (a
+  worker plugin warms it up, while the client still expands the campaign:
+  :func:`start_cluster`) and keeps what the runner builds per controller
+  setting in a per-process cache (:func:`worker_cache`), reused by every run
+  it executes.
+* Runs go out in chunks that shrink (:func:`chunk_sizes`), one chunk per
+  worker at a time, the next handed out, in order, as one finishes.
 * A run that raises (or whose worker dies) is recorded as ``failed`` with its
   error, and the campaign goes on; ``retry_failed`` re-runs those on resume.
 """
