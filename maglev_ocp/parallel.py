@@ -5,15 +5,18 @@ Campaigns (:mod:`maglev_ocp.campaign`) and the diagnosis self-checks
 individually seeded jobs. :func:`local_client` starts the ``LocalCluster`` of
 single-threaded worker processes (Ctrl-C stays the parent's: the workers
 inherit an ignored SIGINT), and :func:`map_ordered` runs a function over a list
-of arguments on it, in this process when ``workers == 1``. Results do not
+of arguments on it, in this process when ``workers == 1``; :class:`BackgroundCluster`
+starts one while the caller prepares its jobs. Results do not
 depend on the number of workers: each job carries its own seed.
 """
 
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import logging
 import os
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
@@ -37,6 +40,106 @@ def _env_without(name: str) -> Iterator[None]:
             os.environ[name] = saved
 
 
+class BackgroundCluster:
+    """A ``LocalCluster`` of ``workers`` single-threaded processes, started in a background thread.
+
+    The worker processes start (import, warm up through ``plugin``) while the
+    caller goes on preparing its jobs; :meth:`client` waits for them. SIGINT is
+    ignored in this process from the start until the cluster is up (the worker
+    processes inherit the ignored SIGINT: Ctrl-C is the parent's, no worker
+    tracebacks), as it is while a cluster starts in the foreground.
+
+    Parameters
+    ----------
+    workers : int
+        Number of worker processes.
+    plugin : callable, optional
+        Returns the dask ``WorkerPlugin`` registered on every worker before :meth:`client` returns (e.g. to
+        build the shared model once per process); called in the starting thread, where Dask is imported.
+    """
+
+    def __init__(self, workers: int, plugin: Callable[[], Any] | None = None) -> None:
+        if importlib.util.find_spec("distributed") is None:  # said here, in the caller's thread; imported there
+            raise UserError("dask.distributed is not installed: pip install 'maglev-ocp[campaign]'")
+        self.workers = workers
+        self._plugin = plugin
+        self._cluster: Any = None
+        self._client: Any = None
+        self._error: BaseException | None = None
+        self._closed = False
+        self._sigint = contextlib.ExitStack()
+        self._sigint.enter_context(sigint_ignored())  # undone by the first of client() / close()
+        self._thread = threading.Thread(target=self._start, name="maglev-cluster-start", daemon=True)
+        self._thread.start()
+
+    def _start(self) -> None:
+        import dask
+        from dask.distributed import Client, LocalCluster
+
+        # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in its workers; a fixed trim threshold turns off
+        # glibc's dynamic mmap threshold, so every array above 128 kB is mapped, page-faulted, zeroed and
+        # unmapped again: the gap diagnosis (thousands of MB-sized products) ran 4 times slower in a worker
+        # than alone (one dataset 15 -> 60 s; the same with the variable set in a plain process). Left unset,
+        # also where an earlier cluster's nanny left it in this process's environment (Dask sets it there
+        # before spawning); the BLAS thread limits (one thread per single-threaded worker) stay.
+        settings = {
+            "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+            # The worker's statistical profiler samples the task thread's stack every 10 ms for the dashboard
+            # (which these clusters do not serve): CPU taken from the jobs, the same on every worker.
+            "distributed.worker.profile.enabled": False,
+            # A job goes to a worker when it has a free thread, not queued behind a running one: a worker
+            # slowed by other processes then takes fewer jobs instead of holding the next one (the default
+            # 1.1 gives a single-threaded worker two), and jobs start in their priority order.
+            "distributed.scheduler.worker-saturation": 1.0,
+        }
+        try:
+            with dask.config.set(settings), _env_without("MALLOC_TRIM_THRESHOLD_"):
+                self._cluster = LocalCluster(
+                    n_workers=self.workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=":0",
+                    silence_logs=logging.ERROR,
+                )
+            self._client = Client(self._cluster)
+            if self._plugin is not None:
+                self._client.register_plugin(self._plugin())
+        except BaseException as exc:  # re-raised in the caller's thread by client()
+            self._error = exc
+
+    def client(self) -> Any:
+        """The ``dask.distributed`` client, once every worker is up (and warmed up by the plugin)."""
+        self._thread.join()
+        self._sigint.close()
+        if self._error is not None:
+            raise self._error
+        return self._client
+
+    def close(self, background: bool = False) -> threading.Thread | None:
+        """Close the client and the cluster (after the start, if it is still under way).
+
+        With ``background``, the worker processes shut down in a thread (returned: join it before exiting)
+        while the caller goes on, e.g. writing a summary; SIGINT is this process's again either way.
+        """
+        if self._closed:
+            return None
+        self._closed = True
+        self._thread.join()
+        self._sigint.close()  # in the caller's (main) thread: signal handlers are set there only
+        if not background:
+            self._shut_down()
+            return None
+        closing = threading.Thread(target=self._shut_down, name="maglev-cluster-close", daemon=True)
+        closing.start()
+        return closing
+
+    def _shut_down(self) -> None:
+        if self._client is not None:
+            self._client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+
+
 @contextlib.contextmanager
 def local_client(workers: int, plugin: Any | None = None) -> Iterator[Any]:
     """A ``dask.distributed`` client on a ``LocalCluster`` of ``workers`` single-threaded processes.
@@ -48,31 +151,10 @@ def local_client(workers: int, plugin: Any | None = None) -> Iterator[Any]:
     plugin : dask WorkerPlugin, optional
         Registered on every worker (e.g. to build the shared model once per process).
     """
+    cluster = BackgroundCluster(workers, None if plugin is None else lambda: plugin)
     try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError:
-        raise UserError("dask.distributed is not installed: pip install 'maglev-ocp[campaign]'") from None
-    import dask
-
-    # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in its workers; a fixed trim threshold turns off glibc's
-    # dynamic mmap threshold, so every array above 128 kB is mapped, page-faulted, zeroed and unmapped again:
-    # the gap diagnosis (thousands of MB-sized products) ran 4 times slower in a worker than alone (one
-    # dataset 15 -> 60 s; the same with the variable set in a plain process). Left unset, also where an
-    # earlier cluster's nanny left it in this process's environment (Dask sets it there before spawning);
-    # the BLAS thread limits (one thread per single-threaded worker) stay.
-    no_trim = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
-    with sigint_ignored(), dask.config.set(no_trim), _env_without("MALLOC_TRIM_THRESHOLD_"):
-        # the worker processes inherit SIG_IGN: Ctrl-C is the client's (no worker tracebacks)
-        cluster = LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR
-        )
-    client = Client(cluster)
-    try:
-        if plugin is not None:
-            client.register_plugin(plugin)
-        yield client
+        yield cluster.client()
     finally:
-        client.close()
         cluster.close()
 
 
@@ -133,4 +215,4 @@ def map_ordered(
     return [done[i] for i in range(len(items))]
 
 
-__all__ = ["local_client", "map_ordered"]
+__all__ = ["BackgroundCluster", "local_client", "map_ordered"]

@@ -344,3 +344,49 @@ def test_explicit_runs_multiply_the_cases_and_case_order(camp_dir: Path) -> None
     assert all("controller_params.cogging" not in s.overrides for s in specs if s.case % 2 == 0)
     scn = apply_overrides(camp.base_scenario_dict(), odd[0].overrides)
     assert scn["plant"]["process_noise"] == {"g": 0.0} and scn["controller"]["type"] == "pid"
+
+
+def stamped_run(scenario: dict, seed: int, workdir: Path, save) -> dict:
+    """:func:`toy_run` that also records when (wall clock) and in which process it started."""
+    import time
+
+    t0 = time.time()
+    time.sleep(0.01)  # long enough that a worker finishing a chunk is not overtaken within a millisecond
+    try:
+        m = toy_run(scenario, seed, workdir, save)
+    except RuntimeError:
+        m = {"all_settled": False, "stop_hits": 0, "solver_failures": 0, "targets": []}
+    return {**m, "started_at": t0, "pid": os.getpid()}
+
+
+def test_chunks_start_in_submission_order_on_a_local_cluster(camp_dir: Path) -> None:
+    """On 2 worker processes the chunks start in the order of :func:`chunk_sizes`, largest first (guided
+    self-scheduling): submitted all at once, Dask ran them last-submitted first, the largest at the end."""
+    import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
+    camp = load_campaign(camp_dir / "camp.yaml").model_copy(update={"n_runs": 30})
+    camp._root_dir = load_campaign(camp_dir / "camp.yaml").root_dir
+    res = run_campaign(camp, camp_dir / "o", workers=2, run_fn=stamped_run, progress=False, figures=True)
+    assert res.report.ran == len(res.summary.table) == 30 * n_cases(camp) and res.report.remaining == 0
+    specs = expand(camp)
+    sizes = chunk_sizes(len(specs), 2)
+    assert len(sizes) >= 6 and sizes[0] > sizes[-1]
+    starts, pids, i = [], set(), 0
+    for size in sizes:  # the first run of each chunk, in submission order
+        m = json.loads((run_dir(camp_dir / "o", specs[i].run_id) / "metrics.json").read_text())
+        starts.append(m["started_at"])
+        pids.add(m["pid"])
+        i += size
+    assert os.getpid() not in pids and len(pids) == 2
+    # Two workers take two chunks at a time: a chunk may start just before the one submitted before it,
+    # never before one submitted two or more places earlier.
+    late = [(a, b) for a in range(len(starts)) for b in range(a + 2, len(starts)) if starts[b] < starts[a]]
+    assert not late, (sizes, late)
+    # The figures are written (drawn while the workers shut down), the same bytes as drawn again here.
+    from maglev_ocp.campaign.summary import draw_figures, figure_names
+
+    here = draw_figures(res.summary)
+    assert list(here) == figure_names(res.summary) and len(here) >= 6
+    for name, png in here.items():
+        assert (camp_dir / "o" / name).read_bytes() == png, name

@@ -60,3 +60,27 @@ def test_workers_keep_glibcs_dynamic_mmap_threshold(monkeypatch):
         assert e["MALLOC_TRIM_THRESHOLD_"] is None, e
         assert e["OMP_NUM_THREADS"] == "1" and e["OPENBLAS_NUM_THREADS"] == "1", e
     # the speed this buys (worker vs in-process allocation time) is measured in benchmarks/bench_workers.py
+
+
+def _failing_plugin():
+    raise RuntimeError("plugin factory failed")
+
+
+def test_background_cluster_hands_its_start_error_to_the_caller_and_restores_sigint():
+    """A LocalCluster started in the background: its start's error is raised by ``client()`` in the caller's
+    thread, ``close()`` still shuts down what had started, and SIGINT is the caller's own again."""
+    import signal
+
+    from maglev_ocp.parallel import BackgroundCluster
+
+    before = signal.getsignal(signal.SIGINT)
+    cluster = BackgroundCluster(2, _failing_plugin)
+    assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN  # while the workers start (they inherit it)
+    with pytest.raises(RuntimeError, match="plugin factory failed"):
+        cluster.client()
+    assert signal.getsignal(signal.SIGINT) is before
+    closing = cluster.close(background=True)  # the client and the cluster that did start are shut down
+    assert closing is not None
+    closing.join(timeout=120)
+    assert not closing.is_alive()
+    assert cluster.close(background=True) is None  # once only

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from .config import Campaign, load_campaign
-from .execute import ExecutionReport, execute, worker_cache
+from .execute import ExecutionReport, execute, start_cluster, worker_cache
 from .expand import RunSpec, expand
 from .summary import CampaignSummary, deterministic_columns, summarize
 
@@ -82,10 +82,25 @@ def run_campaign(
         Already saved into ``out_dir``.
     """
     camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
-    base = camp.base_scenario_dict()
-    specs = expand(camp, base)  # once: the runs and the summary share it
-    report = execute(camp, out_dir, base=base, specs=specs, **execute_options)
-    summary = summarize(out_dir, specs, camp.name)
-    result = CampaignResult(report, summary)
-    result.save(figures=figures)
+    # The worker processes start (and warm up) while this process expands the campaign and checks its folder.
+    cluster = start_cluster(
+        int(execute_options.get("workers", 1)) if execute_options.get("limit") != 0 else 1,  # --limit 0: none
+        execute_options.get("scheduler"),
+        runner=execute_options.get("run_fn") is None,
+    )
+    closing = None
+    try:
+        base = camp.base_scenario_dict()
+        specs = expand(camp, base)  # once: the runs and the summary share it
+        report = execute(camp, out_dir, base=base, specs=specs, cluster=cluster, **execute_options)
+        if cluster is not None:  # the workers shut down while the summary is drawn and written
+            closing = cluster.close(background=True)
+        summary = summarize(out_dir, specs, camp.name)
+        result = CampaignResult(report, summary)
+        result.save(figures=figures)
+    finally:
+        if closing is not None:
+            closing.join()
+        elif cluster is not None:
+            cluster.close()
     return result

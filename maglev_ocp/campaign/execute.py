@@ -22,9 +22,13 @@ Execution model
   files back as bytes; the client alone writes ``OUT`` (temporary folder, then
   rename), so workers need no shared filesystem and a stop at any instant
   leaves only finished run folders.
-* Each worker process builds the shared model once (a worker plugin warms it
-  up) and keeps what the runner builds per controller setting in a
-  per-process cache (:func:`worker_cache`), reused by every run it executes.
+* Each worker process builds the shared model and imports the runner once (a
+  worker plugin warms it up, while the client still expands the campaign:
+  :func:`start_cluster`) and keeps what the runner builds per controller
+  setting in a per-process cache (:func:`worker_cache`), reused by every run
+  it executes.
+* Runs go out in chunks that shrink (:func:`chunk_sizes`), one chunk per
+  worker at a time, the next handed out, in order, as one finishes.
 * A run that raises (or whose worker dies) is recorded as ``failed`` with its
   error, and the campaign goes on; ``retry_failed`` re-runs those on resume.
 """
@@ -33,6 +37,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import itertools
 import json
 import os
 import shutil
@@ -52,7 +57,7 @@ import yaml
 from ..config import load_yaml
 from ..errors import UserError
 from ..output import atomic_write_text
-from ..parallel import local_client
+from ..parallel import BackgroundCluster
 from .config import Campaign, SaveSettings
 from .expand import RunSpec, apply_overrides, expand
 
@@ -321,7 +326,8 @@ class ExecutionReport:
     remaining : int
         Runs still without a finished folder (``--limit`` or an interruption).
     wall_s : float
-        Wall time of the execution (cluster start-up included).
+        Wall time of the execution, from the start of :func:`execute` (the cluster's start-up included; of a
+        cluster the caller started in the background, the part not done by then).
     workers : int
         Worker processes used (1 = in-process).
     scheduler : str or None
@@ -434,18 +440,53 @@ def _clean_tmp(out_dir: Path) -> None:
 
 
 class _WarmUp:
-    """Dask worker plugin: build the shared model once when a worker starts."""
+    """Dask worker plugin: what every run needs, built once when a worker starts (before the first run).
+
+    Parameters
+    ----------
+    runner : bool
+        Also import the scenario runner's modules (the compiled loop, the controllers, SciPy: about half a
+        second per process) and hash the code that names the compiled libraries; only for the shipped run
+        function (a campaign's own ``run_fn`` may need none of it).
+    """
 
     name = "maglev-warmup"
 
+    def __init__(self, runner: bool = True) -> None:
+        self.runner = runner
+
     def setup(self, worker: Any) -> None:
-        """Build the model's Functions in the worker process."""
+        """Build the model's Functions in the worker process (and load the runner, see ``runner``)."""
         from ..model import get_model
 
         get_model()
+        if self.runner:
+            from ..codegen.loop_c import code_version
+            from . import runner_adapter  # noqa: F401
+
+            code_version()
 
     def teardown(self, worker: Any) -> None:
         """Nothing to release."""
+
+
+def _warmup_plugin(runner: bool) -> Any:
+    """A :class:`_WarmUp` that is a Dask ``WorkerPlugin`` (dask imported only here)."""
+    from dask.distributed import WorkerPlugin
+
+    return type("MaglevWarmUp", (_WarmUp, WorkerPlugin), {})(runner)
+
+
+def start_cluster(workers: int, scheduler: str | None = None, runner: bool = True) -> BackgroundCluster | None:
+    """Start the campaign's LocalCluster in the background (``None`` for in-process runs or a remote scheduler).
+
+    The worker processes start and warm up (:class:`_WarmUp`) while the caller expands the campaign and
+    checks its folder; pass the result to :func:`execute` as ``cluster`` and close it when done.
+    ``runner``: the runs go through the shipped run function (:func:`run_real`).
+    """
+    if scheduler or workers <= 1:
+        return None
+    return BackgroundCluster(workers, functools.partial(_warmup_plugin, runner))
 
 
 def _preload_summary() -> None:
@@ -462,27 +503,32 @@ def _preload_summary() -> None:
 
 
 @contextlib.contextmanager
-def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
-    """A ``dask.distributed`` client on a LocalCluster or a remote scheduler."""
-    try:
-        from dask.distributed import Client, WorkerPlugin
-    except ImportError:
-        raise UserError("dask.distributed is not installed: pip install 'maglev-ocp[campaign]'") from None
-
-    plugin_cls = type("MaglevWarmUp", (_WarmUp, WorkerPlugin), {})
+def _client(workers: int, scheduler: str | None, cluster: BackgroundCluster | None, runner: bool) -> Iterator[Any]:
+    """A ``dask.distributed`` client: on ``cluster`` (left open), a remote scheduler, or a new LocalCluster."""
+    if cluster is not None:
+        yield cluster.client()
+        return
     if scheduler:
+        try:
+            from dask.distributed import Client
+        except ImportError:
+            raise UserError("dask.distributed is not installed: pip install 'maglev-ocp[campaign]'") from None
         try:
             client = Client(scheduler, timeout="20s")
         except (OSError, TimeoutError) as exc:
             raise UserError(f"--scheduler {scheduler}: cannot connect ({_one_line(exc)})") from None
         try:
-            client.register_plugin(plugin_cls())
+            client.register_plugin(_warmup_plugin(runner))
             yield client
         finally:
             client.close()
         return
-    with local_client(workers, plugin_cls()) as client:
-        yield client
+    started = start_cluster(workers, runner=runner)
+    assert started is not None
+    try:
+        yield started.client()
+    finally:
+        started.close()
 
 
 def _run_on_dask(
@@ -494,6 +540,8 @@ def _run_on_dask(
     workers: int,
     scheduler: str | None,
     record: Callable[[RunSpec, RunOutcome], None],
+    cluster: BackgroundCluster | None = None,
+    runner: bool = True,
 ) -> int:
     """Run ``todo`` in chunks on a Dask cluster; ``record`` each outcome as its chunk completes.
 
@@ -501,16 +549,22 @@ def _run_on_dask(
     """
     from dask.distributed import as_completed
 
-    with _client(workers, scheduler) as client:
+    with _client(workers, scheduler, cluster, runner) as client:
         if scheduler:
             workers = max(1, len(client.scheduler_info().get("workers", {})))
         base_f = client.scatter(base, broadcast=True)
         by_key: dict[str, list[RunSpec]] = {}
-        futures = []
-        start = 0
-        for size in chunk_sizes(len(todo), workers):
-            chunk = todo[start : start + size]
-            start += size
+        futures: list[Any] = []
+        sizes = chunk_sizes(len(todo), workers)
+        bounds = [sum(sizes[:i]) for i in range(len(sizes) + 1)]
+        chunks = iter([todo[a:b] for a, b in itertools.pairwise(bounds)])
+        running = as_completed()
+
+        def submit_next() -> None:
+            """Hand out the next chunk (largest first), if any is left."""
+            chunk = next(chunks, None)
+            if chunk is None:
+                return
             fut = client.submit(
                 execute_chunk,
                 [s.to_dict() for s in chunk],
@@ -523,11 +577,20 @@ def _run_on_dask(
             )
             by_key[fut.key] = chunk
             futures.append(fut)
+            running.add(fut)
+
+        # One chunk per worker at a time, the next handed out as one finishes (guided self-scheduling in the
+        # order of chunk_sizes). Submitted all at once, Dask's scheduler gave the chunks submitted within its
+        # 100 ms FIFO window one priority, assigned the first few to workers before it started queuing, and
+        # ran the rest last-submitted first: the smallest chunks first and the largest at the end.
+        for _ in range(workers):
+            submit_next()
         # the client waits on the workers from here on: it loads what the summary needs meanwhile (the
         # figures' matplotlib and the parquet writer, ~0.5-1 s that would otherwise follow the runs)
         threading.Thread(target=_preload_summary, name="maglev-preload-summary", daemon=True).start()
         try:
-            for fut in as_completed(futures):
+            for fut in running:
+                submit_next()  # before writing this chunk's folders: the worker does not wait on the client
                 chunk = by_key[fut.key]
                 try:
                     outcomes = fut.result()
@@ -553,6 +616,7 @@ def execute(
     progress: bool = True,
     base: dict[str, Any] | None = None,
     specs: list[RunSpec] | None = None,
+    cluster: BackgroundCluster | None = None,
 ) -> ExecutionReport:
     """Run every unfinished run of the campaign; finished ones are skipped.
 
@@ -579,6 +643,9 @@ def execute(
     specs : list of RunSpec, optional
         The campaign's expansion with ``base`` (default: expanded here), for a caller that needs it
         too (:func:`maglev_ocp.campaign.run_campaign` summarizes on it: one expansion, not two).
+    cluster : BackgroundCluster, optional
+        A LocalCluster already starting (:func:`start_cluster`), used instead of starting one here (and left
+        open: the caller closes it); ignored for in-process runs and with ``scheduler``.
 
     Returns
     -------
@@ -603,6 +670,7 @@ def execute(
     if limit is not None:
         todo = todo[:limit]
     save_d = camp.save.model_dump()
+    runner = run_fn is None
     if run_fn is None:  # the scenario runner, on the campaign's closed loop (a module-level partial: picklable)
         run_fn = functools.partial(run_real, loop=camp.execution.loop)
     counts = {"ok": n_ok, "failed": n_failed, "ran": 0, "failed_now": 0, "cpu_s": 0.0}
@@ -637,7 +705,8 @@ def execute(
             for s in todo:
                 _record(s, execute_one(s.to_dict(), base, camp.name, save_d, run_fn))
         else:
-            workers = _run_on_dask(todo, base, camp.name, save_d, run_fn, workers, scheduler, _record)
+            on = None if scheduler else cluster
+            workers = _run_on_dask(todo, base, camp.name, save_d, run_fn, workers, scheduler, _record, on, runner)
     except KeyboardInterrupt:
         interrupted = True
     finally:

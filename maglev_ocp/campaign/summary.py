@@ -26,6 +26,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -218,7 +219,9 @@ class CampaignSummary:
             atomic_write_bytes(out / "summary.parquet", buf.getvalue())
             written.append(out / "summary.parquet")
         if figures and len(self.finished):
-            written += plot_summary(self, out)
+            for name, png in draw_figures(self).items():
+                atomic_write_bytes(out / name, png)
+                written.append(out / name)
         return written
 
 
@@ -262,29 +265,77 @@ def _per_case_axes(ax, labels: list[str], ylabel: str, title: str) -> None:
     ax.grid(True, axis="y", alpha=0.3)
 
 
-def _save_figure(fig, path: Path, written: list[Path], **layout: Any) -> None:
-    """Lay ``fig`` out (``layout``: ``tight_layout``'s arguments), write it to ``path`` and close it."""
+def _render(fig, **layout: Any) -> bytes:
+    """Lay ``fig`` out (``layout``: ``tight_layout``'s arguments), close it and return it as PNG bytes."""
+    import io
+
     import matplotlib.pyplot as plt
 
     fig.tight_layout(**layout)
-    written.append(path)
-    atomic_write_bytes(path, fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)
+    return buf.getvalue()
 
 
-def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
-    """Figures: success rate and settle-time distribution per case, metrics vs each varied quantity."""
+def _vs_columns(s: CampaignSummary) -> list[str]:
+    """The varied quantities the summary draws the metrics against (``dev.*`` deviations, ``grid.*`` settings)."""
+    return [c for c in s.finished.columns if c.startswith(("dev.", "grid."))]
+
+
+def _has_tradeoff(s: CampaignSummary) -> bool:
+    """Whether the summary has a speed-vs-computation figure (a sweep with step times)."""
+    t = s.finished
+    return any(c.startswith("grid.") for c in t.columns) and "m.step_time_us.median" in t
+
+
+def figure_names(s: CampaignSummary) -> list[str]:
+    """File names of the summary's figures, in the order :func:`draw_figures` draws them."""
+    names = ["success_rate.png", "settle_time.png"] + (["tradeoff.png"] if _has_tradeoff(s) else [])
+    return names + [f"vs_{col.replace('.', '_')}.png" for col in _vs_columns(s)]
+
+
+def draw_figures(s: CampaignSummary, names: Collection[str] | None = None) -> dict[str, bytes]:
+    """Figures: success rate and settle-time distribution per case, metrics vs each varied quantity.
+
+    Parameters
+    ----------
+    s : CampaignSummary
+        The summary.
+    names : collection of str, optional
+        Only these of :func:`figure_names` (default: all).
+
+    Returns
+    -------
+    dict
+        PNG bytes by file name, in the order of :func:`figure_names`.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    written: list[Path] = []
+    wanted = set(figure_names(s) if names is None else names)
+    drawn: dict[str, bytes] = {}
     groups = _groups(s)
     labels = [lab for lab, _ in groups]
-    n_g = len(groups)
+    if "success_rate.png" in wanted:
+        _success_rate(s, groups, labels, drawn)
+    if "settle_time.png" in wanted:
+        _settle_time(s, groups, labels, drawn)
+    t = s.finished
+    if "tradeoff.png" in wanted and _has_tradeoff(s):
+        _tradeoff(s, groups, drawn)
+    for col in _vs_columns(s):
+        if f"vs_{col.replace('.', '_')}.png" in wanted:
+            _metrics_vs(s, t, col, groups, drawn)
+    return {n: drawn[n] for n in figure_names(s) if n in drawn}
 
-    # Success rate with 95 % Wilson intervals.
+
+def _success_rate(s: CampaignSummary, groups: list[tuple[str, Any]], labels: list[str], drawn: dict) -> None:
+    """Bar per case: the share of successful runs with its 95 % Wilson interval."""
+    import matplotlib.pyplot as plt
+
+    n_g = len(groups)
     fig, ax = plt.subplots(figsize=(max(5.0, 0.9 * n_g + 2), 3.8))
     rates, errs = [], [[], []]
     for _, g in groups:
@@ -304,9 +355,14 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
         "success rate [%] (all targets within tolerance, no stop)",
         f"{s.name}: success rate per case (95 % Wilson interval)",
     )
-    _save_figure(fig, out / "success_rate.png", written)
+    drawn["success_rate.png"] = _render(fig)
 
-    # Settle-time distributions (every settled target of every run).
+
+def _settle_time(s: CampaignSummary, groups: list[tuple[str, Any]], labels: list[str], drawn: dict) -> None:
+    """Violin per case: the settle times of every settled target of every run."""
+    import matplotlib.pyplot as plt
+
+    n_g = len(groups)
     fig, ax = plt.subplots(figsize=(max(5.0, 0.9 * n_g + 2), 3.8))
     data = []
     for _, g in groups:
@@ -316,62 +372,68 @@ def plot_summary(s: CampaignSummary, out: Path) -> list[Path]:
     if any(len(d) for d in data):
         ax.violinplot([d if len(d) else [np.nan] for d in data], positions=range(n_g), showmedians=True)
     _per_case_axes(ax, labels, "settle time per target [ms]", f"{s.name}: settle-time distribution per case")
-    _save_figure(fig, out / "settle_time.png", written)
+    drawn["settle_time.png"] = _render(fig)
 
-    # Trade-off of a sweep: per case, median settle time against median controller step time.
-    t = s.finished
-    if any(c.startswith("grid.") for c in t.columns) and "m.step_time_us.median" in t:
-        fig, ax = plt.subplots(figsize=(7.5, 4.4 + 0.16 * n_g))
-        for j, (lab, g) in enumerate(groups):
-            st = 1e3 * np.nanmedian(np.asarray(g["settle_time_max_s"], dtype=float))
-            stp = np.nanmedian(np.asarray(g["m.step_time_us.median"], dtype=float))
-            rate = 100 * float(np.mean(np.asarray(g["success"], dtype=bool)))
-            ax.scatter([stp], [st], s=40, color=f"C{j % 10}", label=f"{lab} [{rate:.0f} % success]")
-            ax.annotate(lab.split()[0], (stp, st), fontsize=7, xytext=(4, 3), textcoords="offset points")
-        fig.legend(loc="lower center", fontsize=7, ncol=1 if n_g > 4 else 2, frameon=False)
-        ax.set_xlabel("controller step time, median over runs [µs]")
-        ax.set_ylabel("slowest settle time, median over runs [ms]")
-        ax.set_title(f"{s.name}: speed of motion vs computation per case")
-        ax.grid(True, alpha=0.3)
-        _save_figure(fig, out / "tradeoff.png", written, rect=(0, 0.17 * n_g / (4.4 / 0.16 + n_g) * 6 + 0.02, 1, 1))
 
-    # Metrics against each varied quantity.
+def _tradeoff(s: CampaignSummary, groups: list[tuple[str, Any]], drawn: dict) -> None:
+    """Trade-off of a sweep: per case, median settle time against median controller step time."""
+    import matplotlib.pyplot as plt
+
+    n_g = len(groups)
+    fig, ax = plt.subplots(figsize=(7.5, 4.4 + 0.16 * n_g))
+    for j, (lab, g) in enumerate(groups):
+        st = 1e3 * np.nanmedian(np.asarray(g["settle_time_max_s"], dtype=float))
+        stp = np.nanmedian(np.asarray(g["m.step_time_us.median"], dtype=float))
+        rate = 100 * float(np.mean(np.asarray(g["success"], dtype=bool)))
+        ax.scatter([stp], [st], s=40, color=f"C{j % 10}", label=f"{lab} [{rate:.0f} % success]")
+        ax.annotate(lab.split()[0], (stp, st), fontsize=7, xytext=(4, 3), textcoords="offset points")
+    fig.legend(loc="lower center", fontsize=7, ncol=1 if n_g > 4 else 2, frameon=False)
+    ax.set_xlabel("controller step time, median over runs [µs]")
+    ax.set_ylabel("slowest settle time, median over runs [ms]")
+    ax.set_title(f"{s.name}: speed of motion vs computation per case")
+    ax.grid(True, alpha=0.3)
+    drawn["tradeoff.png"] = _render(fig, rect=(0, 0.17 * n_g / (4.4 / 0.16 + n_g) * 6 + 0.02, 1, 1))
+
+
+def _metrics_vs(s: CampaignSummary, t: Any, col: str, groups: list[tuple[str, Any]], drawn: dict) -> None:
+    """Metrics against one varied quantity: scatter per case (deviations) or box per value (grid settings)."""
+    import matplotlib.pyplot as plt
+
+    n_g = len(groups)
     metrics_y = [
         ("settle_time_max_s", 1e3, "slowest settle time [ms]"),
         ("rms_error_max_m", 1e6, "worst steady RMS error [µm]"),
     ]
     if "m.step_time_us.p99" in t:
         metrics_y.append(("m.step_time_us.p99", 1.0, "controller step time p99 [µs]"))
-    for col in [c for c in t.columns if c.startswith(("dev.", "grid."))]:
-        fig, axs = plt.subplots(1, len(metrics_y), figsize=(4.2 * len(metrics_y), 3.8), squeeze=False)
-        if col.startswith("dev."):
-            # Scatter per case against the drawn deviation; o success, x failure.
-            for a, (ycol, scale, ylab) in zip(axs[0], metrics_y, strict=True):
-                for j, (lab, g) in enumerate(groups):
-                    x = np.asarray(g[col], dtype=float)
-                    y = scale * np.asarray(g[ycol], dtype=float)
-                    ok = np.asarray(g["success"], dtype=bool)
-                    a.scatter(x[ok], y[ok], s=10, color=f"C{j % 10}", label=lab, alpha=0.7)
-                    a.scatter(x[~ok], y[~ok], s=18, marker="x", color=f"C{j % 10}", alpha=0.9)
-                a.set_xlabel(f"{col[4:]} deviation [%]")
-                a.set_ylabel(ylab)
-                a.grid(True, alpha=0.3)
-            if n_g <= 6:
-                axs[0][0].legend(fontsize=7, title="o success, x failure", title_fontsize=7)
-        else:
-            # Box per grid value (pooled over the other varied settings), in grid order.
-            cats = list(dict.fromkeys(str(v) for v in t[col]))
-            names = [_short(v) for v in cats]
-            for a, (ycol, scale, ylab) in zip(axs[0], metrics_y, strict=True):
-                data = []
-                for c in cats:
-                    y = scale * np.asarray(t.loc[t[col].astype(str) == c, ycol], dtype=float)
-                    data.append(y[np.isfinite(y)] if np.isfinite(y).any() else np.array([np.nan]))
-                a.boxplot(data, positions=range(len(cats)), widths=0.5, showfliers=True)
-                a.set_xticks(range(len(cats)), names, fontsize=7, rotation=15 if len(cats) > 3 else 0)
-                a.set_xlabel(col[5:])
-                a.set_ylabel(ylab)
-                a.grid(True, axis="y", alpha=0.3)
-        fig.suptitle(f"{s.name}: metrics vs {col}")
-        _save_figure(fig, out / f"vs_{col.replace('.', '_')}.png", written)
-    return written
+    fig, axs = plt.subplots(1, len(metrics_y), figsize=(4.2 * len(metrics_y), 3.8), squeeze=False)
+    if col.startswith("dev."):
+        # Scatter per case against the drawn deviation; o success, x failure.
+        for a, (ycol, scale, ylab) in zip(axs[0], metrics_y, strict=True):
+            for j, (lab, g) in enumerate(groups):
+                x = np.asarray(g[col], dtype=float)
+                y = scale * np.asarray(g[ycol], dtype=float)
+                ok = np.asarray(g["success"], dtype=bool)
+                a.scatter(x[ok], y[ok], s=10, color=f"C{j % 10}", label=lab, alpha=0.7)
+                a.scatter(x[~ok], y[~ok], s=18, marker="x", color=f"C{j % 10}", alpha=0.9)
+            a.set_xlabel(f"{col[4:]} deviation [%]")
+            a.set_ylabel(ylab)
+            a.grid(True, alpha=0.3)
+        if n_g <= 6:
+            axs[0][0].legend(fontsize=7, title="o success, x failure", title_fontsize=7)
+    else:
+        # Box per grid value (pooled over the other varied settings), in grid order.
+        cats = list(dict.fromkeys(str(v) for v in t[col]))
+        names = [_short(v) for v in cats]
+        for a, (ycol, scale, ylab) in zip(axs[0], metrics_y, strict=True):
+            data = []
+            for c in cats:
+                y = scale * np.asarray(t.loc[t[col].astype(str) == c, ycol], dtype=float)
+                data.append(y[np.isfinite(y)] if np.isfinite(y).any() else np.array([np.nan]))
+            a.boxplot(data, positions=range(len(cats)), widths=0.5, showfliers=True)
+            a.set_xticks(range(len(cats)), names, fontsize=7, rotation=15 if len(cats) > 3 else 0)
+            a.set_xlabel(col[5:])
+            a.set_ylabel(ylab)
+            a.grid(True, axis="y", alpha=0.3)
+    fig.suptitle(f"{s.name}: metrics vs {col}")
+    drawn[f"vs_{col.replace('.', '_')}.png"] = _render(fig)
