@@ -157,7 +157,7 @@ def diagnose(
     q = clock.run("quantify", quantify, split, base, loc, att, st, rng)
     verdict = replace(att.verdict, selected=list(att.verdict.selected), reasons=[*att.verdict.reasons, *q.reasons])
     unexpl = clock.run("unexplained", unexplained_stage, split, base, verdict, q, noise, st)
-    cons, verdict = clock.run("consequence", consequence_stage, split, base, att, unexpl.verdict, st)
+    cons, verdict = clock.run("consequence", consequence_stage, split, base, att, unexpl.verdict, st, params)
     noise = replace(
         noise,
         checks_after=unexpl.checks_after,

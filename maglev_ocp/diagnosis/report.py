@@ -464,6 +464,8 @@ def write_model_files(d: Diagnosis, out_dir: str | os.PathLike) -> list[Path]:
         ("baseline.yaml", c.baseline_file, "Baseline model"),
     ):
         text = head.format(what=what, name=name, instruction=model_file_instruction(name))
+        if data.get("trusted") is False:  # said where a reader of the file looks first, and in the file's keys
+            text = "# UNTRUSTED: " + "; ".join(data.get("untrusted_because", [])) + "\n" + text
         atomic_write_text(out / name, text + yaml.safe_dump(plain_data(data), sort_keys=False))
         written.append(out / name)
     return written

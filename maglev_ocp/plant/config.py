@@ -19,6 +19,7 @@ import copy
 import functools
 import math
 import os
+import warnings
 from pathlib import Path
 from typing import Any, Literal
 
@@ -31,7 +32,7 @@ from ..effects import EFFECTS, EffectSet
 from ..errors import ConfigError
 from ..model import get_model
 from ..output import dump_yaml
-from ..params import ParamOverrides, Params
+from ..params import ParamOverrides, Params, UntrustedModelWarning
 from .disturbances import Cable, Disturbance
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
@@ -204,6 +205,10 @@ class PlantConfig(Strict):
     disturbances : list
         Scheduled force pulses and steps, payloads and a cable
         (:mod:`maglev_ocp.plant.disturbances`).
+    trusted, untrusted_because : bool, list of str
+        A model file written by ``maglev diagnose`` is a plant file too; its writer
+        marks it ``trusted: false`` with the reasons when it cannot vouch for it
+        (loading it then warns, :class:`maglev_ocp.params.UntrustedModelWarning`).
     """
 
     profile: str = Field("custom", pattern=r"^[A-Za-z0-9_\-]+$")
@@ -226,6 +231,8 @@ class PlantConfig(Strict):
     disturbances: list[Disturbance] = Field(
         default_factory=list, description="scheduled force pulses / steps, payloads and a cable (SI units)"
     )
+    trusted: bool = Field(True, description="false: the file's writer (maglev diagnose) cannot vouch for it")
+    untrusted_because: list[str] = Field(default_factory=list, description="why the file is marked untrusted")
 
     @model_validator(mode="after")
     def _consistent(self) -> PlantConfig:
@@ -289,8 +296,15 @@ class PlantConfig(Strict):
         return es, es.vector(self.effect_values())
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain nested dict (YAML / JSON), loadable by :func:`load_plant_config`."""
-        return self.model_dump(mode="json")
+        """Plain nested dict (YAML / JSON), loadable by :func:`load_plant_config`.
+
+        The trust keys only when the file is marked untrusted (a trusted plant's dict, and every key and
+        result derived from it, stays what it was before the keys existed)."""
+        d = self.model_dump(mode="json")
+        if self.trusted:
+            d.pop("trusted")
+            d.pop("untrusted_because")
+        return d
 
     def save(self, path: str | os.PathLike) -> None:
         """Write these settings as a complete plant YAML file."""
@@ -453,7 +467,15 @@ def load_plant_config(path: str | os.PathLike) -> PlantConfig:
             f"{path}: profile: unknown plant profile {base!r}; choose from {', '.join(available_profiles())}"
         )
     merged = deep_merge(profile_data(base), data)
-    return parse_model(PlantConfig, merged, str(path))
+    cfg = parse_model(PlantConfig, merged, str(path))
+    if not cfg.trusted:
+        warnings.warn(
+            f"{path}: marked untrusted by its writer ({'; '.join(cfg.untrusted_because) or 'no reason given'}); "
+            "results with it cannot be relied on",
+            UntrustedModelWarning,
+            stacklevel=2,
+        )
+    return cfg
 
 
 __all__ = [

@@ -8,11 +8,13 @@ findings and, where it adds to the verdict, a new verdict.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ...constants import encoder_resolution
+from ...params import NOMINAL, Params
 from ..consequence import EffectSize, effect_in_model, effect_size, plant_effects, plant_file
 from ..fit import residuals_with
 from ..localize import Region
@@ -23,7 +25,7 @@ from ..settings import DiagnoseSettings
 from ..simulate_compare import TrajectoryComparison, compare_trajectories
 from ..spectra import wide_spectrum
 from ..verdict import EffectSets, Verdict
-from .baseline import Baseline
+from .baseline import Baseline, prior_sd
 from .localization import Localization, regions, views
 from .models import Attribution
 from .split import Split
@@ -188,12 +190,62 @@ def unexplained_stage(
     return Unexplained(checks_after, remaining_peaks, unexplained, v)
 
 
+#: A constant further than this many prior standard deviations from the prior's centre marks a model file
+#: untrusted (the prior, :func:`.baseline.prior_sd`, is the project's statement of how far a rig's constants
+#: may lie from nominal; beyond it a constant has most likely absorbed an effect the model lacks).
+TRUST_PRIOR_SDS: float = 4.0
+
+
+def model_trust(sets: EffectSets, params: dict[str, float], ref: Params, sd: dict[str, float] | None) -> list[str]:
+    """Why a model file cannot be trusted (empty: nothing known against it).
+
+    Two findings of the diagnosis make a model file one that a controller
+    should not be handed as if it were good: a gap the library did not account
+    for (``unexplained``, or partly explained: the constants were fitted with
+    that gap in the data, and may have absorbed it), and a constant further than
+    :data:`TRUST_PRIOR_SDS` prior standard deviations from the prior's centre
+    (nominal, or the ``params`` the diagnosis was given): on a rig whose
+    commutation error grew along the stroke, ``unexplained`` with C1 at 2.84
+    against the nominal 14.1 (-80 %, 8 sd), which took every controller off its
+    targets.
+    """
+    why = []
+    if sets.unexplained or sets.gap:
+        what = "the library does not account for the gap" if sets.unexplained else "a located gap stays unexplained"
+        why.append(f"verdict {sets}: {what}, and the constants were fitted with it in the data")
+    refd = ref.as_dict()
+    for name, rel in (sd or {}).items():
+        c, v = refd.get(name), params.get(name)
+        if c is None or v is None or c == 0 or rel <= 0:
+            continue
+        dev = (v / c - 1.0) / rel
+        if abs(dev) > TRUST_PRIOR_SDS:
+            why.append(
+                f"{name} = {v:.4g} is {100 * (v / c - 1):+.0f} % from the prior's {c:.4g} "
+                f"({abs(dev):.1f} prior sd; at most {TRUST_PRIOR_SDS:g} trusted)"
+            )
+    return why
+
+
+def trust_marked(data: dict, why: Sequence[str]) -> dict:
+    """A model file's mapping with ``trusted: false`` and the reasons first, when there are any."""
+    return {"trusted": False, "untrusted_because": list(why), **data} if why else data
+
+
 def consequence_stage(
-    split: Split, base: Baseline, att: Attribution, verdict: Verdict, st: DiagnoseSettings
+    split: Split,
+    base: Baseline,
+    att: Attribution,
+    verdict: Verdict,
+    st: DiagnoseSettings,
+    ref: Params | None = None,
 ) -> tuple[Consequences, Verdict]:
     """Force, delay and closed-loop consequence of every effect of the verdict; the model files.
 
-    Returns the consequences and the verdict with what matters for the 0.1 mm goal among its reasons.
+    ``ref`` is the centre of the calibration's prior (the ``params`` the diagnosis
+    was given; default nominal): the model files are marked untrusted
+    (:func:`model_trust`) where the verdict or the constants say so. Returns the
+    consequences and the verdict with what matters for the 0.1 mm goal among its reasons.
     """
     v = replace(verdict, selected=list(verdict.selected), reasons=list(verdict.reasons))
     names = list(v.sets.names)
@@ -218,15 +270,29 @@ def consequence_stage(
     spec = att.final_spec or base.spec
     p_m, e_m, dropped = plant_effects(spec, att.model, base.p)
     label = spec.name if att.final_fit is not None else "baseline"
+    ref = ref if ref is not None else NOMINAL
+    why_m = model_trust(v.sets, p_m, ref, prior_sd(st))
+    why_b = model_trust(v.sets, p_b, ref, prior_sd(st))
+    if why_m:
+        v.reasons.append("model.yaml marked untrusted: " + "; ".join(why_m))
     return Consequences(
         sizes,
         matters,
         negligible,
-        plant_file(p_m, e_m),
-        plant_file(p_b, e_b),
+        trust_marked(plant_file(p_m, e_m), why_m),
+        trust_marked(plant_file(p_b, e_b), why_b),
         dropped,
         label,
     ), v
 
 
-__all__ = ["Quantification", "Unexplained", "consequence_stage", "quantify", "unexplained_stage"]
+__all__ = [
+    "TRUST_PRIOR_SDS",
+    "Quantification",
+    "Unexplained",
+    "consequence_stage",
+    "model_trust",
+    "quantify",
+    "trust_marked",
+    "unexplained_stage",
+]
