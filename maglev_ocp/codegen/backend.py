@@ -164,8 +164,8 @@ class CompiledFL(FeedbackLinearization):
         if self._state is None:
             raise RuntimeError("call reset() before step()")
         r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
-        if self.delay and self._plan is not None:  # the reference when the command computed now takes effect
-            r = self._plan_ahead(y.t)
+        if self._preview is not None:  # the reference when the command computed now takes effect
+            r = self._preview.at(y.t)
         u, st, xh, dist, v, fl = self._c_step(self._state, y.y, r, self._p, self._gains)
         self._state = st.copy()
         u = u.copy()

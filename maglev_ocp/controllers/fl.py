@@ -112,6 +112,7 @@ from .model_file import (
     load_controller_model,
     velocity_noise,
 )
+from .preview import PlanPreview
 
 #: Order of the gain / limit vector fed to :func:`fl_law_function`.
 GAIN_FIELDS: tuple[str, ...] = ("kp_g", "kd_g", "ki_g", "kp_d", "kd_d", "ki_d", "i_axis_max", "i_amp_max", "Ts")
@@ -484,18 +485,15 @@ class FeedbackLinearization:
         self._pred = BufferedFunction(fl_predictor_function(self.delay, Ts)) if self.delay else None
         # commands sent, oldest first: [0] is the one applied over the last period, [1:] are still on their way
         self._sent: deque[np.ndarray] = deque([np.zeros(2)] * (self.delay + 1), maxlen=self.delay + 1)
-        self._plan = None  # reference plan to read N samples ahead (set_reference_plan)
-        self._plan_rows: np.ndarray | None = None  # its rows at t_k + N Ts on the control grid (sampled once)
+        self._preview: PlanPreview | None = None  # the reference plan read N samples ahead (set_reference_plan)
 
     def set_reference_plan(self, plan) -> None:
         """Let the predictor read the reference ``delay_samples`` ahead (a :class:`maglev_ocp.reference.ReferencePlan`).
 
-        Only used with ``delay_samples > 0``; ``None`` forgets the plan.
+        Only used with ``delay_samples > 0``; ``None`` forgets the plan. The plan is sampled now, not inside a
+        timed step (:class:`~maglev_ocp.controllers.preview.PlanPreview`).
         """
-        self._plan = plan
-        self._plan_rows = None
-        if plan is not None and self.delay:  # sample it now, not inside a timed step
-            self._plan_ahead(0.0)
+        self._preview = PlanPreview(plan, self.delay, self.Ts) if plan is not None and self.delay else None
 
     def reset(self, y0: Measurement, ref: Reference) -> None:
         """Start a run at reading ``y0`` (mover assumed at rest); clear integrators."""
@@ -528,8 +526,8 @@ class FeedbackLinearization:
         """
         fallback = 0
         r = (ref.g, ref.g_dot, ref.g_ddot, ref.d, ref.d_dot, ref.d_ddot)
-        if self._pred is not None and self._plan is not None:  # the reference when the command computed now acts
-            r = self._plan_ahead(y.t)
+        if self._pred is not None and self._preview is not None:  # the reference when the command computed now acts
+            r = self._preview.at(y.t)
         if not self._started:
             x_hat = self.observer.x_hat.copy()
             self._started = True
@@ -596,17 +594,6 @@ class FeedbackLinearization:
         if self.effects is None:
             return np.zeros(2)
         return self.effects(x, u, velocity)
-
-    def _plan_ahead(self, t: float) -> tuple[float, ...]:
-        """The plan's reference row at ``t + delay_samples Ts`` (sampled once on the control grid, then looked up)."""
-        Ts, plan = self.Ts, self._plan
-        if self._plan_rows is None:
-            n = round(plan.duration / Ts) + 1
-            self._plan_rows = plan.sample(np.arange(n) * Ts + self.delay * Ts, zoh=Ts)
-        i = round(t / Ts)
-        if 0 <= i < len(self._plan_rows) and abs(i * Ts - t) < 1e-9:
-            return tuple(self._plan_rows[i])
-        return tuple(plan.sample(np.array([t + self.delay * Ts]), zoh=Ts)[0])
 
     def _safe_current(self, x_hat: np.ndarray) -> np.ndarray:
         """Current to hold when the law has none: the last good command, else the hover current at ``x_hat``.
