@@ -11,6 +11,7 @@ import os
 import warnings
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields, replace
+from typing import Protocol
 
 import numpy as np
 import yaml
@@ -121,7 +122,14 @@ class UntrustedModelWarning(UserWarning):
     """A parameter or model file its writer marked ``trusted: false`` was loaded."""
 
 
-def warn_if_untrusted(f: ParamsFile, source: str | os.PathLike) -> None:
+class TrustMarked(Protocol):
+    """A loaded file that carries its writer's trust mark (a parameter file, a plant or model file)."""
+
+    trusted: bool
+    untrusted_because: list[str]
+
+
+def warn_if_untrusted(f: TrustMarked, source: str | os.PathLike) -> None:
     """Warn (:class:`UntrustedModelWarning`, one line) when a loaded file is marked ``trusted: false``."""
     if not f.trusted:
         why = "; ".join(f.untrusted_because) or "no reason given"

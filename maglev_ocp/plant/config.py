@@ -19,7 +19,6 @@ import copy
 import functools
 import math
 import os
-import warnings
 from pathlib import Path
 from typing import Any, Literal
 
@@ -32,7 +31,7 @@ from ..effects import EFFECTS, EffectSet
 from ..errors import ConfigError
 from ..model import get_model
 from ..output import dump_yaml
-from ..params import ParamOverrides, Params, UntrustedModelWarning
+from ..params import ParamOverrides, Params, warn_if_untrusted
 from .disturbances import Cable, Disturbance
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
@@ -468,13 +467,7 @@ def load_plant_config(path: str | os.PathLike) -> PlantConfig:
         )
     merged = deep_merge(profile_data(base), data)
     cfg = parse_model(PlantConfig, merged, str(path))
-    if not cfg.trusted:
-        warnings.warn(
-            f"{path}: marked untrusted by its writer ({'; '.join(cfg.untrusted_because) or 'no reason given'}); "
-            "results with it cannot be relied on",
-            UntrustedModelWarning,
-            stacklevel=2,
-        )
+    warn_if_untrusted(cfg, path)
     return cfg
 
 
