@@ -55,6 +55,7 @@ from maglev_ocp.controllers.model_file import load_controller_model
 from maglev_ocp.controllers.nmpc.layout import STATS_NAMES, STATUS_TEXT
 from maglev_ocp.controllers.nmpc.reference import resolve_mode
 from maglev_ocp.controllers.pid import PIDController, hover_error, pid_lead_samples
+from maglev_ocp.controllers.preview import PlanPreview
 
 from .. import constants as k
 from ..blocks import Reference
@@ -356,13 +357,12 @@ def fl_refs(rp: RunPlan, delay: float) -> np.ndarray:
     (and the PID's feed-forward rows, :class:`maglev_ocp.controllers.preview.PlanPreview`, ``N`` a fraction too)."""
     if not delay:
         return rp.refs
-    Ts, plan = k.Ts, rp.plan
-    n_plan = round(plan.duration / Ts) + 1
-    rows = plan.sample(np.arange(n_plan) * Ts + delay * Ts, zoh=Ts)  # the very rows the FL samples once
+    pv = PlanPreview(rp.plan, delay, k.Ts)  # the very rows the controllers sample once
+    n_plan = len(pv.rows)
     if rp.n <= n_plan:
-        return rows[: rp.n]
-    later = plan.sample(rp.t[n_plan:] + delay * Ts, zoh=Ts)  # past the plan's end (looked up per step there)
-    return np.concatenate([rows, later])
+        return pv.rows[: rp.n]
+    later = rp.plan.sample(rp.t[n_plan:] + pv.lead * k.Ts, zoh=k.Ts)  # past the plan's end (PlanPreview.at there)
+    return np.concatenate([pv.rows, later])
 
 
 def _nmpc_stats(log: np.ndarray, t_us: np.ndarray) -> tuple[np.ndarray, dict, dict]:
