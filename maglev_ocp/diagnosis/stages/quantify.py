@@ -271,8 +271,9 @@ def consequence_stage(
     p_m, e_m, dropped = plant_effects(spec, att.model, base.p)
     label = spec.name if att.final_fit is not None else "baseline"
     ref = ref if ref is not None else NOMINAL
-    why_m = model_trust(v.sets, p_m, ref, prior_sd(st))
-    why_b = model_trust(v.sets, p_b, ref, prior_sd(st))
+    sd = prior_sd(st)
+    why_m = model_trust(v.sets, p_m, ref, sd)
+    why_b = model_trust(v.sets, p_b, ref, sd)
     if why_m:
         v.reasons.append("model.yaml marked untrusted: " + "; ".join(why_m))
     return Consequences(
