@@ -35,8 +35,9 @@ put the feedforward acceleration N samples late, which costs more than the lag).
 
 A model file (``model: FILE``, :mod:`maglev_ocp.controllers.model_file`, e.g. the
 ``model.yaml`` of ``maglev diagnose``) enters as for the NMPC: its constants are
-the controller's parameters, its amplifier lag's transport delay adds to
-``delay_samples``, and its static effects (:class:`~maglev_ocp.controllers.model_file.ModelEffects`,
+the controller's parameters, its amplifier lag's transport delay plus its
+time constant (rounded to whole periods, :meth:`~maglev_ocp.controllers.model_file.ControllerModel.delay_periods`)
+adds to ``delay_samples``, and its static effects (:class:`~maglev_ocp.controllers.model_file.ModelEffects`,
 the effect library's laws) enter three places without letting the
 measurement noise into the current:
 
@@ -83,7 +84,7 @@ from collections import deque
 
 import casadi as ca
 import numpy as np
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
@@ -107,8 +108,11 @@ from maglev_ocp.signals import REF_FIELDS
 from .model_file import (
     MODEL_SETTING_DESCRIPTION,
     SIGN_WIDTH_SIGMAS,
+    UNTRUSTED_MODEL_DESCRIPTION,
     ModelEffects,
+    UntrustedPolicy,
     check_model_path,
+    check_model_trust,
     load_controller_model,
     velocity_noise,
 )
@@ -336,7 +340,7 @@ class FLSettings(AdaptSettings):
         prediction, the delay predictor and the inversion, at the planned
         velocity in the inversion and with the velocity signs smoothed to the
         estimate's resolution in the observer (module docstring); an amplifier
-        lag's transport delay adds to ``delay_samples``.
+        lag's transport delay and time constant (whole periods) add to ``delay_samples``.
     adapt : list of str
         Constants (of C1..C4) whose relative error the observer estimates from
         the moves (see the module docstring); ``[]`` turns it off, and it is
@@ -359,6 +363,7 @@ class FLSettings(AdaptSettings):
         0, ge=0, le=10, description="computation delay compensated by the predictor [control periods]"
     )
     model: str | None = Field(None, description=MODEL_SETTING_DESCRIPTION)
+    untrusted_model: UntrustedPolicy = Field("refuse", description=UNTRUSTED_MODEL_DESCRIPTION)
     adapt_noise: float | None = Field(
         4e-6,
         gt=0,
@@ -374,6 +379,11 @@ class FLSettings(AdaptSettings):
     @classmethod
     def _model_exists(cls, v: str | None) -> str | None:
         return check_model_path(v)
+
+    @model_validator(mode="after")
+    def _model_trusted(self) -> FLSettings:
+        check_model_trust(self.model, self.untrusted_model)
+        return self
 
     def gains(self, Ts: float = k.Ts) -> np.ndarray:
         """Gain / limit vector in the order of :data:`GAIN_FIELDS`."""
@@ -416,15 +426,17 @@ def fl_model_effects(model, p: np.ndarray, L: np.ndarray, Ts: float = k.Ts) -> M
     return ModelEffects(model, p, SIGN_WIDTH_SIGMAS * velocity_noise(L, Ts))
 
 
-def fl_delay_samples(settings: FLSettings, model=None) -> int:
+def fl_delay_samples(settings: FLSettings, model=None, Ts: float = k.Ts) -> int:
     """The delay the FL predicts through [control periods]: ``settings.delay_samples`` plus the model file's.
 
     ``model`` is the loaded model file of ``settings.model`` if the caller has it
-    (else it is loaded here); its amplifier lag's transport delay adds to the setting.
+    (else it is loaded here); its amplifier lag's transport delay and its time constant
+    rounded to whole periods (:meth:`~maglev_ocp.controllers.model_file.ControllerModel.delay_periods`)
+    add to the setting.
     """
     if model is None and settings.model:
         model = load_controller_model(settings.model)
-    return int(settings.delay_samples) + (int(model.delay_samples) if model is not None else 0)
+    return int(settings.delay_samples) + (model.delay_periods(Ts) if model is not None else 0)
 
 
 class FeedbackLinearization:
@@ -481,7 +493,7 @@ class FeedbackLinearization:
         self._u_good: np.ndarray | None = None  # last finite command of the law
         self._x0 = (0.020, 0.0)  # reading at reset (where the hover fallback is taken before any estimate)
         self._started = False
-        self.delay = fl_delay_samples(self.settings, self.model)
+        self.delay = fl_delay_samples(self.settings, self.model, Ts)
         self._pred = BufferedFunction(fl_predictor_function(self.delay, Ts)) if self.delay else None
         # commands sent, oldest first: [0] is the one applied over the last period, [1:] are still on their way
         self._sent: deque[np.ndarray] = deque([np.zeros(2)] * (self.delay + 1), maxlen=self.delay + 1)

@@ -43,7 +43,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
@@ -53,7 +53,15 @@ from maglev_ocp.model import get_model
 from maglev_ocp.observers import HighGainObserver, ObserverSettings
 from maglev_ocp.params import NOMINAL, Params
 
-from .model_file import MODEL_SETTING_DESCRIPTION, ModelEffects, check_model_path, load_controller_model
+from .model_file import (
+    MODEL_SETTING_DESCRIPTION,
+    UNTRUSTED_MODEL_DESCRIPTION,
+    ModelEffects,
+    UntrustedPolicy,
+    check_model_path,
+    check_model_trust,
+    load_controller_model,
+)
 from .preview import PlanPreview
 
 
@@ -100,11 +108,17 @@ class PIDSettings(Strict):
     i_axis_max: float = Field(k.i_axis_max, gt=0, le=100)
     i_amp_max: float = Field(k.i_amp_max, gt=0, le=100)
     model: str | None = Field(None, description=MODEL_SETTING_DESCRIPTION)
+    untrusted_model: UntrustedPolicy = Field("refuse", description=UNTRUSTED_MODEL_DESCRIPTION)
 
     @field_validator("model")
     @classmethod
     def _model_exists(cls, v: str | None) -> str | None:
         return check_model_path(v)
+
+    @model_validator(mode="after")
+    def _model_trusted(self) -> PIDSettings:
+        check_model_trust(self.model, self.untrusted_model)
+        return self
 
 
 def schedule_function() -> ca.Function:
