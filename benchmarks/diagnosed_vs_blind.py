@@ -55,6 +55,7 @@ from maglev_ocp import constants as k  # noqa: E402
 from maglev_ocp.blocks import Measurement  # noqa: E402
 from maglev_ocp.cli import main as maglev  # noqa: E402
 from maglev_ocp.config import atomic_write_text  # noqa: E402
+from maglev_ocp.controllers.model_file import model_file_untrusted  # noqa: E402
 from maglev_ocp.plant.plant import StopEvent  # noqa: E402
 from maglev_ocp.rigsim import Constants, RigSettings, generate  # noqa: E402
 from maglev_ocp.rigsim.generate import build_laws  # noqa: E402
@@ -317,6 +318,8 @@ def _rms(v: list[float | None]) -> float:
 
 def verdict(blind: dict[str, Any], diag: dict[str, Any]) -> list[str]:
     """What the diagnosed run misses of the issue's targets against the blind one (empty: all met)."""
+    if diag.get("refused"):
+        return [f"refused by the controller (untrusted model file: {diag['refused']}); the user keeps blind"]
     miss = []
     for ax in ("g", "d"):
         b, d = blind[f"tracking_{ax}_m"], diag[f"tracking_{ax}_m"]
@@ -336,15 +339,32 @@ def verdict(blind: dict[str, Any], diag: dict[str, Any]) -> list[str]:
     return miss
 
 
+def refused(why: str) -> dict[str, Any]:
+    """The figures of a diagnosed run the controller refused: its model file is marked untrusted (``why``).
+
+    Every controller refuses such a file by default (``untrusted_model: refuse``,
+    :func:`maglev_ocp.controllers.model_file.check_model_trust`): nothing runs, the user keeps the blind
+    controller unless they say ``untrusted_model: use``.
+    """
+    nan = math.nan
+    return {"tracking_g_m": nan, "tracking_d_m": nan, "steady_mean_m": nan, "steady_worst_m": nan, "steady_m": [],
+            "settle_max_s": nan, "peak_current_A": nan, "all_settled": False, "stop_hits": 0, "fallbacks": 0,
+            "error": None, "refused": why}  # fmt: skip
+
+
 def run_rig(name: str, work: Path, a, bar: tqdm) -> dict[str, Any]:
-    """Steps 1-4 for one rig."""
+    """Steps 1-4 for one rig (a model file marked untrusted is refused by the controllers: :func:`refused`)."""
     data, model, info = diagnose_rig(name, work, a.runs, a.duration, a.reuse)
     truth = json.loads((data / "truth.json").read_text())
-    row: dict[str, Any] = {"rig": name, **info, "controllers": {}}
+    untrusted = model_file_untrusted(model)
+    row: dict[str, Any] = {"rig": name, **info, "untrusted": untrusted, "controllers": {}}
     for ctype in a.controllers:
         res = {}
         for kind, mfile in (("blind", None), ("diagnosed", model)):
-            res[kind] = run_on_rig(tour(ctype, mfile), RigsimPlant.from_truth(truth, seed=a.seed))
+            if kind == "diagnosed" and untrusted is not None:
+                res[kind] = refused(untrusted)
+            else:
+                res[kind] = run_on_rig(tour(ctype, mfile), RigsimPlant.from_truth(truth, seed=a.seed))
             bar.update()
         res["misses"] = verdict(res["blind"], res["diagnosed"])
         row["controllers"][ctype] = res
@@ -370,7 +390,9 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
         "targets of each hold's RMS against the planned reference, per axis. Steady: RMS of the position-error "
         "vector over the settled part of each target, mean (worst) over the targets. Targets: diagnosed "
         f"tracking at most half of blind per axis (or both below {TRACKING_FLOOR_M * 1e6:g} um), steady <= "
-        f"blind + {STEADY_MARGIN_M * 1e6:g} um, all settled, no stop hit.",
+        f"blind + {STEADY_MARGIN_M * 1e6:g} um, all settled, no stop hit. A model file its diagnosis marked "
+        "untrusted is refused by every controller (`untrusted_model: refuse`, the default): the row says so and "
+        "the user keeps the blind controller.",
         "",
         "| rig (verdict) | ctrl | model | tracking g / d [um] | steady mean (worst) [um] | settle max [s] "
         "| peak current [A] | settled | stop hits | targets met |",
@@ -381,6 +403,10 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
             for kind in ("blind", "diagnosed"):
                 f = res[kind]
                 met = "" if kind == "blind" else ("yes" if not res["misses"] else "**no**: " + "; ".join(res["misses"]))
+                if f.get("refused"):
+                    lines.append(f"| {r['rig']} ({r['verdict']}) | {ctype} | {kind} | refused: untrusted model file "
+                                 f"| - | - | - | - | - | {met} |")  # fmt: skip
+                    continue
                 lines.append(
                     f"| {r['rig']} ({r['verdict']}) | {ctype} | {kind} | {_um(f['tracking_g_m'])} / "
                     f"{_um(f['tracking_d_m'])} | {_um(f['steady_mean_m'])} ({_um(f['steady_worst_m'])}) | "
