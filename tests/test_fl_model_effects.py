@@ -204,6 +204,13 @@ def test_fl_predicts_through_the_lags_time_constant_too(tmp_path):
         dump_yaml(files[label], {"effects": {"amplifier_lag": {**lag, "bandwidth_hz": bw}}})
     assert FeedbackLinearization(FLSettings(model=str(files["lag"]))).delay == 2  # 1 + round(0.88 ms / 1 ms)
     assert FeedbackLinearization(FLSettings(model=str(files["delay_only"]))).delay == 1
+    # the NMPC (its generated loop's settings: the same sum as the NMPC class) and the PID's fractional lead
+    from maglev_ocp.codegen.loop_c import nmpc_loop_settings
+    from maglev_ocp.controllers.nmpc import NMPCSettings
+    from maglev_ocp.controllers.pid import pid_lead_samples
+
+    assert nmpc_loop_settings(NMPCSettings(model=str(files["lag"]))).delay_samples == 2
+    assert pid_lead_samples(PIDSettings(model=str(files["lag"]))) == pytest.approx(1 + 1 / (2 * math.pi * 180.0 * k.Ts))
     rms = {}
     for label, f in files.items():
         sc = {
