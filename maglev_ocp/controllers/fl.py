@@ -126,8 +126,8 @@ FLAG_FIELDS: tuple[str, ...] = ("unreachable", "sat_g", "sat_d")
 #: generated step alike): each pass shrinks the error by the effects' share of the current's gain, which a
 #: fitted saturation makes large. Measured on the end_saturation rig (diagnosed saturation, 31 % loss at 8 mm;
 #: tracking g / d along the plan, um): 2 passes 7.8 / 4.7, 3 passes 5.1 / 3.4, 4 passes 4.5 / 3.5, 6 passes
-#: 4.6 / 3.5 (converged; the margin is for stronger effects, each pass costs one law evaluation).
-EFFECT_PASSES: int = 6
+#: 4.6 / 3.5 (converged at 4; each pass costs one law evaluation).
+EFFECT_PASSES: int = 4
 
 
 def _sat(v: ca.SX, lim: ca.SX) -> ca.SX:
