@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from maglev_ocp.config import dump_yaml
 from maglev_ocp.controllers.pid import inverse_feedforward_function, schedule_function
 from maglev_ocp.model import get_model
 from maglev_ocp.params import NOMINAL
@@ -55,3 +56,34 @@ def test_pid_with_the_inverse_feedforward_tracks_the_plan_far_closer():
     lin, inv = _tour("linear"), _tour("inverse")
     assert inv["g"] < lin["g"] / 3, (lin, inv)
     assert inv["d"] < lin["d"] * 1.05, (lin, inv)
+
+
+#: Coulomb + Stribeck friction on both axes, strong enough to stop the PID's slow horizontal loop off target.
+FRICTION = {"coulomb_g": 0.3, "coulomb_d": 0.3, "stribeck_g": 0.15, "stribeck_d": 0.15, "v_stribeck": 5e-3,
+            "viscous_g": 0.5, "viscous_d": 0.5, "v_reg": 1e-3}  # fmt: skip
+
+
+def _steady(tmp_path, effects: dict) -> float:
+    f = tmp_path / f"model_{len(effects)}.yaml"
+    dump_yaml(f, {"effects": effects})
+    sc = {
+        "name": f"pid_friction_{len(effects)}",
+        "seed": 6,
+        "controller": {"type": "pid", "model": str(f)},
+        "plant": {"profile": "default", "effects": {"friction": {"enabled": True, **FRICTION}}},
+        "start": {"g": 0.02, "d": 0.0},
+        "targets": [{"g": 0.02, "d": -0.03, "hold": 0.5}, {"g": 0.018, "d": 0.02, "hold": 0.5}],
+    }
+    res = run_scenario(sc, progress=False, figures=False)
+    assert res.metrics.stop_hits == 0 and res.metrics.all_settled
+    return float(np.mean([np.hypot(t.rms_error_g_m, t.rms_error_d_m) for t in res.metrics.targets]))
+
+
+def test_pid_with_the_plants_friction_in_its_model_file_holds_closer(tmp_path):
+    """The plant's friction (known law) in the PID's model file: the feed-forward compensates it at the
+    planned velocity plus the velocity the loops demand, so a mover stopped off target inside the friction
+    band is pushed on; the steady RMS over the holds at most 0.7x that of the same PID with a model file
+    without effects (measured: 17.1 against 47.4 um)."""
+    with_friction = _steady(tmp_path, {"friction": {"enabled": True, **FRICTION}})
+    without = _steady(tmp_path, {})
+    assert with_friction < 0.7 * without, (with_friction, without)
