@@ -27,6 +27,7 @@ rig about 1 CPU minute; on a machine shared by many jobs an hour per rig)::
 
     python -m benchmarks.diagnosed_vs_blind --out results/benchmarks
     python -m benchmarks.diagnosed_vs_blind --out results/benchmarks --rigs foreign --reuse
+    python -m benchmarks.diagnosed_vs_blind --out OUT --rigs foreign --reuse --model foreign=FILE  # hand-made
 
 Writes ``OUT/diagnosed_vs_blind.md`` and ``.json``; datasets and reports go to ``--work``
 (default ``OUT/work_diagnosed_vs_blind``), the diagnosed model files are copied beside the table.
@@ -355,6 +356,9 @@ def refused(why: str) -> dict[str, Any]:
 def run_rig(name: str, work: Path, a, bar: tqdm) -> dict[str, Any]:
     """Steps 1-4 for one rig (a model file marked untrusted is refused by the controllers: :func:`refused`)."""
     data, model, info = diagnose_rig(name, work, a.runs, a.duration, a.reuse)
+    if name in a.model_files:  # a hand-made model file in place of the diagnosis's (a controller check)
+        model = Path(a.model_files[name])
+        info = {**info, "verdict": f"{info['verdict']}; HAND-MADE model file {model}"}
     truth = json.loads((data / "truth.json").read_text())
     untrusted = model_file_untrusted(model)
     row: dict[str, Any] = {"rig": name, **info, "untrusted": untrusted, "controllers": {}}
@@ -431,7 +435,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=10.0, help="length of each dataset run [s]")
     ap.add_argument("--seed", type=int, default=5, help="seed of the rig's noise in the tours")
     ap.add_argument("--reuse", action="store_true", help="keep existing diagnoses in WORK")
+    ap.add_argument(
+        "--model",
+        action="append",
+        default=[],
+        metavar="RIG=FILE",
+        help="run the diagnosed rows of RIG on FILE instead of its diagnosis's model.yaml (a hand-made file: "
+        "checks how the controllers use what a diagnosis would write; the table says HAND-MADE)",
+    )
     a = ap.parse_args(argv)
+    a.model_files = {}
+    for item in a.model:
+        rig, sep, path = item.partition("=")
+        if not sep or rig not in RIGS or not Path(path).is_file():
+            ap.error(f"--model {item}: expected RIG=FILE with RIG one of {', '.join(RIGS)} and an existing FILE")
+        a.model_files[rig] = path
     out = Path(a.out)
     work = Path(a.work) if a.work else out / "work_diagnosed_vs_blind"
     command = "python -m benchmarks.diagnosed_vs_blind " + " ".join(argv if argv is not None else sys.argv[1:])
@@ -443,7 +461,7 @@ def main(argv: list[str] | None = None) -> int:
         for name in a.rigs:
             rows.append(run_rig(name, work, a, bar))
             # written after each rig: a long run interrupted keeps the rigs it finished
-            model = work / name / "diagnosis" / "model.yaml"
+            model = Path(a.model_files.get(name, work / name / "diagnosis" / "model.yaml"))
             shutil.copyfile(model, out / "diagnosed_vs_blind_models" / f"{name}.yaml")
             done = [r["rig"] for r in rows]
             doc = {"command": command.strip(), "tour": TOUR, "rigs": {n: RIGS[n] for n in done}, "rows": rows}
