@@ -122,6 +122,10 @@ RIGS: dict[str, dict[str, Any]] = {
 }
 #: Controllers compared (each blind and diagnosed).
 CONTROLLERS: tuple[str, ...] = ("fl", "nmpc", "pid")
+#: Settings of each controller besides ``type`` and ``model`` (the same blind and diagnosed): the PID takes its
+#: feed-forward from the model's inverse (``feedforward_law: inverse``; its default is the seed's linearized one,
+#: which the calibration and diagnosis experiments are excited with).
+CONTROLLER_SETTINGS: dict[str, dict[str, Any]] = {"pid": {"feedforward_law": "inverse"}}
 #: A blind tracking RMS below this on an axis is not asked to halve (it only has to stay below) [m].
 TRACKING_FLOOR_M: float = 5e-6
 #: How much worse than blind the diagnosed steady RMS may be [m].
@@ -262,7 +266,7 @@ def diagnose_rig(name: str, work: Path, runs: int, duration: float, reuse: bool)
 # ----------------------------------------------------------------------------- closed loop
 def tour(ctype: str, model: Path | None, seed: int = 7) -> dict[str, Any]:
     """The tour scenario for controller ``ctype``, blind (``model`` None) or on a model file."""
-    ctrl: dict[str, Any] = {"type": ctype}
+    ctrl: dict[str, Any] = {"type": ctype, **CONTROLLER_SETTINGS.get(ctype, {})}
     if model is not None:
         ctrl["model"] = str(model)
     return {

@@ -92,10 +92,11 @@ class PIDSettings(Strict):
         ``i_d`` when the gap loop is open [A]; None: the equilibrium current.
     feedforward : bool
         Add the feed-forward current of the plan (see ``feedforward_law``).
-    feedforward_law : {"inverse", "linear"}
-        ``inverse`` (default): the currents the model's inverse gives for the planned state,
-        velocity and acceleration (:func:`inverse_feedforward_function`); ``linear``: the seed's
-        equilibrium currents plus the planned accelerations through the gains linearized at hover.
+    feedforward_law : {"linear", "inverse"}
+        ``linear`` (default, the seed's regulators, which excite the calibration and diagnosis
+        experiments): the equilibrium currents plus the planned accelerations through the gains
+        linearized at hover; ``inverse``: the currents the model's inverse gives for the planned
+        state, velocity and acceleration (:func:`inverse_feedforward_function`).
     observer_eps : float
         Time constant of the high-gain observer [s].
     i_axis_max, i_amp_max : float
@@ -115,12 +116,13 @@ class PIDSettings(Strict):
     i_q_fixed: float = Field(0.0, ge=-20, le=20)
     i_d_fixed: float | None = Field(None, ge=-20, le=20)
     feedforward: bool = True
-    feedforward_law: Literal["inverse", "linear"] = Field(
-        "inverse",
-        description="how the feed-forward current is computed from the plan: inverse (the model's exact inverse, "
-        "seed eq. (2), at the planned state and acceleration: the thrust current's pull on the gap, C4 f4 i_q^2, "
-        "and the field's nonlinearity included) or linear (the seed's equilibrium current plus the planned "
-        "accelerations through the gains linearized at hover)",
+    feedforward_law: Literal["linear", "inverse"] = Field(
+        "linear",
+        description="how the feed-forward current is computed from the plan: linear (default, the seed's "
+        "regulators: the equilibrium current plus the planned accelerations through the gains linearized at "
+        "hover; the calibration and diagnosis experiments are excited with it) or inverse (the model's exact "
+        "inverse, seed eq. (2), at the planned state and acceleration: the thrust current's pull on the gap, "
+        "C4 f4 i_q^2, and the field's nonlinearity included; far closer tracking, recommended with a model file)",
     )
     observer_eps: float = Field(4e-3, gt=1e-4, le=1.0)
     i_axis_max: float = Field(k.i_axis_max, gt=0, le=100)
