@@ -393,9 +393,10 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
         "",
         "Each rig is the independent rig generator (`maglev_ocp.rigsim`, laws other than the library's, "
         "constants drawn off nominal); its dataset is diagnosed by `maglev diagnose` (default settings) and the "
-        "written `model.yaml` is the diagnosed controller's `model:`; blind is the same controller on its "
-        "defaults. Tour: 6 targets (g 15-25 mm, d +-50 mm), seed 7, on the same rig. Tracking: RMS over the "
-        "targets of each hold's RMS against the planned reference, per axis. Steady: RMS of the position-error "
+        "written `model.yaml` is the diagnosed controller's `model:`; blind is the same controller without it (the "
+        "PID with `feedforward_law: inverse` in both). Tour: 6 targets (g 15-25 mm, d +-50 mm), seed 7, on the "
+        "same rig. Tracking: RMS over the targets of each hold's RMS against the planned reference, per axis. "
+        "Steady: RMS of the position-error "
         "vector over the settled part of each target, mean (worst) over the targets. Targets: diagnosed "
         f"tracking at most half of blind per axis (or both below {TRACKING_FLOOR_M * 1e6:g} um), steady <= "
         f"blind + {STEADY_MARGIN_M * 1e6:g} um, all settled, no stop hit. A model file its diagnosis marked "

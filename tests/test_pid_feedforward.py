@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from maglev_ocp.config import dump_yaml
 from maglev_ocp.controllers.pid import inverse_feedforward_function, schedule_function
 from maglev_ocp.model import get_model
+from maglev_ocp.output import dump_yaml
 from maglev_ocp.params import NOMINAL
 from maglev_ocp.runner import run_scenario
 
