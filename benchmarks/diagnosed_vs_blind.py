@@ -17,6 +17,12 @@ nominal):
    against the planned reference), steady RMS per target (settled part, position-error vector; mean
    and worst over the targets), the longest settle time, the peak current amplitude and the stop hits.
 
+A diagnosis's ``model.yaml`` marked ``trusted: false`` is refused by every controller (their default
+``untrusted_model: refuse``): its diagnosed rows say so (:func:`refused`) and the user keeps blind.
+``--model RIG=FILE`` runs a rig's diagnosed rows on a hand-made file instead (a check of how the
+controllers use a model file; the table marks it HAND-MADE). The PID runs with ``feedforward_law:
+inverse`` blind and diagnosed (:data:`CONTROLLER_SETTINGS`).
+
 The verdict per controller and rig checks the issue's targets (:func:`verdict`): diagnosed tracking RMS
 at most half the blind one on each axis (an axis already below :data:`TRACKING_FLOOR_M` blind is
 held to staying below it), steady RMS no worse than blind + 1 um (mean over targets), every target
