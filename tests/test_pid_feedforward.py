@@ -87,3 +87,24 @@ def test_pid_with_the_plants_friction_in_its_model_file_holds_closer(tmp_path):
     with_friction = _steady(tmp_path, {"friction": {"enabled": True, **FRICTION}})
     without = _steady(tmp_path, {})
     assert with_friction < 0.7 * without, (with_friction, without)
+
+
+def test_pid_friction_feedforward_at_rest_points_the_way_the_loop_pushes(tmp_path):
+    """On the plan at rest, the friction feed-forward is nothing; stopped 50 um short of the target in d, it
+    adds thrust towards the target, a sizeable part of the file's Coulomb + Stribeck level (the velocity the
+    loop demands, 25 rad/s x 50 um = 1.25 mm/s, against a sign widened to the observer's resolution)."""
+    from maglev_ocp.controllers.pid import PIDController, PIDSettings, demanded_row
+
+    f = tmp_path / "friction.yaml"
+    dump_yaml(f, {"effects": {"friction": {"enabled": True, **FRICTION}}})
+    pid = PIDController(settings=PIDSettings(model=str(f)))
+    u_eq, b_v, _, L1 = pid.schedule(0.02, 0.0)
+    r = (0.02, 0.0, 0.0, 0.0, 0.0, 0.0)
+    on_plan = demanded_row(pid.settings, r, r, (0.02, 0.0, 0.0, 0.0))
+    assert np.allclose(pid.effect_feedforward(on_plan, u_eq, b_v, L1), 0.0, atol=1e-12)
+    for short, sign in ((-50e-6, 1.0), (50e-6, -1.0)):
+        row = demanded_row(pid.settings, r, r, (0.02, 0.0, short, 0.0))
+        du = pid.effect_feedforward(row, u_eq, b_v, L1)
+        accel = -L1 * du[0]  # d_ddot = -L1 i_q: the acceleration the correction adds
+        level = (FRICTION["coulomb_d"] + FRICTION["stribeck_d"]) / NOMINAL.Mh
+        assert 0.2 * level < sign * accel < level, (short, accel, level)
