@@ -17,6 +17,12 @@ nominal):
    against the planned reference), steady RMS per target (settled part, position-error vector; mean
    and worst over the targets), the longest settle time, the peak current amplitude and the stop hits.
 
+A diagnosis's ``model.yaml`` marked ``trusted: false`` is refused by every controller (their default
+``untrusted_model: refuse``): its diagnosed rows say so (:func:`refused`) and the user keeps blind.
+``--model RIG=FILE`` runs a rig's diagnosed rows on a hand-made file instead (a check of how the
+controllers use a model file; the table marks it HAND-MADE). The PID runs with ``feedforward_law:
+inverse`` blind and diagnosed (:data:`CONTROLLER_SETTINGS`).
+
 The verdict per controller and rig checks the issue's targets (:func:`verdict`): diagnosed tracking RMS
 at most half the blind one on each axis (an axis already below :data:`TRACKING_FLOOR_M` blind is
 held to staying below it), steady RMS no worse than blind + 1 um (mean over targets), every target
@@ -27,6 +33,7 @@ rig about 1 CPU minute; on a machine shared by many jobs an hour per rig)::
 
     python -m benchmarks.diagnosed_vs_blind --out results/benchmarks
     python -m benchmarks.diagnosed_vs_blind --out results/benchmarks --rigs foreign --reuse
+    python -m benchmarks.diagnosed_vs_blind --out OUT --rigs foreign --reuse --model foreign=FILE  # hand-made
 
 Writes ``OUT/diagnosed_vs_blind.md`` and ``.json``; datasets and reports go to ``--work``
 (default ``OUT/work_diagnosed_vs_blind``), the diagnosed model files are copied beside the table.
@@ -55,6 +62,7 @@ from maglev_ocp import constants as k  # noqa: E402
 from maglev_ocp.blocks import Measurement  # noqa: E402
 from maglev_ocp.cli import main as maglev  # noqa: E402
 from maglev_ocp.config import atomic_write_text  # noqa: E402
+from maglev_ocp.controllers.model_file import model_file_untrusted  # noqa: E402
 from maglev_ocp.plant.plant import StopEvent  # noqa: E402
 from maglev_ocp.rigsim import Constants, RigSettings, generate  # noqa: E402
 from maglev_ocp.rigsim.generate import build_laws  # noqa: E402
@@ -120,6 +128,10 @@ RIGS: dict[str, dict[str, Any]] = {
 }
 #: Controllers compared (each blind and diagnosed).
 CONTROLLERS: tuple[str, ...] = ("fl", "nmpc", "pid")
+#: Settings of each controller besides ``type`` and ``model`` (the same blind and diagnosed): the PID takes its
+#: feed-forward from the model's inverse (``feedforward_law: inverse``; its default is the seed's linearized one,
+#: which the calibration and diagnosis experiments are excited with).
+CONTROLLER_SETTINGS: dict[str, dict[str, Any]] = {"pid": {"feedforward_law": "inverse"}}
 #: A blind tracking RMS below this on an axis is not asked to halve (it only has to stay below) [m].
 TRACKING_FLOOR_M: float = 5e-6
 #: How much worse than blind the diagnosed steady RMS may be [m].
@@ -260,7 +272,7 @@ def diagnose_rig(name: str, work: Path, runs: int, duration: float, reuse: bool)
 # ----------------------------------------------------------------------------- closed loop
 def tour(ctype: str, model: Path | None, seed: int = 7) -> dict[str, Any]:
     """The tour scenario for controller ``ctype``, blind (``model`` None) or on a model file."""
-    ctrl: dict[str, Any] = {"type": ctype}
+    ctrl: dict[str, Any] = {"type": ctype, **CONTROLLER_SETTINGS.get(ctype, {})}
     if model is not None:
         ctrl["model"] = str(model)
     return {
@@ -317,6 +329,8 @@ def _rms(v: list[float | None]) -> float:
 
 def verdict(blind: dict[str, Any], diag: dict[str, Any]) -> list[str]:
     """What the diagnosed run misses of the issue's targets against the blind one (empty: all met)."""
+    if diag.get("refused"):
+        return [f"refused by the controller (untrusted model file: {diag['refused']}); the user keeps blind"]
     miss = []
     for ax in ("g", "d"):
         b, d = blind[f"tracking_{ax}_m"], diag[f"tracking_{ax}_m"]
@@ -336,15 +350,35 @@ def verdict(blind: dict[str, Any], diag: dict[str, Any]) -> list[str]:
     return miss
 
 
+def refused(why: str) -> dict[str, Any]:
+    """The figures of a diagnosed run the controller refused: its model file is marked untrusted (``why``).
+
+    Every controller refuses such a file by default (``untrusted_model: refuse``,
+    :func:`maglev_ocp.controllers.model_file.check_model_trust`): nothing runs, the user keeps the blind
+    controller unless they say ``untrusted_model: use``.
+    """
+    nan = math.nan
+    return {"tracking_g_m": nan, "tracking_d_m": nan, "steady_mean_m": nan, "steady_worst_m": nan, "steady_m": [],
+            "settle_max_s": nan, "peak_current_A": nan, "all_settled": False, "stop_hits": 0, "fallbacks": 0,
+            "error": None, "refused": why}  # fmt: skip
+
+
 def run_rig(name: str, work: Path, a, bar: tqdm) -> dict[str, Any]:
-    """Steps 1-4 for one rig."""
+    """Steps 1-4 for one rig (a model file marked untrusted is refused by the controllers: :func:`refused`)."""
     data, model, info = diagnose_rig(name, work, a.runs, a.duration, a.reuse)
+    if name in a.model_files:  # a hand-made model file in place of the diagnosis's (a controller check)
+        model = Path(a.model_files[name])
+        info = {**info, "verdict": f"{info['verdict']}; HAND-MADE model file {model}"}
     truth = json.loads((data / "truth.json").read_text())
-    row: dict[str, Any] = {"rig": name, **info, "controllers": {}}
+    untrusted = model_file_untrusted(model)
+    row: dict[str, Any] = {"rig": name, **info, "untrusted": untrusted, "controllers": {}}
     for ctype in a.controllers:
         res = {}
         for kind, mfile in (("blind", None), ("diagnosed", model)):
-            res[kind] = run_on_rig(tour(ctype, mfile), RigsimPlant.from_truth(truth, seed=a.seed))
+            if kind == "diagnosed" and untrusted is not None:
+                res[kind] = refused(untrusted)
+            else:
+                res[kind] = run_on_rig(tour(ctype, mfile), RigsimPlant.from_truth(truth, seed=a.seed))
             bar.update()
         res["misses"] = verdict(res["blind"], res["diagnosed"])
         row["controllers"][ctype] = res
@@ -365,12 +399,15 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
         "",
         "Each rig is the independent rig generator (`maglev_ocp.rigsim`, laws other than the library's, "
         "constants drawn off nominal); its dataset is diagnosed by `maglev diagnose` (default settings) and the "
-        "written `model.yaml` is the diagnosed controller's `model:`; blind is the same controller on its "
-        "defaults. Tour: 6 targets (g 15-25 mm, d +-50 mm), seed 7, on the same rig. Tracking: RMS over the "
-        "targets of each hold's RMS against the planned reference, per axis. Steady: RMS of the position-error "
+        "written `model.yaml` is the diagnosed controller's `model:`; blind is the same controller without it (the "
+        "PID with `feedforward_law: inverse` in both). Tour: 6 targets (g 15-25 mm, d +-50 mm), seed 7, on the "
+        "same rig. Tracking: RMS over the targets of each hold's RMS against the planned reference, per axis. "
+        "Steady: RMS of the position-error "
         "vector over the settled part of each target, mean (worst) over the targets. Targets: diagnosed "
         f"tracking at most half of blind per axis (or both below {TRACKING_FLOOR_M * 1e6:g} um), steady <= "
-        f"blind + {STEADY_MARGIN_M * 1e6:g} um, all settled, no stop hit.",
+        f"blind + {STEADY_MARGIN_M * 1e6:g} um, all settled, no stop hit. A model file its diagnosis marked "
+        "untrusted is refused by every controller (`untrusted_model: refuse`, the default): the row says so and "
+        "the user keeps the blind controller.",
         "",
         "| rig (verdict) | ctrl | model | tracking g / d [um] | steady mean (worst) [um] | settle max [s] "
         "| peak current [A] | settled | stop hits | targets met |",
@@ -381,6 +418,10 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
             for kind in ("blind", "diagnosed"):
                 f = res[kind]
                 met = "" if kind == "blind" else ("yes" if not res["misses"] else "**no**: " + "; ".join(res["misses"]))
+                if f.get("refused"):
+                    lines.append(f"| {r['rig']} ({r['verdict']}) | {ctype} | {kind} | refused: untrusted model file "
+                                 f"| - | - | - | - | - | {met} |")  # fmt: skip
+                    continue
                 lines.append(
                     f"| {r['rig']} ({r['verdict']}) | {ctype} | {kind} | {_um(f['tracking_g_m'])} / "
                     f"{_um(f['tracking_d_m'])} | {_um(f['steady_mean_m'])} ({_um(f['steady_worst_m'])}) | "
@@ -405,7 +446,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=10.0, help="length of each dataset run [s]")
     ap.add_argument("--seed", type=int, default=5, help="seed of the rig's noise in the tours")
     ap.add_argument("--reuse", action="store_true", help="keep existing diagnoses in WORK")
+    ap.add_argument(
+        "--model",
+        action="append",
+        default=[],
+        metavar="RIG=FILE",
+        help="run the diagnosed rows of RIG on FILE instead of its diagnosis's model.yaml (a hand-made file: "
+        "checks how the controllers use what a diagnosis would write; the table says HAND-MADE)",
+    )
     a = ap.parse_args(argv)
+    a.model_files = {}
+    for item in a.model:
+        rig, sep, path = item.partition("=")
+        if not sep or rig not in RIGS or not Path(path).is_file():
+            ap.error(f"--model {item}: expected RIG=FILE with RIG one of {', '.join(RIGS)} and an existing FILE")
+        a.model_files[rig] = path
     out = Path(a.out)
     work = Path(a.work) if a.work else out / "work_diagnosed_vs_blind"
     command = "python -m benchmarks.diagnosed_vs_blind " + " ".join(argv if argv is not None else sys.argv[1:])
@@ -417,7 +472,7 @@ def main(argv: list[str] | None = None) -> int:
         for name in a.rigs:
             rows.append(run_rig(name, work, a, bar))
             # written after each rig: a long run interrupted keeps the rigs it finished
-            model = work / name / "diagnosis" / "model.yaml"
+            model = Path(a.model_files.get(name, work / name / "diagnosis" / "model.yaml"))
             shutil.copyfile(model, out / "diagnosed_vs_blind_models" / f"{name}.yaml")
             done = [r["rig"] for r in rows]
             doc = {"command": command.strip(), "tour": TOUR, "rigs": {n: RIGS[n] for n in done}, "rows": rows}

@@ -257,16 +257,25 @@ def test_calibrate_force_writes_a_model_file_marked_untrusted_and_loaders_warn(s
         load_params(out / "model.yaml")
 
 
-def test_a_run_with_an_untrusted_model_file_is_flagged_in_its_own_result_files(short_hover, tmp_path, capsys):
-    """The warning on load is said once; the run's metrics.json and summary carry the flag themselves."""
+def test_a_run_with_an_untrusted_model_file_is_refused_unless_asked_then_flagged(short_hover, tmp_path, capsys):
+    """A controller refuses an untrusted file by default (one line, exit 2, nothing written); with
+    ``untrusted_model: use`` the warning on load is said once and the run's metrics.json and summary
+    carry the flag themselves."""
     cal = tmp_path / "cal"
     assert main(["calibrate", str(short_hover), "--out", str(cal), "--quiet", "--no-figures", "--force"]) == 0
     scenario = tmp_path / "hold.yaml"
-    scenario.write_text(
+    text = (
         "name: hold_untrusted\nseed: 3\ncontroller: {type: fl, model: cal/model.yaml}\n"
         "plant: {profile: default}\ntargets:\n  - {g: 0.020, d: 0.0, hold: 0.2}\n"
     )
+    scenario.write_text(text)
     capsys.readouterr()
+    assert main(["run", str(scenario), "--out", str(tmp_path / "out"), "--quiet", "--no-figures"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert "marked untrusted" in err and "untrusted_model" in err and "refuse" in err
+    assert not (tmp_path / "out" / "hold_untrusted" / "metrics.json").exists()
+    scenario.write_text(text.replace("model: cal/model.yaml}", "model: cal/model.yaml, untrusted_model: use}"))
     main(["run", str(scenario), "--out", str(tmp_path / "out"), "--quiet", "--no-figures"])
     captured = capsys.readouterr()
     stdout = captured.out
@@ -275,6 +284,6 @@ def test_a_run_with_an_untrusted_model_file_is_flagged_in_its_own_result_files(s
     assert "relative standard error" in metrics["model_untrusted"] or "bound" in metrics["model_untrusted"]
     assert "UNTRUSTED MODEL (hold_untrusted)" in stdout
     # without the model file the same run carries no flag
-    scenario.write_text(scenario.read_text().replace(", model: cal/model.yaml", ""))
+    scenario.write_text(scenario.read_text().replace(", model: cal/model.yaml, untrusted_model: use", ""))
     main(["run", str(scenario), "--out", str(tmp_path / "out2"), "--quiet", "--no-figures"])
     assert json.loads((tmp_path / "out2" / "hold_untrusted" / "metrics.json").read_text())["model_untrusted"] is None

@@ -188,13 +188,17 @@ MODEL_RIG = {
 
 
 def _model_scenario(ctype: str, path: Path, backend: str = "python") -> dict:
-    d = _scenario(ctype, plant={"effects": MODEL_RIG})
-    d["controller"] = {"type": ctype, "backend": backend, "model": str(path)}
+    """``ctype`` fl, pid or pid_inverse (the PID with ``feedforward_law: inverse``)."""
+    kind = "pid" if ctype.startswith("pid") else ctype
+    d = _scenario(kind, plant={"effects": MODEL_RIG})
+    d["controller"] = {"type": kind, "backend": backend, "model": str(path)}
+    if ctype == "pid_inverse":
+        d["controller"]["feedforward_law"] = "inverse"
     return d
 
 
 @needs_cc
-@pytest.mark.parametrize("ctype", ["fl", "pid"])
+@pytest.mark.parametrize("ctype", ["fl", "pid", "pid_inverse"])
 def test_model_file_controller_is_the_same_in_python_c_and_the_compiled_loop(ctype, tmp_path):
     """With a model file (constants, friction, cogging, commutation offset, a lag's delay) the Python controller,
     its ``backend: c`` step and the compiled loop give the same log to 1e-9; the generated step holds the effects:

@@ -191,6 +191,42 @@ def test_fl_with_a_lag_model_predicts_through_its_delay(tmp_path):
     assert rms["model"] < 0.5 * rms["blind"], rms
 
 
+def test_fl_predicts_through_the_lags_time_constant_too(tmp_path):
+    """A plant whose amplifier lags by one period plus a 180 Hz first-order part (0.88 ms, the size of
+    digital_eddy's diagnosed lag): FL with the model file declaring that lag predicts through two periods
+    (transport delay + time constant rounded) and tracks the moves closer than with the same lag's time
+    constant left out (a 100 kHz bandwidth: the transport delay only, what FL predicted through before).
+    Truth: the simulated mover against the plan, which neither controller computes."""
+    lag = {"enabled": True, "bandwidth_hz": 180.0, "delay_samples": 1}
+    files = {}
+    for label, bw in (("lag", 180.0), ("delay_only", 1e5)):
+        files[label] = tmp_path / f"{label}.yaml"
+        dump_yaml(files[label], {"effects": {"amplifier_lag": {**lag, "bandwidth_hz": bw}}})
+    assert FeedbackLinearization(FLSettings(model=str(files["lag"]))).delay == 2  # 1 + round(0.88 ms / 1 ms)
+    assert FeedbackLinearization(FLSettings(model=str(files["delay_only"]))).delay == 1
+    # the NMPC (its generated loop's settings: the same sum as the NMPC class) and the PID's fractional lead
+    from maglev_ocp.codegen.loop_c import nmpc_loop_settings
+    from maglev_ocp.controllers.nmpc import NMPCSettings
+    from maglev_ocp.controllers.pid import pid_lead_samples
+
+    assert nmpc_loop_settings(NMPCSettings(model=str(files["lag"]))).delay_samples == 2
+    assert pid_lead_samples(PIDSettings(model=str(files["lag"]))) == pytest.approx(1 + 1 / (2 * math.pi * 180.0 * k.Ts))
+    rms = {}
+    for label, f in files.items():
+        sc = {
+            "name": f"lag_tau_{label}",
+            "seed": 2,
+            "controller": {"type": "fl", "model": str(f)},
+            "plant": {"profile": "default", "effects": {"amplifier_lag": lag}},
+            "targets": [{"g": 0.020, "d": 0.0, "hold": 0.1}, {"g": 0.016, "d": -0.03, "hold": 0.3}],
+        }
+        res = run_scenario(sc, progress=False, figures=False)
+        assert res.metrics.stop_hits == 0 and res.metrics.all_settled
+        c = res.columns
+        rms[label] = float(np.sqrt(np.mean((c["d_true"] - c["d_ref"]) ** 2 + (c["g_true"] - c["g_ref"]) ** 2)))
+    assert rms["lag"] < 0.6 * rms["delay_only"], rms
+
+
 @pytest.mark.long
 def test_fl_blind_vs_diagnosed_on_the_issues_foreign_rig(tmp_path):
     """From rig logs to the loaded model, nothing handed over: the independent rig of the issue (rigsim: +-15 %

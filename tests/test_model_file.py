@@ -115,3 +115,26 @@ def test_pid_feedforward_meets_a_declared_amplifier_delay(tmp_path):
         c = res.columns
         rms[label] = float(np.sqrt(np.mean((c["d_true"] - c["d_ref"]) ** 2)))
     assert rms["model"] < 0.3 * rms["blind"], rms
+
+
+@pytest.mark.parametrize("ctype", ["fl", "pid", "nmpc"])
+def test_every_controller_refuses_an_untrusted_model_file_unless_told_to_use_it(ctype, tmp_path):
+    """A file marked ``trusted: false`` is refused by default (its reasons and the setting named); with
+    ``untrusted_model: use`` it loads, with the loader's warning."""
+    from maglev_ocp.controllers.nmpc import NMPCSettings
+    from maglev_ocp.controllers.pid import PIDSettings
+    from maglev_ocp.params import UntrustedModelWarning
+
+    cls = {"fl": FLSettings, "pid": PIDSettings, "nmpc": NMPCSettings}[ctype]
+    f = tmp_path / "model.yaml"
+    dump_yaml(f, {"trusted": False, "untrusted_because": ["C1 -80 % from nominal"], "C1": 2.84, "effects": {}})
+    with pytest.raises(ValueError, match=r"marked untrusted.*C1 -80 % from nominal.*untrusted_model"):
+        cls(model=str(f))
+    assert cls(model=str(f), untrusted_model="use").model == str(f)
+    with pytest.raises(ValueError, match="untrusted_model"):
+        cls(model=str(f), untrusted_model="maybe")
+    with pytest.warns(UntrustedModelWarning, match="C1 -80 %"):
+        load_controller_model(f)
+    # the same file without the mark: accepted as it is
+    dump_yaml(f, {"C1": 2.84, "effects": {}})
+    assert cls(model=str(f)).untrusted_model == "refuse"

@@ -37,6 +37,7 @@ from __future__ import annotations
 import casadi as ca
 
 from maglev_ocp.controllers.fl import (
+    EFFECT_PASSES,
     GAIN_FIELDS,
     fl_adapt_state,
     fl_adapted,
@@ -178,8 +179,9 @@ def fl_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]:
         x_law = fl_predictor_function(delay, Ts)(x_hat, d_pred, sent[2:], p_law)
     out = law(x_law, dist, ref, z, p_law, gains)
     if eff is not None:
-        # the inverse with the effects at the command (two fixed-point passes, stopped by a non-finite current)
-        for _ in range(2):
+        # the inverse with the effects at the command (EFFECT_PASSES fixed-point passes, stopped by a non-finite
+        # current)
+        for _ in range(EFFECT_PASSES):
             u = out[0]
             ok = ca.fabs(u[0]) + ca.fabs(u[1]) < ca.inf
             new = law(x_law, dist + eff.expr(x_law, u, p, v_plan), ref, z, p_law, gains)

@@ -278,12 +278,12 @@ def nmpc_refs(mode: str, rp: RunPlan, N: int, ahead: int = 0, period_mean: bool 
 
 
 def nmpc_loop_settings(settings: Any) -> Any:
-    """The NMPC settings its step is built from: a model file's transport delay added to ``delay_samples``
-    (as :class:`~maglev_ocp.controllers.nmpc.NMPC` does), so the compiled loop's step predicts through it and
-    its reference is read that many periods ahead."""
+    """The NMPC settings its step is built from: a model file's delay (transport delay plus the lag's time
+    constant in whole periods) added to ``delay_samples`` (as :class:`~maglev_ocp.controllers.nmpc.NMPC` does), so
+    the compiled loop's step predicts through it and its reference is read that many periods ahead."""
     from maglev_ocp.controllers.nmpc import NMPCSettings
 
-    n = load_controller_model(settings.model).delay_samples if settings.model else 0
+    n = load_controller_model(settings.model).delay_periods() if settings.model else 0
     if not n:
         return settings
     return NMPCSettings.model_validate({**settings.model_dump(), "delay_samples": settings.delay_samples + n})

@@ -5,7 +5,9 @@ numerically. For the C backend and the compiled closed loop the step is one
 self-contained function, composed here from the controller's own pieces (never
 retyped): the observer's symbolic update (:func:`maglev_ocp.observers.observer_update`,
 the gain of :class:`~maglev_ocp.observers.HighGainObserver`), the controller's
-gain-schedule Function (:func:`maglev_ocp.controllers.pid.schedule_function`) and its law
+gain-schedule Function (:func:`maglev_ocp.controllers.pid.schedule_function`), its inverse
+feed-forward (:func:`maglev_ocp.controllers.pid.inverse_feedforward_function` through
+:func:`maglev_ocp.controllers.pid.inverse_feedforward`) and its law
 (:func:`maglev_ocp.controllers.pid.pid_law` evaluated with :data:`maglev_ocp.controllers.pid.SYMBOLIC`):
 
 ``pid_step(state_in, meas, ref, p) -> (u, state_out, x_hat, u_eq, flags)``
@@ -30,8 +32,11 @@ from maglev_ocp.controllers.model_file import load_controller_model
 from maglev_ocp.controllers.pid import (
     SYMBOLIC,
     clip_currents,
+    demanded_row,
     effect_correction,
     feedforward_row,
+    inverse_feedforward,
+    inverse_feedforward_function,
     pid_law,
     pid_lead_samples,
     pid_model_effects,
@@ -78,7 +83,7 @@ def pid_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]
     np_ = get_model().np_
     sl = pid_state_slices()
     model = load_controller_model(settings.model) if settings.model else None
-    eff = pid_model_effects(settings, model, model.params.vector()) if model is not None else None
+    eff = pid_model_effects(settings, model, model.params.vector(), L) if model is not None else None
 
     meas0, p0 = ca.SX.sym("meas", 2), ca.SX.sym("p", np_)
     u_eq0 = sched(meas0[0], meas0[1], p0)[0]
@@ -96,8 +101,13 @@ def pid_functions(settings, Ts: float = k.Ts) -> tuple[ca.Function, ca.Function]
     r_ff = [ref[nr + i] for i in range(nr)] if lead else r_now
     x_hat, dist = observer_update(st[sl["x_hat"]], st[sl["dist"]], st[sl["u_prev"]], meas, p, L, Ts, True)
     u_eq, b_v, a21, L1 = sched(r_ff[0], r_ff[3], p)
+    # the feed-forward from the model's inverse at the planned row, as PIDController.step takes it
+    u_inv = inverse_feedforward_function()(ca.vertcat(*r_ff), p)
+    ff, r_ff = inverse_feedforward(SYMBOLIC, settings, (u_inv[0], u_inv[1]), (u_eq[0], u_eq[1]), r_ff)
+    u_eq = ca.vertcat(*ff)
     if eff is not None:  # the model file's effects in the feed-forward, as PIDController.effect_feedforward
-        du = effect_correction(lambda x, u: eff.expr(ca.vertcat(*x), ca.vertcat(*u), p), r_ff, u_eq, b_v, L1)
+        r_v = demanded_row(settings, r_ff, r_now, [x_hat[i] for i in range(4)])
+        du = effect_correction(lambda x, u: eff.expr(ca.vertcat(*x), ca.vertcat(*u), p), r_v, u_eq, b_v, L1)
         ok = ca.logic_and(ca.fabs(u_eq[0]) + ca.fabs(u_eq[1]) < ca.inf, ca.logic_and(b_v != 0, L1 != 0))
         u_eq = u_eq + ca.if_else(ok, ca.vertcat(*du), ca.SX.zeros(2))
     z, good = st[sl["z"]], st[sl["ueq_good"]]

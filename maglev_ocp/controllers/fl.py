@@ -35,13 +35,14 @@ put the feedforward acceleration N samples late, which costs more than the lag).
 
 A model file (``model: FILE``, :mod:`maglev_ocp.controllers.model_file`, e.g. the
 ``model.yaml`` of ``maglev diagnose``) enters as for the NMPC: its constants are
-the controller's parameters, its amplifier lag's transport delay adds to
-``delay_samples``, and its static effects (:class:`~maglev_ocp.controllers.model_file.ModelEffects`,
+the controller's parameters, its amplifier lag's transport delay plus its
+time constant (rounded to whole periods, :meth:`~maglev_ocp.controllers.model_file.ControllerModel.delay_periods`)
+adds to ``delay_samples``, and its static effects (:class:`~maglev_ocp.controllers.model_file.ModelEffects`,
 the effect library's laws) enter three places without letting the
 measurement noise into the current:
 
 * the inverse: the law's model must give the demanded acceleration with what
-  the effects add at the commanded current (a fixed point of two passes),
+  the effects add at the commanded current (a fixed point of :data:`EFFECT_PASSES` passes),
   evaluated at the *planned* velocities (the reference row the law meets, N
   samples ahead with a delay), never at the estimate: a fitted friction sign
   (a diagnosis fixes ``tanh(v / 1 mm/s)``) on the observer's velocity, whose
@@ -83,7 +84,7 @@ from collections import deque
 
 import casadi as ca
 import numpy as np
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from maglev_ocp import constants as k
 from maglev_ocp.blocks import ControlOutput, Measurement, Reference
@@ -107,8 +108,11 @@ from maglev_ocp.signals import REF_FIELDS
 from .model_file import (
     MODEL_SETTING_DESCRIPTION,
     SIGN_WIDTH_SIGMAS,
+    UNTRUSTED_MODEL_DESCRIPTION,
     ModelEffects,
+    UntrustedPolicy,
     check_model_path,
+    check_model_trust,
     load_controller_model,
     velocity_noise,
 )
@@ -118,6 +122,12 @@ from .preview import PlanPreview
 GAIN_FIELDS: tuple[str, ...] = ("kp_g", "kd_g", "ki_g", "kp_d", "kd_d", "ki_d", "i_axis_max", "i_amp_max", "Ts")
 #: Order of the flag vector returned by :func:`fl_law_function`.
 FLAG_FIELDS: tuple[str, ...] = ("unreachable", "sat_g", "sat_d")
+#: Fixed-point passes of the inverse with a model file's effects at the commanded current (Python and
+#: generated step alike): each pass shrinks the error by the effects' share of the current's gain, which a
+#: fitted saturation makes large. Measured on the end_saturation rig (diagnosed saturation, 31 % loss at 8 mm;
+#: tracking g / d along the plan, um): 2 passes 7.8 / 4.7, 3 passes 5.1 / 3.4, 4 passes 4.5 / 3.5, 6 passes
+#: 4.6 / 3.5 (converged at 4; each pass costs one law evaluation).
+EFFECT_PASSES: int = 4
 
 
 def _sat(v: ca.SX, lim: ca.SX) -> ca.SX:
@@ -336,7 +346,7 @@ class FLSettings(AdaptSettings):
         prediction, the delay predictor and the inversion, at the planned
         velocity in the inversion and with the velocity signs smoothed to the
         estimate's resolution in the observer (module docstring); an amplifier
-        lag's transport delay adds to ``delay_samples``.
+        lag's transport delay and time constant (whole periods) add to ``delay_samples``.
     adapt : list of str
         Constants (of C1..C4) whose relative error the observer estimates from
         the moves (see the module docstring); ``[]`` turns it off, and it is
@@ -359,6 +369,7 @@ class FLSettings(AdaptSettings):
         0, ge=0, le=10, description="computation delay compensated by the predictor [control periods]"
     )
     model: str | None = Field(None, description=MODEL_SETTING_DESCRIPTION)
+    untrusted_model: UntrustedPolicy = Field("refuse", description=UNTRUSTED_MODEL_DESCRIPTION)
     adapt_noise: float | None = Field(
         4e-6,
         gt=0,
@@ -374,6 +385,11 @@ class FLSettings(AdaptSettings):
     @classmethod
     def _model_exists(cls, v: str | None) -> str | None:
         return check_model_path(v)
+
+    @model_validator(mode="after")
+    def _model_trusted(self) -> FLSettings:
+        check_model_trust(self.model, self.untrusted_model)
+        return self
 
     def gains(self, Ts: float = k.Ts) -> np.ndarray:
         """Gain / limit vector in the order of :data:`GAIN_FIELDS`."""
@@ -416,15 +432,17 @@ def fl_model_effects(model, p: np.ndarray, L: np.ndarray, Ts: float = k.Ts) -> M
     return ModelEffects(model, p, SIGN_WIDTH_SIGMAS * velocity_noise(L, Ts))
 
 
-def fl_delay_samples(settings: FLSettings, model=None) -> int:
+def fl_delay_samples(settings: FLSettings, model=None, Ts: float = k.Ts) -> int:
     """The delay the FL predicts through [control periods]: ``settings.delay_samples`` plus the model file's.
 
     ``model`` is the loaded model file of ``settings.model`` if the caller has it
-    (else it is loaded here); its amplifier lag's transport delay adds to the setting.
+    (else it is loaded here); its amplifier lag's transport delay and its time constant
+    rounded to whole periods (:meth:`~maglev_ocp.controllers.model_file.ControllerModel.delay_periods`)
+    add to the setting.
     """
     if model is None and settings.model:
         model = load_controller_model(settings.model)
-    return int(settings.delay_samples) + (int(model.delay_samples) if model is not None else 0)
+    return int(settings.delay_samples) + (model.delay_periods(Ts) if model is not None else 0)
 
 
 class FeedbackLinearization:
@@ -481,7 +499,7 @@ class FeedbackLinearization:
         self._u_good: np.ndarray | None = None  # last finite command of the law
         self._x0 = (0.020, 0.0)  # reading at reset (where the hover fallback is taken before any estimate)
         self._started = False
-        self.delay = fl_delay_samples(self.settings, self.model)
+        self.delay = fl_delay_samples(self.settings, self.model, Ts)
         self._pred = BufferedFunction(fl_predictor_function(self.delay, Ts)) if self.delay else None
         # commands sent, oldest first: [0] is the one applied over the last period, [1:] are still on their way
         self._sent: deque[np.ndarray] = deque([np.zeros(2)] * (self.delay + 1), maxlen=self.delay + 1)
@@ -564,7 +582,7 @@ class FeedbackLinearization:
             # invert the model with the effects: the law's model must give v minus the residual disturbance
             # minus what the effects add at the current it commands (fixed point, exact for state-only effects);
             # at the planned velocity, so that the velocity estimate's noise does not reach the current
-            for _ in range(2):
+            for _ in range(EFFECT_PASSES):
                 if not np.all(np.isfinite(u)):
                     break
                 u, z_next, v, fl = self._law(x_law, dist + self._effect(x_law, u, v_plan), r, self._z, p, self._gains)
@@ -622,6 +640,7 @@ class FeedbackLinearization:
 
 
 __all__ = [
+    "EFFECT_PASSES",
     "FLAG_FIELDS",
     "GAIN_FIELDS",
     "FLSettings",

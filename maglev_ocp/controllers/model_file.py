@@ -44,6 +44,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass, fields
+from typing import Literal
 
 import casadi as ca
 import numpy as np
@@ -62,6 +63,15 @@ MODEL_SETTING_DESCRIPTION: str = (
     "maglev diagnose write as model.yaml; its constants replace the controller's parameters. In a scenario a "
     "relative path is read from the scenario file's folder"
 )
+#: Description of every controller's ``untrusted_model`` setting (what to do with a file marked ``trusted: false``).
+UNTRUSTED_MODEL_DESCRIPTION: str = (
+    "what the controller does with a model file its writer marked trusted: false (maglev diagnose when the "
+    "constants absorbed an effect outside the library, maglev calibrate --force): refuse (default: the scenario "
+    "is rejected with the file's reasons, nothing runs) or use (the file is loaded with a warning and every "
+    "result of the run says UNTRUSTED MODEL in its own files)"
+)
+#: Allowed values of ``untrusted_model``.
+UntrustedPolicy = Literal["refuse", "use"]
 
 #: Plant-file keys that describe the rig, not its model (ignored when a plant file is loaded as a model file).
 RIG_KEYS: tuple[str, ...] = (
@@ -118,6 +128,20 @@ class ControllerModel:
     delay_samples: int = 0
     source: str = ""
     lag_time_s: float = 0.0
+
+    def delay_periods(self, Ts: float = k.Ts) -> int:
+        """The whole control periods a controller's delay predictor runs through for this file's lag.
+
+        The transport delay plus the first-order part's time constant rounded to whole periods: below
+        its bandwidth a lag delays a signal by about its time constant, so a Smith predictor that
+        ignored it would meet the plan that much late. Measured on the digital_eddy rig (a 1.5-period
+        delay and a 500 Hz PWM lag; its diagnosis: one period and 188 Hz, 0.85 ms): FL's tracking RMS
+        along the plan g / d 13.8 / 42.2 um through one period, 4.6 / 10.1 um through two
+        (``results/benchmarks/diagnosed_vs_blind.md``). Predicting through a whole number of periods
+        keeps the predictors (FL, NMPC, their generated steps) as they are; the PID, which only reads
+        the plan ahead, uses the fractional sum (:func:`maglev_ocp.controllers.pid.pid_lead_samples`).
+        """
+        return int(self.delay_samples) + round(self.lag_time_s / Ts)
 
 
 def load_controller_model(path: str | os.PathLike) -> ControllerModel:
@@ -283,6 +307,47 @@ def check_model_path(path: str | None) -> str | None:
     return path
 
 
+def model_file_untrusted(path: str | os.PathLike) -> str | None:
+    """Why the model file ``path`` is marked untrusted by its writer (``trusted: false``), or None if it is not.
+
+    The file's own ``untrusted_because`` reasons joined (``"no reason given"`` without any); a file that
+    cannot be read as a mapping is left to the loader's one-line error.
+    """
+    try:
+        data = load_yaml(path)
+    except ConfigError:
+        return None
+    if not isinstance(data, dict) or data.get("trusted", True) is not False:
+        return None
+    why = data.get("untrusted_because") or ["no reason given"]
+    return "; ".join(str(w) for w in (why if isinstance(why, list) else [why]))
+
+
+def check_model_trust(path: str | None, policy: UntrustedPolicy) -> None:
+    """Settings check of a controller's ``model`` against its ``untrusted_model`` policy.
+
+    A model file marked ``trusted: false`` is refused unless ``policy`` is ``"use"`` (then the loader
+    warns and the run's results carry the mark, :meth:`maglev_ocp.scenario.Scenario.model_untrusted`).
+    Refusing is the default because a file the diagnosis could not vouch for made every controller worse
+    than blind on the validation rig whose constants absorbed an effect outside the library
+    (``results/benchmarks/diagnosed_vs_blind.md``, cascade_karnopp: C1 -80 %, FL d 85 -> 647 um): the user
+    must say, in the scenario, that they want it anyway.
+
+    Raises
+    ------
+    ValueError
+        One line naming the file, its reasons and the setting that accepts it.
+    """
+    if path is None or policy == "use":
+        return
+    why = model_file_untrusted(path)
+    if why is not None:
+        raise ValueError(
+            f"model file {path} is marked untrusted by its writer ({why}); refused: untrusted_model is "
+            "'refuse' (allowed: refuse, use; use runs with it and flags every result UNTRUSTED MODEL)"
+        )
+
+
 def _plant_delay(where: str | os.PathLike, value: object) -> int:
     """A delay in whole control periods (``delay_samples``), 0..10."""
     try:
@@ -316,10 +381,14 @@ __all__ = [
     "RIG_KEYS",
     "SIGN_WIDTHS",
     "SIGN_WIDTH_SIGMAS",
+    "UNTRUSTED_MODEL_DESCRIPTION",
     "ControllerModel",
     "ModelEffects",
+    "UntrustedPolicy",
     "check_model_path",
+    "check_model_trust",
     "effect_delta_function",
     "load_controller_model",
+    "model_file_untrusted",
     "velocity_noise",
 ]

@@ -119,12 +119,13 @@ class NMPC:
     ):
         self.settings = settings or NMPCSettings()
         # a model file (settings.model): its constants are the controller's parameters, its lag's transport
-        # delay (and a plant file's computation delay) adds to delay_samples; the step takes its effects
+        # delay and time constant in whole periods (and a plant file's computation delay) add to
+        # delay_samples; the step takes its effects
         self.model = load_controller_model(self.settings.model) if self.settings.model else None
         if self.model is not None:
             params = self.model.params
-            if self.model.delay_samples:
-                total = self.settings.delay_samples + self.model.delay_samples
+            if self.model.delay_periods(k.Ts):  # transport delay + the lag's time constant, whole periods
+                total = self.settings.delay_samples + self.model.delay_periods(k.Ts)
                 self.settings = NMPCSettings.model_validate({**self.settings.model_dump(), "delay_samples": total})
         self.params = params
         self.evaluators = evaluators

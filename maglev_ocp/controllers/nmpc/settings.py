@@ -19,7 +19,13 @@ from maglev_ocp import constants as k
 from maglev_ocp.config import Strict
 from maglev_ocp.observers import AdaptSettings
 
-from ..model_file import MODEL_SETTING_DESCRIPTION, check_model_path
+from ..model_file import (
+    MODEL_SETTING_DESCRIPTION,
+    UNTRUSTED_MODEL_DESCRIPTION,
+    UntrustedPolicy,
+    check_model_path,
+    check_model_trust,
+)
 
 
 class NMPCWeights(Strict):
@@ -172,8 +178,9 @@ class NMPCSettings(AdaptSettings):
         static effects enter the prediction model (inside the RK4), the
         observer's prediction and the feed-forward currents (the step bakes
         their parameters in, so the compiled C carries them too); an amplifier
-        lag's transport delay (and a plant file's ``delay_samples``) adds to
-        ``delay_samples`` (:class:`NMPC` does the sum).
+        lag's transport delay plus its time constant in whole periods
+        (:meth:`~maglev_ocp.controllers.model_file.ControllerModel.delay_periods`, and a plant file's
+        ``delay_samples``) add to ``delay_samples`` (:class:`NMPC` does the sum).
     force_failure_steps : list of int
         Step indices at which the QP is poisoned with NaN (tests of the fallback).
     """
@@ -234,12 +241,18 @@ class NMPCSettings(AdaptSettings):
         "optimises from there (0: no delay model)",
     )
     model: str | None = Field(None, description=MODEL_SETTING_DESCRIPTION)
+    untrusted_model: UntrustedPolicy = Field("refuse", description=UNTRUSTED_MODEL_DESCRIPTION)
     force_failure_steps: list[int] = Field(default_factory=list)
 
     @field_validator("model")
     @classmethod
     def _model_exists(cls, v: str | None) -> str | None:
         return check_model_path(v)
+
+    @model_validator(mode="after")
+    def _model_trusted(self) -> NMPCSettings:
+        check_model_trust(self.model, self.untrusted_model)
+        return self
 
     # ------------------------------------------------------------- planning defaults
     @staticmethod
