@@ -122,7 +122,8 @@ def experiment_markdown(plan: RunPlan, dz: Design) -> str:
         "",
         *(f"{i + 1}. {r.label()}" for i, r in enumerate(plan.runs[: len(plan.runs) // dz.repeats])),
         "",
-        "Next: `maglev simulate --experiment experiment.yaml --out DATA2` (or run it on the rig), then "
+        "Next: run it on the rig that gave the data (or `maglev simulate --experiment experiment.yaml --plant "
+        "THE_RIG.yaml --out DATA2` on the same plant file, its constants pinned), then "
         "`maglev diagnose run DATA DATA2 --out DIR` decides on both datasets.",
         "",
     ]
