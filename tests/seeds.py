@@ -48,6 +48,10 @@ VALIDATION_SEEDS: dict[str, int] = {
     # 2026-11-29 and failed (named, delay 2.5 us vs 1279 us: the size came from the lag's single fit); the fix
     # (sizes from the joint model) was developed on it, so this check takes a new seed
     "rig_truth_lag_friction": 710_043,
+    # tests/test_diagnosis_experiment_e2e.py: a one-gap dataset's eddy_drag|friction resolved by the designed
+    # experiment, each drag as the truth (chosen 2026-11-29 before the check first ran)
+    "experiment_eddy_drag": 710_051,
+    "experiment_friction": 710_059,
 }
 
 #: Every seed at or above this bound that is not in the registry has never been looked at.

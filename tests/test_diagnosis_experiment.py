@@ -56,8 +56,30 @@ def test_eddy_drag_against_viscous_friction_chooses_velocity_sweeps_at_two_gaps(
     # at the fitting gap they are (nearly) the same model: far less separation than at two other gaps
     assert by["velocity_sweep_one_gap"].snr < 0.1 * by["velocity_sweep_two_gaps"].snr
     assert d.plan.predicted_snr >= 10.0
-    assert by["velocity_sweep_two_gaps"].per_channel["vertical"] == 0.0  # neither effect acts vertically here
+    # neither effect acts vertically here (the friction's vertical terms refit to nothing)
+    assert by["velocity_sweep_two_gaps"].per_channel["vertical"] < 1e-9
     assert d.plan.slot == ["eddy_drag", "friction"]
+
+
+def test_constants_each_fit_moved_are_refitted_not_taken_for_the_effects_signatures():
+    """Each alternative's fit moved C1..C4 its own way (1-10 %, within the prior): with nothing refitted those
+    differences dominate every entry, holds included, where neither effect acts (d_dot = 0); the design refits
+    the constants (prior PRIOR_SD) and still chooses the velocity sweeps at two gaps."""
+    from dataclasses import replace
+
+    eddy, fric = _pair(200.0)
+    p = NOMINAL
+    eddy = replace(eddy, constants={"C1": p.C1 * 1.02, "C2": p.C2 * 0.99, "C3": p.C3 * 1.02, "C4": p.C4 * 1.1})
+    fric = replace(fric, constants={"C1": p.C1 * 0.99, "C2": p.C2 * 1.01, "C3": p.C3 * 0.99, "C4": p.C4 * 0.95})
+    d = design([eddy, fric], NOMINAL, FLOORS, menu=_menu(), target_snr=10.0)
+    by = {s.name: s for s in d.scores}
+    assert by["holds"].snr_fixed > 10.0  # the constants' differences alone, far above the noise
+    # refitted: only the prior's penalty is left, (shift / prior sd)^2 summed, about 0.1^2 + 0.2^2 + ... < 1
+    assert by["holds"].snr < 1.0
+    assert d.plan.excitation == "velocity_sweep_two_gaps"
+    # and the effects' own separation there is what it is without constant differences (within 10 %)
+    clean = score_entry(_menu()[3], _pair(200.0), NOMINAL, FLOORS).snr
+    assert by["velocity_sweep_two_gaps"].snr == pytest.approx(clean, rel=0.1)
 
 
 def test_snr_is_linear_in_the_effect_size():

@@ -22,8 +22,9 @@ from pathlib import Path
 
 from ..loop.run_plan import RunPlan, write_plan, write_reference_csvs
 from ..output import atomic_write_text
-from .experiment import Alternative, Design, MenuEntry, design
+from .experiment import Alternative, Design, MenuEntry, Refit, design
 from .fit import FitResult
+from .library import PRIOR_SD
 from .result import Diagnosis
 
 #: Folder (inside the report folder) of the plan's reference CSVs.
@@ -52,8 +53,29 @@ def _effect_values(fit: FitResult) -> tuple[dict[str, dict[str, float]], dict[st
     return effect, consts
 
 
+def _refits(fits: Sequence[FitResult]) -> tuple[Refit, ...]:
+    """What a refit of these fits may move: their free parameters, constants with their prior sd in physical
+    units (the fit's own prior, else :data:`.library.PRIOR_SD` relative to the value), effect parameters flat."""
+    out: dict[str, Refit] = {}
+    for fit in fits:
+        for f, v in zip(fit.spec.free, fit.w, strict=True):
+            if f.key in out:
+                continue
+            sd = f.prior[1] if f.prior is not None else None
+            if sd is None and f.key.startswith("p."):
+                rel = PRIOR_SD.get(f.key[2:])
+                sd = None if rel is None else rel * max(abs(float(v)), 1e-12)
+            out[f.key] = Refit(f.key, float(f.scale), sd)
+    return tuple(out.values())
+
+
 def alternatives_of(d: Diagnosis, slot: tuple[str, ...]) -> list[Alternative]:
-    """Each slot member's fitted candidate, with the verdict's other effects as common members."""
+    """Each slot member's fitted candidate, with the verdict's other effects as common members.
+
+    Each carries what a refit on new runs may move (its fit's free parameters and those of the other slots'
+    fits, the calibrated constants with their prior) and its fit's ties, for the design's refit
+    (:func:`.experiment.score_entry`).
+    """
     fits = {s.name: s.fit for s in d.scores if s.fit is not None and s.fit.success}
     final = d.final_score.fit if d.final_score is not None and d.final_score.fit is not None else None
     common_params, _ = _effect_values(final) if final is not None else ({}, {})
@@ -68,7 +90,9 @@ def alternatives_of(d: Diagnosis, slot: tuple[str, ...]) -> list[Alternative]:
             dict.fromkeys([*(n for o in others for n in fits[o].spec.effects if o in fits), *fit.spec.effects])
         )
         params = {**{k: v for k, v in common_params.items() if k in names}, **eff}
-        alts.append(Alternative(member, names, params, consts))
+        used = [fits[o] for o in others if o in fits] + [fit]
+        ties = tuple(t for f in used for t in f.spec.ties)
+        alts.append(Alternative(member, names, params, consts, _refits(used), ties))
     return alts
 
 
@@ -81,11 +105,15 @@ def experiment_markdown(plan: RunPlan, dz: Design) -> str:
         f"**{plan.excitation}** (predicted SNR {plan.predicted_snr:.1f} over {plan.duration_s:.0f} s of runs, "
         f"{dz.repeats} pass(es)): {plan.why}.",
         "",
-        "| excitation | SNR (one pass) | SNR per minute | vertical | horizontal |",
-        "|---|---:|---:|---:|---:|",
+        "SNR after the rival alternative refits its effect parameters and the calibrated constants (prior "
+        "sd `PRIOR_SD`) to the other's prediction on the new runs; the last column holds both at their fitted "
+        "values.",
+        "",
+        "| excitation | SNR (one pass) | SNR per minute | vertical | horizontal | SNR, nothing refitted |",
+        "|---|---:|---:|---:|---:|---:|",
         *(
             f"| {s.name} | {s.snr:.2f} | {s.snr_per_minute:.2f} | {s.per_channel['vertical']:.2f} | "
-            f"{s.per_channel['horizontal']:.2f} |"
+            f"{s.per_channel['horizontal']:.2f} | {s.snr_fixed:.2f} |"
             for s in sorted(dz.scores, key=lambda s: -s.snr_per_minute)
         ),
         "",
@@ -94,7 +122,8 @@ def experiment_markdown(plan: RunPlan, dz: Design) -> str:
         "",
         *(f"{i + 1}. {r.label()}" for i, r in enumerate(plan.runs[: len(plan.runs) // dz.repeats])),
         "",
-        "Next: `maglev simulate --experiment experiment.yaml --out DATA2` (or run it on the rig), then "
+        "Next: run it on the rig that gave the data (or `maglev simulate --experiment experiment.yaml --plant "
+        "THE_RIG.yaml --out DATA2` on the same plant file, its constants pinned), then "
         "`maglev diagnose run DATA DATA2 --out DIR` decides on both datasets.",
         "",
     ]
@@ -136,7 +165,10 @@ def write_experiment(
         **dz.plan.model_dump(mode="json", exclude={"runs"}),
         "file": "experiment.yaml",
         "runs": [r.label() for r in dz.plan.runs],
-        "scores": {s.name: {"snr": s.snr, "snr_per_minute": s.snr_per_minute, **s.per_channel} for s in dz.scores},
+        "scores": {
+            s.name: {"snr": s.snr, "snr_per_minute": s.snr_per_minute, **s.per_channel, "snr_fixed": s.snr_fixed}
+            for s in dz.scores
+        },
     }
     atomic_write_text(out / "report.json", json.dumps(rep, indent=2))
     return dz.plan
