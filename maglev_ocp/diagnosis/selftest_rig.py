@@ -68,14 +68,21 @@ def kinds_order(n: int, rng: np.random.Generator) -> list[str]:
 
 
 def run_rig_case(
-    index: int, kind: str, seed: int, settings: SelftestSettings, keep: Path | None = None, laws: str = "all"
+    index: int,
+    kind: str,
+    seed: int,
+    settings: SelftestSettings,
+    keep: Path | None = None,
+    laws: str = "all",
+    scenario: dict | None = None,
 ) -> Case:
     """Draw one scenario of ``kind`` on the independent rig, generate its dataset and diagnose it blind.
 
     ``laws``: the rig's law families drawn from, ``"all"`` (the self-check: old and new, issue 27), ``"old"``
-    or ``"new"`` (:func:`maglev_ocp.rigsim.draw`).
+    or ``"new"`` (:func:`maglev_ocp.rigsim.draw`). ``scenario``: a scenario in :func:`~maglev_ocp.rigsim.draw`'s
+    form to run instead of a drawn one (the leave-one-law-out check, :mod:`.selftest_lolo`, forces a law family).
     """
-    scen = draw(seed, kind, laws=laws)  # new_law marked per effect in the truth
+    scen = scenario if scenario is not None else draw(seed, kind, laws=laws)  # new_law marked per effect
     truth = canonical(expected_verdict(build_laws(scen["effects"])))  # a set in library order, as verdicts are
     gs = settings.generator
     rs = RigSettings(n_runs=gs.n_runs, duration=gs.run_duration)
