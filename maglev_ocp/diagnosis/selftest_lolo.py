@@ -286,6 +286,10 @@ def lolo_document(cases: list[Case], table: dict, keys: list[tuple[str, str]], n
             "sizes_compared": len(se),
             "sizes_within_20pct": float(np.mean(se <= 0.2)) if len(se) else None,
             "seconds_median": float(np.median([c.seconds for c in mine])) if mine else None,
+            # an excluded member fitted anyway would void the row: the stages must read the filtered library
+            "excluded_fitted": sorted({m for c in mine for m in (c.truth_params.get("fitted") or {}).get(
+                "members_tried", []) if m.split("/", 1)[0] == effect and m.split("/", 1)[1] in
+                table[(effect, family)].members}),
         })  # fmt: skip
     not_run = [{"effect": m.effect, "family": m.family, "reason": m.reason} for m in table.values() if not m.members]
     right = [c.right for c in cases]
@@ -315,7 +319,8 @@ def lolo_markdown(doc: dict) -> str:
         [f"`{r['effect']}` {r['family']}", ", ".join(f"`{x}`" for x in r["excluded"]), r["datasets"],
          f"{r['right']} ({pct(r['right_fraction'])})",
          "; ".join(f"{k} ({v})" for k, v in r["instead"].items()) or "-",
-         f"{pct(r['sizes_within_20pct'])} of {r['sizes_compared']}"]
+         f"{pct(r['sizes_within_20pct'])} of {r['sizes_compared']}"
+         + (f" (**excluded members fitted: {r['excluded_fitted']}**)" if r.get("excluded_fitted") else "")]
         for r in doc["rows"]
     ]  # fmt: skip
     s = doc["summary"]

@@ -50,6 +50,8 @@ from ..rigsim.generate import build_laws, expected_verdict
 from .diagnose import diagnose
 from .report import write_report
 from .selftest import Case, SelftestResult, SelftestSettings, canonical, same_set, save_partial
+from .selftest_summary import size_errors as truth_size_errors
+from .selftest_summary import target_lines, targets, timings
 
 #: Scenario kinds with library effects.
 LIBRARY_KINDS: tuple[str, ...] = ("single", "pair", "triple")
@@ -124,23 +126,17 @@ def fitted_values(diag) -> dict:
         "constants": {n: float(diag.baseline_params.as_dict()[n]) for n in CONSTANTS},
         "peak_force_n": {s.name: float(max(s.peak_force_n.values())) for s in sizes if s.peak_force_n},
         "effective_delay_s": {s.name: 1e-6 * float(s.delay_us) for s in sizes if s.delay_us is not None},
+        # the law-family members the final model uses and every member fitted (the leave-one-law-out check
+        # reads them: an excluded member must never appear)
+        "laws": {e: str(sh.get("law", "default")) for e, sh in diag.shares.items()},
+        "members_tried": sorted({f"{s.name}/{s.law}" for s in (*diag.scores, *diag.law_members)}),
     }
 
 
 def size_errors(case: Case) -> dict[str, float]:
     """Relative errors of the fitted sizes against the truth file, for the effects both name: the effective delay
-    of a lag, the peak force of every other effect."""
-    tp, fit = case.truth_params, case.truth_params.get("fitted") or {}
-    out: dict[str, float] = {}
-    for name, true in (tp.get("effective_delay_s") or {}).items():
-        got = (fit.get("effective_delay_s") or {}).get(name)
-        if got is not None and true:
-            out[name] = got / true - 1.0
-    for name, true in (tp.get("peak_force_n") or {}).items():
-        got = (fit.get("peak_force_n") or {}).get(name)
-        if name not in out and got is not None and true:
-            out[name] = got / true - 1.0
-    return out
+    of a lag, the peak force of every other effect (:func:`.selftest_summary.size_errors`)."""
+    return truth_size_errors(case.truth_params)
 
 
 def constant_errors(case: Case) -> dict[str, float]:
@@ -223,6 +219,8 @@ class RigSelftestResult(SelftestResult):
             "constant_error_median": {n: float(np.nanmedian(v)) if v else None for n, v in ce.items()},
             "diagnosis_seconds_median": float(np.median(secs)) if secs else None,
             "diagnosis_seconds_max": float(np.max(secs)) if secs else None,
+            "diagnosis_seconds_p90": float(np.percentile(secs, 90)) if secs else None,
+            "targets": [t.__dict__ for t in targets(self._case_dicts())],
         }
 
     def _lines(self) -> list[str]:
@@ -260,12 +258,15 @@ class RigSelftestResult(SelftestResult):
         if any(v is not None and not math.isnan(v) for v in cm.values()):
             out.append("calibrated constants against the truth file, median |error|: "
                        + ", ".join(f"{n} {v:.2%}" for n, v in cm.items() if v is not None))  # fmt: skip
-        if s["diagnosis_seconds_median"] is not None:
+        t = timings(self._case_dicts())
+        if t["median"] is not None:
             out.append(
-                f"diagnosis time per dataset: median {s['diagnosis_seconds_median']:.1f} s, "
-                f"max {s['diagnosis_seconds_max']:.1f} s"
+                f"diagnosis time per dataset: median {t['median']:.1f} s, p90 {t['p90']:.1f} s, max {t['max']:.1f} s"
             )
-        return out
+        return out + target_lines(self._case_dicts())
+
+    def _case_dicts(self) -> list[dict]:
+        return [c.to_dict() for c in self.cases]
 
     def table(self) -> str:
         """Text view: cases, confusion matrix, summary."""
