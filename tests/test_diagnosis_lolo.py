@@ -216,3 +216,20 @@ def test_the_validation_page_is_regenerated_between_its_markers(tmp_path):
     assert "old figures" not in new and "before" in new and "after" in new and new.count(BEGIN) == 1
     assert rewrite(new, body) == new  # idempotent
     assert not math.isnan(timings(KNOWN)["p90"])
+
+
+@pytest.mark.parametrize(
+    ("flag", "says"),
+    [
+        ("end_effect:one end", "unknown law member(s) ['one end']; allowed: ['default'"),
+        ("end_efect:two ends", "unknown effect 'end_efect'; allowed: cogging"),
+        ("end_effect", "expected EFFECT:MEMBER"),
+    ],
+)
+def test_exclude_law_flag_refuses_bad_names_in_one_line(tmp_path, capsys, flag, says):
+    from maglev_ocp.cli import main
+
+    code = main(["diagnose", "selftest", "1", "--out", str(tmp_path / "o"), "--exclude-law", flag])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and says in err and len(err.splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "o").exists()  # refused before any work
