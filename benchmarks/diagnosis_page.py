@@ -22,7 +22,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
+from maglev_ocp.diagnosis.selftest_lolo import MATCHED  # noqa: E402
 from maglev_ocp.diagnosis.selftest_summary import validation_markdown  # noqa: E402
+from maglev_ocp.markdown import md_table  # noqa: E402
 from maglev_ocp.output import atomic_write_text  # noqa: E402
 
 PAGE = ROOT / "docs" / "validation" / "diagnosis.md"
@@ -65,13 +67,23 @@ def load(paths: tuple[str, ...], root: Path = ROOT) -> tuple[dict | None, str]:
     return None, ""
 
 
+def matched_markdown() -> str:
+    """The leave-one-law-out check's table of the library members matched to each first rig law family
+    (:data:`maglev_ocp.diagnosis.selftest_lolo.MATCHED`, the code's own table)."""
+    rows = [[f"`{m.effect}` {m.family}", ", ".join(f"`{x}`" for x in m.members) or "(none: not run)", m.reason]
+            for m in MATCHED]  # fmt: skip
+    return "### Library members matched to the rig's first law families\n\n" + md_table(
+        ["rig law", "matched members (left out)", "why"], rows
+    )
+
+
 def generated(root: Path = ROOT) -> str:
-    """The page's generated part from the result files under ``root``."""
+    """The page's generated part from the result files under ``root`` (and the matched-members table)."""
     results = {}
     for title, (paths, note) in SOURCES.items():
         doc, used = load(paths, root)
         results[title] = (doc, note + (f" Figures from `{used}`." if used else ""))
-    return validation_markdown(results)
+    return validation_markdown(results) + "\n" + matched_markdown() + "\n"
 
 
 def rewrite(page_text: str, body: str) -> str:
