@@ -32,6 +32,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         2029, 757454926, 910001, 142846040,  # planner benchmark: developed on 2029, 7, 910001; fresh ones spent
         121212, 424242, 20240607, 20240608,  # shipped campaigns and scenarios
         3144656969, 3234358082, 3583959361,  # single cases re-drawn from self-check seeds (test_diagnosis*)
+        2711, 5077,  # leave-one-law-out development run, 2-dataset end-to-end run of the rig self-check (s11)
         710027,  # lag + friction (test_heldout): failed 2026-11-29 (size from the single fit), then developed on
     }
 )  # fmt: skip

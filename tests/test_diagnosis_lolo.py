@@ -233,3 +233,25 @@ def test_exclude_law_flag_refuses_bad_names_in_one_line(tmp_path, capsys, flag, 
     err = capsys.readouterr().err.strip()
     assert code == 2 and says in err and len(err.splitlines()) == 1 and "Traceback" not in err
     assert not (tmp_path / "o").exists()  # refused before any work
+
+
+@pytest.mark.slow
+def test_an_excluded_member_is_never_fitted_in_a_diagnosis():
+    """End to end on the independent rig (an asymmetric end effect, the members matched to it left out): the
+    diagnosis fits the end effect's other members and never an excluded one."""
+    from maglev_ocp.diagnosis.generate import GeneratorSettings
+    from maglev_ocp.diagnosis.selftest import SelftestSettings
+    from maglev_ocp.diagnosis.selftest_rig import run_rig_case
+
+    left_out = list(matched_table()[("end_effect", "asymmetric")].members)
+    st = SelftestSettings(
+        n=1,
+        seed=23,
+        generator=GeneratorSettings(n_runs=3, run_duration=6.0),
+        diagnose=DiagnoseSettings(simulate=False, exclude_laws={"end_effect": left_out}),
+    )
+    case = run_rig_case(0, "single", 23, st, scenario=scenario("end_effect", "asymmetric", "single", 23))
+    tried = case.truth_params["fitted"]["members_tried"]
+    assert "end_effect/default" in tried
+    assert not [m for m in tried if m.split("/", 1)[1] in left_out and m.startswith("end_effect/")], tried
+    assert all(law not in left_out for e, law in case.truth_params["fitted"]["laws"].items() if e == "end_effect")
