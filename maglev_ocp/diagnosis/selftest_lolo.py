@@ -288,7 +288,7 @@ def lolo_document(cases: list[Case], table: dict, keys: list[tuple[str, str]], n
             "seconds_median": float(np.median([c.seconds for c in mine])) if mine else None,
             # an excluded member fitted anyway would void the row: the stages must read the filtered library
             "excluded_fitted": sorted({m for c in mine for m in (c.truth_params.get("fitted") or {}).get(
-                "members_tried", []) if m.split("/", 1)[0] == effect and m.split("/", 1)[1] in
+                "members_tried", []) if m.split("/", 1)[0].split("[")[0] == effect and m.split("/", 1)[1] in
                 table[(effect, family)].members}),
         })  # fmt: skip
     not_run = [{"effect": m.effect, "family": m.family, "reason": m.reason} for m in table.values() if not m.members]

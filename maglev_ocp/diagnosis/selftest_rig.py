@@ -129,8 +129,21 @@ def fitted_values(diag) -> dict:
         # the law-family members the final model uses and every member fitted (the leave-one-law-out check
         # reads them: an excluded member must never appear)
         "laws": {e: str(sh.get("law", "default")) for e, sh in diag.shares.items()},
-        "members_tried": sorted({f"{s.name}/{s.law}" for s in (*diag.scores, *diag.law_members)}),
+        "members_tried": members_tried(diag),
     }
+
+
+def members_tried(diag) -> list[str]:
+    """Every law-family member the diagnosis fitted, as ``effect/member`` (scores of sets split per effect: a
+    pair ``a+b`` with laws ``x; y`` gives ``a/x`` and ``b/y``; a member's score ``a[x]`` gives ``a/x``)."""
+    out: set[str] = set()
+    for s in (*diag.scores, *diag.law_members):
+        names = s.name.split("[")[0].split("+")
+        laws = s.law.split("; ")
+        if len(laws) != len(names):
+            laws = [s.law] * len(names)
+        out |= {f"{n}/{law}" for n, law in zip(names, laws, strict=True)}
+    return sorted(out)
 
 
 def size_errors(case: Case) -> dict[str, float]:
