@@ -18,6 +18,7 @@ Run::
 from __future__ import annotations
 
 import argparse
+import json
 import subprocess
 import sys
 from datetime import datetime, timezone
@@ -28,7 +29,12 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from maglev_ocp.diagnosis.selftest import SelftestSettings  # noqa: E402
-from maglev_ocp.diagnosis.selftest_lolo import lolo_markdown, run_leave_one_law_out  # noqa: E402
+from maglev_ocp.diagnosis.selftest_lolo import (  # noqa: E402
+    lolo_markdown,
+    reload_document,
+    run_leave_one_law_out,
+    write_lolo,
+)
 
 
 def code_version() -> str:
@@ -46,11 +52,24 @@ def main(argv: list[str] | None = None) -> int:
     """Command line (see the module docstring)."""
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--n", type=int, default=10, help="datasets per rig law family (alternately single and pair)")
-    ap.add_argument("--seed", type=int, required=True, help="seed of every draw (use one not spent in development)")
+    ap.add_argument("--seed", type=int, default=None, help="seed of every draw (one not spent in development)")
     ap.add_argument("--families", nargs="+", default=None, metavar="EFFECT/FAMILY", help="only these families")
     ap.add_argument("--workers", type=int, default=2, help="local worker processes")
     ap.add_argument("--out", default="results/long/leave_one_law_out", help="writes OUT.md and OUT.json")
+    ap.add_argument("--rewrite", action="store_true", help="only recompute OUT's table from OUT.json's cases")
     a = ap.parse_args(argv)
+    if a.rewrite:
+        src = Path(a.out).with_suffix(".json")
+        if not src.exists():
+            print(f"leave_one_law_out: {src} does not exist", file=sys.stderr)
+            return 2
+        doc = reload_document(json.loads(src.read_text()))
+        write_lolo(doc, a.out)
+        print(lolo_markdown(doc))
+        return 0
+    if a.seed is None:
+        print("leave_one_law_out: --seed is required (unless --rewrite)", file=sys.stderr)
+        return 2
     if a.n < 1 or a.workers < 1:
         print("leave_one_law_out: --n and --workers must be >= 1", file=sys.stderr)
         return 2

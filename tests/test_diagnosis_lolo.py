@@ -12,7 +12,14 @@ from pydantic import ValidationError
 
 from maglev_ocp.diagnosis.library import family_specs
 from maglev_ocp.diagnosis.selftest import Case
-from maglev_ocp.diagnosis.selftest_lolo import MATCHED, lolo_document, lolo_markdown, matched_table, scenario
+from maglev_ocp.diagnosis.selftest_lolo import (
+    MATCHED,
+    lolo_document,
+    lolo_markdown,
+    matched_table,
+    reload_document,
+    scenario,
+)
 from maglev_ocp.diagnosis.selftest_summary import (
     false_claim,
     per_effect,
@@ -189,15 +196,18 @@ def test_lolo_document_counts_per_family_and_flags_an_excluded_member_fitted():
             0, "end_effect", "asymmetric", "end_effect", True, ["end_effect/default", "end_effect/free profile"]
         ),
         _lolo_case(1, "end_effect", "asymmetric", "unexplained", False, ["end_effect/two ends"]),
-        _lolo_case(2, "saturation", "exp", "saturation", True),
+        _lolo_case(2, "saturation", "exp", "saturation", True, ["amplifier_lag+saturation/default; knee"]),
+        _lolo_case(3, "saturation", "exp", "saturation", True, ["amplifier_lag+saturation/default; field"]),
     ]
     doc = lolo_document(cases, table, keys, 2, 99, {"command": "python -m benchmarks.leave_one_law_out --n 2"})
     ee, sat = doc["rows"]
     assert ee["datasets"] == 2 and ee["right"] == 1 and ee["right_fraction"] == pytest.approx(0.5)
     assert ee["instead"] == {"end_effect -> unexplained": 1}
     assert ee["excluded_fitted"] == ["end_effect/two ends"]
-    assert sat["right_fraction"] == 1.0 and sat["excluded_fitted"] == []
+    assert sat["right_fraction"] == 1.0 and sat["excluded_fitted"] == ["saturation/field"]  # a pair's law, split
     assert doc["summary"]["families_at_85pct"] == 1 and doc["summary"]["families_run"] == 2
+    saved = json.loads(json.dumps(doc, default=float))
+    assert reload_document(saved)["rows"] == saved["rows"]  # the table is recomputed from the cases alone
     assert {r["effect"] for r in doc["not_run"]} == {"amplifier_lag"}
     md = lolo_markdown(doc)
     assert "python -m benchmarks.leave_one_law_out --n 2" in md and "excluded members fitted" in md

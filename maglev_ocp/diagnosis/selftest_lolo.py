@@ -287,9 +287,8 @@ def lolo_document(cases: list[Case], table: dict, keys: list[tuple[str, str]], n
             "sizes_within_20pct": float(np.mean(se <= 0.2)) if len(se) else None,
             "seconds_median": float(np.median([c.seconds for c in mine])) if mine else None,
             # an excluded member fitted anyway would void the row: the stages must read the filtered library
-            "excluded_fitted": sorted({m for c in mine for m in (c.truth_params.get("fitted") or {}).get(
-                "members_tried", []) if m.split("/", 1)[0].split("[")[0] == effect and m.split("/", 1)[1] in
-                table[(effect, family)].members}),
+            "excluded_fitted": sorted({f"{e}/{law}" for c in mine for e, law in _tried(c)
+                                       if e == effect and law in table[(effect, family)].members}),
         })  # fmt: skip
     not_run = [{"effect": m.effect, "family": m.family, "reason": m.reason} for m in table.values() if not m.members]
     right = [c.right for c in cases]
@@ -310,6 +309,28 @@ def lolo_document(cases: list[Case], table: dict, keys: list[tuple[str, str]], n
         "not_run": not_run,
         "cases": [c.to_dict() for c in cases],
     }
+
+
+def _tried(case: Case) -> list[tuple[str, str]]:
+    """``(effect, member)`` of every law member a case's diagnosis fitted (``fitted.members_tried``; entries of
+    a set ``a+b/x; y`` and of a member's score ``a[x]/x`` split as :func:`.selftest_rig.members_tried` does)."""
+    out = []
+    for m in (case.truth_params.get("fitted") or {}).get("members_tried", []):
+        names, _, laws = m.partition("/")
+        names_l, laws_l = names.split("[")[0].split("+"), laws.split("; ")
+        if len(laws_l) != len(names_l):
+            laws_l = [laws] * len(names_l)
+        out += list(zip(names_l, laws_l, strict=True))
+    return out
+
+
+def reload_document(doc: dict) -> dict:
+    """``doc`` (a saved check's json) recomputed with today's code: its rows from its cases, its command, seed
+    and code version kept (``python -m benchmarks.leave_one_law_out --rewrite``)."""
+    keys = [(r["effect"], r["family"]) for r in doc["rows"]]
+    cases = [Case(**{k: v for k, v in c.items()}) for c in doc["cases"]]
+    meta = {k: doc[k] for k in ("command", "code_version", "date") if k in doc}
+    return lolo_document(cases, matched_table(), keys, doc["datasets_per_family"], doc["seed"], meta)
 
 
 def lolo_markdown(doc: dict) -> str:
@@ -355,6 +376,7 @@ __all__ = [
     "lolo_document",
     "lolo_markdown",
     "matched_table",
+    "reload_document",
     "run_leave_one_law_out",
     "scenario",
     "write_lolo",
