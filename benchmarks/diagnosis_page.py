@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
-from maglev_ocp.diagnosis.selftest_lolo import MATCHED  # noqa: E402
+from maglev_ocp.diagnosis.selftest_lolo import MATCHED, family_table  # noqa: E402
 from maglev_ocp.diagnosis.selftest_summary import validation_markdown  # noqa: E402
 from maglev_ocp.markdown import md_table  # noqa: E402
 from maglev_ocp.output import atomic_write_text  # noqa: E402
@@ -83,7 +83,16 @@ def generated(root: Path = ROOT) -> str:
     for title, (paths, note) in SOURCES.items():
         doc, used = load(paths, root)
         results[title] = (doc, note + (f" Figures from `{used}`." if used else ""))
-    return validation_markdown(results) + "\n" + matched_markdown() + "\n"
+    lolo, _ = results["Leave one law out"]
+    per_family = ""
+    if lolo is not None and "rows" in lolo:
+        s = lolo["summary"]
+        per_family = (
+            f"### Leave one law out, per rig law family\n\nFamilies named right on >= 85 % of their datasets: "
+            f"{s['families_at_85pct']} of {s['families_run']} run ({lolo['datasets_per_family']} datasets per "
+            f"family, seed {lolo['seed']}).\n\n{family_table(lolo)}\n\n"
+        )
+    return validation_markdown(results) + "\n" + per_family + matched_markdown() + "\n"
 
 
 def rewrite(page_text: str, body: str) -> str:

@@ -333,17 +333,27 @@ def reload_document(doc: dict) -> dict:
     return lolo_document(cases, matched_table(), keys, doc["datasets_per_family"], doc["seed"], meta)
 
 
-def lolo_markdown(doc: dict) -> str:
-    """The check's table in Markdown (with the command and code version of ``doc`` when it has them)."""
-    pct = lambda x: "n/a" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.0%}"  # noqa: E731
+def _pct(x: float | None) -> str:
+    return "n/a" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.0%}"
+
+
+def family_table(doc: dict) -> str:
+    """The per-family table of a check's document (Markdown): family, members left out, named right, what was
+    named instead, sizes within 20 % on the right verdicts."""
     body = [
         [f"`{r['effect']}` {r['family']}", ", ".join(f"`{x}`" for x in r["excluded"]), r["datasets"],
-         f"{r['right']} ({pct(r['right_fraction'])})",
+         f"{r['right']} ({_pct(r['right_fraction'])})",
          "; ".join(f"{k} ({v})" for k, v in r["instead"].items()) or "-",
-         f"{pct(r['sizes_within_20pct'])} of {r['sizes_compared']}"
+         f"{_pct(r['sizes_within_20pct'])} of {r['sizes_compared']}"
          + (f" (**excluded members fitted: {r['excluded_fitted']}**)" if r.get("excluded_fitted") else "")]
         for r in doc["rows"]
     ]  # fmt: skip
+    cols = ["rig law", "left out of the library", "datasets", "named right", "named instead", "sizes within 20 %"]
+    return md_table(cols, body)
+
+
+def lolo_markdown(doc: dict) -> str:
+    """The check's table in Markdown (with the command and code version of ``doc`` when it has them)."""
     s = doc["summary"]
     head = [
         "# Leave one law out (issue 27)",
@@ -351,15 +361,14 @@ def lolo_markdown(doc: dict) -> str:
         f"- command: `{doc.get('command', '?')}`",
         f"- seed: {doc['seed']}; {doc['datasets_per_family']} datasets per rig law family (single, pair, ...)",
         f"- code version: {doc.get('code_version', '?')}; run on {doc.get('date', '?')}",
-        f"- named right: {pct(s['right_fraction'])} of {s['datasets']} datasets; families at >= 85 %: "
+        f"- named right: {_pct(s['right_fraction'])} of {s['datasets']} datasets; families at >= 85 %: "
         f"{s['families_at_85pct']} of {s['families_run']} run (target: all)",
         "",
     ]
     foot = ["", "Not run (nothing to leave out):", ""] + [
         f"- `{r['effect']}` {r['family']}: {r['reason']}" for r in doc["not_run"]
     ]
-    cols = ["rig law", "left out of the library", "datasets", "named right", "named instead", "sizes within 20 %"]
-    return "\n".join([*head, md_table(cols, body), *foot]) + "\n"
+    return "\n".join([*head, family_table(doc), *foot]) + "\n"
 
 
 def write_lolo(doc: dict, out: str | os.PathLike) -> None:
@@ -373,6 +382,7 @@ def write_lolo(doc: dict, out: str | os.PathLike) -> None:
 __all__ = [
     "MATCHED",
     "MatchedMembers",
+    "family_table",
     "lolo_document",
     "lolo_markdown",
     "matched_table",
