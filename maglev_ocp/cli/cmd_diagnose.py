@@ -89,6 +89,13 @@ def _analysis_flags(q) -> None:
         "--candidates", nargs="+", metavar="LIST", help="restrict the candidate library (comma-separated effects)"
     )
     q.add_argument("--fc", type=float, default=15.0, metavar="HZ", help="residual filter cut-off (default 15 Hz)")
+    q.add_argument(
+        "--exclude-law",
+        action="append",
+        default=None,
+        metavar="EFFECT:MEMBER",
+        help="leave a law-family member out of the candidate library (repeatable; e.g. 'end_effect:two ends')",
+    )
 
 
 def _generator_flags(q) -> None:
@@ -367,6 +374,8 @@ def _check_effect(name: str | None, allow_none: bool = False) -> None:
 
 
 def _settings(args, **kw):
+    from pydantic import ValidationError
+
     from ..diagnosis.diagnose import LIBRARY, DiagnoseSettings
 
     check_range("--fc", args.fc, 0.5, 200.0, "Hz", lo_open=True)
@@ -374,7 +383,18 @@ def _settings(args, **kw):
         bad = [c for c in args.candidates if c not in LIBRARY]
         if bad:
             raise UserError(f"--candidates: unknown {bad}; choose from {', '.join(LIBRARY)}")
-    return DiagnoseSettings(fc_hz=args.fc, candidates=args.candidates, seed=args.seed, **kw)
+    exclude: dict[str, list[str]] = {}
+    for item in getattr(args, "exclude_law", None) or []:
+        effect, sep, member = item.partition(":")
+        if not sep or not member.strip():
+            raise UserError(f"--exclude-law: expected EFFECT:MEMBER (e.g. 'end_effect:two ends'), got {item!r}")
+        exclude.setdefault(effect.strip(), []).append(member.strip())
+    try:
+        return DiagnoseSettings(fc_hz=args.fc, candidates=args.candidates, seed=args.seed, exclude_laws=exclude, **kw)
+    except ValidationError as e:  # an unknown effect or member: one line with the allowed ones
+        raise UserError(
+            "--exclude-law: " + "; ".join(str(x["msg"]).removeprefix("Value error, ") for x in e.errors())
+        ) from None
 
 
 def _generator(args):

@@ -66,6 +66,7 @@ from .library import CandidateSpec
 from .localize import bin_stats, edges_for, pool
 from .report import write_report
 from .residuals import CHANNELS
+from .selftest_summary import target_lines, timings
 from .verdict import EffectSets
 
 Draw = Callable[[np.random.Generator], tuple[dict, dict]]
@@ -386,7 +387,10 @@ class SelftestResult:
             lines.append(f"{r:<{w}}" + "".join(f"{v:>6}" for v in m[i]))
         lines.append("columns: " + ", ".join(f"{_abbr(c)} = {c}" for c in cols))
         lines += ["", *_summary_lines(self.summary(), markdown=False)]
-        return "\n".join(lines)
+        t = timings(dicts := [c.to_dict() for c in self.cases])
+        if t["median"] is not None:
+            lines.append(f"diagnosis time p90: {t['p90']:.1f} s")
+        return "\n".join([*lines, *target_lines(dicts)])
 
     def markdown(self) -> str:
         """Markdown view (confusion matrix as a table)."""

@@ -50,6 +50,8 @@ from ..rigsim.generate import build_laws, expected_verdict
 from .diagnose import diagnose
 from .report import write_report
 from .selftest import Case, SelftestResult, SelftestSettings, canonical, same_set, save_partial
+from .selftest_summary import size_errors as truth_size_errors
+from .selftest_summary import target_lines, targets, timings
 
 #: Scenario kinds with library effects.
 LIBRARY_KINDS: tuple[str, ...] = ("single", "pair", "triple")
@@ -68,14 +70,21 @@ def kinds_order(n: int, rng: np.random.Generator) -> list[str]:
 
 
 def run_rig_case(
-    index: int, kind: str, seed: int, settings: SelftestSettings, keep: Path | None = None, laws: str = "all"
+    index: int,
+    kind: str,
+    seed: int,
+    settings: SelftestSettings,
+    keep: Path | None = None,
+    laws: str = "all",
+    scenario: dict | None = None,
 ) -> Case:
     """Draw one scenario of ``kind`` on the independent rig, generate its dataset and diagnose it blind.
 
     ``laws``: the rig's law families drawn from, ``"all"`` (the self-check: old and new, issue 27), ``"old"``
-    or ``"new"`` (:func:`maglev_ocp.rigsim.draw`).
+    or ``"new"`` (:func:`maglev_ocp.rigsim.draw`). ``scenario``: a scenario in :func:`~maglev_ocp.rigsim.draw`'s
+    form to run instead of a drawn one (the leave-one-law-out check, :mod:`.selftest_lolo`, forces a law family).
     """
-    scen = draw(seed, kind, laws=laws)  # new_law marked per effect in the truth
+    scen = scenario if scenario is not None else draw(seed, kind, laws=laws)  # new_law marked per effect
     truth = canonical(expected_verdict(build_laws(scen["effects"])))  # a set in library order, as verdicts are
     gs = settings.generator
     rs = RigSettings(n_runs=gs.n_runs, duration=gs.run_duration)
@@ -117,23 +126,30 @@ def fitted_values(diag) -> dict:
         "constants": {n: float(diag.baseline_params.as_dict()[n]) for n in CONSTANTS},
         "peak_force_n": {s.name: float(max(s.peak_force_n.values())) for s in sizes if s.peak_force_n},
         "effective_delay_s": {s.name: 1e-6 * float(s.delay_us) for s in sizes if s.delay_us is not None},
+        # the law-family members the final model uses and every member fitted (the leave-one-law-out check
+        # reads them: an excluded member must never appear)
+        "laws": {e: str(sh.get("law", "default")) for e, sh in diag.shares.items()},
+        "members_tried": members_tried(diag),
     }
+
+
+def members_tried(diag) -> list[str]:
+    """Every law-family member the diagnosis fitted, as ``effect/member`` (scores of sets split per effect: a
+    pair ``a+b`` with laws ``x; y`` gives ``a/x`` and ``b/y``; a member's score ``a[x]`` gives ``a/x``)."""
+    out: set[str] = set()
+    for s in (*diag.scores, *diag.law_members):
+        names = s.name.split("[")[0].split("+")
+        laws = s.law.split("; ")
+        if len(laws) != len(names):
+            laws = [s.law] * len(names)
+        out |= {f"{n}/{law}" for n, law in zip(names, laws, strict=True)}
+    return sorted(out)
 
 
 def size_errors(case: Case) -> dict[str, float]:
     """Relative errors of the fitted sizes against the truth file, for the effects both name: the effective delay
-    of a lag, the peak force of every other effect."""
-    tp, fit = case.truth_params, case.truth_params.get("fitted") or {}
-    out: dict[str, float] = {}
-    for name, true in (tp.get("effective_delay_s") or {}).items():
-        got = (fit.get("effective_delay_s") or {}).get(name)
-        if got is not None and true:
-            out[name] = got / true - 1.0
-    for name, true in (tp.get("peak_force_n") or {}).items():
-        got = (fit.get("peak_force_n") or {}).get(name)
-        if name not in out and got is not None and true:
-            out[name] = got / true - 1.0
-    return out
+    of a lag, the peak force of every other effect (:func:`.selftest_summary.size_errors`)."""
+    return truth_size_errors(case.truth_params)
 
 
 def constant_errors(case: Case) -> dict[str, float]:
@@ -216,6 +232,8 @@ class RigSelftestResult(SelftestResult):
             "constant_error_median": {n: float(np.nanmedian(v)) if v else None for n, v in ce.items()},
             "diagnosis_seconds_median": float(np.median(secs)) if secs else None,
             "diagnosis_seconds_max": float(np.max(secs)) if secs else None,
+            "diagnosis_seconds_p90": float(np.percentile(secs, 90)) if secs else None,
+            "targets": [t.__dict__ for t in targets(self._case_dicts())],
         }
 
     def _lines(self) -> list[str]:
@@ -253,12 +271,15 @@ class RigSelftestResult(SelftestResult):
         if any(v is not None and not math.isnan(v) for v in cm.values()):
             out.append("calibrated constants against the truth file, median |error|: "
                        + ", ".join(f"{n} {v:.2%}" for n, v in cm.items() if v is not None))  # fmt: skip
-        if s["diagnosis_seconds_median"] is not None:
+        t = timings(self._case_dicts())
+        if t["median"] is not None:
             out.append(
-                f"diagnosis time per dataset: median {s['diagnosis_seconds_median']:.1f} s, "
-                f"max {s['diagnosis_seconds_max']:.1f} s"
+                f"diagnosis time per dataset: median {t['median']:.1f} s, p90 {t['p90']:.1f} s, max {t['max']:.1f} s"
             )
-        return out
+        return out + target_lines(self._case_dicts())
+
+    def _case_dicts(self) -> list[dict]:
+        return [c.to_dict() for c in self.cases]
 
     def table(self) -> str:
         """Text view: cases, confusion matrix, summary."""

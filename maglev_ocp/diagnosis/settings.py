@@ -8,9 +8,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from ..config import Strict
+from .library import CandidateSpec, family_specs
 
 
 @dataclass(frozen=True)
@@ -128,6 +129,12 @@ class DiagnoseSettings(Strict):
     gap_min_floor : float
         A located gap (a period in d that is no library period, a drift in time) is reported when it explains
         at least this rms over the channel's noise floor (0: no search).
+    exclude_laws : dict of str to list of str
+        Law-family members left out of the candidate library, by effect (``{"end_effect": ["two ends"]}``;
+        the member names are :func:`.library.family_specs`' ``law``, ``default`` for the library's own law).
+        An effect whose every member is left out is not a candidate at all. For the leave-one-law-out check
+        (:mod:`.selftest_lolo`: is a rig law still named when the members written to match it are gone?);
+        an unknown effect or member is refused with the allowed ones. Read through :meth:`families`.
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -162,6 +169,33 @@ class DiagnoseSettings(Strict):
     signature_alpha: float = Field(0.01, gt=0.0, lt=0.5)
     signature_min_floor: float = Field(0.3, ge=0.0, le=10.0)
     gap_min_floor: float = Field(1.0, ge=0.0, le=100.0)
+    exclude_laws: dict[str, list[str]] = Field(default_factory=dict)
+
+    @field_validator("exclude_laws")
+    @classmethod
+    def _known_laws(cls, value: dict[str, list[str]]) -> dict[str, list[str]]:
+        """Every effect and member named must exist in the library (the allowed ones in the message)."""
+        fam = family_specs()
+        for effect, laws in value.items():
+            if effect not in fam:
+                raise ValueError(f"unknown effect {effect!r}; allowed: {', '.join(fam)}")
+            allowed = [m.law for m in fam[effect]]
+            bad = [law for law in laws if law not in allowed]
+            if bad:
+                raise ValueError(f"{effect}: unknown law member(s) {bad}; allowed: {allowed}")
+        return value
+
+    def families(self) -> dict[str, tuple[CandidateSpec, ...]]:
+        """The candidate library the diagnosis uses: :func:`.library.family_specs` less the members of
+        ``exclude_laws`` (an effect with no member left is dropped). Each family's first member is the one
+        fitted alone first (the library's law unless that is excluded)."""
+        out = {}
+        for effect, members in family_specs().items():
+            drop = set(self.exclude_laws.get(effect, ()))
+            kept = tuple(m for m in members if m.law not in drop)
+            if kept:
+                out[effect] = kept
+        return out
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""

@@ -20,7 +20,7 @@ a named verdict with such a gap becomes partly explained (``a+unexplained``, the
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -61,10 +61,13 @@ class ClaimChecks:
         return {"effects": self.effects, "dropped": self.dropped, "gap": self.gap}
 
 
-def most_flexible(name: str, current: CandidateSpec) -> CandidateSpec:
+def most_flexible(
+    name: str, current: CandidateSpec, families: Mapping[str, tuple[CandidateSpec, ...]] | None = None
+) -> CandidateSpec:
     """An effect's family member with the most freedom: a learned-shape member, else the most free parameters
-    (``current`` when the family has no other member)."""
-    fam = family_specs().get(name, ())
+    (``current`` when the family has no other member). ``families``: the candidate library in use
+    (:meth:`~maglev_ocp.diagnosis.settings.DiagnoseSettings.families`; default the whole library)."""
+    fam = (family_specs() if families is None else families).get(name, ())
     if not fam:
         return current
     return max(fam, key=lambda m: (m.flexible, len(m.free)))
@@ -112,7 +115,8 @@ def _own_gain(run: Run, att: Attribution, e: str, names: Sequence[str]) -> dict:
     """Test (b): the effect's held-out gain over the others refitted with their full freedom."""
     rules = run.rules
     others = [n for n in names if n != e]
-    flex = {o: joint_spec(most_flexible(o, att.specs[o]), run.base) for o in others}
+    fams = run.settings.families()
+    flex = {o: joint_spec(most_flexible(o, att.specs[o], fams), run.base) for o in others}
     reuse = all(flex[o].law == att.specs[o].law for o in others)
     if reuse:
         _, rfit, rsc = joint_model(run, att, others)
@@ -128,7 +132,7 @@ def _own_gain(run: Run, att: Attribution, e: str, names: Sequence[str]) -> dict:
     passes = z_reg >= rules.z_min and z_all > 0
     out.update(z_all=z_all, z_region=z_reg, passes=bool(passes))
     if passes and att.specs[e].flexible:
-        closed = next((m for m in family_specs().get(e, ()) if not m.flexible), None)
+        closed = next((m for m in fams.get(e, ()) if not m.flexible), None)
         if closed is not None:
             _, cfit, csc = _joint(run, att, [flex[o] for o in others] + [joint_spec(closed, run.base)],
                                   "claim guard: closed form")  # fmt: skip

@@ -15,7 +15,7 @@ from tqdm import tqdm
 
 from ..attribution import EffectScore, delta_bic, paired_z
 from ..fit import FitResult
-from ..library import CandidateSpec, combine, family_specs
+from ..library import CandidateSpec, combine
 from ..verdict import EffectSets, Verdict
 from .baseline import check_fit
 from .models import Attribution, Run, fit_and_score, joint_spec, warm_start
@@ -251,7 +251,7 @@ def refine_laws(run: Run, att: Attribution) -> None:
     names = list(v.selected)
     if att.final_fit is None or not names or not v.named:
         return
-    rules, fam = st.rules(), family_specs()
+    rules, fam = st.rules(), st.families()
     spec, fit, cur = att.final_spec, att.final_fit, att.final_score
     changed = False
     for e in tqdm(names, desc="laws in the joint model", disable=not run.progress, leave=False):
