@@ -128,6 +128,11 @@ class DiagnoseSettings(Strict):
     gap_min_floor : float
         A located gap (a period in d that is no library period, a drift in time) is reported when it explains
         at least this rms over the channel's noise floor (0: no search).
+    fit_workers : int
+        Processes the selection's independent fits (the candidates, each forward step's joint refits, the
+        backward check's drop-one models) are spread over; 0: one per available CPU, at most 4, and 1 inside
+        a worker process of a self-check or campaign (its siblings use the other cores). The result does not
+        depend on it: the same fits, from the same starts, used in the same order.
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -162,6 +167,7 @@ class DiagnoseSettings(Strict):
     signature_alpha: float = Field(0.01, gt=0.0, lt=0.5)
     signature_min_floor: float = Field(0.3, ge=0.0, le=10.0)
     gap_min_floor: float = Field(1.0, ge=0.0, le=100.0)
+    fit_workers: int = Field(0, ge=0, le=64)
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""
