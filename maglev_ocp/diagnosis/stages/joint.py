@@ -50,6 +50,8 @@ def _prefetch_sets(
 ) -> None:
     """The fits :func:`joint_model` (and, with ``full``, :func:`rewarmed`) are about to make for ``sets``, made
     ahead on the run's workers (:func:`.models.prefetch`; the sequential code then takes them in its order)."""
+    if run.n_workers <= 1:
+        return
     jobs = []
     for names in sets:
         key = frozenset(names)
