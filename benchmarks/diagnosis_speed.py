@@ -7,13 +7,13 @@ Run::
 
 The datasets are the blind self-check's (``maglev diagnose selftest N --generator independent --seed SEED``:
 the same kinds and case seeds, :func:`maglev_ocp.diagnosis.selftest_rig.kinds_order`, 6 runs x 10 s),
-generated once into ``--data`` and diagnosed one after the other, each alone in this process, as
-``maglev diagnose run`` does (:func:`maglev_ocp.diagnosis.diagnose.diagnose`, no figures). Per dataset: the
-wall time, the CPU time of this process and of the fit workers it forked (``fit_workers``, reaped when the
-selection ends), every stage's wall time (``Diagnosis.timing``) and the verdict; then the median, p90 and
-maximum of each, and the load average before and after (on a shared machine the wall times are not the
-diagnosis's alone: CPU time is the figure other processes disturb least). Writes ``--out`` (markdown) and the
-same rows as JSON beside it.
+generated once into ``--data`` (default: the temporary directory) and diagnosed one after the other, each
+alone in this process, as ``maglev diagnose run`` does (:func:`maglev_ocp.diagnosis.diagnose.diagnose`, no
+figures). Per dataset: the wall time, the CPU time of this process and of the fit workers it forked
+(``fit_workers``, reaped when the selection ends), every stage's wall time (``Diagnosis.timing``) and the
+verdict; then the median, p90 and maximum of each, and the load average before and after (on a shared
+machine the wall times are not the diagnosis's alone: CPU time is the figure other processes disturb
+least). Writes ``--out`` (markdown) and the same rows as JSON beside it.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import json
 import os
 import resource
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -106,7 +107,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs", type=int, default=6, help="runs per dataset")
     ap.add_argument("--duration", type=float, default=10.0, help="seconds per run")
     ap.add_argument("--fit-workers", type=int, default=0, help="DiagnoseSettings.fit_workers (0: auto)")
-    ap.add_argument("--data", type=Path, default=Path("results/benchmarks/diagnosis_speed_data"))
+    ap.add_argument("--data", type=Path, default=Path(tempfile.gettempdir()) / "maglev_diagnosis_speed",
+                    help="where the datasets are generated (kept: a second run diagnoses the same files)")  # fmt: skip
     ap.add_argument("--out", type=Path, default=Path("results/benchmarks/diagnosis_speed.md"))
     args = ap.parse_args(argv)
     pick = {int(c) for c in args.cases.split(",") if c.strip()}
