@@ -2,8 +2,9 @@
 
 Campaigns (:mod:`maglev_ocp.campaign`) and the diagnosis self-checks
 (:mod:`maglev_ocp.diagnosis.selftest`) both scale out over independent,
-individually seeded jobs. :func:`local_client` starts the ``LocalCluster`` of
-single-threaded worker processes (Ctrl-C stays the parent's: the workers
+individually seeded jobs. Inside one job, :func:`fork_pool` gives a pool of forked processes that share the
+job's data as it was at the fork (the diagnosis's independent candidate fits). :func:`local_client` starts the
+``LocalCluster`` of single-threaded worker processes (Ctrl-C stays the parent's: the workers
 inherit an ignored SIGINT), and :func:`map_ordered` runs a function over a list
 of arguments on it, in this process when ``workers == 1``; :class:`BackgroundCluster`
 starts one while the caller prepares its jobs. Results do not
@@ -215,4 +216,29 @@ def map_ordered(
     return [done[i] for i in range(len(items))]
 
 
-__all__ = ["BackgroundCluster", "local_client", "map_ordered"]
+def available_cpus() -> int:
+    """The CPUs this process may run on (its affinity where the platform says, else the CPU count)."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except (AttributeError, OSError):
+        return max(os.cpu_count() or 1, 1)
+
+
+def fork_pool(workers: int) -> Any | None:
+    """A ``multiprocessing`` pool of ``workers`` forked processes, or None where one cannot be had.
+
+    The workers are forked now: they see this process's memory as it is at this call (module globals set
+    before it, e.g. the data every job of the pool works on), so jobs pass only their own small arguments.
+    None (the caller then runs its jobs here) for one worker, in a daemonic process (a Dask worker of
+    :func:`local_client`, which may not have children and whose siblings already use the cores), or where
+    the platform has no ``fork`` start method. SIGINT is ignored in the workers (Ctrl-C stays the parent's).
+    """
+    import multiprocessing as mp
+
+    if workers <= 1 or mp.current_process().daemon or "fork" not in mp.get_all_start_methods():
+        return None
+    with sigint_ignored():
+        return mp.get_context("fork").Pool(workers)
+
+
+__all__ = ["BackgroundCluster", "available_cpus", "fork_pool", "local_client", "map_ordered"]

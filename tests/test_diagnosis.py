@@ -516,7 +516,8 @@ def test_a_confusable_slot_keeps_only_what_the_final_joint_model_cannot_tell_apa
     monkeypatch.setattr(dg, "joint_model", fake_model)
     att = SimpleNamespace(verdict=Verdict("x", [], True, []))
     slots = [["end_effect", "saturation", "edge_loss", "bad_fit"], ["cogging"]]
-    out = dg.confirm_slots(Run(None, None, DiagnoseSettings()), att, ["end_effect", "cogging"], slots)
+    # One process: the stand-ins are this process's (no fits made ahead on workers).
+    out = dg.confirm_slots(Run(None, None, DiagnoseSettings(fit_workers=1)), att, ["end_effect", "cogging"], slots)
     assert out == [["end_effect", "edge_loss"], ["cogging"]]
     assert any(r.startswith("saturation in place of end_effect") and "not confusable" in r for r in att.verdict.reasons)
     assert any(r.startswith("bad_fit in place of end_effect") and "did not converge" in r for r in att.verdict.reasons)

@@ -428,7 +428,7 @@ def _dataset(args) -> int:
     d = diagnose(ds, params=params, settings=st, progress=not args.quiet)
     print(d.table())
     with replace_dir(args.out) as tmp:
-        write_report(d, tmp, figures=not args.no_figures)
+        write_report(d, tmp, figures=not args.no_figures, progress=not args.quiet)
         plan = write_experiment(d, tmp, progress=not args.quiet)
     print(f"report: {Path(args.out) / 'report.md'}")
     if plan is not None:

@@ -37,6 +37,7 @@ report's. Settings: :mod:`.settings`.
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -80,21 +81,31 @@ STAGES: tuple[str, ...] = (
 )
 
 
+#: A stage that took longer than this [s] leaves a line with its time under the progress bars.
+STAGE_LINE_S: float = 2.0
+
+
 class _Clock:
-    """Wall time of each stage (``timing[<stage>_s]``) and a progress bar over the stages."""
+    """Wall time of each stage (``timing[<stage>_s]``), a progress bar over the stages naming the one running,
+    and a line for every stage that took more than :data:`STAGE_LINE_S` (never silent: the stages' own bars
+    show the fits inside them)."""
 
     def __init__(self, progress: bool) -> None:
         self.timing: dict[str, float] = {}
+        self.progress = progress
         self.bar = tqdm(total=len(STAGES), desc="diagnosis", disable=not progress, leave=False)
         self.t_all = time.perf_counter()
         self.cpu_all = time.process_time()
 
     def run(self, name: str, fn: Callable, *args, **kwargs):
         """Run one stage, timed, with its name on the progress bar."""
-        self.bar.set_postfix_str(name)
+        self.bar.set_description_str(f"diagnosis: {name}")
         t0 = time.perf_counter()
         out = fn(*args, **kwargs)
-        self.timing[f"{name}_s"] = time.perf_counter() - t0
+        dt = time.perf_counter() - t0
+        self.timing[f"{name}_s"] = dt
+        if self.progress and dt > STAGE_LINE_S:
+            self.bar.write(f"diagnosis: {name} done in {dt:.1f} s", file=sys.stderr)
         self.bar.update(1)
         return out
 
@@ -144,20 +155,25 @@ def diagnose(
     noise, loc = clock.run("noise", noise_stage, split, base, loc, q_enc, st.seed)
     base = replace(base, floor_ms=noise_floor_ms(base, noise))
     run = Run(split, base, st, progress=progress)
-    att = clock.run("candidates", attribute, run, loc)
+    try:  # the selection's fit workers (forked on its first fits) stop with it
+        att = clock.run("candidates", attribute, run, loc)
 
-    def select() -> None:
-        forward(run, att)
-        refine_laws(run, att)
-        settle_verdict(base, att)
+        def select() -> None:
+            forward(run, att)
+            refine_laws(run, att)
+            settle_verdict(base, att)
 
-    clock.run("forward", select)
+        clock.run("forward", select)
+    finally:
+        run.close()
     guarded = clock.run("guards", run_guards, split, base, att, noise, st, progress)
     att = clock.run("resolved_refit", resolved_refit, split, base, guarded.attribution, st)
     q = clock.run("quantify", quantify, split, base, loc, att, st, rng)
     verdict = replace(att.verdict, selected=list(att.verdict.selected), reasons=[*att.verdict.reasons, *q.reasons])
     unexpl = clock.run("unexplained", unexplained_stage, split, base, verdict, q, noise, st)
-    cons, verdict = clock.run("consequence", consequence_stage, split, base, att, unexpl.verdict, st, params)
+    cons, verdict = clock.run(
+        "consequence", consequence_stage, split, base, att, unexpl.verdict, st, params, progress=progress
+    )
     noise = replace(
         noise,
         checks_after=unexpl.checks_after,

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from tqdm import tqdm
 
 from ..output import atomic_write_bytes, atomic_write_text, plain_data
 from ..params import model_file_instruction
@@ -471,14 +472,14 @@ def write_model_files(d: Diagnosis, out_dir: str | os.PathLike) -> list[Path]:
     return written
 
 
-def write_report(d: Diagnosis, out_dir: str | os.PathLike, figures: bool = True) -> Path:
-    """Write ``report.json``, the figures and ``report.md`` into ``out_dir``."""
+def write_report(d: Diagnosis, out_dir: str | os.PathLike, figures: bool = True, progress: bool = False) -> Path:
+    """Write ``report.json``, the figures (``progress``: a bar over them) and ``report.md`` into ``out_dir``."""
     plt = _plt()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
     if figures:
-        for name, (fn, _) in FIGURES.items():
+        for name, (fn, _) in tqdm(FIGURES.items(), desc="figures", disable=not progress, leave=False):
             fig = fn(d)
             atomic_write_bytes(out / name, fig)
             plt.close(fig)

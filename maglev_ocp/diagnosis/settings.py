@@ -135,6 +135,11 @@ class DiagnoseSettings(Strict):
         An effect whose every member is left out is not a candidate at all. For the leave-one-law-out check
         (:mod:`.selftest_lolo`: is a rig law still named when the members written to match it are gone?);
         an unknown effect or member is refused with the allowed ones. Read through :meth:`families`.
+    fit_workers : int
+        Processes the selection's independent fits (the candidates, each forward step's joint refits, the
+        backward check's drop-one models) are spread over; 0: one per available CPU, at most 4, and 1 inside
+        a worker process of a self-check or campaign (its siblings use the other cores). The result does not
+        depend on it: the same fits, from the same starts, used in the same order.
     """
 
     fc_hz: float = Field(15.0, gt=0.5, le=200.0)
@@ -196,6 +201,8 @@ class DiagnoseSettings(Strict):
             if kept:
                 out[effect] = kept
         return out
+
+    fit_workers: int = Field(0, ge=0, le=64)
 
     def rules(self) -> VerdictRules:
         """Verdict thresholds."""

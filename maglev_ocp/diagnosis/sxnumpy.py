@@ -114,6 +114,7 @@ def _compiled(f: ca.Function) -> Callable | None:
     return ns["_f"]
 
 
+@functools.lru_cache(maxsize=256)
 def vectorized(f: ca.Function) -> Callable[..., list[np.ndarray]] | None:
     """Evaluator of the SX Function ``f`` at many points: ``ev(*inputs) -> [outputs]``.
 
@@ -125,7 +126,8 @@ def vectorized(f: ca.Function) -> Callable[..., list[np.ndarray]] | None:
     Parameters
     ----------
     f : casadi.Function
-        An SX Function with dense inputs.
+        An SX Function with dense inputs (the evaluator is kept per Function: the fits call it at every
+        iteration).
     """
     if not f.is_a("SXFunction"):
         return None

@@ -18,8 +18,49 @@ from ..fit import FitResult
 from ..library import CandidateSpec, combine
 from ..verdict import EffectSets, Verdict
 from .baseline import check_fit
-from .models import Attribution, Run, fit_and_score, joint_spec, warm_start
+from .models import Attribution, FitJob, Run, fit_and_score, joint_spec, prefetch, warm_start
 from .refit import partly_resolved, resolved_errors, resolved_masks
+
+
+def _joint_job(att: Attribution, names: Sequence[str]) -> FitJob:
+    """The fit :func:`joint_model` makes of a set not on record: warm from the singles and the final fit."""
+    spec = att.specs[names[0]]
+    for n in names[1:]:
+        spec = combine(spec, att.specs[n])
+    warm: dict[str, float] = {}
+    for n in names:
+        warm.update(warm_start(n, att.fits[n]))
+    if att.final_fit is not None:
+        warm.update(att.final_fit.params())
+    return FitJob(spec.name, spec, spec.note, True, warm)
+
+
+def _rewarm_job(spec: CandidateSpec, full: tuple[CandidateSpec, FitResult, EffectScore]) -> FitJob:
+    """The fit :func:`rewarmed` makes: ``spec`` started from the full model's values."""
+    warm = {k_: v for k_, v in full[1].params().items() if k_ in spec.keys}
+    return FitJob(spec.name, spec, spec.note, True, warm)
+
+
+def _prefetch_sets(
+    run: Run,
+    att: Attribution,
+    sets: Sequence[Sequence[str]],
+    full: tuple[CandidateSpec, FitResult, EffectScore] | None,
+    desc: str,
+) -> None:
+    """The fits :func:`joint_model` (and, with ``full``, :func:`rewarmed`) are about to make for ``sets``, made
+    ahead on the run's workers (:func:`.models.prefetch`; the sequential code then takes them in its order)."""
+    if run.n_workers <= 1:
+        return
+    jobs = []
+    for names in sets:
+        key = frozenset(names)
+        job = _joint_job(att, names) if key not in att.models else None
+        if job is not None:
+            jobs.append(job)
+        if full is not None and key not in att.rewarmed:
+            jobs.append(_rewarm_job(job.spec if job is not None else att.models[key][0], full))
+    prefetch(run, jobs, desc)
 
 
 def joint_model(run: Run, att: Attribution, names: Sequence[str]) -> tuple[CandidateSpec, FitResult, EffectScore]:
@@ -27,15 +68,9 @@ def joint_model(run: Run, att: Attribution, names: Sequence[str]) -> tuple[Candi
     warnings = run.warnings
     key = frozenset(names)
     if key not in att.models:
-        spec = att.specs[names[0]]
-        for n in names[1:]:
-            spec = combine(spec, att.specs[n])
-        warm: dict[str, float] = {}
-        for n in names:
-            warm.update(warm_start(n, att.fits[n]))
-        if att.final_fit is not None:
-            warm.update(att.final_fit.params())
-        jfit, js = fit_and_score(run, spec.name, spec, spec.note, pair=True, warm=warm)
+        job = _joint_job(att, names)
+        spec = job.spec
+        jfit, js = fit_and_score(run, *job)
         check_fit(jfit, f"drop-one refit {spec.name}", warnings)
         att.models[key] = (spec, jfit, js)
         att.scores.append(js)
@@ -63,8 +98,7 @@ def rewarmed(
     if key in att.rewarmed:
         return att.models[key]
     att.rewarmed.add(key)
-    warm = {k_: v for k_, v in full[1].params().items() if k_ in spec.keys}
-    jfit, js = fit_and_score(run, spec.name, spec, spec.note, pair=True, warm=warm)
+    jfit, js = fit_and_score(run, *_rewarm_job(spec, full))
     check_fit(jfit, f"drop-one refit {spec.name} from the full model", warnings)
     if jfit.success and (not fit.success or jfit.sse < fit.sse):
         att.models[key] = (spec, jfit, js)
@@ -135,6 +169,7 @@ def backward(run: Run, att: Attribution, names: list[str], slots: list[list[str]
             masks = masks if partly_resolved(fracs, st) else None
         e_full = resolved_errors(split, base, full[0], full[1], masks) if masks is not None else None
         tests = []
+        _prefetch_sets(run, att, [[n for n in names if n != e] for e in names], full, "backward check fits")
         for e in tqdm(names, desc="backward check", disable=not run.progress, leave=False):
             rest = [n for n in names if n != e]
             without = rewarmed(run, att, rest, full)
@@ -195,6 +230,8 @@ def confirm_slots(run: Run, att: Attribution, names: list[str], slots: list[list
     st = run.settings
     rules = st.rules()
     _, _, full = joint_model(run, att, names)
+    swaps = [[alt if n == slot[0] else n for n in names] for slot in slots for alt in slot[1:] if alt not in names]
+    _prefetch_sets(run, att, swaps, None, "confusable slots")
     out = []
     for slot in slots:
         keep = []
@@ -256,7 +293,7 @@ def refine_laws(run: Run, att: Attribution) -> None:
     changed = False
     for e in tqdm(names, desc="laws in the joint model", disable=not run.progress, leave=False):
         old = att.specs[e]
-        tried = []
+        jobs = []
         for mem in fam.get(e, ()):
             if mem.law == old.law:
                 continue
@@ -265,7 +302,12 @@ def refine_laws(run: Run, att: Attribution) -> None:
             for n in names[1:]:
                 jspec = combine(jspec, att.specs[n])
             att.specs[e] = old
-            jfit, js = fit_and_score(run, jspec.name, jspec, jspec.note, len(names) > 1, fit.params())
+            jobs.append((mem, FitJob(jspec.name, jspec, jspec.note, len(names) > 1, fit.params())))
+        prefetch(run, [j for _, j in jobs], f"laws of {e} in the joint model")
+        tried = []
+        for mem, job in jobs:
+            jspec = job.spec
+            jfit, js = fit_and_score(run, *job)
             check_fit(jfit, f"law refit {jspec.name} ({mem.law})", warnings)
             if jfit.success:
                 tried.append((delta_bic(jfit, fit, base.noise_infl), paired_z(cur.e_after, js.e_after), mem, jspec,

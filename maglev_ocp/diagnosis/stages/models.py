@@ -3,15 +3,26 @@
 A :class:`Run` (the split, the baseline, the settings and the stage's own warnings) replaces the positional
 ``(split, base, st, warnings)`` arguments of the selection's steps; :func:`fit_and_score` fits a candidate on
 the training runs and scores it on the held-out runs (:mod:`..attribution`).
+
+The selection's independent fits (every candidate, the members of a law family, the joint refits of one
+forward step, the drop-one models of a backward check) are spread over the run's worker processes by
+:func:`fit_many` (forked once per diagnosis, :func:`maglev_ocp.parallel.fork_pool`, so only each fit's
+spec and start values travel); :func:`prefetch` fits ahead what a sequential step is about to ask
+:func:`fit_and_score` for. Each fit is the same computation wherever it runs, and the results are used in
+the order the sequential code asks for them: the record does not depend on the number of workers.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any, NamedTuple
 
 import numpy as np
+from tqdm import tqdm
 
+from ...parallel import available_cpus, fork_pool
 from ..attribution import EffectScore, score
 from ..fit import FitResult, fit_candidate, residuals_with
 from ..library import CandidateSpec
@@ -20,6 +31,44 @@ from ..settings import DiagnoseSettings, VerdictRules
 from ..verdict import Verdict
 from .baseline import Baseline
 from .split import Split
+
+
+class FitJob(NamedTuple):
+    """The arguments of one :func:`fit_and_score` call after ``run``."""
+
+    name: str
+    spec: CandidateSpec
+    note: str
+    pair: bool
+    warm: Mapping[str, float] | None = None
+    hold_lag: bool = False
+
+    def key(self) -> tuple:
+        """What determines the fit: the start values ``warm`` gives ``spec`` (:func:`..fit.fit_candidate` reads
+        only those and the lag's delay), not the other entries of ``warm``."""
+        w = self.warm or {}
+        starts = tuple(float(w.get(f.key, f.start)) for f in self.spec.free)
+        delay = w.get("effective_delay_s") if w else None
+        return (self.name, self.spec, self.note, self.pair, self.hold_lag, starts, delay)
+
+
+class _Workers:
+    """A run's worker processes (forked on first use) and the fits made ahead for it."""
+
+    def __init__(self) -> None:
+        self.pool: Any = None
+        self.tried = False
+        self.ready: dict[tuple, tuple[FitResult, Any]] = {}
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.terminate()
+            self.pool.join()
+        self.pool, self.ready = None, {}
+
+
+#: The run the forked workers fit on (set just before the fork, read by :func:`_fit_job` in the workers).
+_FORKED_RUN: Run | None = None
 
 
 @dataclass(frozen=True)
@@ -45,11 +94,37 @@ class Run:
     settings: DiagnoseSettings
     warnings: list[str] = field(default_factory=list)
     progress: bool = False
+    workers: _Workers = field(default_factory=_Workers, repr=False, compare=False)
 
     @property
     def rules(self) -> VerdictRules:
         """The verdict's thresholds."""
         return self.settings.rules()
+
+    @property
+    def n_workers(self) -> int:
+        """Worker processes of the independent fits (``settings.fit_workers``; 0: the CPUs, at most 4)."""
+        n = self.settings.fit_workers
+        return n if n > 0 else min(available_cpus(), 4)
+
+    def pool(self) -> Any:
+        """The worker pool, forked on the first call (None: the fits run in this process)."""
+        global _FORKED_RUN
+        if not self.workers.tried:
+            self.workers.tried = True
+            if self.n_workers > 1:
+                _FORKED_RUN = self
+                try:
+                    self.workers.pool = fork_pool(self.n_workers)
+                except OSError:  # no processes to be had: the fits run here
+                    self.workers.pool = None
+                finally:
+                    _FORKED_RUN = None if self.workers.pool is None else self
+        return self.workers.pool
+
+    def close(self) -> None:
+        """Stop the worker processes (the selection is done)."""
+        self.workers.close()
 
 
 @dataclass
@@ -113,7 +188,12 @@ def fit_and_score(
     warm: dict[str, float] | None = None,
     hold_lag: bool = False,
 ) -> tuple[FitResult, EffectScore]:
-    """Fit one candidate (or a joint set) on the training runs and score it on the held-out runs."""
+    """Fit one candidate (or a joint set) on the training runs and score it on the held-out runs (or take the
+    fit :func:`prefetch` made ahead with the same spec and start values)."""
+    if run.workers.ready:
+        done = run.workers.ready.pop(FitJob(name, spec, note, pair, warm, hold_lag).key(), None)
+        if done is not None:
+            return done
     split, base, rules = run.split, run.base, run.rules
     fit = fit_candidate(spec, base.data_train, base.p, u_runs=split.u_train, warm=warm, hold_lag=hold_lag)
     after = residuals_with(spec, fit, split.test, base.p, split.u_test)
@@ -122,6 +202,50 @@ def fit_and_score(
                base.floor_ms)  # fmt: skip
     sc.law = spec.law
     return fit, sc
+
+
+def _fit_job(job: tuple[int, FitJob]) -> tuple[int, tuple[FitResult, EffectScore]]:
+    """One fit in a worker process, on the run it was forked with."""
+    i, j = job
+    assert _FORKED_RUN is not None, "a fit worker without its run"
+    return i, fit_and_score(_FORKED_RUN, *j)
+
+
+def fit_many(run: Run, jobs: Sequence[FitJob], desc: str = "") -> list[tuple[FitResult, EffectScore]]:
+    """``[fit_and_score(run, *job) for job in jobs]``, spread over the run's workers (one job each, the
+    amplifier lag's searches first: they take longest); a progress bar ``desc`` over the fits."""
+    bar = tqdm(total=len(jobs), desc=desc, disable=not (run.progress and desc), leave=False)
+    pool = run.pool() if len(jobs) > 1 else None
+    try:
+        if pool is None:
+            out = []
+            for j in jobs:
+                out.append(fit_and_score(run, *j))
+                bar.update()
+            return out
+        order = sorted(range(len(jobs)), key=lambda i: not jobs[i].spec.lag)
+        done: dict[int, tuple[FitResult, EffectScore]] = {}
+        for i, res in pool.imap_unordered(_fit_job, [(i, jobs[i]) for i in order]):
+            done[i] = res
+            bar.update()
+        return [done[i] for i in range(len(jobs))]
+    finally:
+        bar.close()
+
+
+def prefetch(run: Run, jobs: Sequence[FitJob], desc: str = "") -> None:
+    """Make, on the run's workers, the fits a sequential step is about to ask :func:`fit_and_score` for
+    (each taken once, by the call with the same spec and start values); nothing without workers."""
+    todo, seen = [], set()
+    for j in jobs:
+        k = j.key()
+        if k not in seen and k not in run.workers.ready:
+            seen.add(k)
+            todo.append(j)
+    if len(todo) < 2 or run.pool() is None:
+        return
+    for j, res in zip(todo, fit_many(run, todo, desc), strict=True):
+        run.workers.ready[j.key()] = res
 
 
 def joint_spec(spec: CandidateSpec, base: Baseline) -> CandidateSpec:
@@ -149,4 +273,14 @@ def settle_verdict(base: Baseline, att: Attribution) -> None:
         s.selected = verdict.named and (s.name in in_verdict or s.name == verdict.verdict or s is att.final_score)
 
 
-__all__ = ["Attribution", "Run", "fit_and_score", "joint_spec", "settle_verdict", "warm_start"]
+__all__ = [
+    "Attribution",
+    "FitJob",
+    "Run",
+    "fit_and_score",
+    "fit_many",
+    "joint_spec",
+    "prefetch",
+    "settle_verdict",
+    "warm_start",
+]

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
+from tqdm import tqdm
 
 from ...constants import encoder_resolution
 from ...params import NOMINAL, Params
@@ -239,20 +240,22 @@ def consequence_stage(
     verdict: Verdict,
     st: DiagnoseSettings,
     ref: Params | None = None,
+    progress: bool = False,
 ) -> tuple[Consequences, Verdict]:
     """Force, delay and closed-loop consequence of every effect of the verdict; the model files.
 
     ``ref`` is the centre of the calibration's prior (the ``params`` the diagnosis
     was given; default nominal): the model files are marked untrusted
     (:func:`model_trust`) where the verdict or the constants say so. Returns the
-    consequences and the verdict with what matters for the 0.1 mm goal among its reasons.
+    consequences and the verdict with what matters for the 0.1 mm goal among its reasons; ``progress``: a bar
+    over the effects (each one's closed-loop consequence is simulated with the shipped controllers).
     """
     v = replace(verdict, selected=list(verdict.selected), reasons=list(verdict.reasons))
     names = list(v.sets.names)
     runs = split.train + split.test
     u_runs = split.u_train + split.u_test
     sizes: list[EffectSize] = []
-    for n in names:
+    for n in tqdm(names, desc="consequence", disable=not progress, leave=False):
         if n not in att.fits:
             continue
         # The size of the effect in the model the user loads (the joint model), else of its single fit.

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from tqdm import tqdm
 
 from ..attribution import EffectScore, decide, delta_bic, paired_z, stack
 from ..fit import FitResult
@@ -20,7 +19,7 @@ from ..verdict import EffectSets, Verdict
 from .baseline import Baseline, check_fit
 from .joint import backward, confirm_slots, shares
 from .localization import Localization
-from .models import Attribution, Run, fit_and_score, joint_spec, warm_start
+from .models import Attribution, FitJob, Run, fit_and_score, fit_many, joint_spec, warm_start
 
 
 def library_names() -> tuple[str, ...]:
@@ -40,11 +39,10 @@ def attribute(run: Run, loc: Localization) -> Attribution:
     specs: dict[str, CandidateSpec] = {}
     fits: dict[str, FitResult] = {}
     scores: list[EffectScore] = []
-    for name in tqdm(names, desc="candidates", disable=not run.progress, leave=False):
-        spec = joint_spec(fam[name][0], base)
-        fit, sc = fit_and_score(run, name, spec, spec.note, pair=False)
-        check_fit(fit, f"candidate {name}", warnings)
-        specs[name], fits[name] = spec, fit
+    jobs = [FitJob(name, spec, spec.note, False) for name in names for spec in [joint_spec(fam[name][0], base)]]
+    for job, (fit, sc) in zip(jobs, fit_many(run, jobs, "candidates"), strict=True):
+        check_fit(fit, f"candidate {job.name}", warnings)
+        specs[job.name], fits[job.name] = job.spec, fit
         scores.append(sc)
     att = Attribution(specs, fits, scores, Verdict(EffectSets.none(), [], False, []), None)
     _choose_laws(run, att)
@@ -83,15 +81,18 @@ def _choose_laws(run: Run, att: Attribution) -> None:
         for s in sorted(att.scores, key=lambda s: s.delta_bic)
         if len(fam.get(s.name, ())) > 1 and s.fit is not None and s.fit.success
     ][: st.family_top]
-    for sc in tqdm(promising, desc="law families", disable=not run.progress, leave=False):
+    # Every member of every family at once (each starts from its own effect's single fit, which no other
+    # family's choice changes), spread over the workers; then chosen family by family.
+    jobs = [FitJob(sc.name, spec, spec.note, False, warm_start(sc.name, att.fits[sc.name]))
+            for sc in promising for spec in (joint_spec(mem, base) for mem in fam[sc.name][1:])]  # fmt: skip
+    done = iter(zip(jobs, fit_many(run, jobs, "law families"), strict=True))
+    for sc in promising:
         name = sc.name
         tried = [(sc, att.specs[name], att.fits[name])]
-        warm = warm_start(name, att.fits[name])
         for mem in fam[name][1:]:
-            spec = joint_spec(mem, base)
-            fit, ms = fit_and_score(run, name, spec, spec.note, pair=False, warm=warm)
+            job, (fit, ms) = next(done)
             check_fit(fit, f"candidate {name} ({mem.law})", warnings)
-            tried.append((ms, spec, fit))
+            tried.append((ms, job.spec, fit))
         ok = [t for t in tried if t[2].success]
         if not ok:
             continue
@@ -123,9 +124,8 @@ def _forward_trials(
     """
     base, warnings = run.base, run.warnings
     spec, fit, cur = current
-    trials = []
-    bar = tqdm(pool, desc=f"forward step {len(names) + 1}", disable=not run.progress, leave=False)
-    for o in bar:
+    trials, jobs = [], []
+    for o in pool:
         single = next(s for s in att.scores if s.name == o)
         # The screen (does the single fit's correction remain?) is recorded, not a gate: a single fitted with
         # other effects still in the residual can be corrupted by them (cogging beyond eq. (9) next to friction
@@ -139,7 +139,12 @@ def _forward_trials(
             warm.pop("effective_delay_s", None)
         # A lag already in the model keeps the delay its search found while a candidate is tried (the other
         # parameters are refitted jointly); the accepted model's delay is searched again (:func:`_forward`).
-        jfit, js = fit_and_score(run, jspec.name, jspec, jspec.note, True, warm, hold_lag=spec.lag)
+        jobs.append(FitJob(jspec.name, jspec, jspec.note, True, warm, hold_lag=spec.lag))
+        trials.append((o, t_screen))
+    fits = fit_many(run, jobs, f"forward step {len(names) + 1}")
+    out = []
+    for (o, t_screen), job, (jfit, js) in zip(trials, jobs, fits, strict=True):
+        jspec = job.spec
         check_fit(jfit, f"joint fit {jspec.name}", warnings)
         # What remains is measured above the data-based floor here (1 in its units): above the noise model's, the
         # laws' misfit of the effects still missing weighs in, and a triple's second effect would have to close
@@ -149,8 +154,8 @@ def _forward_trials(
         dbic = delta_bic(jfit, fit, base.noise_infl)
         att.models[frozenset([*names, o])] = (jspec, jfit, js)
         att.scores.append(js)
-        trials.append((o, extra, zp, dbic, js, jspec, jfit, t_screen))
-    return trials
+        out.append((o, extra, zp, dbic, js, jspec, jfit, t_screen))
+    return out
 
 
 def _research_lag(
