@@ -1,0 +1,54 @@
+"""Lumped-constant error and eddy-current drag (:class:`ParameterError`, :class:`EddyDrag`)."""
+
+from __future__ import annotations
+
+from ..model import get_model
+from .base import _P, Effect, EffectParam
+
+
+def _factor(name: str, what: str, lo: float = 0.5, hi: float = 2.0) -> EffectParam:
+    """A dimensionless factor (default 1, range ``[lo, hi]``) on the model's ``what``."""
+    return EffectParam(name, 1.0, lo, hi, "-", f"factor on the {what}")
+
+
+class ParameterError(Effect):
+    """Lumped constants and masses off their nominal values (seed eq. (2), Table III).
+
+    ``k_Ci`` multiplies the ``C_i`` term of the model; ``k_Mh`` / ``k_Mv`` scale
+    the moving masses, so every force-driven term on that axis is divided by
+    them (gravity is not). Applied after the other effects.
+    """
+
+    name = "parameter_error"
+    params = (
+        _factor("k_C1", "thrust term (C1)"),
+        _factor("k_C2", "PM attraction term (C2)"),
+        _factor("k_C3", "PM-current term (C3)"),
+        _factor("k_C4", "reluctance term (C4)", lo=0.0, hi=5.0),
+        _factor("k_Mh", "horizontal mass"),
+        _factor("k_Mv", "vertical mass"),
+    )
+
+    def modify(self, terms, x, u, p, theta) -> None:
+        for term, key in (("a_thrust", "k_C1"), ("a_pm", "k_C2"), ("a_id", "k_C3"), ("a_rel", "k_C4")):
+            terms.scale([term], theta[key])
+        for name in list(terms.vertical):
+            if name != "a_grav":
+                terms.vertical[name] = terms.vertical[name] / theta["k_Mv"]
+        for name in list(terms.horizontal):
+            terms.horizontal[name] = terms.horizontal[name] / theta["k_Mh"]
+
+
+class EddyDrag(Effect):
+    """Eddy-current drag in the stator laminations (NOTES.md), optional.
+
+    Moving magnets induce eddy currents whose drag grows with the field
+    squared: ``F = -c_eddy B(g)^2 d_dot`` along d (B from MODEL.md).
+    """
+
+    name = "eddy_drag"
+    params = (EffectParam("c_eddy", 20.0, 0.0, 2000.0, "N s/(m T^2)", "drag coefficient per field squared"),)
+
+    def modify(self, terms, x, u, p, theta) -> None:
+        B = get_model().shape(x[0])[2]
+        terms.horizontal["eddy"] = -theta["c_eddy"] * B**2 * x[3] / _P(p)["Mh"]
