@@ -4,14 +4,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import ClassVar
 
 import casadi as ca
 
 from .. import constants as k
+from ..shapes import fourier
 from .base import _P, Effect, EffectParam, Expr, _abs0
 
+#: Slot harmonics of the learned cogging (:meth:`Cogging.learned_forces`): k = 1..K of the fundamental pi d / t1.
+_COG_K = 4
 
-# --------------------------------------------------------------------------- effects
+
 class Cogging(Effect):
     """Cogging beyond the spec's law: harmonics in d and a different gap decay.
 
@@ -28,7 +32,18 @@ class Cogging(Effect):
 
     With the shared model's cogging switched off (``xi0 = 0`` in ``p``) and
     ``h1 = 1, h2 = h3 = 0, power = 0, kn = 1`` this is exactly the spec's law.
+
+    Learned shape (flexible member, :meth:`learned_forces`): Fourier series of
+    harmonics ``k = 1..K`` of the fundamental ``pi d / t1`` (the same as the
+    spec's law), tangential and normal parts with coefficients of their own
+    [N at g = 10 mm], times a positive amplitude ``A(g) = exp(a1 z + a2 z^2)``,
+    ``z = (g - g_ref) / g_ref`` (an exponential decay is ``a1 = -g_ref / ell``,
+    a power law is close to a quadratic in ``z``). Zero coefficients (the
+    default) add nothing.
     """
+
+    #: Number of slot harmonics of the learned shape.
+    HARMONICS: ClassVar[int] = _COG_K
 
     name = "cogging"
     params = (
@@ -42,7 +57,33 @@ class Cogging(Effect):
         EffectParam("phi3", 0.0, -math.pi, math.pi, "rad", "phase of the 3rd harmonic"),
         EffectParam("kn", 1.0, 0.0, 4.0, "-", "normal-to-tangential peak ratio"),
         EffectParam("curv", 0.0, -20.0, 20.0, "-", "curvature of the log-decay, exp(-curv ((g - g_ref)/g_ref)^2)"),
+        EffectParam("cog_a1", 0.0, -30.0, 10.0, "-", "learned amplitude's log-slope in (g - g_ref) / g_ref"),
+        EffectParam("cog_a2", 0.0, -30.0, 30.0, "-", "learned amplitude's log-curvature in (g - g_ref) / g_ref"),
+        *(
+            EffectParam(f"cog_{part}{trig}{j}", 0.0, -20.0, 20.0, "N", f"learned {what} cogging, {trig}({j} pi d/t1)")
+            for part, what in (("x", "tangential"), ("n", "normal"))
+            for trig in ("cos", "sin")
+            for j in range(1, _COG_K + 1)
+        ),
     )
+
+    @classmethod
+    def shape_names(cls, part: str, trig: str) -> tuple[str, ...]:
+        """Names of the learned coefficients of ``part`` (``"x"`` tangential, ``"n"`` normal), ``"cos"``/``"sin"``."""
+        return tuple(f"cog_{part}{trig}{j}" for j in range(1, cls.HARMONICS + 1))
+
+    @classmethod
+    def learned_forces(cls, g: Expr, d: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
+        """The learned shape's tangential and normal forces ``(Fx, Fn)`` [N] (0 with the default coefficients)."""
+        z = (g - k.g_cog_ref) / k.g_cog_ref
+        amp = ca.exp(theta["cog_a1"] * z + theta["cog_a2"] * z**2)
+        phase = math.pi * d / k.t1
+        parts = []
+        for part in ("x", "n"):
+            cos_c = [theta[n] for n in cls.shape_names(part, "cos")]
+            sin_c = [theta[n] for n in cls.shape_names(part, "sin")]
+            parts.append(amp * fourier(phase, cos_c, sin_c))
+        return parts[0], parts[1]
 
     def forces(self, g: Expr, d: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
         """Extra tangential and normal cogging forces ``(Fx, Fn)`` [N]."""
@@ -55,7 +96,8 @@ class Cogging(Effect):
         # Every harmonic's normal force is attractive (Maxwell stress grows with B^2): its weight is |h_k|,
         # so that a harmonic's sign is a phase of half its period, never a repulsive normal force.
         Fn = theta["kn"] * xi * (_abs0(theta["h1"]) * s1**2 + _abs0(theta["h2"]) * s2**2 + _abs0(theta["h3"]) * s3**2)
-        return Fx, Fn
+        Lx, Ln = self.learned_forces(g, d, theta)
+        return Fx + Lx, Fn + Ln
 
     def modify(self, terms, x, u, p, theta) -> None:
         P = _P(p)

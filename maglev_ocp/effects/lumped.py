@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import ClassVar
+
 from ..model import get_model
-from .base import _P, Effect, EffectParam
+from ..shapes import bspline
+from .base import _P, Effect, EffectParam, Expr
 
 
 def _factor(name: str, what: str, lo: float = 0.5, hi: float = 2.0) -> EffectParam:
@@ -44,11 +48,38 @@ class EddyDrag(Effect):
 
     Moving magnets induce eddy currents whose drag grows with the field
     squared: ``F = -c_eddy B(g)^2 d_dot`` along d (B from MODEL.md).
+
+    Learned shape (flexible member): the coefficient gains a cubic B-spline in
+    ``g`` with non-negative coefficients ``eshape_<j>`` [N s/m] (:attr:`KNOTS`),
+    ``F = -(c_eddy B(g)^2 + sum_j c_j B((g - g_j) / h)) d_dot``: a drag
+    coefficient of any smooth non-negative shape in the gap. 0 by default.
     """
 
+    #: Centres [m] of the learned coefficient's B-spline in g: every 6 mm from 2 to 38 mm (the gap's stroke,
+    #: 8-32 mm, inside the region where the basis sums to one).
+    KNOTS: ClassVar[tuple[float, ...]] = tuple(round(0.002 + 0.006 * j, 3) for j in range(7))
+    #: Knot spacing [m].
+    KNOT_STEP: ClassVar[float] = 0.006
+
     name = "eddy_drag"
-    params = (EffectParam("c_eddy", 20.0, 0.0, 2000.0, "N s/(m T^2)", "drag coefficient per field squared"),)
+    params = (
+        EffectParam("c_eddy", 20.0, 0.0, 2000.0, "N s/(m T^2)", "drag coefficient per field squared"),
+        *(
+            EffectParam(f"eshape_{j}", 0.0, 0.0, 500.0, "N s/m", f"learned drag coefficient at g = {2 + 6 * j} mm")
+            for j in range(7)
+        ),
+    )
+
+    @classmethod
+    def shape_names(cls) -> tuple[str, ...]:
+        """Names of the learned coefficient's B-spline coefficients, in knot order."""
+        return tuple(f"eshape_{j}" for j in range(len(cls.KNOTS)))
+
+    @classmethod
+    def coefficient(cls, g: Expr, theta: Mapping[str, Expr]) -> Expr:
+        """Drag coefficient [N s/m] at gap ``g`` [m]: the B^2 law plus the learned spline (>= 0 within bounds)."""
+        B = get_model().shape(g)[2]
+        return theta["c_eddy"] * B**2 + bspline(g, cls.KNOTS, cls.KNOT_STEP, [theta[n] for n in cls.shape_names()])
 
     def modify(self, terms, x, u, p, theta) -> None:
-        B = get_model().shape(x[0])[2]
-        terms.horizontal["eddy"] = -theta["c_eddy"] * B**2 * x[3] / _P(p)["Mh"]
+        terms.horizontal["eddy"] = -self.coefficient(x[0], theta) * x[3] / _P(p)["Mh"]
