@@ -363,10 +363,11 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
         CandidateSpec(
             "cogging",
             ("cogging",),
-            free=_free("cogging.cog_a1", "cogging.cog_a2", *cog_shape),
+            free=_free("p.xi0", "p.ell", "cogging.cog_a1", "cogging.cog_a2", *cog_shape),
             fixed=(("cogging.xi0", 0.0),),
             note=(
-                f"learned cogging: harmonics 1..{Cogging.HARMONICS} of pi d / t1, tangential and normal parts with "
+                "the seed's law (xi0, ell in p) plus a learned cogging: harmonics 1.."
+                f"{Cogging.HARMONICS} of the slot pitch (periods t1 / k), tangential and normal parts with "
                 "coefficients of their own, times a positive amplitude exp(a1 z + a2 z^2) in the gap"
             ),
             law="fourier",

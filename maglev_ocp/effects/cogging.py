@@ -12,7 +12,7 @@ from .. import constants as k
 from ..shapes import fourier
 from .base import _P, Effect, EffectParam, Expr, _abs0
 
-#: Slot harmonics of the learned cogging (:meth:`Cogging.learned_forces`): k = 1..K of the fundamental pi d / t1.
+#: Slot harmonics of the learned cogging (:meth:`Cogging.learned_forces`): periods t1 / k, k = 1..K.
 _COG_K = 4
 
 
@@ -34,8 +34,10 @@ class Cogging(Effect):
     ``h1 = 1, h2 = h3 = 0, power = 0, kn = 1`` this is exactly the spec's law.
 
     Learned shape (flexible member, :meth:`learned_forces`): Fourier series of
-    harmonics ``k = 1..K`` of the fundamental ``pi d / t1`` (the same as the
-    spec's law), tangential and normal parts with coefficients of their own
+    harmonics ``k = 1..K`` of the slot pitch (phase ``2 pi d / t1``, periods
+    ``t1 / k``, the periods of the cogging signature in
+    :mod:`maglev_ocp.diagnosis.signatures`; the seed's own law, period ``2 t1``,
+    stays in ``p``), tangential and normal parts with coefficients of their own
     [N at g = 10 mm], times a positive amplitude ``A(g) = exp(a1 z + a2 z^2)``,
     ``z = (g - g_ref) / g_ref`` (an exponential decay is ``a1 = -g_ref / ell``,
     a power law is close to a quadratic in ``z``). Zero coefficients (the
@@ -60,7 +62,9 @@ class Cogging(Effect):
         EffectParam("cog_a1", 0.0, -30.0, 10.0, "-", "learned amplitude's log-slope in (g - g_ref) / g_ref"),
         EffectParam("cog_a2", 0.0, -30.0, 30.0, "-", "learned amplitude's log-curvature in (g - g_ref) / g_ref"),
         *(
-            EffectParam(f"cog_{part}{trig}{j}", 0.0, -20.0, 20.0, "N", f"learned {what} cogging, {trig}({j} pi d/t1)")
+            EffectParam(
+                f"cog_{part}{trig}{j}", 0.0, -20.0, 20.0, "N", f"learned {what} cogging, {trig}({2 * j} pi d/t1)"
+            )
             for part, what in (("x", "tangential"), ("n", "normal"))
             for trig in ("cos", "sin")
             for j in range(1, _COG_K + 1)
@@ -77,7 +81,7 @@ class Cogging(Effect):
         """The learned shape's tangential and normal forces ``(Fx, Fn)`` [N] (0 with the default coefficients)."""
         z = (g - k.g_cog_ref) / k.g_cog_ref
         amp = ca.exp(theta["cog_a1"] * z + theta["cog_a2"] * z**2)
-        phase = math.pi * d / k.t1
+        phase = 2 * math.pi * d / k.t1
         parts = []
         for part in ("x", "n"):
             cos_c = [theta[n] for n in cls.shape_names(part, "cos")]
