@@ -78,14 +78,15 @@ class Cogging(Effect):
 
     @classmethod
     def learned_forces(cls, g: Expr, d: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
-        """The learned shape's tangential and normal forces ``(Fx, Fn)`` [N] (0 with the default coefficients)."""
+        """The learned shape's tangential and normal forces ``(Fx, Fn)`` [N] (0 with the default coefficients; a
+        ``theta`` written before the learned shape existed, without its keys, means zero coefficients)."""
         z = (g - k.g_cog_ref) / k.g_cog_ref
-        amp = ca.exp(theta["cog_a1"] * z + theta["cog_a2"] * z**2)
+        amp = ca.exp(theta.get("cog_a1", 0.0) * z + theta.get("cog_a2", 0.0) * z**2)
         phase = 2 * math.pi * d / k.t1
         parts = []
         for part in ("x", "n"):
-            cos_c = [theta[n] for n in cls.shape_names(part, "cos")]
-            sin_c = [theta[n] for n in cls.shape_names(part, "sin")]
+            cos_c = [theta.get(n, 0.0) for n in cls.shape_names(part, "cos")]
+            sin_c = [theta.get(n, 0.0) for n in cls.shape_names(part, "sin")]
             parts.append(amp * fourier(phase, cos_c, sin_c))
         return parts[0], parts[1]
 

@@ -59,7 +59,7 @@ class CommutationOffset(Effect):
     @classmethod
     def angle(cls, d: Expr, theta: Mapping[str, Expr]) -> Expr:
         """Electrical offset angle [rad] at position ``d`` [m]: ``delta + drift d`` plus the learned spline."""
-        learned = bspline(d, cls.KNOTS, cls.KNOT_STEP, [theta[n] for n in cls.shape_names()])
+        learned = bspline(d, cls.KNOTS, cls.KNOT_STEP, [theta.get(n, 0.0) for n in cls.shape_names()])
         return theta["delta"] + theta["drift"] * d + learned
 
     def currents(self, u, x, theta):

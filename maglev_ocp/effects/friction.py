@@ -84,7 +84,7 @@ class Friction(Effect):
         """The whole friction force [N] of ``axis`` at velocity ``v``: closed-form law plus the learned profile."""
         t = theta
         F = cls.force(v, t[f"coulomb_{axis}"], t[f"stribeck_{axis}"], t[f"viscous_{axis}"], t["v_stribeck"], t["v_reg"])
-        return F + cls.shape_force(v, [t[n] for n in cls.shape_names(axis)], t["v_reg"])
+        return F + cls.shape_force(v, [t.get(n, 0.0) for n in cls.shape_names(axis)], t["v_reg"])
 
     @staticmethod
     def force(v: Expr, Fc: Expr, Fs: Expr, b: Expr, v_s: Expr, v_reg: Expr) -> Expr:

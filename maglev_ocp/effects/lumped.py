@@ -79,7 +79,9 @@ class EddyDrag(Effect):
     def coefficient(cls, g: Expr, theta: Mapping[str, Expr]) -> Expr:
         """Drag coefficient [N s/m] at gap ``g`` [m]: the B^2 law plus the learned spline (>= 0 within bounds)."""
         B = get_model().shape(g)[2]
-        return theta["c_eddy"] * B**2 + bspline(g, cls.KNOTS, cls.KNOT_STEP, [theta[n] for n in cls.shape_names()])
+        return theta["c_eddy"] * B**2 + bspline(
+            g, cls.KNOTS, cls.KNOT_STEP, [theta.get(n, 0.0) for n in cls.shape_names()]
+        )
 
     def modify(self, terms, x, u, p, theta) -> None:
         terms.horizontal["eddy"] = -self.coefficient(x[0], theta) * x[3] / _P(p)["Mh"]
