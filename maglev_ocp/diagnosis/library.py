@@ -14,7 +14,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
-from ..effects import EFFECTS, EndEffect, Saturation
+from ..effects import EFFECTS, Cogging, CommutationOffset, EddyDrag, EndEffect, Friction, Saturation
 from ..params import Params
 
 
@@ -171,6 +171,17 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "saturation.knee": (0.0, 100.0, 1.0, 10.0),
     # saturation's learned loss: non-negative steps (a loss non-increasing in g), start 0.01 per step
     **{f"saturation.{n}": (0.0, 0.5, 0.01, 0.05) for n in Saturation.shape_names()},
+    # learned shapes (flexible members): friction's non-negative profile coefficients [N] per axis, cogging's
+    # amplitude log-polynomial and Fourier coefficients [N at 10 mm], eddy drag's non-negative coefficient spline
+    # [N s/m], the commutation offset's spline [rad]
+    **{f"friction.{n}": (0.0, 10.0, 0.01, 0.1) for ax in "gd" for n in Friction.shape_names(ax)},
+    "cogging.cog_a1": (-30.0, 10.0, 0.0, 2.0),
+    "cogging.cog_a2": (-30.0, 30.0, 0.0, 2.0),
+    **{
+        f"cogging.{n}": (-20.0, 20.0, 0.0, 0.5) for p in "xn" for t in ("cos", "sin") for n in Cogging.shape_names(p, t)
+    },
+    **{f"eddy_drag.{n}": (0.0, 500.0, 0.1, 2.0) for n in EddyDrag.shape_names()},
+    **{f"commutation_offset.{n}": (-0.35, 0.35, 0.0, 0.05) for n in CommutationOffset.shape_names()},
     # one-parameter effects (the effect's own bounds)
     "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
     "commutation_offset.drift": (*_eb("commutation_offset", "drift"), 0.0, 1.0),
@@ -305,7 +316,13 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       takes a loss that levels off), and the cogging's share of the loss;
     - the amplifier lag searches a continuous effective delay (whole samples
       plus a lag or a fractional delay, which act alike below the cut-off);
-      ``eddy_drag`` has one law.
+      ``eddy_drag``: ``spline`` (flexible), the coefficient of the horizontal
+      velocity a non-negative B-spline of g on top of the B^2 law;
+    - learned shapes (flexible) of ``cogging`` (``fourier``: harmonics of the
+      slot pitch, normal and tangential parts, positive amplitude in g),
+      ``friction`` (``spline``: an odd function of each velocity, Coulomb +
+      viscous + a non-negative spline of the speed) and
+      ``commutation_offset`` (``spline``: the angle a spline of d).
     """
     lib = library_specs()
     out = {n: (s,) for n, s in lib.items()}
@@ -341,6 +358,22 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             law="own decay",
         ),
     )
+    cog_shape = [f"cogging.{n}" for p in "xn" for t in ("cos", "sin") for n in Cogging.shape_names(p, t)]
+    out["cogging"] += (
+        CandidateSpec(
+            "cogging",
+            ("cogging",),
+            free=_free("p.xi0", "p.ell", "cogging.cog_a1", "cogging.cog_a2", *cog_shape),
+            fixed=(("cogging.xi0", 0.0),),
+            note=(
+                "the seed's law (xi0, ell in p) plus a learned cogging: harmonics 1.."
+                f"{Cogging.HARMONICS} of the slot pitch (periods t1 / k), tangential and normal parts with "
+                "coefficients of their own, times a positive amplitude exp(a1 z + a2 z^2) in the gap"
+            ),
+            law="fourier",
+            flexible=True,
+        ),
+    )
     stribeck = _free("friction.stribeck_g", "friction.stribeck_d", "friction.v_stribeck")
     out["friction"] += (
         CandidateSpec(
@@ -350,6 +383,34 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             fixed=(("friction.v_reg", 1e-3),),
             note="Coulomb + viscous + Stribeck excess and velocity per axis (v_reg fixed at 1 mm/s)",
             law="stribeck",
+        ),
+        CandidateSpec(
+            "friction",
+            ("friction",),
+            free=(
+                *lib["friction"].free,
+                *_free(*(f"friction.{n}" for ax in "gd" for n in Friction.shape_names(ax))),
+            ),
+            fixed=(("friction.stribeck_g", 0.0), ("friction.stribeck_d", 0.0), ("friction.v_reg", 1e-3)),
+            note=(
+                "learned friction: Coulomb + viscous plus a non-negative cubic B-spline of the speed per axis "
+                f"(knots uniform in |v| / (|v| + {Friction.V0 * 1e3:.0f} mm/s)), an odd function of each velocity"
+            ),
+            law="spline",
+            flexible=True,
+        ),
+    )
+    out["eddy_drag"] += (
+        CandidateSpec(
+            "eddy_drag",
+            ("eddy_drag",),
+            free=_free("eddy_drag.c_eddy", *(f"eddy_drag.{n}" for n in EddyDrag.shape_names())),
+            note=(
+                "learned eddy drag: the B^2 law plus a non-negative cubic B-spline of the gap (knots every "
+                f"{EddyDrag.KNOT_STEP * 1e3:.0f} mm) in the coefficient of the horizontal velocity"
+            ),
+            law="spline",
+            flexible=True,
         ),
     )
     sat = lib["saturation"].free
@@ -415,6 +476,18 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             free=_free("commutation_offset.delta", "commutation_offset.drift"),
             note="dq-frame rotation growing along the stroke, delta + drift d",
             law="drift",
+        ),
+        CandidateSpec(
+            "commutation_offset",
+            ("commutation_offset",),
+            free=_free(*(f"commutation_offset.{n}" for n in CommutationOffset.shape_names())),
+            fixed=(("commutation_offset.delta", 0.0), ("commutation_offset.drift", 0.0)),
+            note=(
+                "learned commutation offset: a cubic B-spline of d (knots every "
+                f"{CommutationOffset.KNOT_STEP * 1e3:.0f} mm; nests the constant and the drift exactly)"
+            ),
+            law="spline",
+            flexible=True,
         ),
     )
     knots = tuple(f"end_effect.{n}" for n in EndEffect.profile_names())

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import constants as k
-from ..effects import EFFECTS, EndEffect, Saturation
+from ..effects import EFFECTS, Cogging, CommutationOffset, EddyDrag, EndEffect, Friction, Saturation
 from .attribution import EffectScore
 from .result import Diagnosis
 
@@ -63,12 +63,35 @@ def _end_loss(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
 
 
 def _offset_deg(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
-    """Commutation offset [deg] along the stroke (:class:`CommutationOffset`: ``delta + drift d``)."""
-    return np.degrees(theta["delta"] + theta["drift"] * d_mm * 1e-3)
+    """Commutation offset [deg] along the stroke (:meth:`CommutationOffset.angle`: ``delta + drift d`` + spline)."""
+    return np.degrees([float(CommutationOffset.angle(d * 1e-3, theta)) for d in d_mm])
+
+
+def _friction_n(theta: dict[str, float], v_mm_s: np.ndarray) -> np.ndarray:
+    """Friction force [N] of each guide (columns g, d) at velocity ``v`` [mm/s] (:meth:`Friction.axis_force`)."""
+    return np.array([[float(Friction.axis_force(v * 1e-3, theta, ax)) for ax in ("g", "d")] for v in v_mm_s])
+
+
+def _cogging_n(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
+    """Extra cogging forces [N] (columns tangential, normal) along d at g = 10 mm (:meth:`Cogging.forces`)."""
+    c = Cogging()
+    return np.array([[float(f) for f in c.forces(k.g_cog_ref, d * 1e-3, theta)] for d in d_mm])
+
+
+def _eddy_coef(theta: dict[str, float], g_mm: np.ndarray) -> np.ndarray:
+    """Eddy-drag coefficient [N s/m] of the horizontal velocity at gap ``g`` [mm] (:meth:`EddyDrag.coefficient`)."""
+    return np.array([float(EddyDrag.coefficient(g * 1e-3, theta)) for g in g_mm])
+
+
+def _peak(values: np.ndarray) -> np.ndarray:
+    """Largest magnitude of each column."""
+    return np.max(np.abs(np.atleast_2d(values.T).T), axis=0)
 
 
 _G_MM = np.linspace(k.g_stop[0] * 1e3, k.g_stop[1] * 1e3, 121)
 _D_MM = np.linspace(k.d_stop[0] * 1e3, k.d_stop[1] * 1e3, 241)
+#: Velocities [mm/s] the friction figure spans (both signs: the law is odd), with the low speeds resolved.
+_V_MM_S = np.concatenate([-np.geomspace(200.0, 0.05, 80), [0.0], np.geomspace(0.05, 200.0, 80)])
 
 #: Effect kinds with a shape figure.
 SHAPES: dict[str, Shape] = {
@@ -99,7 +122,40 @@ SHAPES: dict[str, Shape] = {
         _D_MM,
         _offset_deg,
         lambda th: (
-            f"offset {math.degrees(th['delta']):.2f} deg at d = 0, drift {math.degrees(th['drift']) * 1e-3:.3f} deg/mm"
+            f"offset {_offset_deg(th, np.array([0.0]))[0]:.2f} deg at d = 0, largest "
+            f"{_peak(_offset_deg(th, _D_MM))[0]:.2f} deg on the stroke (linear drift term "
+            f"{math.degrees(th['drift']) * 1e-3:.3f} deg/mm)"
+        ),
+    ),
+    "friction": Shape(
+        "velocity [mm/s] (g guide, d guide)",
+        "friction force [N]",
+        _V_MM_S,
+        _friction_n,
+        lambda th: (
+            "peak friction force at |v| <= 200 mm/s: vertical guide {:.3f} N, horizontal guide {:.3f} N; at 1 mm/s "
+            "{:.3f} N, {:.3f} N".format(*_peak(_friction_n(th, _V_MM_S)), *np.abs(_friction_n(th, np.array([1.0]))[0]))
+        ),
+    ),
+    "cogging": Shape(
+        "position d [mm] (tangential, normal)",
+        "extra cogging force at g = 10 mm [N]",
+        _D_MM,
+        _cogging_n,
+        lambda th: "peak extra cogging force at g = 10 mm: tangential {:.3f} N, normal {:.3f} N".format(
+            *_peak(_cogging_n(th, _D_MM))
+        ),
+    ),
+    "eddy_drag": Shape(
+        "gap g [mm]",
+        "drag coefficient [N s/m]",
+        _G_MM,
+        _eddy_coef,
+        lambda th: (
+            "drag coefficient {:.3f} N s/m at g = 8 mm, {:.3f} N s/m at g = 20 mm "
+            "(drag at 0.1 m/s and 8 mm: {:.3f} N)".format(
+                *_eddy_coef(th, np.array([8.0, 20.0])), 0.1 * _eddy_coef(th, np.array([8.0]))[0]
+            )
         ),
     ),
 }
@@ -125,7 +181,16 @@ def shape_figure(d: Diagnosis, plt):
     fig, axes = plt.subplots(1, len(found), figsize=(4.5 * len(found), 3.5), squeeze=False)
     for ax, (n, th) in zip(axes[0], found, strict=True):
         s = SHAPES[n]
-        ax.plot(s.x, s.curve(th, s.x), color="tab:red")
+        y = s.curve(th, s.x)
+        if np.ndim(y) == 1:
+            ax.plot(s.x, y, color="tab:red")
+        else:  # one line per column, named in the x label's parentheses
+            names = s.xlabel[s.xlabel.index("(") + 1 : -1].split(", ")
+            for j, name in enumerate(names):
+                ax.plot(s.x, y[:, j], label=name)
+            ax.legend(fontsize=8)
+        if s is SHAPES.get("friction"):
+            ax.set_xscale("symlog", linthresh=1.0)
         ax.set_xlabel(s.xlabel)
         ax.set_ylabel(s.ylabel)
         ax.set_title(n)
