@@ -33,6 +33,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         121212, 424242, 20240607, 20240608,  # shipped campaigns and scenarios
         3144656969, 3234358082, 3583959361,  # single cases re-drawn from self-check seeds (test_diagnosis*)
         710027,  # lag + friction (test_heldout): failed 2026-11-29 (size from the single fit), then developed on
+        710043,  # lag + friction (test_heldout): passed 2026-11-29, spent when the backward check's rule changed
     }
 )  # fmt: skip
 
@@ -44,8 +45,9 @@ VALIDATION_SEEDS: dict[str, int] = {
     "rig_truth_friction": 710_019,
     # a one-period delay + second-order amplifier beside Stribeck friction (issue 29). 710_027 ran once on
     # 2026-11-29 and failed (named, delay 2.5 us vs 1279 us: the size came from the lag's single fit); the fix
-    # (sizes from the joint model) was developed on it, so this check takes a new seed
-    "rig_truth_lag_friction": 710_043,
+    # (sizes from the joint model) was developed on it, so this check takes a new seed. 710_043 passed; spent
+    # when the backward check's resolved-sample rule changed (issue 29), drawn anew with secrets.randbelow(2**31)
+    "rig_truth_lag_friction": 2_033_644_010,
 }
 
 #: Every seed at or above this bound that is not in the registry has never been looked at.
