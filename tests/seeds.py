@@ -36,6 +36,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         1575067531, 628204662,  # diagnosed-vs-blind validation rigs cascade_karnopp, digital_eddy: run, then spent
         2711, 5077,  # leave-one-law-out development run, 2-dataset end-to-end run of the rig self-check (s11)
         710027,  # lag + friction (test_heldout): failed 2026-11-29 (size from the single fit), then developed on
+        710043,  # lag + friction (test_heldout): passed 2026-11-29, spent when the backward check's rule changed
     }
 )  # fmt: skip
 
@@ -47,8 +48,9 @@ VALIDATION_SEEDS: dict[str, int] = {
     "rig_truth_friction": 710_019,
     # a one-period delay + second-order amplifier beside Stribeck friction (issue 29). 710_027 ran once on
     # 2026-11-29 and failed (named, delay 2.5 us vs 1279 us: the size came from the lag's single fit); the fix
-    # (sizes from the joint model) was developed on it, so this check takes a new seed
-    "rig_truth_lag_friction": 710_043,
+    # (sizes from the joint model) was developed on it, so this check takes a new seed. 710_043 passed; spent
+    # when the backward check's resolved-sample rule changed (issue 29), drawn anew with secrets.randbelow(2**31)
+    "rig_truth_lag_friction": 2_033_644_010,
     # tests/test_diagnosis_experiment_e2e.py: a one-gap dataset's eddy_drag|friction resolved by the designed
     # experiment, each drag as the truth (chosen 2026-11-29 before the check first ran)
     "experiment_eddy_drag": 710_051,

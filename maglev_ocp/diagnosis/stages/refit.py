@@ -157,13 +157,17 @@ def partly_resolved(fracs: Sequence[float], st: DiagnoseSettings) -> bool:
 def resolved_errors(
     split: Split, base: Baseline, spec: CandidateSpec, fit: FitResult | None, masks: Sequence[np.ndarray]
 ) -> np.ndarray:
-    """Floor-normalized held-out residual of a fitted model on the samples ``masks`` keeps (for paired tests)."""
+    """Floor-normalized held-out residual of a fitted model on the samples ``masks`` keeps (for paired tests).
+
+    Stacked channel by channel, each run in time order (as :func:`..attribution.stack` stacks all samples), so
+    that the paired test's autocorrelation estimate runs along time within a channel, not across channels.
+    """
     res = residuals_with(spec, fit, split.test, base.p, split.u_test)
     e = []
-    for r, m in zip(res, masks, strict=True):
-        if r.run.n:
-            keep = m & r.run.valid[None, :]
-            e.append(r.r[keep] / np.broadcast_to(base.fvec, r.r.shape)[keep])
+    for c in range(len(CHANNELS)):
+        for r, m in zip(res, masks, strict=True):
+            if r.run.n and r.run.valid[c]:
+                e.append(r.r[m[:, c], c] / base.fvec[c])
     return np.concatenate(e) if e else np.zeros(0)
 
 
