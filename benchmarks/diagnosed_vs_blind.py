@@ -125,6 +125,19 @@ RIGS: dict[str, dict[str, Any]] = {
             "cogging": {"family": "slot_harmonic"},
         },
     },
+    # Validation rig of 2026-11-29 (eleventh session), defined before its first run, after the controllers'
+    # and the backward check's changes developed on the five above; seed from secrets.randbelow(2**31).
+    # A second-order amplifier (600 Hz, zeta 0.7) behind a one-period delay, Frohlich-Kennelly saturation,
+    # Boldea & Nasar's exponential entry end effect (rigsim's defaults for both)
+    "second_frohlich": {
+        "mismatch": 0.1,
+        "seed": 598767535,
+        "effects": {
+            "amplifier_lag": {"family": "second", "fn_hz": 600.0, "zeta": 0.7, "delay_samples": 1.0},
+            "saturation": {"family": "frohlich"},
+            "end_effect": {"family": "entry_exp"},
+        },
+    },
 }
 #: Controllers compared (each blind and diagnosed).
 CONTROLLERS: tuple[str, ...] = ("fl", "nmpc", "pid")
