@@ -38,6 +38,15 @@ SOURCES: dict[str, tuple[tuple[str, ...], str]] = {
         "`maglev diagnose selftest 60 --generator independent --seed 970221753 --workers 2 --keep-reports` "
         "(protocol `results/prereg/issue27.md`), as it came out.",
     ),
+    "Blind rig check on a fresh seed, second run (issue 27, eleventh session)": (
+        ("results/prereg/issue27_rerun_s11.json",),
+        "`maglev diagnose selftest 60 --generator independent --seed 405197630 --workers 2 --keep-reports` at "
+        "8cf3f98 (seed `fresh_seed('prereg-issue27')` at that commit), run once, as it came out, after the "
+        "eleventh session's diagnosis changes (backward check's resolved-sample rule, learned shapes, fits on "
+        "worker processes, `family_top` 5). The new rig laws were written before the first run and have been "
+        "seen since (first run above), so only the seed is fresh. Timings taken while other jobs shared the "
+        "2 cores (a CI run, closed-loop tours, a rig diagnosis): not speed figures.",
+    ),
     "Library self-check": (
         ("results/long/library_selfcheck/selftest.json", "results/diagnosis/selftest/selftest.json"),
         "The library generator (training accuracy by construction; target 29 of 30). Command, seed and code "
