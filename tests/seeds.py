@@ -33,7 +33,8 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         121212, 424242, 20240607, 20240608,  # shipped campaigns and scenarios
         3144656969, 3234358082, 3583959361,  # single cases re-drawn from self-check seeds (test_diagnosis*)
         970221753,  # issue 27's pre-registered blind rig check (2026-11-29, ninth session): spent
-        1575067531, 628204662,  # diagnosed-vs-blind validation rigs cascade_karnopp, digital_eddy: run, then spent
+        1575067531, 628204662, 598767535,  # diagnosed-vs-blind validation rigs (cascade_karnopp, digital_eddy,
+        # second_frohlich): run, then spent
         2711, 5077,  # leave-one-law-out development run, 2-dataset end-to-end run of the rig self-check (s11)
         41,  # learned-shape dataset tests (test_diagnosis_shapes, s11)
         710027,  # lag + friction (test_heldout): failed 2026-11-29 (size from the single fit), then developed on

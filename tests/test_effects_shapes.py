@@ -23,7 +23,7 @@ import pytest
 from maglev_ocp import constants as k
 from maglev_ocp.diagnosis.candidates import CandidateFitter, Dataset
 from maglev_ocp.diagnosis.fit import residuals_with
-from maglev_ocp.diagnosis.library import CandidateSpec, family_specs
+from maglev_ocp.diagnosis.library import CandidateSpec, _free, family_specs
 from maglev_ocp.diagnosis.residuals import ResidualSettings, RunInput, ZeroPhaseFilter, prepare_run
 from maglev_ocp.diagnosis.shape_report import SHAPES
 from maglev_ocp.diagnosis.signatures import evidence
@@ -220,7 +220,16 @@ def test_eddy_spline_recovers_a_drag_coefficient_that_decays_exponentially_with_
         return [0.0, -40.0 * ca.exp(-(x[0] - 8e-3) / 4e-3) * x[3]]
 
     runs, filt = _runs(law, g0=0.012)
-    _, theta = _fit(_member("eddy_drag", "spline"), runs, filt)
+    # the learned member is not offered in the library (it nests viscous friction, see library.family_specs);
+    # the shape itself is what is checked here
+    spec = CandidateSpec(
+        "eddy_drag",
+        ("eddy_drag",),
+        free=_free("eddy_drag.c_eddy", *(f"eddy_drag.{n}" for n in EddyDrag.shape_names())),
+        law="spline",
+        flexible=True,
+    )
+    _, theta = _fit(spec, runs, filt)
     for g in (0.011, 0.013):
         truth = 40.0 * math.exp(-(g - 8e-3) / 4e-3)
         assert float(EddyDrag.coefficient(g, theta)) == pytest.approx(truth, rel=TOL)

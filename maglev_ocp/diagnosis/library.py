@@ -316,8 +316,8 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       takes a loss that levels off), and the cogging's share of the loss;
     - the amplifier lag searches a continuous effective delay (whole samples
       plus a lag or a fractional delay, which act alike below the cut-off);
-      ``eddy_drag``: ``spline`` (flexible), the coefficient of the horizontal
-      velocity a non-negative B-spline of g on top of the B^2 law;
+      ``eddy_drag`` has one law (a learned coefficient in g would nest viscous
+      friction, see below);
     - learned shapes (flexible) of ``cogging`` (``fourier``: harmonics of the
       slot pitch, normal and tangential parts, positive amplitude in g),
       ``friction`` (``spline``: an odd function of each velocity, Coulomb +
@@ -400,19 +400,9 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             flexible=True,
         ),
     )
-    out["eddy_drag"] += (
-        CandidateSpec(
-            "eddy_drag",
-            ("eddy_drag",),
-            free=_free("eddy_drag.c_eddy", *(f"eddy_drag.{n}" for n in EddyDrag.shape_names())),
-            note=(
-                "learned eddy drag: the B^2 law plus a non-negative cubic B-spline of the gap (knots every "
-                f"{EddyDrag.KNOT_STEP * 1e3:.0f} mm) in the coefficient of the horizontal velocity"
-            ),
-            law="spline",
-            flexible=True,
-        ),
-    )
+    # eddy drag's learned member (EddyDrag.shape_loss: a non-negative spline of g in the velocity coefficient) is
+    # not offered: a coefficient flat in g is viscous friction along d, so the member nests friction's viscous
+    # term and a two-gap experiment could no longer tell them apart (tests/test_diagnosis_experiment_e2e.py)
     sat = lib["saturation"].free
     knee = (*sat, *_free("saturation.knee"))
     w0 = (("saturation.w_pm", 1.0), ("saturation.w_id", 0.5), ("saturation.w_thrust", 0.5), ("saturation.w_rel", 0.0))

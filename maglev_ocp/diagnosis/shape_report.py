@@ -30,7 +30,10 @@ def effect_theta(score: EffectScore, name: str) -> dict[str, float]:
         theta.update({key[len(prefix) :]: v for key, v in spec.fixed if key.startswith(prefix)})
     theta.update({key[len(prefix) :]: float(v) for key, v in score.params.items() if key.startswith(prefix)})
     if spec is not None:
-        theta.update({key[len(prefix) :]: float(score.params[src]) for key, src in spec.ties if key.startswith(prefix)})
+        # a tie's source (e.g. the calibrated p.xi0 a cogging member shares) is fitted, but a score may carry
+        # only its effect's own values: read it from the fit then
+        fitted = {**score.fit.params(), **score.params}
+        theta.update({key[len(prefix) :]: float(fitted[src]) for key, src in spec.ties if key.startswith(prefix)})
     return theta
 
 
