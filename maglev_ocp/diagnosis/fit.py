@@ -37,13 +37,13 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 import scipy.optimize as spo
-from numpy.lib.stride_tricks import as_strided
 
 from ..effects import AmplifierLag, EffectSet
 from ..estimation.ident import autocorr_factor, hac_stderr
 from ..signals import PARAM_NAMES
+from .fitdata import Dataset, one_blas_thread
 from .library import CandidateSpec
-from .residuals import Z_NAMES, PreparedRun, Residual, ZeroPhaseFilter, residual_of
+from .residuals import Z_NAMES, PreparedRun, Residual, residual_of
 from .sxnumpy import vectorized
 
 _DEBUG = False  # print the SQP iterations
@@ -120,112 +120,6 @@ def lag_features(Z: np.ndarray, runs_u: np.ndarray, theta: Mapping[str, float]) 
     Zl[:, 4:6] = ua[:-1]
     Zl[:, 6:8] = np.vstack([ua[:1], ua[:-2]])
     return Zl
-
-
-# ------------------------------------------------------------------------ fitting
-class Dataset:
-    """Training (or scoring) data of a fit: stacked runs, per-channel filter rows.
-
-    Parameters
-    ----------
-    runs : sequence of PreparedRun
-        Runs (each with ``Z``, ``W``, ``meas``).
-    sqrt_w : ndarray, shape (2,)
-        Square-root weights of the two channels (1 / noise rms).
-    filt : ZeroPhaseFilter
-        The filter the runs were prepared with (for the symbolic filter of the NLP).
-    row_w : sequence of ndarray, optional
-        Per-run weights ``(n, 2)`` of the residual samples (0 leaves a sample
-        out: the baseline's calibration on the clean part of the data).
-    prior_weight : float
-        How many weighted residual samples one independent one is worth (the
-        residual's autocorrelation inflation): the weight of a :class:`Free`
-        prior against the data.
-    """
-
-    def __init__(
-        self,
-        runs: Sequence[PreparedRun],
-        sqrt_w: np.ndarray,
-        filt: ZeroPhaseFilter,
-        row_w: Sequence[np.ndarray] | None = None,
-        prior_weight: float = 1.0,
-    ):
-        keep = [i for i, r in enumerate(runs) if r.n > 0]
-        self.runs = [runs[i] for i in keep]
-        self.sqrt_w = np.asarray(sqrt_w, float)
-        self.filt = filt
-        self.prior_weight = float(prior_weight)
-        rw = [np.ones((r.n, 2)) for r in self.runs] if row_w is None else [np.asarray(row_w[i], float) for i in keep]
-        self.Z = np.vstack([r.Z for r in self.runs]) if self.runs else np.zeros((0, 8))
-        self.offsets = np.cumsum([0] + [len(r.Z) for r in self.runs])
-        meas = np.vstack([r.meas for r in self.runs]) if self.runs else np.zeros((0, 2))
-        mask = np.vstack([np.tile(r.valid, (r.n, 1)) for r in self.runs]) if self.runs else np.zeros((0, 2), bool)
-        self.m_c = [meas[mask[:, c], c] for c in range(2)]
-        rws = np.vstack(rw) if rw else np.zeros((0, 2))
-        self.row_w_c = [rws[mask[:, c], c] for c in range(2)]
-        self.n_c = [int(mask[:, c].sum()) for c in range(2)]
-        self.n = sum(self.n_c)
-        # independent blocks of the stacked residual (channel-major, then run): one per run and channel
-        sizes = [r.n for c in range(2) for r in self.runs if r.valid[c]]
-        self.block_bounds = np.cumsum([0, *sizes])
-        self._poly: list[tuple] | None = None
-
-    def weighted_residual(self, a: np.ndarray) -> np.ndarray:
-        """Stacked weighted residual for per-period accelerations ``a`` (N_tot, 2)."""
-        return np.concatenate(
-            [self.sqrt_w[c] * self.row_w_c[c] * (self.m_c[c] - self.filter(a[:, c], c)) for c in range(2)]
-        )
-
-    def filter(self, X: np.ndarray, channel: int) -> np.ndarray:
-        """The runs' filter rows (``PreparedRun.W``, on the runs valid in ``channel``) applied to a per-period
-        series ``X`` (N_tot,) or (N_tot, k), in polyphase form.
-
-        With ``D`` the decimation and ``w_a`` padded to ``D Q`` taps,
-        ``(W x)_j = sum_q sum_r w_a[D q + r] x[base + D (j + q) + r]``: the same products as the sparse rows
-        (401 taps, every 8th sample kept) as one dense ``Q x D`` by ``D x (k n / D)`` product per run and a
-        strided sum over ``q``. The fits spend most of their time here: 1.6-6 times faster than the sparse
-        product on one core (k = 17 to 1 columns), without streaming 2 million stored taps per product.
-        """
-        X = np.asarray(X, float)
-        vec = X.ndim == 1
-        X2 = X[:, None] if vec else X
-        k_ = X2.shape[1]
-        parts = []
-        for (off, base, n_take, pad, nb, Q, D, wqT), run in zip(self._polyphase(), self.runs, strict=True):
-            if not run.valid[channel]:
-                continue
-            seg = X2[off + base : off + base + n_take]
-            if pad:
-                seg = np.vstack([seg, np.zeros((pad, k_))])
-            # P[q, :, b] = sum_r w_a[D q + r] x[base + D b + r];  (W x)_j = sum_q P[q, :, j + q], read as a
-            # strided view (element (:, j, q) at P[q, :, j + q]) summed over q
-            T = seg.reshape(nb, D, k_).transpose(1, 2, 0).reshape(D, k_ * nb)
-            P = (wqT @ T).reshape(Q, k_, nb)
-            s0, s1, s2 = P.strides
-            V = as_strided(P, shape=(k_, run.n, Q), strides=(s1, s2, s0 + s2), writeable=False)
-            parts.append(V.sum(axis=2).T)
-        res = np.vstack(parts) if parts else np.zeros((0, k_))
-        return res[:, 0] if vec else res
-
-    def _polyphase(self) -> list[tuple]:
-        # Per run: (offset, base, n_take, pad, nb, Q, D, wqT) with wqT[q, r] = w_a[D q + r].
-        if self._poly is None:
-            D = self.filt.decimate
-            w_a = self.filt.w_a
-            Q = -(-len(w_a) // D)
-            wpad = np.zeros(D * Q)
-            wpad[: len(w_a)] = w_a
-            wqT = wpad.reshape(Q, D)
-            out = []
-            for i, r in enumerate(self.runs):
-                base = int(r.centers[0]) - self.filt.M - 1
-                nb = r.n + Q - 1
-                n_seg = D * nb
-                pad = max(0, n_seg - (len(r.Z) - base))
-                out.append((int(self.offsets[i]), base, n_seg - pad, pad, nb, Q, D, wqT))
-            self._poly = out
-        return self._poly
 
 
 @dataclass
@@ -338,6 +232,9 @@ class CandidateFitter:
         )
         self._spw = np.sqrt(self.pw)
         self._sw = [float(data.sqrt_w[c]) * data.row_w_c[c] for c in range(2)]
+        self._cols = _jacobian_columns(spec)
+        self._nonlin = sorted(set(self._cols[0][1]) | set(self._cols[1][1]))
+        self._lin_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # channel -> (Zt, filtered linear columns)
 
     # ------------------------------------------------------------ evaluation
     def residual_jacobian(
@@ -347,7 +244,18 @@ class CandidateFitter:
         data, nw = self.data, self.nw
         w = np.asarray(s, float) * self.scale
         if jac:
-            A, dA = evaluate(_accel_jac_function(self.spec), Zt, self.p, w)
+            need = [c for c in range(2) if self._cols[c][0] and data.n_c[c]]
+            hit = all((h := self._lin_cache.get(c)) is not None and h[0] is Zt for c in need)
+            if hit and self._nonlin:
+                # the linear columns are filtered already: the Jacobian of the others only
+                A, dN = evaluate(_accel_nonlin_jac_function(self.spec), Zt, self.p, w)
+                dA = np.zeros((2, nw, dN.shape[2]))
+                dA[:, list(self._nonlin)] = dN
+            elif hit:
+                (A,) = evaluate(_accel_function(self.spec), Zt, self.p, w)
+                dA = np.zeros((2, nw, A.shape[2]))
+            else:
+                A, dA = evaluate(_accel_jac_function(self.spec), Zt, self.p, w)
         else:
             (A,) = evaluate(_accel_function(self.spec), Zt, self.p, w)
         r_parts, j_parts = [], []
@@ -356,15 +264,34 @@ class CandidateFitter:
                 continue
             sw = self._sw[c]
             if jac:
-                # the acceleration and its Jacobian through the filter in one product
-                F = data.filter(np.column_stack([np.ravel(A[c, 0]), dA[c].T]), c)
+                # The acceleration and its Jacobian through the filter in one product, on the columns that can
+                # be nonzero and change with w only: the filter is linear, so a column that is zero (the
+                # parameter does not act on this channel, structurally or at these points) filters to zero,
+                # and a column independent of w (a parameter entering linearly) is filtered once per features.
+                lin, nonlin = self._cols[c]
+                moving = [i for i in nonlin if np.any(dA[c, i])]
+                F = data.filter(np.column_stack([np.ravel(A[c, 0]), dA[c, moving].T]), c)
+                Jc = np.zeros((len(F), nw))
+                Jc[:, moving] = F[:, 1:]
+                if lin:
+                    Jc[:, lin] = self._linear_columns(c, Zt, dA)
                 r_parts.append(sw * (data.m_c[c] - F[:, 0]))
-                j_parts.append(-(sw[:, None] * F[:, 1:]) * self.scale[None, :])
+                j_parts.append(-(sw[:, None] * Jc) * self.scale[None, :])
             else:
                 r_parts.append(sw * (data.m_c[c] - data.filter(np.ravel(A[c, 0]), c)))
         r = np.concatenate(r_parts) if r_parts else np.zeros(0)
         J = (np.vstack(j_parts) if j_parts else np.zeros((0, nw))) if jac else None
         return r, J
+
+    def _linear_columns(self, c: int, Zt: np.ndarray, dA: np.ndarray) -> np.ndarray:
+        """The filtered Jacobian columns of channel ``c`` that do not depend on ``w``, filtered once per ``Zt``."""
+        hit = self._lin_cache.get(c)
+        if hit is not None and hit[0] is Zt:
+            return hit[1]
+        lin = self._cols[c][0]
+        F = self.data.filter(np.ascontiguousarray(dA[c, lin].T), c)
+        self._lin_cache[c] = (Zt, F)
+        return F
 
     def _objective(self, s: np.ndarray, r: np.ndarray) -> float:
         return 0.5 * float(r @ r) + 0.5 * float(np.sum(self.pw * (s - self.c0) ** 2))
@@ -373,6 +300,9 @@ class CandidateFitter:
     def solve(self, Z: np.ndarray | None = None, starts: Sequence[np.ndarray] | None = None) -> FitResult:
         """Fit on the data (or on features ``Z`` of the same size); best of the given starts.
 
+        The BLAS runs one thread here (:func:`one_blas_thread`): the products of a fit are small, and the
+        fits' parallelism is the fit workers' (``fit_workers``).
+
         ``status`` is ``converged`` (the last accepted step lowered the
         objective by less than ``1e-12`` of it, or no step within the bounds
         lowers it), ``stalled`` (a chunk of :attr:`chunk` steps lowered it by
@@ -380,6 +310,10 @@ class CandidateFitter:
         then only crawl; accepted), ``iteration limit`` (still improving after
         ``chunk * max_chunks`` steps) or ``failed`` (non-finite objective).
         """
+        with one_blas_thread():
+            return self._solve(Z, starts)
+
+    def _solve(self, Z: np.ndarray | None, starts: Sequence[np.ndarray] | None) -> FitResult:
         spec = self.spec
         Z = self.data.Z if Z is None else Z
         Zt = np.ascontiguousarray(np.asarray(Z, float).T)
@@ -473,6 +407,40 @@ def _accel_jac_function(spec: CandidateSpec) -> ca.Function:
     z, p, w = ca.SX.sym("z", 8), ca.SX.sym("p", len(PARAM_NAMES)), ca.SX.sym("w", len(spec.free))
     a = f(z, p, w)
     return ca.Function(f"candj_{_fname(spec.name)}", [z, p, w], [a, ca.jacobian(a, w)], ["z", "p", "w"], ["a", "da_dw"])
+
+
+@functools.lru_cache(maxsize=64)
+def _accel_nonlin_jac_function(spec: CandidateSpec) -> ca.Function:
+    """``(z, p, w) -> (a[2], da/dw_N [2 x |N|])`` with ``N`` the parameters that enter nonlinearly in a channel."""
+    nonlin = sorted(set(_jacobian_columns(spec)[0][1]) | set(_jacobian_columns(spec)[1][1]))
+    f = _accel_function(spec)
+    z, p, w = ca.SX.sym("z", 8), ca.SX.sym("p", len(PARAM_NAMES)), ca.SX.sym("w", len(spec.free))
+    a = f(z, p, w)
+    jac = ca.jacobian(a, w[nonlin]) if nonlin else ca.SX(2, 0)
+    return ca.Function(f"candn_{_fname(spec.name)}", [z, p, w], [a, jac], ["z", "p", "w"], ["a", "da_dwn"])
+
+
+@functools.lru_cache(maxsize=64)
+def _jacobian_columns(spec: CandidateSpec) -> tuple[tuple[list[int], list[int]], ...]:
+    """Per channel, the parameters whose ``da_c/dw_i`` is structurally nonzero: ``(linear, nonlinear)``.
+
+    ``linear``: the derivative does not depend on ``w`` (the parameter enters the acceleration linearly: its
+    filtered column changes only with the features); ``nonlinear``: the rest. A parameter in neither does not
+    act on that channel (its column is zero).
+    """
+    f = _accel_jac_function(spec)
+    z, p, w = ca.SX.sym("z", 8), ca.SX.sym("p", len(PARAM_NAMES)), ca.SX.sym("w", len(spec.free))
+    _, jac = f(z, p, w)
+    sp = f.sparsity_out(1)
+    out = []
+    for c in range(2):
+        lin, nonlin = [], []
+        for i in range(len(spec.free)):
+            if not sp.has_nz(c, i):
+                continue
+            (lin if not ca.depends_on(jac[c, i], w) else nonlin).append(i)
+        out.append((lin, nonlin))
+    return tuple(out)
 
 
 def _inflation(r: np.ndarray, data: Dataset) -> float:
