@@ -10,10 +10,10 @@ the same kinds and case seeds, :func:`maglev_ocp.diagnosis.selftest_rig.kinds_or
 generated once into ``--data`` (default: the temporary directory) and diagnosed one after the other, each
 alone in this process, as ``maglev diagnose run`` does (:func:`maglev_ocp.diagnosis.diagnose.diagnose`, no
 figures). Per dataset: the wall time, the CPU time of this process and of the fit workers it forked
-(``fit_workers``, reaped when the selection ends), every stage's wall time (``Diagnosis.timing``) and the
-verdict; then the median, p90 and maximum of each, and the load average before and after (on a shared
-machine the wall times are not the diagnosis's alone: CPU time is the figure other processes disturb
-least). Writes ``--out`` (markdown) and the same rows as JSON beside it.
+(``fit_workers``, reaped when the selection ends), every stage's wall time (``Diagnosis.timing``) and CPU
+time (:class:`StageCPU`), the verdict and the effects found; then the median, p90 and maximum of each,
+and the load average before and after (on a shared machine the wall times are not the diagnosis's alone:
+CPU time is the figure other processes disturb least). Writes ``--out`` (markdown) and the same rows as JSON beside it.
 """
 
 from __future__ import annotations
@@ -61,6 +61,37 @@ def dataset(folder: Path, kind: str, case_seed: int, runs: int, duration: float)
     return folder
 
 
+class StageCPU:
+    """CPU time per stage: wraps the pipeline's stage clock (``diagnose._Clock.run``) while in the block.
+
+    Per stage, the CPU time of this process and of the children reaped during it (the fit workers are
+    reaped when the selection ends, so their CPU time counts in the stage that reaps them: ``candidates``
+    or ``forward``). ``last`` holds the stages of the latest diagnosis (``<stage>_s``).
+    """
+
+    def __init__(self) -> None:
+        self.last: dict[str, float] = {}
+
+    def __enter__(self) -> StageCPU:
+        from maglev_ocp.diagnosis import diagnose as dg
+
+        self._mod, self._orig = dg, dg._Clock.run
+        orig, last = self._orig, self.last
+
+        def run(clock, name, fn, *args, **kwargs):
+            c0 = _cpu()
+            try:
+                return orig(clock, name, fn, *args, **kwargs)
+            finally:
+                last[f"{name}_s"] = _cpu() - c0
+
+        dg._Clock.run = run
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._mod._Clock.run = self._orig
+
+
 def _q(x: list[float], q: float) -> float:
     return float(np.quantile(np.asarray(x, float), q)) if x else float("nan")
 
@@ -88,8 +119,9 @@ def markdown(rows: list[dict], meta: dict) -> str:
     stats = [["wall per dataset", f"{_q(walls, 0.5):.1f}", f"{_q(walls, 0.9):.1f}", f"{max(walls):.1f}"],
              ["CPU per dataset", f"{_q(cpus, 0.5):.1f}", f"{_q(cpus, 0.9):.1f}", f"{max(cpus):.1f}"]]  # fmt: skip
     for st in STAGES:
-        v = [r["timing"].get(f"{st}_s", 0.0) for r in rows]
-        stats.append([f"stage {st} (wall)", f"{_q(v, 0.5):.1f}", f"{_q(v, 0.9):.1f}", f"{max(v):.1f}"])
+        for what, key in (("wall", "timing"), ("CPU", "stage_cpu")):
+            v = [r.get(key, {}).get(f"{st}_s", 0.0) for r in rows]
+            stats.append([f"stage {st} ({what})", f"{_q(v, 0.5):.1f}", f"{_q(v, 0.9):.1f}", f"{max(v):.1f}"])
     return "\n".join([*head, table, "", md_table(["[s]", "median", "p90", "max"], stats), ""])
 
 
@@ -118,16 +150,19 @@ def main(argv: list[str] | None = None) -> int:
         folders[i] = dataset(args.data / f"{args.seed}_{i:02d}", kind, sd, args.runs, args.duration)
     load0 = os.getloadavg()
     rows = []
+    clock = StageCPU()
     for i, kind, sd in todo:
         ds = read_dataset(folders[i])
         truth = json.loads((folders[i] / "truth.json").read_text())
         st = DiagnoseSettings(seed=int(sd % (2**31)), fit_workers=args.fit_workers)
         t0, c0 = time.perf_counter(), _cpu()
-        d = diagnose(ds, settings=st)
+        with clock:
+            d = diagnose(ds, settings=st)
         wall, cpu = time.perf_counter() - t0, _cpu() - c0
         rows.append(dict(case=i, kind=kind, truth=str(truth.get("expected_verdict", kind)),
                          verdict=d.verdict.verdict, wall_s=wall, cpu_s=cpu, timing=dict(d.timing),
-                         load=list(os.getloadavg())))  # fmt: skip
+                         stage_cpu=dict(clock.last), load=list(os.getloadavg()),
+                         effects_found=d.effects_found))  # fmt: skip
         print(f"case {i:2d} {kind:<15} {d.verdict.verdict:<40} wall {wall:7.1f} s  CPU {cpu:7.1f} s", flush=True)
     load1 = os.getloadavg()
     commit = os.popen(f"git -C {ROOT} rev-parse --short HEAD 2>/dev/null").read().strip() or "?"
