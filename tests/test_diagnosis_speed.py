@@ -58,3 +58,83 @@ def test_fits_on_workers_give_the_record_of_one_process():
     assert att1.verdict.verdict == att2.verdict.verdict
     here = fit_and_score(one, *jobs[0])
     assert tuple(here[0].w) == tuple(ahead[0].w) and here[1].z == ahead[1].z
+
+
+# ----------------------------------------------------------------- the fits' cheap filter and HAC products
+def _runs(n_runs: int = 2, n: int = 2500):
+    """Runs with smooth positions (a sweep in d, a wobble in g) and currents (the products only need inputs)."""
+    from maglev_ocp import constants as k
+    from maglev_ocp.diagnosis.residuals import ResidualSettings, RunInput, ZeroPhaseFilter, prepare_run
+
+    filt = ZeroPhaseFilter(ResidualSettings())
+    t = np.arange(n) * k.Ts
+    runs = []
+    for i in range(n_runs):
+        y = np.column_stack([0.018 + 0.002 * np.sin(2 * np.pi * (0.7 + 0.1 * i) * t), 0.03 * np.sin(0.8 * t + i)])
+        u = np.column_stack([0.5 * np.sin(3.1 * t + i), 1.2 + 0.3 * np.cos(1.7 * t)])
+        runs.append(prepare_run(RunInput(f"r{i}", k.Ts, y, u), filt))
+    return runs, filt
+
+
+def test_the_fitters_jacobian_is_the_filtered_derivative_of_its_residual():
+    """The fitter's residual Jacobian, whose zero columns it skips and whose linear columns it filters once,
+    is the filter rows (the sparse ``PreparedRun.W``) applied to CasADi's own Jacobian of every library
+    candidate, and the derivative of its residual (central differences); a second call (the linear columns
+    from the cache) gives the same array."""
+    from maglev_ocp.diagnosis.fit import CandidateFitter, Dataset, _accel_jac_function
+    from maglev_ocp.diagnosis.library import library_specs
+
+    runs, filt = _runs()
+    data = Dataset(runs, np.array([3.0, 0.5]), filt)
+    p0 = NOMINAL.vector()
+    Zt = np.ascontiguousarray(data.Z.T)
+    rng = np.random.default_rng(3)
+    for name, spec in library_specs().items():
+        if not spec.free or spec.lag:
+            continue
+        fi = CandidateFitter(spec, data, p0)
+        lo, hi = np.array([f.lo for f in spec.free]), np.array([f.hi for f in spec.free])
+        w = np.clip(
+            np.array([f.start for f in spec.free]) + 0.2 * rng.random(len(lo)) * np.minimum(hi - lo, 1.0), lo, hi
+        )
+        s = w / fi.scale
+        r, J = fi.residual_jacobian(s, Zt)
+        _, J2 = fi.residual_jacobian(s, Zt)
+        assert np.array_equal(J, J2), name
+        a, da = _accel_jac_function(spec).map(Zt.shape[1])(Zt, p0, w)
+        a, da = np.asarray(a), np.asarray(da).reshape(2, Zt.shape[1], len(w))  # (2, N, n_w)
+        ref = []
+        for c in range(2):
+            cols = [run.W @ da[c, o : o + len(run.Z)] for run, o in zip(data.runs, data.offsets[:-1], strict=True)]
+            ref.append(-(fi._sw[c][:, None] * np.vstack(cols)) * fi.scale[None, :])
+        ref = np.vstack(ref)
+        assert np.abs(J - ref).max() <= 1e-9 * np.abs(ref).max(), name
+        for i in rng.choice(len(s), size=min(3, len(s)), replace=False):
+            h = 1e-6 * max(abs(s[i]), 1.0)
+            sp, sm = s.copy(), s.copy()
+            sp[i] += h
+            sm[i] -= h
+            fd = (fi.residual_jacobian(sp, Zt, jac=False)[0] - fi.residual_jacobian(sm, Zt, jac=False)[0]) / (2 * h)
+            scale = max(np.abs(J[:, i]).max(), 1e-12 * np.abs(r).max())
+            assert np.abs(fd - J[:, i]).max() <= 1e-4 * scale + 1e-9 * np.abs(r).max(), (name, i)
+
+
+def test_newey_west_is_the_bartlett_weighted_sum_over_lags():
+    """The HAC meat computed by one convolution equals its definition, the Bartlett-weighted sum of the
+    lagged cross-products ``sum_k g_k g_(k+l)^T`` written out pair by pair, for short and long lags."""
+    from maglev_ocp.estimation.ident import newey_west
+
+    rng = np.random.default_rng(7)
+    for n, lags in ((1, 3), (6, 10), (40, 5), (300, 120)):
+        J = rng.standard_normal((n, 3))
+        r = np.convolve(rng.standard_normal(n + 9), np.ones(10) / 10, "valid")
+        g = J * r[:, None]
+        ref = np.zeros((3, 3))
+        for t in range(n):
+            for u in range(n):
+                lag = abs(t - u)
+                if lag <= lags:
+                    ref += (1.0 - lag / (lags + 1.0)) * np.outer(g[t], g[u])
+        S = newey_west(J, r, lags)
+        assert np.allclose(S, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
+        assert np.allclose(S, S.T, rtol=0, atol=0)
