@@ -104,21 +104,22 @@ class Dataset:
         vec = X.ndim == 1
         X2 = X[:, None] if vec else X
         k_ = X2.shape[1]
-        parts = []
+        res = np.empty((self.n_c[channel], k_))
+        j0 = 0
         for (off, base, n_take, pad, nb, Q, D, wqT), run in zip(self._polyphase(), self.runs, strict=True):
             if not run.valid[channel]:
                 continue
             seg = X2[off + base : off + base + n_take]
             if pad:
-                seg = np.vstack([seg, np.zeros((pad, k_))])
+                seg = np.concatenate([seg, np.zeros((pad, k_))])
             # P[q, :, b] = sum_r w_a[D q + r] x[base + D b + r];  (W x)_j = sum_q P[q, :, j + q], read as a
             # strided view (element (:, j, q) at P[q, :, j + q]) summed over q
             T = seg.reshape(nb, D, k_).transpose(1, 2, 0).reshape(D, k_ * nb)
             P = (wqT @ T).reshape(Q, k_, nb)
             s0, s1, s2 = P.strides
             V = as_strided(P, shape=(k_, run.n, Q), strides=(s1, s2, s0 + s2), writeable=False)
-            parts.append(V.sum(axis=2).T)
-        res = np.vstack(parts) if parts else np.zeros((0, k_))
+            V.sum(axis=2, out=res[j0 : j0 + run.n].T)
+            j0 += run.n
         return res[:, 0] if vec else res
 
     def _polyphase(self) -> list[tuple]:
