@@ -4,6 +4,7 @@ Run::
 
     .venv/bin/python benchmarks/diagnosis_speed.py --n 10 --seed 970221753
     .venv/bin/python benchmarks/diagnosis_speed.py --n 10 --seed 970221753 --cases 0,16 --fit-workers 1
+    .venv/bin/python benchmarks/diagnosis_speed.py --cases 0,1,9 --fit-workers 1 --profile /tmp/prof
 
 The datasets are the blind self-check's (``maglev diagnose selftest N --generator independent --seed SEED``:
 the same kinds and case seeds, :func:`maglev_ocp.diagnosis.selftest_rig.kinds_order`, 6 runs x 10 s),
@@ -19,9 +20,12 @@ CPU time is the figure other processes disturb least). Writes ``--out`` (markdow
 from __future__ import annotations
 
 import argparse
+import cProfile
+import hashlib
 import importlib
 import json
 import os
+import pstats
 import resource
 import sys
 import tempfile
@@ -93,6 +97,26 @@ class StageCPU:
         self._mod._Clock.run = self._orig
 
 
+def report_digest(d: object, digits: int = 4) -> str:
+    """SHA-256 (16 hex digits) of the diagnosis's ``report.json`` without its timings, every float rounded to
+    ``digits`` significant digits: equal before and after a change that moves nothing but rounding."""
+    from maglev_ocp.diagnosis.result import report_json
+
+    def rnd(x: object) -> object:
+        if isinstance(x, float):
+            return float(f"{x:.{digits}g}")
+        if isinstance(x, dict):
+            return {k: rnd(v) for k, v in x.items()}
+        if isinstance(x, list):
+            return [rnd(v) for v in x]
+        return x
+
+    j = report_json(d)
+    j.pop("timing_s", None)
+    text = json.dumps(rnd(json.loads(json.dumps(j, default=str))), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
 def _q(x: list[float], q: float) -> float:
     return float(np.quantile(np.asarray(x, float), q)) if x else float("nan")
 
@@ -112,10 +136,12 @@ def markdown(rows: list[dict], meta: dict) -> str:
     ]
     body = [
         [str(r["case"]), r["kind"], r["truth"], r["verdict"], f"{r['wall_s']:.1f}", f"{r['cpu_s']:.1f}",
-         f"{r['timing'].get('candidates_s', 0):.1f}", f"{r['timing'].get('forward_s', 0):.1f}"]
+         f"{r['timing'].get('candidates_s', 0):.1f}", f"{r['timing'].get('forward_s', 0):.1f}",
+         f"`{r.get('report_digest', '')}`"]
         for r in rows
     ]  # fmt: skip
-    table = md_table(["#", "kind", "truth", "verdict", "wall [s]", "CPU [s]", "candidates [s]", "forward [s]"], body)
+    cols = ["#", "kind", "truth", "verdict", "wall [s]", "CPU [s]", "candidates [s]", "forward [s]", "report digest"]
+    table = md_table(cols, body)
     walls, cpus = [r["wall_s"] for r in rows], [r["cpu_s"] for r in rows]
     stats = [["wall per dataset", f"{_q(walls, 0.5):.1f}", f"{_q(walls, 0.9):.1f}", f"{max(walls):.1f}"],
              ["CPU per dataset", f"{_q(cpus, 0.5):.1f}", f"{_q(cpus, 0.9):.1f}", f"{max(cpus):.1f}"]]  # fmt: skip
@@ -143,6 +169,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--data", type=Path, default=Path(tempfile.gettempdir()) / "maglev_diagnosis_speed",
                     help="where the datasets are generated (kept: a second run diagnoses the same files)")  # fmt: skip
     ap.add_argument("--out", type=Path, default=Path("results/benchmarks/diagnosis_speed.md"))
+    ap.add_argument("--profile", type=Path, default=None,
+                    help="also profile each diagnosis (cProfile; use --fit-workers 1 to see the fits): "
+                         "DIR/case<i>.prof and the top functions by own time in DIR/case<i>.txt")  # fmt: skip
     args = ap.parse_args(argv)
     pick = {int(c) for c in args.cases.split(",") if c.strip()}
     todo = [c for c in cases(args.n, args.seed) if not pick or c[0] in pick]
@@ -156,14 +185,24 @@ def main(argv: list[str] | None = None) -> int:
         ds = read_dataset(folders[i])
         truth = json.loads((folders[i] / "truth.json").read_text())
         st = DiagnoseSettings(seed=int(sd % (2**31)), fit_workers=args.fit_workers)
+        prof = cProfile.Profile() if args.profile else None
         t0, c0 = time.perf_counter(), _cpu()
         with clock:
+            if prof is not None:
+                prof.enable()
             d = diagnose(ds, settings=st)
+            if prof is not None:
+                prof.disable()
         wall, cpu = time.perf_counter() - t0, _cpu() - c0
+        if prof is not None:
+            args.profile.mkdir(parents=True, exist_ok=True)
+            prof.dump_stats(args.profile / f"case{i}.prof")
+            with open(args.profile / f"case{i}.txt", "w") as fh:
+                pstats.Stats(prof, stream=fh).sort_stats("tottime").print_stats(40)
         rows.append(dict(case=i, kind=kind, truth=str(truth.get("expected_verdict", kind)),
                          verdict=d.verdict.verdict, wall_s=wall, cpu_s=cpu, timing=dict(d.timing),
                          stage_cpu=dict(clock.last), load=list(os.getloadavg()),
-                         effects_found=d.effects_found))  # fmt: skip
+                         effects_found=d.effects_found, report_digest=report_digest(d)))  # fmt: skip
         print(f"case {i:2d} {kind:<15} {d.verdict.verdict:<40} wall {wall:7.1f} s  CPU {cpu:7.1f} s", flush=True)
     load1 = os.getloadavg()
     commit = os.popen(f"git -C {ROOT} rev-parse --short HEAD 2>/dev/null").read().strip() or "?"
