@@ -54,7 +54,7 @@ class EddyDrag(Effect):
     own field opposes the source field), with a lift that opens the gap, even in ``v``; its size
     follows the magnets' field at the conductor, so it falls as the gap opens. The law family is
     Reitz's moving-magnet law (Reitz, "Forces on moving magnets due to eddy currents", J. Appl. Phys.
-    41(5), 1970, eq. (11)-(12): drag ``F0 w v / (v^2 + w^2)``, lift ``F0 v^2 / (v^2 + w^2)``) written
+    41(5), 1970: drag ``F0 w v / (v^2 + w^2)``, lift ``F0 v^2 / (v^2 + w^2)``) written
     with ``c = F0 / w`` and ``s = 1 / v_c = 1 / w``::
 
         F_d = -c(g) v / (1 + (s v)^2),     F_g = lift c(g) s v^2 / (1 + (s v)^2),
@@ -68,12 +68,13 @@ class EddyDrag(Effect):
     friction along d, an effect of its own (:class:`~maglev_ocp.effects.Friction`); a member free in ``g``
     would nest it, and no experiment could then tell the two apart (velocity sweeps at two gaps, issue 27
     item 3). The eddy currents answer the field at the conductor, whose slowest-decaying part is the
-    field's fundamental pole-pitch harmonic: far from the magnets ``B ~ exp(-pi g / tau)``, so the drag,
-    quadratic in B, decays at least as ``exp(-2 pi g / tau)`` (a factor e every ``tau / 2 pi`` = 9.1 mm);
+    field's fundamental pole-pitch harmonic, MODEL.md's ``B(g) ~ 1 / sinh(pi (h_m + g) / tau)``, which
+    far from the magnets is ``exp(-pi g / tau)``; so the drag, quadratic in B, decays at least as
+    ``exp(-2 pi g / tau)`` (a factor e every ``tau / 2 pi`` = 9.1 mm);
     higher harmonics decay faster (the third's ``B^2`` as ``exp(-6 pi g / tau)``). ``kappa`` is bounded to
     ``[2 pi / tau, 6 pi / tau]`` (:attr:`KAPPA_BOUNDS`) and ``B(g)^2`` itself decays faster than the
-    fundamental's exponential, so no coefficient of this effect is flat in ``g``: over the stroke
-    8-32 mm it falls by a factor 8 at least.
+    fundamental's exponential (its log-slope is ``2 pi / tau coth(pi (h_m + g) / tau)``), so no coefficient
+    of this effect is flat in ``g``: over the stroke 8-32 mm it falls by a factor 14 at least.
     """
 
     #: Bounds [1/m] of the exponential coefficient's decay rate: the fundamental's B^2 to the third harmonic's.
@@ -92,12 +93,14 @@ class EddyDrag(Effect):
     def coefficient(cls, g: Expr, theta: Mapping[str, Expr]) -> Expr:
         """Low-speed drag coefficient ``c(g)`` [N s/m] at gap ``g`` [m] (decays at least as the field squared)."""
         B = get_model().shape(g)[2]
-        return theta["c_eddy"] * B**2 + theta.get("c_ref", 0.0) * ca.exp(-theta.get("kappa", 0.0) * (g - k.g_cog_ref))
+        return theta["c_eddy"] * B**2 + theta.get("c_ref", 0.0) * ca.exp(
+            -theta.get("kappa", cls.KAPPA_BOUNDS[0]) * (g - k.g_cog_ref)
+        )
 
     @classmethod
     def forces(cls, g: Expr, v: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
-        """Eddy forces ``(F_g, F_d)`` [N] at gap ``g`` [m] and horizontal velocity ``v`` [m/s] (Reitz 1970,
-        eq. (11)-(12)): ``F_g`` along +g (opens the gap), ``F_d`` opposes the motion."""
+        """Eddy forces ``(F_g, F_d)`` [N] at gap ``g`` [m] and horizontal velocity ``v`` [m/s] (Reitz 1970):
+        ``F_g`` along +g (opens the gap), ``F_d`` opposes the motion."""
         c, s = cls.coefficient(g, theta), theta.get("inv_vc", 0.0)
         den = 1 + (s * v) ** 2
         return theta.get("lift", 0.0) * c * s * v**2 / den, -c * v / den
