@@ -14,6 +14,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
+from .. import constants as k
 from ..effects import EFFECTS, Cogging, CommutationOffset, EddyDrag, EndEffect, Friction, Saturation
 from ..params import Params
 
@@ -115,7 +116,7 @@ _HARMONIC = (-2.0, 2.0, 0.05, 0.2)  # a cogging harmonic relative to xi0
 _COGGING_PEAK = (0.0, 50.0, 1.0, 4.0)  # xi0 [N]
 _GUIDE_FORCE = (0.0, 10.0, 0.05, 0.2)  # a Coulomb or Stribeck force of a guide [N]
 _VISCOUS = (0.0, 100.0, 0.5, 1.0)  # a viscous coefficient [N s/m]
-_TERM_WEIGHT = (-0.5, 0.8, 0.05, 0.1)  # a magnetic term's share of the saturation loss
+_TERM_WEIGHT = (0.0, 0.8, 0.05, 0.1)  # a magnetic term's share of the saturation loss (a loss: >= 0)
 _FACTOR = (0.5, 2.0, 1.0, 0.05)  # a factor on a model term
 
 #: Every parameter a candidate fits: key -> (lo, hi, start, scale) in physical units (see :class:`Free`).
@@ -172,20 +173,24 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     # saturation's learned loss: non-negative steps (a loss non-increasing in g), start 0.01 per step
     **{f"saturation.{n}": (0.0, 0.5, 0.01, 0.05) for n in Saturation.shape_names()},
     # learned shapes (flexible members): friction's non-negative profile coefficients [N] per axis, cogging's
-    # amplitude log-polynomial and Fourier coefficients [N at 10 mm], eddy drag's non-negative coefficient spline
-    # [N s/m], the commutation offset's spline [rad]
+    # amplitude log-polynomial and Fourier coefficients [N at 10 mm], the commutation offset's spline [rad]
     **{f"friction.{n}": (0.0, 10.0, 0.01, 0.1) for ax in "gd" for n in Friction.shape_names(ax)},
     "cogging.cog_a1": (-30.0, 10.0, 0.0, 2.0),
     "cogging.cog_a2": (-30.0, 30.0, 0.0, 2.0),
     **{
         f"cogging.{n}": (-20.0, 20.0, 0.0, 0.5) for p in "xn" for t in ("cos", "sin") for n in Cogging.shape_names(p, t)
     },
-    **{f"eddy_drag.{n}": (0.0, 500.0, 0.1, 2.0) for n in EddyDrag.shape_names()},
     **{f"commutation_offset.{n}": (-0.35, 0.35, 0.0, 0.05) for n in CommutationOffset.shape_names()},
     # one-parameter effects (the effect's own bounds)
     "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
     "commutation_offset.drift": (*_eb("commutation_offset", "drift"), 0.0, 1.0),
     "eddy_drag.c_eddy": (*_eb("eddy_drag", "c_eddy"), 10.0, 50.0),
+    # eddy drag's Reitz law: coefficient at g_ref [N s/m], its decay rate with g (bounded between the field's
+    # fundamental and third harmonic, EddyDrag.KAPPA_BOUNDS: never flat in g), inverse critical velocity, lift
+    "eddy_drag.c_ref": (*_eb("eddy_drag", "c_ref"), 10.0, 20.0),
+    "eddy_drag.kappa": (*EddyDrag.KAPPA_BOUNDS, 4 * math.pi / k.tau, 50.0),
+    "eddy_drag.inv_vc": (*_eb("eddy_drag", "inv_vc"), 5.0, 5.0),
+    "eddy_drag.lift": (*_eb("eddy_drag", "lift"), 0.5, 0.5),
     # parameter error: factors on C1..C4 (C4, a small term, may be off by more)
     "parameter_error.k_C1": _FACTOR,
     "parameter_error.k_C2": _FACTOR,
@@ -316,8 +321,11 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       takes a loss that levels off), and the cogging's share of the loss;
     - the amplifier lag searches a continuous effective delay (whole samples
       plus a lag or a fractional delay, which act alike below the cut-off);
-      ``eddy_drag`` has one law (a learned coefficient in g would nest viscous
-      friction, see below);
+      ``eddy_drag``: ``reitz``: a drag shaped in velocity (linear at low
+      speed, falling above a critical velocity) with a lift that opens the
+      gap (Reitz 1970), its coefficient decaying with g at a rate bounded
+      by the field's harmonics (:class:`~maglev_ocp.effects.EddyDrag`: a
+      coefficient free in g would nest viscous friction);
     - learned shapes (flexible) of ``cogging`` (``fourier``: harmonics of the
       slot pitch, normal and tangential parts, positive amplitude in g),
       ``friction`` (``spline``: an odd function of each velocity, Coulomb +
@@ -400,9 +408,21 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             flexible=True,
         ),
     )
-    # eddy drag's learned member (EddyDrag.shape_loss: a non-negative spline of g in the velocity coefficient) is
-    # not offered: a coefficient flat in g is viscous friction along d, so the member nests friction's viscous
-    # term and a two-gap experiment could no longer tell them apart (tests/test_diagnosis_experiment_e2e.py)
+    out["eddy_drag"] += (
+        CandidateSpec(
+            "eddy_drag",
+            ("eddy_drag",),
+            free=_free("eddy_drag.c_ref", "eddy_drag.kappa", "eddy_drag.inv_vc", "eddy_drag.lift"),
+            fixed=(("eddy_drag.c_eddy", 0.0),),
+            note=(
+                "Reitz's moving-magnet law: drag c(g) v / (1 + (v / v_c)^2) (linear at low speed, falling above "
+                "v_c) and a lift opening the gap, c(g) v^2 / v_c / (1 + (v / v_c)^2) times a share; c(g) decays "
+                "with the gap between the field's fundamental and third harmonic squared (never flat in g: "
+                "that would be viscous friction)"
+            ),
+            law="reitz",
+        ),
+    )
     sat = lib["saturation"].free
     knee = (*sat, *_free("saturation.knee"))
     w0 = (("saturation.w_pm", 1.0), ("saturation.w_id", 0.5), ("saturation.w_thrust", 0.5), ("saturation.w_rel", 0.0))

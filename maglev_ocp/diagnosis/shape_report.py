@@ -82,8 +82,14 @@ def _cogging_n(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
 
 
 def _eddy_coef(theta: dict[str, float], g_mm: np.ndarray) -> np.ndarray:
-    """Eddy-drag coefficient [N s/m] of the horizontal velocity at gap ``g`` [mm] (:meth:`EddyDrag.coefficient`)."""
+    """Low-speed eddy-drag coefficient [N s/m] at gap ``g`` [mm] (:meth:`EddyDrag.coefficient`)."""
     return np.array([float(EddyDrag.coefficient(g * 1e-3, theta)) for g in g_mm])
+
+
+def _eddy_n(theta: dict[str, float], v: float, g_mm: float = k.g_cog_ref * 1e3) -> tuple[float, float]:
+    """Eddy drag and lift [N] (magnitudes) at horizontal speed ``v`` [m/s] and gap ``g`` [mm]."""
+    f_g, f_d = EddyDrag.forces(g_mm * 1e-3, v, theta)
+    return abs(float(f_d)), abs(float(f_g))
 
 
 def _peak(values: np.ndarray) -> np.ndarray:
@@ -151,13 +157,15 @@ SHAPES: dict[str, Shape] = {
     ),
     "eddy_drag": Shape(
         "gap g [mm]",
-        "drag coefficient [N s/m]",
+        "low-speed drag coefficient [N s/m]",
         _G_MM,
         _eddy_coef,
         lambda th: (
-            "drag coefficient {:.3f} N s/m at g = 8 mm, {:.3f} N s/m at g = 20 mm "
-            "(drag at 0.1 m/s and 8 mm: {:.3f} N)".format(
-                *_eddy_coef(th, np.array([8.0, 20.0])), 0.1 * _eddy_coef(th, np.array([8.0]))[0]
+            "low-speed drag coefficient {:.3f} N s/m at g = 8 mm, {:.3f} N s/m at g = 20 mm; at g = 10 mm and "
+            "0.1 m/s drag {:.3f} N, lift {:.3f} N (critical velocity {})".format(
+                *_eddy_coef(th, np.array([8.0, 20.0])),
+                *_eddy_n(th, 0.1),
+                f"{1 / th['inv_vc']:.3f} m/s" if th.get("inv_vc", 0.0) > 0 else "none: linear in velocity",
             )
         ),
     ),

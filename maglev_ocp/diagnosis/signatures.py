@@ -5,8 +5,9 @@ lower the residual: a flexible member can soak up another effect's law misfit, o
 library (issue 27). Each library effect is described here by its **signature** (:class:`Signature`): the
 variables it depends on (gap ``g``, position ``d``, velocities, currents, current rates), its period in ``d``
 (the slot pitch ``t1`` for cogging, the pole pitch ``tau`` for the end effect's ripple, MODEL.md), its
-symmetry (friction odd in each velocity, the end effect's overhang even in ``d``), its monotonicity
-(saturation: a smooth monotone loss in ``g``) and the channels it acts on. A signature is turned into a small
+symmetry (friction odd in each velocity, eddy drag odd in the horizontal velocity and its lift even in it, the
+end effect's overhang even in ``d``), its monotonicity (saturation: a smooth monotone loss in ``g``) and the
+channels it acts on. A signature is turned into a small
 linear basis of the residual samples' features (:attr:`~.residuals.PreparedRun.feat`), a local linearization of
 every law with that signature.
 
@@ -104,8 +105,10 @@ def _catalogue() -> dict[str, Signature]:
                   {c: cog_g for c in CHANNELS}),
         Signature("friction", ("g_dot", "d_dot"), CHANNELS, (), "odd in each axis' velocity",
                   {"vertical": fr_g, "horizontal": fr_d}),
-        Signature("eddy_drag", ("d_dot", "g"), ("horizontal",), (), "proportional to the horizontal velocity, "
-                  "coefficient smooth in g", {"horizontal": [lambda f: f["d_dot"], lambda f: f["d_dot"] * _dg(f)]}),
+        Signature("eddy_drag", ("d_dot", "g"), CHANNELS, (), "a drag odd in the horizontal velocity and a lift "
+                  "even in it, both falling as the gap opens",
+                  {"horizontal": [lambda f: f["d_dot"], lambda f: f["d_dot"] * _dg(f)],
+                   "vertical": [lambda f: f["d_dot"] ** 2, lambda f: f["d_dot"] ** 2 * _dg(f)]}),
         Signature("end_effect", ("d", "i_q", "i_d"), CHANNELS, (tau, tau / 2),
                   "a loss growing with the overhang |d| (each end its own) and a thrust ripple with the pole pitch",
                   {"horizontal": _times(over + ripple, i_q) + over, "vertical": over + _times(over, i_d)}),
