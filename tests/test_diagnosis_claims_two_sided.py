@@ -3,7 +3,7 @@
 Synthetic held-out residuals with a known truth, fitted by least squares as the diagnosis fits its models: a
 state ``x`` and a current rate ``r`` that the closed loop correlates with it (``r = c x + own part``), unit
 noise. The *verdict's model* takes the rate (a lag-like regressor, 1 parameter) with a linear term in ``x`` (the
-others' chosen member); the *flexible* explanation is a static polynomial of degree 9 in ``x`` (the others at
+others' chosen member); the *flexible* explanation is a static Legendre series of degree 9 in ``x`` (the others at
 full freedom). Expected paired z from ``z ~ rms(delta) sqrt(n) / (2 sigma)``
 (:func:`~maglev_ocp.diagnosis.attribution.paired_z`), worked out before running:
 
