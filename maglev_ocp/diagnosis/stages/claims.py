@@ -12,6 +12,21 @@ An effect of the selection's verdict stays in it only when
     must also beat its own family's closed-form member on top of those refitted others, else the closed form
     is what is judged.
 
+    Test (b) is one-sided, and that is right only when the others' flexible members *nest* the effect: when
+    every variable of its signature is a variable of a static map of the state and the currents
+    (:data:`STATIC_VARIABLES`), the others' full freedom can take its shape, and a gain that does not survive
+    them is theirs. An effect whose signature depends on something no static map has (the amplifier lag: a
+    force error ``dF/di * (i - u)``, i.e. proportional to the *current rate* at a fixed state) is not nested:
+    the static flexible members can only imitate it through the closed loop's correlation of the current rate
+    with the state (a property of the controller and the excitation, not of the physics), and they pay for it
+    with their extra parameters. Then the two explanations of the same gap are compared both ways
+    (:func:`_two_sided`, a non-nested model comparison in the spirit of Vuong's test): the verdict's model (the
+    others at their chosen members, with the effect) against the others at full freedom without it, on the
+    held-out runs. The flexible one must win by ``z_min`` to take the gap; if the verdict's model wins by
+    ``z_min`` the effect is kept; if neither wins, the explanation with fewer fitted parameters is kept and the
+    tie is said in the verdict's reasons. Test (a) still applies to it first: its own signature (the
+    current-rate basis) must show beyond the other effects' signatures.
+
 Effects failing either are dropped, with the reasons in the verdict and the evidence in :class:`ClaimChecks`
 (this stage's own record). What the final model leaves is then scanned for structure that no library
 signature has (:func:`..signatures.locate_gap`: a period in ``d`` that is no library period, a drift in time);
@@ -35,6 +50,18 @@ from ..verdict import EffectSets
 from .baseline import check_fit
 from .joint import joint_model, shares
 from .models import Attribution, Run, fit_and_score, joint_spec, settle_verdict
+
+#: Features a static map of the state and the currents depends on (keys of
+#: :attr:`~..residuals.PreparedRun.feat`): every library member but the amplifier lag is such a map.
+STATIC_VARIABLES: frozenset[str] = frozenset({"g", "d", "g_dot", "d_dot", "i_q", "i_d"})
+
+
+def nested_in_static(effect: str) -> bool:
+    """Whether a static map of the state and the currents can take ``effect``'s shape: every variable of its
+    signature (:data:`..signatures.SIGNATURES`) is one of :data:`STATIC_VARIABLES`. False for the amplifier lag
+    (current rates); an effect without a signature counts as nested (the one-sided test, the cautious one)."""
+    sig = SIGNATURES.get(effect)
+    return sig is None or set(sig.variables) <= STATIC_VARIABLES
 
 
 @dataclass
@@ -111,6 +138,50 @@ def _region_z(e_without: np.ndarray, e_with: np.ndarray) -> tuple[float, float]:
     return z_all, paired_z(e_without[sel], e_with[sel])
 
 
+def _two_sided(e_flexible: np.ndarray, e_verdict: np.ndarray, k_flexible: int, k_verdict: int,
+               z_min: float) -> dict:  # fmt: skip
+    """Two explanations of one gap compared both ways on the held-out runs (module docstring, test (b)).
+
+    Parameters
+    ----------
+    e_flexible, e_verdict : ndarray
+        Held-out residuals of the others at full freedom without the effect, and of the verdict's model (the
+        others at their chosen members, with the effect).
+    k_flexible, k_verdict : int
+        Their fitted parameters (:attr:`..fit.FitResult.k`).
+    z_min : float
+        The paired z either must win by.
+
+    Returns
+    -------
+    dict
+        ``z_region`` / ``z_all`` (the verdict's model over the flexible one, where they differ / on all
+        samples), ``k_verdict``, ``k_flexible``, ``winner`` (``verdict``, ``flexible`` or ``tie``) and ``keeps``:
+        the effect stays unless the flexible explanation wins, or ties with no fewer parameters.
+    """
+    z_all, z_reg = _region_z(e_flexible, e_verdict)
+    if z_reg >= z_min and z_all > 0:
+        winner = "verdict"
+    elif z_reg <= -z_min and z_all < 0:
+        winner = "flexible"
+    else:
+        winner = "tie"
+    keeps = winner == "verdict" or (winner == "tie" and k_verdict < k_flexible)
+    return {"z_region": z_reg, "z_all": z_all, "k_verdict": int(k_verdict), "k_flexible": int(k_flexible),
+            "winner": winner, "keeps": bool(keeps)}  # fmt: skip
+
+
+def _two_txt(two: dict) -> str:
+    """The two-sided comparison in words (for the verdict's reasons)."""
+    if two["winner"] == "tie":
+        return (
+            f"as well (z = {two['z_region']:.1f} where they differ), with {two['k_flexible']} parameters "
+            f"against {two['k_verdict']}: the one with fewer is kept"
+        )
+    better = "better" if two["winner"] == "verdict" else "worse"
+    return f"{better} (the verdict's model {better} by z = {two['z_region']:.1f} where they differ)"
+
+
 def _own_gain(run: Run, att: Attribution, e: str, names: Sequence[str]) -> dict:
     """Test (b): the effect's held-out gain over the others refitted with their full freedom."""
     rules = run.rules
@@ -131,6 +202,11 @@ def _own_gain(run: Run, att: Attribution, e: str, names: Sequence[str]) -> dict:
     z_all, z_reg = _region_z(rsc.e_after, fsc.e_after)
     passes = z_reg >= rules.z_min and z_all > 0
     out.update(z_all=z_all, z_region=z_reg, passes=bool(passes))
+    if not passes and not reuse and not nested_in_static(e) and all(nested_in_static(o) for o in others):
+        _, vfit, vsc = joint_model(run, att, list(names))
+        if vfit.success:
+            out["two_sided"] = _two_sided(rsc.e_after, vsc.e_after, rfit.k, vfit.k, rules.z_min)
+            out["passes"] = out["two_sided"]["keeps"]
     if passes and att.specs[e].flexible:
         closed = next((m for m in fams.get(e, ()) if not m.flexible), None)
         if closed is not None:
@@ -175,11 +251,19 @@ def check_claims(run: Run, att: Attribution, noise: NoiseFindings) -> ClaimCheck
         elif rest and e in chosen:
             g = _own_gain(run, att, e, chosen)
             rec["own_gain"] = g
+            others_txt = ", ".join(f"{o} ({law})" for o, law in g["others"].items())
+            two = g.get("two_sided")
             if not g["passes"]:
-                why = (f"{e}: with {', '.join(f'{o} ({law})' for o, law in g['others'].items())} refitted at full "
-                       f"freedom it improves the held-out runs where it acts by z = {g['z_region']:.1f} (all: "
-                       f"{g['z_all']:.1f}; needs {run.rules.z_min:.0f}): its gain is another effect's misfit, "
-                       "not claimed")  # fmt: skip
+                why = (f"{e}: with {others_txt} refitted at full freedom it improves the held-out runs where it "
+                       f"acts by z = {g['z_region']:.1f} (all: {g['z_all']:.1f}; needs {run.rules.z_min:.0f})"
+                       + (f", and the others' extra freedom explains the same gap {_two_txt(two)}" if two else "")
+                       + ": its gain is another effect's misfit, not claimed")  # fmt: skip
+            elif two:
+                v.reasons.append(
+                    f"{e}: with {others_txt} refitted at full freedom it improves the held-out runs where it acts by "
+                    f"only z = {g['z_region']:.1f}, but no static map of the state and currents nests its signature: "
+                    f"the verdict's model against the others' extra freedom without it {_two_txt(two)}: kept"
+                )
         rec["kept"], rec["why"] = not why, why
         out.effects[e] = rec
         if why:

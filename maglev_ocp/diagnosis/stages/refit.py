@@ -155,14 +155,21 @@ def partly_resolved(fracs: Sequence[float], st: DiagnoseSettings) -> bool:
 
 
 def resolved_errors(
-    split: Split, base: Baseline, spec: CandidateSpec, fit: FitResult | None, masks: Sequence[np.ndarray]
+    split: Split,
+    base: Baseline,
+    spec: CandidateSpec,
+    fit: FitResult | None,
+    masks: Sequence[np.ndarray],
+    held_out: bool = True,
 ) -> np.ndarray:
-    """Floor-normalized held-out residual of a fitted model on the samples ``masks`` keeps (for paired tests).
+    """Floor-normalized held-out (``held_out=False``: training) residual of a fitted model on the samples
+    ``masks`` keeps (for paired tests and the information criterion on the resolved samples).
 
     Stacked channel by channel, each run in time order (as :func:`..attribution.stack` stacks all samples), so
     that the paired test's autocorrelation estimate runs along time within a channel, not across channels.
     """
-    res = residuals_with(spec, fit, split.test, base.p, split.u_test)
+    runs, u = (split.test, split.u_test) if held_out else (split.train, split.u_train)
+    res = residuals_with(spec, fit, runs, base.p, u)
     e = []
     for c in range(len(CHANNELS)):
         for r, m in zip(res, masks, strict=True):
