@@ -198,6 +198,24 @@ def test_pi_loop_command_is_first_order_and_back_emf_error_decays():
     assert law.output(z) == pytest.approx(np.array([[1.5, -2.0]]), rel=1e-12)
 
 
+def test_back_emf_is_passive_in_the_rigs_sign_convention():
+    # e i = F v: the velocity input of each axis has the sign of (force per ampere) x (speed), seed eq. (2)
+    from maglev_ocp.rigsim.physics import NOMINAL
+    from maglev_ocp.rigsim.sim import Rig
+
+    rig = Rig(NOMINAL, [], RigSettings.ideal(nominal_cogging=False))
+    g, d, i0 = np.array([0.012]), np.array([0.0]), 0.5
+    h = 1e-4
+    up = [rig.magnetic(g, d, np.array([i0 + s * h]), np.array([4.0]), 1.0) for s in (1, -1)]
+    dFd_diq = -NOMINAL.Mh * (up[0][1] - up[1][1]) / (2 * h)  # d_ddot = -a_x
+    up = [rig.magnetic(g, d, np.array([i0]), np.array([4.0 + s * h]), 1.0) for s in (1, -1)]
+    dFg_did = -NOMINAL.Mv * (up[0][0] - up[1][0]) / (2 * h)  # g_ddot = G - a_up
+    X = np.array([[0.012, 0.3, 0.0, 0.2, 0.0, 0.0]])
+    v = make_law("amplifier_lag", {"family": "pi_backemf"}).axis_velocity(X)[0]
+    assert np.sign(v[0]) == np.sign(dFd_diq * 0.2) and np.sign(v[1]) == np.sign(dFg_did * 0.3)
+    assert abs(v[0]) == 0.2 and abs(v[1]) == 0.3
+
+
 # ------------------------------------------------------------------------- commutation
 def test_latency_angle_and_hall_interpolation():
     lat = make_law("commutation_offset", {"family": "latency", "delta0": 0.01, "t_lat": 1.5e-3})

@@ -14,7 +14,8 @@ law sets the flag):
 * ``read_at(g, d, t)`` (``has_read_at``): encoder readings at the dataset time ``t``.
 
 An amplifier law with ``lti = True`` is a linear state-space model per axis,
-``x' = A x + B [u, v]``, ``i = C x`` (``v`` the axis' velocity, held over each sub-step), solved
+``x' = A x + B [u, v]``, ``i = C x`` (``v`` the axis' velocity from ``axis_velocity``, held over each
+sub-step), solved
 exactly by the simulator for the held input.
 """
 
@@ -394,7 +395,9 @@ class AmplifierV3(_V3, AmplifierLag):
       ``dq/dt = u - i``. The command reaches the current as ``wc / (s + wc)``; the back-EMF leaves an
       error ``-ke s v / ((L s + R)(s + wc))`` (an apparent mass ``ke Kf / (R wc)`` at low frequency).
       The thrust current (``i_q``) sees the horizontal speed, the levitation current (``i_d``) the gap
-      speed. Neither a slew-rate nor a voltage limit is modelled (the loop stays linear).
+      speed, each signed as the force its current makes (:meth:`axis_velocity`), so that the back-EMF
+      takes the power ``e i = F v`` out of the circuit (passive). Neither a slew-rate nor a voltage limit
+      is modelled (the loop stays linear).
     """
 
     families = ("butterworth3", "pi_backemf")
@@ -442,6 +445,15 @@ class AmplifierV3(_V3, AmplifierLag):
     def output(self, Z) -> np.ndarray:
         """Delivered currents ``(n_runs, 2)`` of the states ``Z``."""
         return np.stack([Z[:, ax, :] @ self.ss(ax)[2] for ax in (0, 1)], axis=1)
+
+    @staticmethod
+    def axis_velocity(X):
+        """Velocity input of each axis ``(n_runs, 2)``: along the force its current makes.
+
+        In seed eq. (2) ``i_q`` pushes the mover towards ``-d`` (``d_ddot = -C1 f1 i_q``) and ``i_d`` opens
+        the gap (``g_ddot = C3 f3 i_d - ...``), so the motional EMFs are ``ke_q (-d_dot)`` and ``ke_d g_dot``.
+        """
+        return np.column_stack([-X[..., 3], X[..., 1]])
 
     def group_delay(self, Ts: float) -> float:
         """Low-frequency group delay [s] of the command-to-current response, transport delay included."""

@@ -248,7 +248,7 @@ class Rig:
 
     def _period_lti(self, X, Z, w_old, w_new, km, noise_i, F_noise, F_amb, locked):
         """:meth:`period` for a state-space amplifier: ``Z`` (n_runs, 2 axes, n) its state; the axis'
-        velocity (``d_dot`` for ``i_q``, ``g_dot`` for ``i_d``) held over each sub-step as its second input."""
+        velocity (the amplifier's ``axis_velocity``) held over each sub-step as its second input."""
         F_held_sum = np.zeros((X.shape[0], 2))
         C = [self.amp.ss(ax)[2] for ax in (0, 1)]
         for (t0, h, which), maps in zip(self.sub, self.phi, strict=True):
@@ -259,7 +259,8 @@ class Rig:
                 Fg, Fd = Fg + fg, Fd + fd
                 F_held_sum[:, 0] += fg * h
                 F_held_sum[:, 1] += fd * h
-            inp = [np.column_stack([w[:, 0], X[:, 3]]), np.column_stack([w[:, 1], X[:, 1]])]
+            vel = self.amp.axis_velocity(X)
+            inp = [np.column_stack([w[:, 0], vel[:, 0]]), np.column_stack([w[:, 1], vel[:, 1]])]
 
             def state_at(m, inp=inp, Z=Z):
                 return [Z[:, ax, :] @ m[ax][0].T + inp[ax] @ m[ax][1].T for ax in (0, 1)]
