@@ -352,7 +352,7 @@ def _saturation_v3(rng):
     if fam == "brauer":
         p.update(s=_u(rng, 0.03, 0.15), kappa=_u(rng, 1.0, 3.0))
     else:
-        p.update(a=_u(rng, 0.6, 1.1), hm=_u(rng, 2e-3, 8e-3))  # 8-25 % lost at the lower stop
+        p.update(a=_u(rng, 0.5, 0.9), hm=_u(rng, 2e-3, 8e-3))  # 6-19 % lost at the lower stop
     return p
 
 
