@@ -339,7 +339,7 @@ def _end_effect_v3(rng):
     fam = _v3_family(rng, "end_effect")
     p: Spec = {"family": fam, "r1": _u(rng, 0.02, 0.08), "p1": _u(rng, -math.pi, math.pi)}
     p.update(r2=_u(rng, 0.0, 0.04), p2=_u(rng, -math.pi, math.pi))
-    if fam == "roters":  # 10-25 % lost at the stroke's end
+    if fam == "roters":  # 3-22 % lost at the stroke's end (d = ±60 mm), depending on the gap
         p.update(e_p=_u(rng, 0.015, 0.035), e_n=_u(rng, 0.015, 0.035), L=_u(rng, 0.15, 0.3))
     else:
         p.update(e_p=_u(rng, 0.005, 0.03), e_n=_u(rng, 0.005, 0.03), a_m=_u(rng, 0.7, 0.95))
