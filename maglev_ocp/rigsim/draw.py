@@ -396,8 +396,9 @@ def _eddy_v3(rng):
 
 
 def _steel(rng):
-    # 1-3 N at the reference gap under the part, a few N at the lower stop
-    return {"family": "dipole", "F_pk": _u(rng, 1.0, 3.0), "x_s": _u(rng, -0.05, 0.05), "z_s": _u(rng, 0.01, 0.025)}
+    # 3-8 N at the reference gap under the part: 0.6-2.8 N at the middle of the excitation's gap band (18 mm),
+    # up to ~5 N at 12 mm; the part within the stroke the excitation visits (|d| <= 45 mm)
+    return {"family": "dipole", "F_pk": _u(rng, 3.0, 8.0), "x_s": _u(rng, -0.04, 0.04), "z_s": _u(rng, 0.02, 0.04)}
 
 
 def _gap_sensor(rng):
