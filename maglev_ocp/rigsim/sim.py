@@ -215,42 +215,11 @@ class Rig:
     def period(self, X, Z, w_old, w_new, km, noise_i, F_noise, F_amb, locked):
         """Advance the state over one control period; returns ``(X, Z, held force of the period)``.
 
-        ``Z`` (n_runs, 2 axes, 2) is the amplifier state (current, its rate); ``w_old`` / ``w_new`` the
-        amplifier inputs before / after the delayed command arrives.
+        ``Z`` (n_runs, 2 axes, 2) is the amplifier state (current, its rate), or (n_runs, 2 axes, n) for a
+        state-space amplifier (``lti``); ``w_old`` / ``w_new`` the amplifier inputs before / after the
+        delayed command arrives.
         """
-        if self.lti:
-            return self._period_lti(X, Z, w_old, w_new, km, noise_i, F_noise, F_amb, locked)
         F_held_sum = np.zeros((X.shape[0], 2))
-        for (t0, h, which), phis in zip(self.sub, self.phi, strict=True):
-            w = w_old if which == "old" else w_new
-            Fg, Fd = F_noise[:, 0].copy(), F_noise[:, 1].copy()
-            for law in self.held_laws:
-                fg, fd = law.held(X[:, 1], X[:, 3], h)
-                Fg, Fd = Fg + fg, Fd + fd
-                F_held_sum[:, 0] += fg * h
-                F_held_sum[:, 1] += fd * h
-            dev0, rate0 = Z[:, :, 0] - w, Z[:, :, 1]
-            K = []
-            for j in range(6):
-                Xs = X
-                for a_jm, Kj in zip(_A[j], K, strict=False):
-                    Xs = Xs + (h * a_jm) * Kj
-                P = phis[j]
-                I = w + P[0, 0] * dev0 + P[0, 1] * rate0
-                t_at = self.t_now + t0 + _C[j] * h if self.rotate_at_laws else None
-                iq, idd = self.motor_currents(I, Xs[:, 2], noise_i, Xs, t_at)
-                K.append(self.rhs(Xs, iq, idd, Fg, Fd, km, F_amb))
-            X = X + h * sum(b * Kj for b, Kj in zip(_B, K, strict=True) if b)
-            P = phis[6]
-            Z = np.stack([w + P[0, 0] * dev0 + P[0, 1] * rate0, P[1, 0] * dev0 + P[1, 1] * rate0], axis=-1)
-            X = self._constrain(X, locked)
-        return X, Z, F_held_sum / self.s.Ts
-
-    def _period_lti(self, X, Z, w_old, w_new, km, noise_i, F_noise, F_amb, locked):
-        """:meth:`period` for a state-space amplifier: ``Z`` (n_runs, 2 axes, n) its state; the axis'
-        velocity (the amplifier's ``axis_velocity``) held over each sub-step as its second input."""
-        F_held_sum = np.zeros((X.shape[0], 2))
-        C = [self.amp.ss(ax)[2] for ax in (0, 1)]
         for (t0, h, which), maps in zip(self.sub, self.phi, strict=True):
             w = w_old if which == "old" else w_new
             Fg, Fd = F_noise[:, 0].copy(), F_noise[:, 1].copy()
@@ -259,26 +228,51 @@ class Rig:
                 Fg, Fd = Fg + fg, Fd + fd
                 F_held_sum[:, 0] += fg * h
                 F_held_sum[:, 1] += fd * h
-            vel = self.amp.axis_velocity(X)
-            inp = [np.column_stack([w[:, 0], vel[:, 0]]), np.column_stack([w[:, 1], vel[:, 1]])]
-
-            def state_at(m, inp=inp, Z=Z):
-                return [Z[:, ax, :] @ m[ax][0].T + inp[ax] @ m[ax][1].T for ax in (0, 1)]
-
+            current_at, state_end = self._amplifier(Z, w, X, maps)
             K = []
             for j in range(6):
                 Xs = X
                 for a_jm, Kj in zip(_A[j], K, strict=False):
                     Xs = Xs + (h * a_jm) * Kj
-                zs = state_at(maps[j])
-                I = np.column_stack([zs[0] @ C[0], zs[1] @ C[1]])
                 t_at = self.t_now + t0 + _C[j] * h if self.rotate_at_laws else None
-                iq, idd = self.motor_currents(I, Xs[:, 2], noise_i, Xs, t_at)
+                iq, idd = self.motor_currents(current_at(j), Xs[:, 2], noise_i, Xs, t_at)
                 K.append(self.rhs(Xs, iq, idd, Fg, Fd, km, F_amb))
             X = X + h * sum(b * Kj for b, Kj in zip(_B, K, strict=True) if b)
-            Z = np.stack(state_at(maps[6]), axis=1)
+            Z = state_end()
             X = self._constrain(X, locked)
         return X, Z, F_held_sum / self.s.Ts
+
+    def _amplifier(self, Z, w, X, maps):
+        """The amplifier over one sub-step for the held input ``w``: ``(current_at(j), state_end())``, the
+        delivered currents at stage node ``j`` and the state at the sub-step's end.
+
+        :class:`~.laws.AmplifierLag` laws: ``maps`` are the transitions ``Phi`` of the state ``(i - u, i')``.
+        State-space laws (``lti``): ``maps`` are ``(Ad, Bd)`` per axis, the second input the axis' velocity
+        (the amplifier's ``axis_velocity``) held over the sub-step.
+        """
+        if self.lti:
+            vel = self.amp.axis_velocity(X)
+            inp = [np.column_stack([w[:, ax], vel[:, ax]]) for ax in (0, 1)]
+            C = [self.amp.ss(ax)[2] for ax in (0, 1)]
+
+            def states(m):
+                return [Z[:, ax, :] @ m[ax][0].T + inp[ax] @ m[ax][1].T for ax in (0, 1)]
+
+            def lti_current(j):
+                return np.column_stack([z @ c for z, c in zip(states(maps[j]), C, strict=True)])
+
+            return lti_current, lambda: np.stack(states(maps[6]), axis=1)
+        dev0, rate0 = Z[:, :, 0] - w, Z[:, :, 1]
+
+        def current(j):
+            P = maps[j]
+            return w + P[0, 0] * dev0 + P[0, 1] * rate0
+
+        def end():
+            P = maps[6]
+            return np.stack([w + P[0, 0] * dev0 + P[0, 1] * rate0, P[1, 0] * dev0 + P[1, 1] * rate0], axis=-1)
+
+        return current, end
 
     def _constrain(self, X, locked):
         if self.s.stops:
