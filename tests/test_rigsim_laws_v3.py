@@ -45,7 +45,7 @@ def test_cogging_is_the_gradient_of_a_co_energy(family):
 
 
 def test_cogging_energy_slot_matches_carter_and_the_slot_spectrum():
-    # Zhu & Howe 1993 eq. (5): beta = (1 - 1/sqrt(1 + (b0/2g)^2)) / 2; at b0 = 4 mm, g = 10 mm: r = 0.2
+    # Zhu & Howe 1993: beta = (1 - 1/sqrt(1 + (b0/2g)^2)) / 2; at b0 = 4 mm, g = 10 mm: r = 0.2
     law = make_law("cogging", {"family": "energy_slot", "xi0": 2.0, "b0": 4e-3, "hm": 5e-3, "alpha_m": 0.3})
     assert law.carter_beta(0.01, 4e-3) == pytest.approx(0.5 * (1 - 1 / math.sqrt(1.04)), rel=1e-12)
     # at the reference gap A = xi0; Fd(d) = xi0 sum S_k sin(2 pi k d / lam) / sum |S_k|,

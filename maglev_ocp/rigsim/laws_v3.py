@@ -68,21 +68,21 @@ class CoggingV3(_V3, Cogging):
 
     * ``energy_slot`` -- slot-opening permeance: Zhu & Howe, "Instantaneous magnetic field distribution in
       brushless permanent magnet DC motors, Part III: Effect of stator slotting", IEEE Trans. Magn.
-      29(1), 1993, eq. (5): the depth of the permeance dip of a slot opening ``b0`` at gap ``g`` is
+      29(1), 1993: the depth of the permeance dip of a slot opening ``b0`` at gap ``g`` is
       ``beta(g) = (1 - 1/sqrt(1 + (b0 / 2 g)^2)) / 2``; the magnet's gap flux from its magnetic circuit
       ``B ~ hm / (hm + g)`` (Furlani, "Permanent Magnet and Electromechanical Devices", Academic Press
-      2001, sec. 3.3). ``A_k = xi0 beta(g) B(g)^2 / (beta B^2)(g_ref)`` for every harmonic, and the
+      2001, the magnet's load line). ``A_k = xi0 beta(g) B(g)^2 / (beta B^2)(g_ref)`` for every harmonic, and the
       spectrum of a slot opening ``alpha_s = b0 / lambda`` under a magnet of width ``alpha_m`` (mod the
-      period): ``S_k = sin(k pi alpha_s) sin(k pi alpha_m) / k`` (Zhu & Howe 1992, eq. (9); Li &
+      period): ``S_k = sin(k pi alpha_s) sin(k pi alpha_m) / k`` (Zhu & Howe, IEEE Trans. Magn. 28(2), 1992; Li &
       Slemon, "Reduction of cogging torque in permanent magnet motors", IEEE Trans. Magn. 24(6), 1988),
       normalized to ``sum |S_k| = 1``, k = 1..4.
     * ``step_skew`` -- magnets skewed in ``M`` steps of ``s lambda / M`` (Islam, Mir & Sebastian, "Issues
       in reducing the cogging torque of mass-produced permanent-magnet brushless DC motor", IEEE
-      Trans. Ind. Appl. 40(3), 2004, eq. (2)): ``K_k = sin(k pi s) / (M sin(k pi s / M))``;
+      Trans. Ind. Appl. 40(3), 2004): ``K_k = sin(k pi s) / (M sin(k pi s / M))``;
       ``S_k = c_k K_k``; each harmonic decays as the Laplace solution between two iron surfaces,
       ``A_k = xi0 sinh(2 pi k g_ref / lambda) / sinh(2 pi k g / lambda)``, k = 1..3.
 
-    With ``replace = 1`` the rig's cogging is this law instead of eq. (9).
+    With ``replace = 1`` the rig's cogging is this law instead of seed eq. (9).
     """
 
     families = ("energy_slot", "step_skew")
@@ -103,7 +103,7 @@ class CoggingV3(_V3, Cogging):
 
     @staticmethod
     def carter_beta(g, b0):
-        """Depth of the slot-opening permeance dip (Zhu & Howe 1993, eq. (5))."""
+        """Depth of the slot-opening permeance dip (Zhu & Howe 1993)."""
         r = b0 / (2.0 * np.asarray(g, dtype=float))
         return 0.5 * (1.0 - 1.0 / np.sqrt(1.0 + r * r))
 
@@ -162,14 +162,14 @@ class FrictionV3(_V3, Friction):
     """Presliding friction laws with a true stiction regime and rate-independent memory.
 
     * ``elastoplastic`` -- Dupont, Hayward, Armstrong & Altpeter, "Single state elastoplastic friction
-      models", IEEE Trans. Autom. Control 47(5), 2002, eq. (8)-(10): ``dz/dt = v (1 - alpha(z, v) z /
+      models", IEEE Trans. Autom. Control 47(5), 2002: ``dz/dt = v (1 - alpha(z, v) z /
       z_ss(v))``, ``z_ss = s(v) sgn(v) / sigma0`` with the Stribeck curve ``s(v) = Fc + Fs exp(-(v/vs)^2)``;
       ``alpha = 0`` for ``|z| <= z_ba`` (purely elastic: no drift under small oscillation) or for
       ``z`` and ``v`` of opposite signs, ``alpha = 1`` at ``|z| >= |z_ss|``, and
       ``(1 + sin(pi (|z| - (|z_ss| + z_ba)/2) / (|z_ss| - z_ba))) / 2`` between, ``z_ba = r_ba |z_ss|``.
       ``F = -(sigma0 z + sigma1 dz/dt + b v)``.
     * ``bliman_sorine`` -- Bliman & Sorine, "Easy-to-use realistic dry friction models for automatic
-      control", Proc. 3rd European Control Conf., Rome, 1995, eq. (8): a second-order linear system in
+      control", Proc. 3rd European Control Conf., Rome, 1995: a second-order linear system in
       the travelled path ``s`` (rate independent), ``dx1/ds = -(x1 - f1 sgn v) / (eta eps)``, ``dx2/ds =
       -(x2 + f2 sgn v) / eps``, ``F = -(x1 + x2 + b v)``; steady sliding gives ``Fc = f1 - f2`` and a
       start-up peak close to ``f1`` after ``~ eta eps`` of travel (the Stribeck effect in space).
@@ -262,12 +262,12 @@ class EndEffectV3(_V3, EndEffect):
     * ``roters`` -- overhang ``x`` at each end (``x_p = max(0, d - e_p)``, ``x_n = max(0, -d - e_n)``);
       the overhanging part still couples through the fringing path of a pole edge, whose equivalent
       length is Roters' quarter-annulus permeance ``l_f(x, g) = (2 g / pi) ln(1 + pi x / (2 g))`` (Roters,
-      "Electromagnetic Devices", Wiley 1941, ch. V, fringing permeances): ``rho = 1 - sum_ends (x -
+      "Electromagnetic Devices", Wiley 1941, fringing permeances): ``rho = 1 - sum_ends (x -
       l_f(x, g)) / L`` (``L`` the effective length of the magnet array). Quadratic onset
       ``pi x^2 / (4 g L)``, linear loss ``x / L`` far out or as ``g -> 0``.
     * ``pole_strip`` -- the ``pm`` magnets (width ``w_m = a_m tau``, pitch ``tau``) over a stator strip
       ``[-(L/2 + e_n), L/2 + e_p]``; the field fraction above the strip at height ``g`` is that of a
-      2-D strip, ``H(x) = (arctan((S_p - x)/g) + arctan((x + S_n)/g)) / pi`` (Furlani 2001, sec. 4.4,
+      2-D strip, ``H(x) = (arctan((S_p - x)/g) + arctan((x + S_n)/g)) / pi`` (Furlani 2001,
       field of a charged strip); each magnet couples with ``H`` averaged over its width (closed form
       through ``F(u) = u arctan u - ln(1 + u^2) / 2``), ``rho = sum_j c_j(d, g) / sum_j c_j(0, g)``:
       a staircase of magnets leaving the stator, smoothed over ``~ g``.
@@ -336,8 +336,8 @@ class SaturationV3(_V3, Saturation):
       reluctance times ``k1``; ``kappa``: ``k2 B_ref^2``); the factor is the ratio to the linear flux
       ``g_lo / g``, normalized to 1 at the upper stop.
     * ``tanh`` -- hyperbolic-tangent anhysteretic curve ``M = Ms tanh(H / a)`` (Takacs, "A
-      phenomenological mathematical model of hysteresis", COMPEL 20(4), 2001, eq. (1)) driven by the
-      magnet circuit's flux ``x = (hm + g_lo) / (hm + g)`` (Furlani 2001, sec. 3.3): the ratio to the
+      phenomenological mathematical model of hysteresis", COMPEL 20(4), 2001) driven by the
+      magnet circuit's flux ``x = (hm + g_lo) / (hm + g)`` (Furlani 2001, the load line): the ratio to the
       linear law is ``tanh(a x) / (a x)``, normalized to 1 at the upper stop.
 
     ``target`` as in :class:`.laws.Saturation`.
@@ -390,7 +390,7 @@ class AmplifierV3(_V3, AmplifierLag):
       plus a fractional transport delay ``delay_samples``; group delay at zero frequency ``2 / wc``.
     * ``pi_backemf`` -- a PI current loop on the winding ``R, L`` tuned by pole-zero cancellation
       (``Kp = wc L``, ``Ki = wc R``; Harnefors & Nee, "Model-based current control of AC machines using the
-      internal model control method", IEEE Trans. Ind. Appl. 34(1), 1998, eq. (10)), with the motional
+      internal model control method", IEEE Trans. Ind. Appl. 34(1), 1998), with the motional
       back-EMF ``ke v`` of each axis as a disturbance: ``L di/dt = -R i + Kp (u - i) + Ki q - ke v``,
       ``dq/dt = u - i``. The command reaches the current as ``wc / (s + wc)``; the back-EMF leaves an
       error ``-ke s v / ((L s + R)(s + wc))`` (an apparent mass ``ke Kf / (R wc)`` at low frequency).
@@ -469,11 +469,12 @@ class CommutationV3(_V3, CommutationOffset):
     * ``latency`` -- the angle used by the inverse Park transform is that of the position sampled
       ``t_lat`` earlier (computation and PWM update delay): ``delta = delta0 + (pi / tau) d_dot t_lat``
       (Bae & Sul, "A compensation method for time delay of full-digital synchronous frame current
-      regulator of PWM AC drives", IEEE Trans. Ind. Appl. 39(3), 2003, eq. (4): ``omega_e 1.5 Ts``).
+      regulator of PWM AC drives", IEEE Trans. Ind. Appl. 39(3), 2003: the angle error
+      ``omega_e 1.5 Ts`` of a digital drive).
     * ``hall_interp`` -- commutation from three Hall sensors, whose edges (every 60 electrical degrees)
       are misplaced by ``eps_j`` and between which the angle is interpolated linearly (Kim, Choi, Lee &
       Lee, "An improved rotor position estimation with vector-tracking observer in PMSM drives with
-      low-resolution Hall-effect sensors", IEEE Trans. Ind. Electron. 58(9), 2011, sec. II): a
+      low-resolution Hall-effect sensors", IEEE Trans. Ind. Electron. 58(9), 2011): a
       piecewise-linear periodic error of period ``2 tau`` through the six edge errors (each sensor
       gives a rising and a falling edge, 180 degrees apart, with the same misplacement).
     """
@@ -528,11 +529,11 @@ class EddyDragV3(_V3, EddyDrag):
       k v`` the reflection coefficient is ``R = -(gamma^2 - k^2) th / (2 k gamma + (k^2 + gamma^2) th)``,
       ``th = tanh(gamma T)`` (the skin depth enters through ``gamma``; Paudel & Bird, "General 2-D
       steady-state force and power equations for a traveling time-varying magnetic source above a
-      conductive plate", IEEE Trans. Magn. 48(1), 2012, eq. (20)-(24); thin-plate limit ``-i(v/w) / (1
+      conductive plate", IEEE Trans. Magn. 48(1), 2012; thin-plate limit ``-i(v/w) / (1
       + i v/w)``, ``w = 2 / (mu0 sigma T)``, of Reitz, J. Appl. Phys. 41(5), 1970). Lift ``F0 Re(-R)``
       (opens the gap) and drag ``F0 Im(-R)``; ``F0 = F00 exp(-2 k (g - g_ref))``.
     * ``iron_loss`` -- loss separation of the stator iron (Bertotti, "General properties of power losses
-      in soft ferromagnetic materials", IEEE Trans. Magn. 24(1), 1988, eq. (1)): classical eddy loss
+      in soft ferromagnetic materials", IEEE Trans. Magn. 24(1), 1988): classical eddy loss
       ``~ f^2 B^2`` and excess loss ``~ f^1.5 B^1.5`` at ``f = |v| / (2 tau)`` give drags ``P / v``:
       ``F_d = -(c_cl b^2 v + c_ex b^1.5 sgn(v) |v|^0.5)`` with ``b = (hm + g_ref) / (hm + g)`` the
       iron flux density relative to the reference gap (magnet circuit). ``|v|^0.5`` is regularized as
@@ -573,7 +574,7 @@ class SteelPreload(_V3, Law):
 
     A soft-magnetic body of volume ``V`` in the field ``B`` of a dipole-like source has the energy
     ``U = -V chi B^2 / (2 mu0)`` (Furlani, "Permanent Magnet and Electromechanical Devices", Academic
-    Press 2001, sec. 8.3, the force on a magnetizable particle ``F = (V chi / mu0) (B . grad) B``); with
+    Press 2001: the force on a magnetizable particle ``F = (V chi / mu0) (B . grad) B``); with
     ``B ~ 1/r^3``, ``U = -U0 (r0 / r)^6`` and ``F = -grad U`` (central, attractive, ``|F| ~ 1/r^7``).
     The part is at ``d = x_s`` and ``z_s`` beyond the gap's zero (``r^2 = (d - x_s)^2 + (g + z_s)^2``), so
     it pulls the mover along d towards ``x_s`` and closes the gap. ``F_pk`` is the pull at ``d = x_s``,
@@ -603,8 +604,8 @@ class GapSensorDrift(_V3, Law):
     path) and is linearized over the gap band; what is left is a bow, here scaled to ``n_l`` of the
     span at its peak, ``e(g) = n_l span (lin(g) - y(g)) / max|lin - y|`` with ``y = 1/(g + c)`` and
     ``lin`` its chord between the stops (Fleming, "A review of nanometer resolution position sensors:
-    operation and performance", Sens. Actuators A 190, 2013, sec. 3.2 (inductive and eddy-current
-    sensors: nonlinearity and temperature sensitivity)). The probe's offset drifts with its
+    operation and performance", Sens. Actuators A 190, 2013 (inductive and eddy-current sensors:
+    nonlinearity and temperature sensitivity)). The probe's offset drifts with its
     temperature, ``tc dT(t)``, ``dT = rise (1 - exp(-t / tau_th))`` over the dataset's time
     (Bryan, "International status of thermal error research", CIRP Annals 39(2), 1990).
     """
