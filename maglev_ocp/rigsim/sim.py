@@ -150,6 +150,17 @@ class Rig:
             self.k_frame, self.c_frame = p["m_frame"] * w * w, 2 * p["zeta"] * w * p["m_frame"]
             self.amb_std = self.res.ambient_std(Ts)
 
+    # ---------------------------------------------------------------- amplifier
+    def rest_state(self, u) -> np.ndarray:
+        """Amplifier state at rest delivering the currents ``u`` (n_runs, 2): ``Z`` for :meth:`period`."""
+        if self.lti:
+            return self.amp.equilibrium(u)
+        return np.stack([u, np.zeros_like(u)], axis=-1)
+
+    def delivered(self, Z) -> np.ndarray:
+        """Currents ``(n_runs, 2)`` the amplifiers deliver in state ``Z``."""
+        return self.amp.output(Z) if self.lti else Z[:, :, 0]
+
     # ------------------------------------------------------------------ physics
     def magnetic(self, g, d, i_q, i_d, km):
         """Magnetic accelerations ``(a_up, a_thrust)``: upward pull on the mover and -thrust, per unit mass."""
@@ -355,7 +366,7 @@ def simulate(rig: Rig, ref: np.ndarray, rng: np.random.Generator, model: Constan
     km_rec = np.ones((R, N))
     # hover currents at the start: the controller's own inverse of zero acceleration
     u0 = np.column_stack(ctrl.inverse(X[:, 0], np.zeros((R, 2))))
-    Z = rig.amp.equilibrium(u0) if rig.lti else np.stack([u0, np.zeros_like(u0)], axis=-1)
+    Z = rig.rest_state(u0)
     buf = [u0.copy() for _ in range(rig.n_delay + 1)]
     t_base = np.arange(R)[:, None] * s.duration  # runs recorded one after the other (temperature)
     for n in range(N):
@@ -379,7 +390,7 @@ def simulate(rig: Rig, ref: np.ndarray, rng: np.random.Generator, model: Constan
         noise_i = s.current_noise * rng.standard_normal((R, 2))
         F_noise = np.asarray(s.force_noise) * rng.standard_normal((R, 2))
         F_amb = rig.amb_std * rng.standard_normal(R) if rig.res is not None else 0.0
-        i_now = rig.amp.output(Z) if rig.lti else Z[:, :, 0]
+        i_now = rig.delivered(Z)
         rec["X"][:, n], rec["y"][:, n], rec["u"][:, n], rec["i"][:, n] = X, y, u, i_now
         km_rec[:, n] = km
         X, Z, Fh = rig.period(X, Z, w_old, w_new, km, noise_i, F_noise, F_amb, locked)
