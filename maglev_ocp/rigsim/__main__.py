@@ -9,7 +9,7 @@ import time
 
 from .draw import draw
 from .generate import generate
-from .laws_new import ALL_EFFECTS as LAWS
+from .laws_v3 import EFFECTS_V3 as LAWS
 from .sim import RigSettings
 
 
@@ -22,9 +22,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--draw", action="store_true", help="draw a random scenario from the seed (ignores --effects)")
     ap.add_argument(
         "--laws",
-        choices=("all", "old", "new"),
+        choices=("all", "old", "new", "v3"),
         default="all",
-        help="with --draw: law families to draw from (old: the first ones; new: issue 27's; default all)",
+        help="with --draw: law families to draw from (old: the first ones; new: issue 27's; v3: the third set; "
+        "default all)",
     )
     ap.add_argument("--runs", type=int, default=6, help="number of runs (default 6)")
     ap.add_argument("--duration", type=float, default=10.0, help="length of each run [s] (default 10)")

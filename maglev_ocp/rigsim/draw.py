@@ -17,8 +17,11 @@ from typing import Any
 
 import numpy as np
 
+from .. import constants as k
 from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
 from .laws_new import ALL_EFFECTS, ALL_LIBRARY, ALL_OUT_OF_LIBRARY, NEW_LAWS
+from .laws_v3 import EFFECTS_V3, V3_LAWS, V3_LIBRARY, V3_OUT_OF_LIBRARY
+from .physics import NOMINAL, shape
 
 Spec = dict[str, Any]
 
@@ -294,10 +297,138 @@ NEW_DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
     "sensor_crosstalk": _crosstalk,
 }
 
+
+# ------------------------------------------------------------ third set (laws_v3, issue 27)
+def _v3_family(rng: np.random.Generator, name: str) -> str:
+    return str(rng.choice(V3_LAWS[name].families))
+
+
+def _cogging_v3(rng):
+    fam = _v3_family(rng, "cogging")
+    replace = bool(rng.uniform() < 0.5)
+    p: Spec = {"family": fam, "replace": float(replace), "xi0": _u(rng, 3.0, 6.0) if replace else _u(rng, 1.5, 4.0)}
+    if fam == "energy_slot":  # slot opening 2-8 mm, magnet height 3-8 mm
+        p.update(b0=_u(rng, 2e-3, 8e-3), hm=_u(rng, 3e-3, 8e-3), alpha_m=_u(rng, 0.2, 0.8))
+        p["d0"] = _u(rng, 0.0, 2 * k.t1)
+    else:
+        p.update(M=float(rng.integers(2, 5)), skew=_u(rng, 0.2, 0.7), c1=_u(rng, 0.7, 1.0))
+        p.update(c2=_pm(rng, 0.2, 0.6), c3=_pm(rng, 0.0, 0.4))
+        p.update(phi2=_u(rng, -math.pi, math.pi), phi3=_u(rng, -math.pi, math.pi))
+    return p
+
+
+def _friction_v3(rng):
+    fam = _v3_family(rng, "friction")
+    p: Spec = {"family": fam, "b_g": _u(rng, 0.0, 2.0), "b_d": _u(rng, 0.0, 2.0)}
+    if fam == "elastoplastic":
+        p.update(Fc_g=_u(rng, 0.1, 0.4), Fc_d=_u(rng, 0.1, 0.4), Fs_g=_u(rng, 0.0, 0.2), Fs_d=_u(rng, 0.0, 0.2))
+        s0 = float(math.exp(rng.uniform(math.log(1e4), math.log(1e5))))
+        # bristle damping up to 0.3 of critical for the horizontal mass (Dupont et al.: sigma1 ~ sqrt(sigma0 m))
+        p.update(vs=_u(rng, 2e-3, 1e-2), sigma0=s0, sigma1=_u(rng, 0.0, 0.3) * 2 * math.sqrt(s0 * NOMINAL.Mh))
+        p["r_ba"] = _u(rng, 0.3, 0.8)
+    else:
+        for ax in ("g", "d"):
+            fc = _u(rng, 0.1, 0.4)
+            f2 = fc * _u(rng, 0.2, 0.8)  # start-up peak up to 1.8 Fc
+            p.update({f"f1_{ax}": fc + f2, f"f2_{ax}": f2})
+        p.update(eps=float(math.exp(rng.uniform(math.log(1e-5), math.log(1e-4)))), eta=_u(rng, 0.05, 0.3))
+    return p
+
+
+def _end_effect_v3(rng):
+    fam = _v3_family(rng, "end_effect")
+    p: Spec = {"family": fam, "r1": _u(rng, 0.02, 0.08), "p1": _u(rng, -math.pi, math.pi)}
+    p.update(r2=_u(rng, 0.0, 0.04), p2=_u(rng, -math.pi, math.pi))
+    if fam == "roters":  # 3-22 % lost at the stroke's end (d = ±60 mm), depending on the gap
+        p.update(e_p=_u(rng, 0.015, 0.035), e_n=_u(rng, 0.015, 0.035), L=_u(rng, 0.15, 0.3))
+    else:
+        p.update(e_p=_u(rng, 0.005, 0.03), e_n=_u(rng, 0.005, 0.03), a_m=_u(rng, 0.7, 0.95))
+    return p
+
+
+def _saturation_v3(rng):
+    fam = _v3_family(rng, "saturation")
+    p: Spec = {"family": fam, "target": str(rng.choice(["magnet", "current", "both"]))}
+    if fam == "brauer":
+        p.update(s=_u(rng, 0.03, 0.15), kappa=_u(rng, 1.0, 3.0))
+    else:
+        p.update(a=_u(rng, 0.5, 0.9), hm=_u(rng, 2e-3, 8e-3))  # 6-19 % lost at the lower stop
+    return p
+
+
+def _amplifier_v3(rng):
+    fam = _v3_family(rng, "amplifier_lag")
+    if fam == "butterworth3":
+        bw = float(math.exp(rng.uniform(math.log(100), math.log(800))))
+        return {"family": fam, "bandwidth_hz": bw, "delay_samples": _u(rng, 0.0, 2.0)}
+    # back-EMF constants from the force constants at the reference gap (reciprocity), 60-100 %
+    sh = shape(0.01)
+    kx, kg = NOMINAL.Mh * NOMINAL.C1 * float(sh.f1), NOMINAL.Mv * NOMINAL.C3 * float(sh.f3)
+    return {
+        "family": fam,
+        "bandwidth_hz": float(math.exp(rng.uniform(math.log(200), math.log(800)))),
+        "R": _u(rng, 2.0, 5.0),
+        "L": _u(rng, 3e-3, 20e-3),
+        "ke_q": kx * _u(rng, 0.6, 1.0),
+        "ke_d": kg * _u(rng, 0.6, 1.0),
+        "delay_samples": _u(rng, 0.0, 1.5),
+    }
+
+
+def _commutation_v3(rng):
+    fam = _v3_family(rng, "commutation_offset")
+    if fam == "latency":
+        return {"family": fam, "delta0": _pm(rng, 0.0, 0.06), "t_lat": _u(rng, 1e-3, 3e-3)}
+    p: Spec = {"family": fam, "delta0": _pm(rng, 0.0, 0.04), "x0": _u(rng, 0.0, 2 * k.tau)}
+    p.update(eps1=_pm(rng, 0.02, 0.07), eps2=_pm(rng, 0.02, 0.07), eps3=_pm(rng, 0.02, 0.07))
+    return p
+
+
+def _eddy_v3(rng):
+    fam = _v3_family(rng, "eddy_drag")
+    if fam == "thick_plate":  # aluminium or copper, 1-6 mm; low-speed drag 3-15 N s/m at the reference gap
+        sigma, T = float(rng.choice([3.5e7, 5.8e7])), _u(rng, 1e-3, 6e-3)
+        kk = math.pi / k.tau
+        th = math.tanh(kk * T)
+        c0 = _u(rng, 3.0, 15.0)
+        return {"family": fam, "F00": c0 * 2 * kk * (1 + th) / (4e-7 * math.pi * sigma * th), "T": T, "sigma": sigma}
+    return {"family": fam, "c_cl": _u(rng, 1.0, 8.0), "c_ex": _u(rng, 0.2, 1.5), "hm": _u(rng, 3e-3, 8e-3), "v0": 1e-3}
+
+
+def _steel(rng):
+    # 3-8 N at the reference gap under the part: 0.6-2.8 N at the middle of the excitation's gap band (18 mm),
+    # up to ~5 N at 12 mm; the part within the stroke the excitation visits (|d| <= 45 mm)
+    return {"family": "dipole", "F_pk": _u(rng, 3.0, 8.0), "x_s": _u(rng, -0.04, 0.04), "z_s": _u(rng, 0.02, 0.04)}
+
+
+def _gap_sensor(rng):
+    return {
+        "family": "bow_warmup",
+        "n_l": _u(rng, 0.5e-3, 3e-3),
+        "c": _u(rng, 0.01, 0.04),
+        "tc": _u(rng, 0.5e-6, 2e-6),
+        "rise": _u(rng, 5.0, 20.0),
+        "tau_th": _u(rng, 10.0, 60.0),
+    }
+
+
+#: Random parameters of the third set (:mod:`.laws_v3`), by effect name.
+V3_DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
+    "cogging": _cogging_v3,
+    "friction": _friction_v3,
+    "end_effect": _end_effect_v3,
+    "saturation": _saturation_v3,
+    "amplifier_lag": _amplifier_v3,
+    "commutation_offset": _commutation_v3,
+    "eddy_drag": _eddy_v3,
+    "steel_preload": _steel,
+    "gap_sensor_drift": _gap_sensor,
+}
+
 #: Which laws :func:`draw` may use: ``old`` (the first families: same scenario per seed as before
-#: issue 27), ``new`` (only the new families and effects) or ``all`` (each drawn effect new with
-#: probability :data:`P_NEW`).
-LAW_SETS: tuple[str, ...] = ("all", "old", "new")
+#: issue 27), ``new`` (only the new families and effects), ``all`` (each drawn effect new with
+#: probability :data:`P_NEW`) or ``v3`` (only the third set, :mod:`.laws_v3`).
+LAW_SETS: tuple[str, ...] = ("all", "old", "new", "v3")
 P_NEW = 0.5
 
 #: Probability of each kind of scenario.
@@ -314,10 +445,10 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
         spawned separately).
     kind : str, optional
         Force one of :data:`KINDS` (default: drawn with their probabilities).
-    laws : {"all", "old", "new"}
+    laws : {"all", "old", "new", "v3"}
         Law families to draw from (:data:`LAW_SETS`). ``old`` reproduces the scenarios drawn before
         the new families existed; ``all`` and ``new`` draw the effects and their laws from a second
-        stream of the same seed. Every effect's spec carries ``new_law``.
+        stream of the same seed, ``v3`` from a third. Every effect's spec carries ``new_law``.
     """
     if laws not in LAW_SETS:
         raise ValueError(f"laws must be one of {list(LAW_SETS)}, got {laws!r}")
@@ -334,6 +465,13 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
         order = list(LAWS)
         effects = {nm: {**DRAWS[nm](rng), "new_law": False} for nm in sorted(names, key=order.index)}
         return {"kind": kind, "seed": int(seed), "laws": laws, "effects": effects}
+    if laws == "v3":
+        rng3 = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157, 27, 3]))
+        names = [str(x) for x in rng3.choice(V3_LIBRARY, size=n, replace=False)]
+        if kind == "out_of_library":
+            names = [str(rng3.choice(V3_OUT_OF_LIBRARY))]
+        effects = {nm: {**V3_DRAWS[nm](rng3), "new_law": True} for nm in sorted(names, key=EFFECTS_V3.index)}
+        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": effects}
     rng2 = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157, 27]))
     only_new = laws == "new"
     lib = [x for x in ALL_LIBRARY if x in NEW_LAWS] if only_new else list(ALL_LIBRARY)
@@ -348,4 +486,4 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
     return {"kind": kind, "seed": int(seed), "laws": laws, "effects": effects}
 
 
-__all__ = ["DRAWS", "KINDS", "LAW_SETS", "NEW_DRAWS", "P_NEW", "draw"]
+__all__ = ["DRAWS", "KINDS", "LAW_SETS", "NEW_DRAWS", "P_NEW", "V3_DRAWS", "draw"]

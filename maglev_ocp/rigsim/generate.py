@@ -26,7 +26,8 @@ from ..output import atomic_write_text
 from ..riglog import RunLog, write_dataset
 from .excite import references
 from .laws import Law
-from .laws_new import ALL_EFFECTS, AmplifierNew, make_law
+from .laws_new import AmplifierNew
+from .laws_v3 import EFFECTS_V3, make_law
 from .physics import NOMINAL, Constants
 from .sim import Rig, RigSettings, Trajectory, simulate
 
@@ -45,7 +46,7 @@ def build_laws(effects: EffectsArg) -> list[Law]:
     names = [law.name for law in laws]
     if len(set(names)) != len(names):
         raise ValueError(f"each effect at most once, got {names}")
-    order = list(ALL_EFFECTS)
+    order = list(EFFECTS_V3)
     return sorted(laws, key=lambda law: order.index(law.name))
 
 
@@ -127,12 +128,15 @@ def _runs(traj: Trajectory, s: RigSettings) -> list[RunLog]:
 
 
 # ----------------------------------------------------------------------------- truth
-def _forces(rig: Rig, X: np.ndarray, I: np.ndarray, km) -> tuple[np.ndarray, np.ndarray]:
-    """Total vertical and horizontal force on the mover [N] (without the frame's motion) at states ``X``."""
+def _forces(rig: Rig, X: np.ndarray, I: np.ndarray, km, t=None) -> tuple[np.ndarray, np.ndarray]:
+    """Total vertical and horizontal force on the mover [N] (without the frame's motion) at states ``X``
+    (``t``: the dataset time of each state, for laws that read it)."""
     g, gd, d, dd = X[..., 0], X[..., 1], X[..., 2], X[..., 3]
     iq, idd = I[..., 0], I[..., 1]
     for law in rig.rotate_laws:
         iq, idd = law.rotate(iq, idd, d)
+    for law in rig.rotate_at_laws:
+        iq, idd = law.rotate_at(iq, idd, X, t)
     a_up, a_x = rig.magnetic(g, d, iq, idd, km)
     Fg, Fd = rig.c.Mv * (k.G - a_up), -rig.c.Mh * a_x
     for law in rig.force_laws:
@@ -166,7 +170,7 @@ def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
     out: dict[str, Any] = {}
     if law.name == "amplifier_lag":
         F1 = _forces(base, X, traj.i_amp, 1.0)
-        if isinstance(law, AmplifierNew):
+        if isinstance(law, AmplifierNew) or getattr(law, "lti", False):
             out["effective_delay_s"] = law.group_delay(rig.s.Ts)
         else:
             out["effective_delay_s"] = effective_delay(law.family, law.p, rig.s.Ts)
@@ -177,6 +181,12 @@ def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
         sdd = np.gradient(X[..., 5], traj.t, axis=1)
         F1 = (F0[0] + rig.c.Mv * sdd, F0[1])
         out["rms_m"] = float(np.sqrt(np.mean(X[..., 4] ** 2)))
+    elif getattr(law, "has_read_at", False):
+        t = np.arange(X.shape[0])[:, None] * rig.s.duration + traj.t[None, :]
+        gr, dr = law.read_at(X[..., 0], X[..., 2], t)
+        out["peak_error_g_m"] = float(np.max(np.abs(gr - X[..., 0])))
+        out["peak_error_d_m"] = float(np.max(np.abs(dr - X[..., 2])))
+        F1 = F0
     elif law.has_read:
         gr, dr = law.read(X[..., 0], X[..., 2])
         out["peak_error_g_m"] = float(np.max(np.abs(gr - X[..., 0])))

@@ -122,6 +122,11 @@ class Rig:
         self.held_laws = [law for law in self.laws if law.has_held]
         self.rotate_laws = [law for law in self.laws if law.has_rotate]
         self.read_laws = [law for law in self.laws if law.has_read]
+        # hooks of the third law set (:mod:`.laws_v3`): the whole state and the dataset time
+        self.rotate_at_laws = [law for law in self.laws if getattr(law, "has_rotate_at", False)]
+        self.read_at_laws = [law for law in self.laws if getattr(law, "has_read_at", False)]
+        self.lti = bool(getattr(self.amp, "lti", False))
+        self.t_now = np.zeros(1)  #: dataset time of the current period per run [s] (set by :func:`simulate`)
         delay = float(self.amp.p["delay_samples"])
         self.n_delay, self.frac = math.floor(delay), delay - math.floor(delay)
         Ts = settings.Ts
@@ -131,12 +136,30 @@ class Rig:
             h = Ts / settings.n_sub
             self.sub = [(j * h, h, "new") for j in range(settings.n_sub)]
         # amplifier transitions at the stage nodes and at the end of each sub-step
-        self.phi = [[self.amp.transition(c * h) for c in _C] + [self.amp.transition(h)] for _, h, _ in self.sub]
+        if self.lti:  # a state-space amplifier (laws_v3): exact maps (Ad, Bd) per axis
+            amp = self.amp
+            self.phi = [
+                [[amp.discrete(ax, c * h) for ax in (0, 1)] for c in _C] + [[amp.discrete(ax, h) for ax in (0, 1)]]
+                for _, h, _ in self.sub
+            ]
+        else:
+            self.phi = [[self.amp.transition(c * h) for c in _C] + [self.amp.transition(h)] for _, h, _ in self.sub]
         if self.res is not None:
             p = self.res.p
             w = 2 * math.pi * p["f_hz"]
             self.k_frame, self.c_frame = p["m_frame"] * w * w, 2 * p["zeta"] * w * p["m_frame"]
             self.amb_std = self.res.ambient_std(Ts)
+
+    # ---------------------------------------------------------------- amplifier
+    def rest_state(self, u) -> np.ndarray:
+        """Amplifier state at rest delivering the currents ``u`` (n_runs, 2): ``Z`` for :meth:`period`."""
+        if self.lti:
+            return self.amp.equilibrium(u)
+        return np.stack([u, np.zeros_like(u)], axis=-1)
+
+    def delivered(self, Z) -> np.ndarray:
+        """Currents ``(n_runs, 2)`` the amplifiers deliver in state ``Z``."""
+        return self.amp.output(Z) if self.lti else Z[:, :, 0]
 
     # ------------------------------------------------------------------ physics
     def magnetic(self, g, d, i_q, i_d, km):
@@ -178,11 +201,16 @@ class Rig:
         dX[:, 3] = -a_x + Fd / c.Mh
         return dX
 
-    def motor_currents(self, I, d, noise):
-        """Currents the motor carries: the delivered ones rotated (commutation) plus the current noise."""
+    def motor_currents(self, I, d, noise, X=None, t=None):
+        """Currents the motor carries: the delivered ones rotated (commutation) plus the current noise.
+
+        ``X`` (the state) and ``t`` (the dataset time) are read by laws with ``has_rotate_at``.
+        """
         i_q, i_d = I[:, 0], I[:, 1]
         for law in self.rotate_laws:
             i_q, i_d = law.rotate(i_q, i_d, d)
+        for law in self.rotate_at_laws:
+            i_q, i_d = law.rotate_at(i_q, i_d, X, t)
         return i_q + noise[:, 0], i_d + noise[:, 1]
 
     def read(self, X) -> np.ndarray:
@@ -190,17 +218,20 @@ class Rig:
         g, d = X[:, 0], X[:, 2]
         for law in self.read_laws:
             g, d = law.read(g, d)
+        for law in self.read_at_laws:
+            g, d = law.read_at(g, d, self.t_now)
         return np.column_stack([g, d])
 
     # ---------------------------------------------------------------- one period
     def period(self, X, Z, w_old, w_new, km, noise_i, F_noise, F_amb, locked):
         """Advance the state over one control period; returns ``(X, Z, held force of the period)``.
 
-        ``Z`` (n_runs, 2 axes, 2) is the amplifier state (current, its rate); ``w_old`` / ``w_new`` the
-        amplifier inputs before / after the delayed command arrives.
+        ``Z`` (n_runs, 2 axes, 2) is the amplifier state (current, its rate), or (n_runs, 2 axes, n) for a
+        state-space amplifier (``lti``); ``w_old`` / ``w_new`` the amplifier inputs before / after the
+        delayed command arrives.
         """
         F_held_sum = np.zeros((X.shape[0], 2))
-        for (_, h, which), phis in zip(self.sub, self.phi, strict=True):
+        for (t0, h, which), maps in zip(self.sub, self.phi, strict=True):
             w = w_old if which == "old" else w_new
             Fg, Fd = F_noise[:, 0].copy(), F_noise[:, 1].copy()
             for law in self.held_laws:
@@ -208,21 +239,51 @@ class Rig:
                 Fg, Fd = Fg + fg, Fd + fd
                 F_held_sum[:, 0] += fg * h
                 F_held_sum[:, 1] += fd * h
-            dev0, rate0 = Z[:, :, 0] - w, Z[:, :, 1]
+            current_at, state_end = self._amplifier(Z, w, X, maps)
             K = []
             for j in range(6):
                 Xs = X
                 for a_jm, Kj in zip(_A[j], K, strict=False):
                     Xs = Xs + (h * a_jm) * Kj
-                P = phis[j]
-                I = w + P[0, 0] * dev0 + P[0, 1] * rate0
-                iq, idd = self.motor_currents(I, Xs[:, 2], noise_i)
+                t_at = self.t_now + t0 + _C[j] * h if self.rotate_at_laws else None
+                iq, idd = self.motor_currents(current_at(j), Xs[:, 2], noise_i, Xs, t_at)
                 K.append(self.rhs(Xs, iq, idd, Fg, Fd, km, F_amb))
             X = X + h * sum(b * Kj for b, Kj in zip(_B, K, strict=True) if b)
-            P = phis[6]
-            Z = np.stack([w + P[0, 0] * dev0 + P[0, 1] * rate0, P[1, 0] * dev0 + P[1, 1] * rate0], axis=-1)
+            Z = state_end()
             X = self._constrain(X, locked)
         return X, Z, F_held_sum / self.s.Ts
+
+    def _amplifier(self, Z, w, X, maps):
+        """The amplifier over one sub-step for the held input ``w``: ``(current_at(j), state_end())``, the
+        delivered currents at stage node ``j`` and the state at the sub-step's end.
+
+        :class:`~.laws.AmplifierLag` laws: ``maps`` are the transitions ``Phi`` of the state ``(i - u, i')``.
+        State-space laws (``lti``): ``maps`` are ``(Ad, Bd)`` per axis, the second input the axis' velocity
+        (the amplifier's ``axis_velocity``) held over the sub-step.
+        """
+        if self.lti:
+            vel = self.amp.axis_velocity(X)
+            inp = [np.column_stack([w[:, ax], vel[:, ax]]) for ax in (0, 1)]
+            C = [self.amp.ss(ax)[2] for ax in (0, 1)]
+
+            def states(m):
+                return [Z[:, ax, :] @ m[ax][0].T + inp[ax] @ m[ax][1].T for ax in (0, 1)]
+
+            def lti_current(j):
+                return np.column_stack([z @ c for z, c in zip(states(maps[j]), C, strict=True)])
+
+            return lti_current, lambda: np.stack(states(maps[6]), axis=1)
+        dev0, rate0 = Z[:, :, 0] - w, Z[:, :, 1]
+
+        def current(j):
+            P = maps[j]
+            return w + P[0, 0] * dev0 + P[0, 1] * rate0
+
+        def end():
+            P = maps[6]
+            return np.stack([w + P[0, 0] * dev0 + P[0, 1] * rate0, P[1, 0] * dev0 + P[1, 1] * rate0], axis=-1)
+
+        return current, end
 
     def _constrain(self, X, locked):
         if self.s.stops:
@@ -305,10 +366,11 @@ def simulate(rig: Rig, ref: np.ndarray, rng: np.random.Generator, model: Constan
     km_rec = np.ones((R, N))
     # hover currents at the start: the controller's own inverse of zero acceleration
     u0 = np.column_stack(ctrl.inverse(X[:, 0], np.zeros((R, 2))))
-    Z = np.stack([u0, np.zeros_like(u0)], axis=-1)
+    Z = rig.rest_state(u0)
     buf = [u0.copy() for _ in range(rig.n_delay + 1)]
     t_base = np.arange(R)[:, None] * s.duration  # runs recorded one after the other (temperature)
     for n in range(N):
+        rig.t_now = t_base[:, 0] + n * Ts
         y = rig.read(X)
         if s.encoder_noise:
             y = y + s.encoder_noise * rng.standard_normal((R, 2))
@@ -328,7 +390,8 @@ def simulate(rig: Rig, ref: np.ndarray, rng: np.random.Generator, model: Constan
         noise_i = s.current_noise * rng.standard_normal((R, 2))
         F_noise = np.asarray(s.force_noise) * rng.standard_normal((R, 2))
         F_amb = rig.amb_std * rng.standard_normal(R) if rig.res is not None else 0.0
-        rec["X"][:, n], rec["y"][:, n], rec["u"][:, n], rec["i"][:, n] = X, y, u, Z[:, :, 0]
+        i_now = rig.delivered(Z)
+        rec["X"][:, n], rec["y"][:, n], rec["u"][:, n], rec["i"][:, n] = X, y, u, i_now
         km_rec[:, n] = km
         X, Z, Fh = rig.period(X, Z, w_old, w_new, km, noise_i, F_noise, F_amb, locked)
         rec["F"][:, n] = Fh
