@@ -167,6 +167,13 @@ def _register_selftest(modes) -> None:
     q.add_argument("--truths", nargs="+", metavar="LIST", help="draw only these truths (comma-separated; default all)")
     q.add_argument("--keep-reports", action="store_true", help="write every dataset's report")
     q.add_argument(
+        "--laws",
+        choices=("all", "old", "new", "v3"),
+        default="all",
+        help="--generator independent: the rig's law set the effects are drawn from (all: the first families "
+        "and issue 27's; v3: the third set, maglev_ocp.rigsim.laws_v3; default all)",
+    )
+    q.add_argument(
         "--workers",
         type=int,
         default=None,
@@ -448,6 +455,8 @@ def _selftest(args) -> int:
         check_count("--workers", args.workers, 1, MAX_WORKERS)
     if args.plant == "independent":
         return _selftest_independent(args)
+    if args.laws != "all":
+        raise UserError("--laws: the law sets are the independent rig's; add --generator independent")
     if args.truths:
         bad = [t for t in args.truths if t not in DRAWS]
         if bad:
@@ -494,7 +503,11 @@ def _selftest_independent(args) -> int:
             "--baseline given: the independent generator's constants are off nominal; only 'calibrated' applies"
         )
     st = SelftestSettings(
-        n=args.selftest, seed=args.seed, generator=_generator(args), diagnose=_settings(args, simulate=False)
+        n=args.selftest,
+        seed=args.seed,
+        generator=_generator(args),
+        diagnose=_settings(args, simulate=False),
+        laws=args.laws,
     )
     return _run_and_write(run_rig_selftest, st, args)
 

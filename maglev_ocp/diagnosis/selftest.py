@@ -244,6 +244,10 @@ class SelftestSettings(Strict):
         Dataset size and excitation.
     diagnose : DiagnoseSettings
         Diagnosis settings.
+    laws : str
+        The independent rig's law set its effects are drawn from (:data:`maglev_ocp.rigsim.draw.LAW_SETS`):
+        ``all`` (the first families and issue 27's, the default), ``old``, ``new`` or ``v3`` (the third set,
+        :mod:`maglev_ocp.rigsim.laws_v3`). Only the independent generator reads it.
     """
 
     n: int = Field(30, ge=1, le=10000)
@@ -252,6 +256,7 @@ class SelftestSettings(Strict):
     baseline: str = Field("calibrated", pattern=r"^(given|calibrated)$")
     generator: GeneratorSettings = GeneratorSettings()
     diagnose: DiagnoseSettings = DiagnoseSettings(simulate=False)
+    laws: str = Field("all", pattern=r"^(all|old|new|v3)$")
 
 
 @dataclass

@@ -330,7 +330,7 @@ class RigSelftestResult(SelftestResult):
         return out
 
 
-def _rig_job(job: tuple[int, str, int, SelftestSettings, Path | None]) -> Case:
+def _rig_job(job: tuple[int, str, int, SelftestSettings, Path | None, str]) -> Case:
     """One independent-rig case (a worker's job)."""
     return run_rig_case(*job)
 
@@ -362,7 +362,7 @@ def run_rig_selftest(
     order = kinds_order(settings.n, np.random.default_rng(s_order))
     seeds = [int(s.generate_state(1)[0]) for s in s_cases.spawn(settings.n)]
     keep = Path(out_dir) if (keep_reports and out_dir is not None) else None
-    jobs = [(i, kind, sd, settings, keep) for i, (kind, sd) in enumerate(zip(order, seeds, strict=True))]
+    jobs = [(i, kind, sd, settings, keep, settings.laws) for i, (kind, sd) in enumerate(zip(order, seeds, strict=True))]
     save = save_partial(RigSelftestResult, settings, out_dir)
     return RigSelftestResult(settings, map_ordered(_rig_job, jobs, workers, "rig self-check", progress, save))
 
