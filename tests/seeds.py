@@ -39,6 +39,9 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         41,  # learned-shape dataset tests (test_diagnosis_shapes, s11)
         710027,  # lag + friction (test_heldout): failed 2026-11-29 (size from the single fit), then developed on
         710043,  # lag + friction (test_heldout): passed 2026-11-29, spent when the backward check's rule changed
+        405197630,  # issue 27's blind rig check rerun (eleventh session): spent
+        144262670,  # issue 27's blind check on rigsim's third law set (twelfth session): spent
+        2126563435, 128601744,  # diagnosed-vs-blind validation rigs butter_elasto, pi_brauer (twelfth session)
     }
 )  # fmt: skip
 
