@@ -34,7 +34,7 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from maglev_ocp import constants as k  # noqa: E402
-from maglev_ocp.config import atomic_write_text  # noqa: E402
+from maglev_ocp.output import atomic_write_text  # noqa: E402
 from maglev_ocp.model import model_inverse_function  # noqa: E402
 from maglev_ocp.params import NOMINAL  # noqa: E402
 from maglev_ocp.reference import ReferenceSettings  # noqa: E402
