@@ -61,8 +61,8 @@ from benchmarks.diagnosed_recovery import TOUR  # noqa: E402
 from maglev_ocp import constants as k  # noqa: E402
 from maglev_ocp.blocks import Measurement  # noqa: E402
 from maglev_ocp.cli import main as maglev  # noqa: E402
-from maglev_ocp.output import atomic_write_text  # noqa: E402
 from maglev_ocp.controllers.model_file import model_file_untrusted  # noqa: E402
+from maglev_ocp.output import atomic_write_text  # noqa: E402
 from maglev_ocp.plant.plant import StopEvent  # noqa: E402
 from maglev_ocp.rigsim import Constants, RigSettings, generate  # noqa: E402
 from maglev_ocp.rigsim.generate import build_laws  # noqa: E402

@@ -34,8 +34,8 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from maglev_ocp import constants as k  # noqa: E402
-from maglev_ocp.output import atomic_write_text  # noqa: E402
 from maglev_ocp.model import model_inverse_function  # noqa: E402
+from maglev_ocp.output import atomic_write_text  # noqa: E402
 from maglev_ocp.params import NOMINAL  # noqa: E402
 from maglev_ocp.reference import ReferenceSettings  # noqa: E402
 from maglev_ocp.reference.min_time import _min_time_table, _profile_table, unsmoothed_duration  # noqa: E402
