@@ -58,6 +58,7 @@ from ..output import atomic_write_text, make_dir
 from ..parallel import map_ordered
 from ..params import NOMINAL, Params
 from ..plant import PlantConfig
+from ..rigsim.draw import LAW_SETS
 from .attribution import raw_rms
 from .diagnose import LIBRARY, DiagnoseSettings, Diagnosis, diagnose
 from .fit import FitResult, residuals_with
@@ -256,7 +257,7 @@ class SelftestSettings(Strict):
     baseline: str = Field("calibrated", pattern=r"^(given|calibrated)$")
     generator: GeneratorSettings = GeneratorSettings()
     diagnose: DiagnoseSettings = DiagnoseSettings(simulate=False)
-    laws: str = Field("all", pattern=r"^(all|old|new|v3)$")
+    laws: str = Field("all", pattern="^(" + "|".join(LAW_SETS) + ")$")
 
 
 @dataclass

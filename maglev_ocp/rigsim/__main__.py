@@ -7,7 +7,7 @@ import json
 import sys
 import time
 
-from .draw import draw
+from .draw import LAW_SETS, draw
 from .generate import generate
 from .laws_v3 import EFFECTS_V3 as LAWS
 from .sim import RigSettings
@@ -22,7 +22,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--draw", action="store_true", help="draw a random scenario from the seed (ignores --effects)")
     ap.add_argument(
         "--laws",
-        choices=("all", "old", "new", "v3"),
+        choices=LAW_SETS,
         default="all",
         help="with --draw: law families to draw from (old: the first ones; new: issue 27's; v3: the third set; "
         "default all)",
