@@ -164,6 +164,34 @@ RIGS: dict[str, dict[str, Any]] = {
             "commutation_offset": {"family": "latency"},
         },
     },
+    # Validation rigs of the thirteenth session (2026-11-29), defined before their first run and before the
+    # session's diagnosis changes were merged (the backward check's masks and law re-choice, the cogging
+    # co-energy member, the amplifier's transfer-function members, the session-time drift test): families no
+    # earlier rig used, rigsim's default parameters, seeds from secrets.randbelow(2**31).
+    # Maxwell-slip presliding friction, Carter's fringing end effect, Hall-interpolated commutation, a pure
+    # one-period delay of the currents
+    "maxwell_fringe": {
+        "mismatch": 0.1,
+        "seed": 26068247,
+        "effects": {
+            "friction": {"family": "maxwell_slip"},
+            "end_effect": {"family": "fringe"},
+            "commutation_offset": {"family": "hall_interp"},
+            "amplifier_lag": {"family": "delay"},
+        },
+    },
+    # Langevin saturation, two-exponential cogging, Bertotti's iron-loss drag (classical + excess loss),
+    # Dahl friction
+    "langevin_iron": {
+        "mismatch": 0.1,
+        "seed": 1127350836,
+        "effects": {
+            "saturation": {"family": "langevin"},
+            "cogging": {"family": "twoexp"},
+            "eddy_drag": {"family": "iron_loss"},
+            "friction": {"family": "dahl"},
+        },
+    },
 }
 #: Controllers compared (each blind and diagnosed).
 CONTROLLERS: tuple[str, ...] = ("fl", "nmpc", "pid")
