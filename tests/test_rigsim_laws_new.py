@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+from law_checks import check_law_over_envelope
 
 from maglev_ocp import constants as k
 from maglev_ocp.rigsim import RigSettings, draw, generate
@@ -185,31 +186,13 @@ def test_sensor_crosstalk_reads_the_other_axis():
 
 
 def test_every_drawn_new_law_is_finite_and_bounded_over_the_envelope():
-    g, d, v = np.meshgrid(np.linspace(G_LO, G_HI, 9), np.linspace(-0.06, 0.06, 9), np.linspace(-0.5, 0.5, 9))
-    g, d, v = g.ravel(), d.ravel(), v.ravel()
     seen = set()
     for seed in range(80):
         for name, spec in draw(seed, laws="new")["effects"].items():
             law = make_law(name, spec)
             assert spec["new_law"] and law.new_law
             seen.add((name, law.family))
-            law.reset(g.size)
-            fg = fd = np.zeros_like(g)
-            if law.has_force:
-                fg, fd = law.force(g, v, d, v)
-            if law.has_held:
-                for _ in range(20):
-                    hg, hd = law.held(v, v, 1e-4)
-                fg, fd = fg + hg, fd + hd
-            assert np.all(np.isfinite(fg)) and np.all(np.isfinite(fd)), (name, spec)
-            assert np.max(np.abs(fg)) < 50.0 and np.max(np.abs(fd)) < 50.0, (name, spec)  # N; the pull is ~ 100 N
-            if law.has_factors:
-                f = [np.ones_like(g) for _ in range(4)]
-                law.factors(g, d, f)
-                assert all(np.all((x > 0.3) & (x < 1.7)) for x in f), (name, spec)
-            if law.has_read:
-                gr, dr = law.read(g, d)
-                assert np.max(np.abs(gr - g)) < 1e-3 and np.max(np.abs(dr - d)) < 1e-3
+            check_law_over_envelope(law, (name, spec), factor_band=(0.3, 1.7))
     want = {(n, f) for n, c in NEW_LAWS.items() for f in c.families}
     assert seen == want  # 80 seeds draw every new family
 
