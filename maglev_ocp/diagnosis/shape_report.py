@@ -75,10 +75,17 @@ def _friction_n(theta: dict[str, float], v_mm_s: np.ndarray) -> np.ndarray:
     return np.array([[float(Friction.axis_force(v * 1e-3, theta, ax)) for ax in ("g", "d")] for v in v_mm_s])
 
 
+#: Gaps [mm] at which the cogging shape is drawn: the lower and upper end of the tracking envelope (MODEL.md), so
+#: that the figure shows how each harmonic decays with the gap.
+_COG_GAPS_MM = (k.g_envelope[0] * 1e3, k.g_envelope[1] * 1e3)
+
+
 def _cogging_n(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
-    """Extra cogging forces [N] (columns tangential, normal) along d at g = 10 mm (:meth:`Cogging.forces`)."""
+    """Extra cogging forces [N] along d (columns tangential, normal at each gap of :data:`_COG_GAPS_MM`, in turn)
+    (:meth:`Cogging.forces`: the closed forms and the co-energy shape)."""
     c = Cogging()
-    return np.array([[float(f) for f in c.forces(k.g_cog_ref, d * 1e-3, theta)] for d in d_mm])
+    cols = [[float(f) for f in c.forces(g * 1e-3, d * 1e-3, theta)] for d in d_mm for g in _COG_GAPS_MM]
+    return np.array(cols).reshape(len(d_mm), 2 * len(_COG_GAPS_MM))
 
 
 def _eddy_coef(theta: dict[str, float], g_mm: np.ndarray) -> np.ndarray:
@@ -147,12 +154,18 @@ SHAPES: dict[str, Shape] = {
         ),
     ),
     "cogging": Shape(
-        "position d [mm] (tangential, normal)",
-        "extra cogging force at g = 10 mm [N]",
+        "position d [mm] ({})".format(
+            ", ".join(f"{part} g = {g:.0f} mm" for g in _COG_GAPS_MM for part in ("tangential", "normal"))
+        ),
+        "extra cogging force [N]",
         _D_MM,
         _cogging_n,
-        lambda th: "peak extra cogging force at g = 10 mm: tangential {:.3f} N, normal {:.3f} N".format(
-            *_peak(_cogging_n(th, _D_MM))
+        lambda th: (
+            "peak extra cogging force: "
+            + "; ".join(
+                f"at g = {g:.0f} mm tangential {a:.3f} N, normal {b:.3f} N"
+                for g, a, b in zip(_COG_GAPS_MM, *np.reshape(_peak(_cogging_n(th, _D_MM)), (-1, 2)).T, strict=True)
+            )
         ),
     ),
     "eddy_drag": Shape(
