@@ -215,3 +215,25 @@ def test_diagnosis_names_a_literature_cogging_law_cogging_with_its_size(law: str
     fg, fd = (np.abs(np.array(v).ravel()) for v in fun(g.reshape(1, -1), dd.reshape(1, -1)))
     truth = max(float(fg.max()), float(fd.max()))
     assert max(size.peak_force_n.values()) == pytest.approx(truth, rel=TOL), (size.peak_force_n, truth)
+
+
+def test_the_shape_figure_reads_a_single_cogging_fit_by_its_full_keys() -> None:
+    """A single effect's score names its values without the prefix, and its ``xi0`` is the model's eq. (9)
+    amplitude: the drawn shape is the co-energy member's (``c_1 = 0.5 N``, decay 1.2 q_1, the effect's own
+    closed-form ``xi0`` held at 0), ``0.5 exp(-1.2 q_1 (g - 20 mm))`` peak tangential force at 15 and 25 mm."""
+    from types import SimpleNamespace
+
+    from maglev_ocp.diagnosis.fit import FitResult
+    from maglev_ocp.diagnosis.shape_report import SHAPES, effect_theta
+
+    spec = _member("cogging", "co-energy 3").with_free(_member("cogging", "default").free[:1])  # + p.xi0
+    values = {f.key: f.start for f in spec.free} | {"p.xi0": 4.0, "cogging.e_c1": 0.5, "cogging.e_r1": 1.2}
+    w = np.array([values[f.key] for f in spec.free])
+    fit = FitResult(spec, w, 0 * w, 1.0, 100, 1.0, {}, True, "converged")
+    score = SimpleNamespace(fit=fit, params={key.split(".", 1)[1]: v for key, v in values.items()})
+    th = effect_theta(score, "cogging")
+    s = SHAPES["cogging"]
+    peaks = np.max(np.abs(s.curve(th, s.x)), axis=0)
+    q1 = math.pi / k.t1
+    for j, g in enumerate((0.015, 0.025)):
+        assert peaks[2 * j] == pytest.approx(0.5 * math.exp(-1.2 * q1 * (g - 0.020)), rel=1e-3)

@@ -28,6 +28,9 @@ def effect_theta(score: EffectScore, name: str) -> dict[str, float]:
     spec = score.fit.spec if score.fit is not None else None
     if spec is not None:
         theta.update({key[len(prefix) :]: v for key, v in spec.fixed if key.startswith(prefix)})
+        # the fit's own values by full key: a single effect's score names its values without the prefix (and
+        # "xi0" there is the model's p.xi0, not the effect's), so the score alone would leave the defaults
+        theta.update({key[len(prefix) :]: float(v) for key, v in score.fit.params().items() if key.startswith(prefix)})
     theta.update({key[len(prefix) :]: float(v) for key, v in score.params.items() if key.startswith(prefix)})
     if spec is not None:
         # a tie's source (e.g. the calibrated p.xi0 a cogging member shares) is fitted, but a score may carry
@@ -215,7 +218,7 @@ def shape_figure(d: Diagnosis, plt):
             ax.legend(fontsize=8)
         if s is SHAPES.get("friction"):
             ax.set_xscale("symlog", linthresh=1.0)
-        ax.set_xlabel(s.xlabel)
+        ax.set_xlabel(s.xlabel.split(" (")[0] if np.ndim(y) > 1 else s.xlabel)  # the legend names the columns
         ax.set_ylabel(s.ylabel)
         ax.set_title(n)
         ax.grid(True, alpha=0.3)
