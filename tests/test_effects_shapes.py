@@ -80,16 +80,6 @@ def test_friction_profile_fits_a_tustin_curve_and_is_odd() -> None:
         assert float(Friction.axis_force(x, th, "d")) < 0  # opposes the motion
 
 
-def test_cogging_fourier_nests_the_exponential_law() -> None:
-    """``xi0 exp(-(g - g_ref) / ell) sin(2 pi d / t1)`` written out here equals the learned cogging with
-    ``a1 = -g_ref / ell`` and one sine coefficient; zero coefficients add nothing."""
-    th = {**Cogging.defaults(), "xi0": 0.0, "cog_a1": -k.g_cog_ref / 4e-3, "cog_xsin1": 1.7}
-    for g, d in ((0.009, 0.013), (0.014, -0.041)):
-        fx, fn = Cogging().forces(g, d, th)
-        assert float(fx) == pytest.approx(1.7 * math.exp(-(g - k.g_cog_ref) / 4e-3) * math.sin(2 * math.pi * d / k.t1))
-        assert float(fn) == pytest.approx(0.0, abs=1e-12)
-
-
 def test_eddy_drag_default_is_the_b2_law_and_no_coefficient_is_flat_in_the_gap() -> None:
     """The default member is ``-c_eddy B(g)^2 d_dot`` along d and nothing on g. For any parameters within
     bounds the drag is odd and the lift even in the velocity, the lift never closes the gap, and the low-speed
@@ -212,9 +202,10 @@ def test_friction_spline_recovers_the_friction_force_of_a_tustin_law(tustin_runs
         assert got == pytest.approx(truth, rel=TOL), (v, got, truth)
 
 
-def test_cogging_fourier_recovers_the_peak_force_of_a_4th_harmonic_law() -> None:
+def test_cogging_coenergy_recovers_the_peak_force_of_a_4th_harmonic_law() -> None:
     """Harmonics 1, 2, 4 of the slot pitch with a (g_ref / g)^2 decay (Zhu and Howe 2000: cogging as a
-    Fourier series of the slot pitch): the peak tangential force at g = 12 mm within 20 %."""
+    Fourier series of the slot pitch), tangential only: the co-energy member (harmonics of 2 t1 up to t1 / 3,
+    the normal part tied to the tangential one) gives the peak tangential force at g = 12 mm within 20 %."""
     amp, g_ref = (0.5, 0.25, 0.0, 0.3), 0.010
 
     def law(x, u):
@@ -223,11 +214,11 @@ def test_cogging_fourier_recovers_the_peak_force_of_a_4th_harmonic_law() -> None
         return [0.0, fx]
 
     runs, filt = _runs(law)
-    _, theta = _fit(_member("cogging", "fourier"), runs, filt)
+    _, theta = _fit(_member("cogging", f"co-energy {Cogging.HARMONICS}"), runs, filt)
     d = np.linspace(-0.04, 0.04, 801)
     a = 2 * math.pi * d / k.t1
     truth = np.max(np.abs(sum(c * np.sin((j + 1) * a + 0.4 * j) for j, c in enumerate(amp)))) * (g_ref / 0.012) ** 2
-    got = max(abs(float(Cogging().learned_forces(0.012, x, theta)[0])) for x in d)
+    got = max(abs(float(Cogging.energy_forces(0.012, x, theta)[0])) for x in d)
     assert got == pytest.approx(truth, rel=TOL)
 
 

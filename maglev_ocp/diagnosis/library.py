@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 
 from .. import constants as k
 from ..effects import EFFECTS, Cogging, CommutationOffset, EddyDrag, EndEffect, Friction, Saturation
+from ..effects.cogging import ENERGY_DECAY_RANGE, ENERGY_PERIOD, G_ENERGY_REF
 from ..params import Params
 
 
@@ -173,13 +174,12 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     # saturation's learned loss: non-negative steps (a loss non-increasing in g), start 0.01 per step
     **{f"saturation.{n}": (0.0, 0.5, 0.01, 0.05) for n in Saturation.shape_names()},
     # learned shapes (flexible members): friction's non-negative profile coefficients [N] per axis, cogging's
-    # amplitude log-polynomial and Fourier coefficients [N at 10 mm], the commutation offset's spline [rad]
+    # co-energy harmonics (coefficients [N at g_e = 20 mm], each harmonic's decay rate over its wavenumber within
+    # the physical range of Cogging, a shared log-curvature), the commutation offset's spline [rad]
     **{f"friction.{n}": (0.0, 10.0, 0.01, 0.1) for ax in "gd" for n in Friction.shape_names(ax)},
-    "cogging.cog_a1": (-30.0, 10.0, 0.0, 2.0),
-    "cogging.cog_a2": (-30.0, 30.0, 0.0, 2.0),
-    **{
-        f"cogging.{n}": (-20.0, 20.0, 0.0, 0.5) for p in "xn" for t in ("cos", "sin") for n in Cogging.shape_names(p, t)
-    },
+    **{f"cogging.{n}": (-20.0, 20.0, 0.0, 0.5) for n in Cogging.energy_names() if n[2] in "cs"},
+    **{f"cogging.{n}": (*ENERGY_DECAY_RANGE, 1.0, 0.5) for n in Cogging.energy_names() if n[2] == "r"},
+    "cogging.e_curv": (-4.0, 1.0, 0.0, 1.0),
     **{f"commutation_offset.{n}": (-0.35, 0.35, 0.0, 0.05) for n in CommutationOffset.shape_names()},
     # one-parameter effects (the effect's own bounds)
     "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
@@ -197,6 +197,10 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "parameter_error.k_C3": _FACTOR,
     "parameter_error.k_C4": (0.0, 5.0, 1.0, 0.5),
 }
+
+
+#: Numbers of harmonics of the cogging co-energy members (the complexity the selection chooses between).
+ENERGY_HARMONICS: tuple[int, ...] = (3, Cogging.HARMONICS)
 
 
 def _free(*keys: str) -> tuple[Free, ...]:
@@ -326,8 +330,10 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       gap (Reitz 1970), its coefficient decaying with g at a rate bounded
       by the field's harmonics (:class:`~maglev_ocp.effects.EddyDrag`: a
       coefficient free in g would nest viscous friction);
-    - learned shapes (flexible) of ``cogging`` (``fourier``: harmonics of the
-      slot pitch, normal and tangential parts, positive amplitude in g),
+    - learned shapes (flexible) of ``cogging`` (``co-energy 3``, ``co-energy 6``:
+      a co-energy periodic in d whose gradient is both the tangential and the
+      normal force, each harmonic decaying in g at a rate of its own,
+      :meth:`~maglev_ocp.effects.Cogging.energy_forces`),
       ``friction`` (``spline``: an odd function of each velocity, Coulomb +
       viscous + a non-negative spline of the speed) and
       ``commutation_offset`` (``spline``: the angle a spline of d).
@@ -366,21 +372,27 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             law="own decay",
         ),
     )
-    cog_shape = [f"cogging.{n}" for p in "xn" for t in ("cos", "sin") for n in Cogging.shape_names(p, t)]
-    out["cogging"] += (
+    # The learned shape (flexible): the co-energy of Cogging.energy_forces with 3 or 6 harmonics of seed eq. (9)'s
+    # period 2 t1 (the slot pitch is the 2nd); the number of harmonics is chosen like a member, by the held-out
+    # runs and the information criterion with its penalty per parameter (refine_laws).
+    out["cogging"] += tuple(
         CandidateSpec(
             "cogging",
             ("cogging",),
-            free=_free("p.xi0", "p.ell", "cogging.cog_a1", "cogging.cog_a2", *cog_shape),
+            free=_free(*(f"cogging.{n}" for n in Cogging.energy_names(n_h)), "cogging.e_curv"),
             fixed=(("cogging.xi0", 0.0),),
             note=(
-                "the seed's law (xi0, ell in p) plus a learned cogging: harmonics 1.."
-                f"{Cogging.HARMONICS} of the slot pitch (periods t1 / k), tangential and normal parts with "
-                "coefficients of their own, times a positive amplitude exp(a1 z + a2 z^2) in the gap"
+                f"learned cogging from one co-energy W(d, g) (slot-permeance method, Zhu & Howe 1992): harmonics "
+                f"1..{n_h} of period {ENERGY_PERIOD * 1e3:.2f} mm / k (seed eq. (9)'s 2 t1; the slot pitch is k = 2), "
+                "tangential -dW/dd and normal -dW/dg linked, each harmonic's decay in g its own within "
+                f"{ENERGY_DECAY_RANGE[0]:g}..{ENERGY_DECAY_RANGE[1]:g} times its wavenumber, amplitudes in N at "
+                f"g = {G_ENERGY_REF * 1e3:.0f} mm; zero mean in d, no velocity: it cannot take up friction or an "
+                "end effect"
             ),
-            law="fourier",
+            law=f"co-energy {n_h}",
             flexible=True,
-        ),
+        )
+        for n_h in ENERGY_HARMONICS
     )
     stribeck = _free("friction.stribeck_g", "friction.stribeck_d", "friction.v_stribeck")
     out["friction"] += (

@@ -28,6 +28,9 @@ def effect_theta(score: EffectScore, name: str) -> dict[str, float]:
     spec = score.fit.spec if score.fit is not None else None
     if spec is not None:
         theta.update({key[len(prefix) :]: v for key, v in spec.fixed if key.startswith(prefix)})
+        # the fit's own values by full key: a single effect's score names its values without the prefix (and
+        # "xi0" there is the model's p.xi0, not the effect's), so the score alone would leave the defaults
+        theta.update({key[len(prefix) :]: float(v) for key, v in score.fit.params().items() if key.startswith(prefix)})
     theta.update({key[len(prefix) :]: float(v) for key, v in score.params.items() if key.startswith(prefix)})
     if spec is not None:
         # a tie's source (e.g. the calibrated p.xi0 a cogging member shares) is fitted, but a score may carry
@@ -75,10 +78,17 @@ def _friction_n(theta: dict[str, float], v_mm_s: np.ndarray) -> np.ndarray:
     return np.array([[float(Friction.axis_force(v * 1e-3, theta, ax)) for ax in ("g", "d")] for v in v_mm_s])
 
 
+#: Gaps [mm] at which the cogging shape is drawn: the lower and upper end of the tracking envelope (MODEL.md), so
+#: that the figure shows how each harmonic decays with the gap.
+_COG_GAPS_MM = (k.g_envelope[0] * 1e3, k.g_envelope[1] * 1e3)
+
+
 def _cogging_n(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
-    """Extra cogging forces [N] (columns tangential, normal) along d at g = 10 mm (:meth:`Cogging.forces`)."""
+    """Extra cogging forces [N] along d (columns tangential, normal at each gap of :data:`_COG_GAPS_MM`, in turn)
+    (:meth:`Cogging.forces`: the closed forms and the co-energy shape)."""
     c = Cogging()
-    return np.array([[float(f) for f in c.forces(k.g_cog_ref, d * 1e-3, theta)] for d in d_mm])
+    cols = [[float(f) for f in c.forces(g * 1e-3, d * 1e-3, theta)] for d in d_mm for g in _COG_GAPS_MM]
+    return np.array(cols).reshape(len(d_mm), 2 * len(_COG_GAPS_MM))
 
 
 def _eddy_coef(theta: dict[str, float], g_mm: np.ndarray) -> np.ndarray:
@@ -147,12 +157,18 @@ SHAPES: dict[str, Shape] = {
         ),
     ),
     "cogging": Shape(
-        "position d [mm] (tangential, normal)",
-        "extra cogging force at g = 10 mm [N]",
+        "position d [mm] ({})".format(
+            ", ".join(f"{part} g = {g:.0f} mm" for g in _COG_GAPS_MM for part in ("tangential", "normal"))
+        ),
+        "extra cogging force [N]",
         _D_MM,
         _cogging_n,
-        lambda th: "peak extra cogging force at g = 10 mm: tangential {:.3f} N, normal {:.3f} N".format(
-            *_peak(_cogging_n(th, _D_MM))
+        lambda th: (
+            "peak extra cogging force: "
+            + "; ".join(
+                f"at g = {g:.0f} mm tangential {a:.3f} N, normal {b:.3f} N"
+                for g, a, b in zip(_COG_GAPS_MM, *np.reshape(_peak(_cogging_n(th, _D_MM)), (-1, 2)).T, strict=True)
+            )
         ),
     ),
     "eddy_drag": Shape(
@@ -202,7 +218,7 @@ def shape_figure(d: Diagnosis, plt):
             ax.legend(fontsize=8)
         if s is SHAPES.get("friction"):
             ax.set_xscale("symlog", linthresh=1.0)
-        ax.set_xlabel(s.xlabel)
+        ax.set_xlabel(s.xlabel.split(" (")[0] if np.ndim(y) > 1 else s.xlabel)  # the legend names the columns
         ax.set_ylabel(s.ylabel)
         ax.set_title(n)
         ax.grid(True, alpha=0.3)

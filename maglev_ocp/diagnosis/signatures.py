@@ -4,7 +4,8 @@ A claim that an effect is in the data must rest on the effect's own physics, not
 lower the residual: a flexible member can soak up another effect's law misfit, or a resonance outside the
 library (issue 27). Each library effect is described here by its **signature** (:class:`Signature`): the
 variables it depends on (gap ``g``, position ``d``, velocities, currents, current rates), its period in ``d``
-(the slot pitch ``t1`` for cogging, the pole pitch ``tau`` for the end effect's ripple, MODEL.md), its
+(harmonics of seed eq. (9)'s ``2 t1`` for cogging, the slot pitch ``t1`` among them; the pole pitch ``tau``
+for the end effect's ripple, MODEL.md), its
 symmetry (friction odd in each velocity, eddy drag odd in the horizontal velocity and its lift even in it, the
 end effect's overhang even in ``d``), its monotonicity (saturation: a smooth monotone loss in ``g``) and the
 channels it acts on. A signature is turned into a small
@@ -89,7 +90,9 @@ class Signature:
 
 def _catalogue() -> dict[str, Signature]:
     t1, tau = k.t1, k.tau
-    cog = [c for h in (1, 2, 3) for c in _sincos(t1, h)]
+    # Cogging: harmonics 1..6 of seed eq. (9)'s period 2 t1 (its own law is sin(pi d / t1)); the slot pitch t1 and
+    # its 2nd and 3rd harmonics are k = 2, 4, 6 (the co-energy member's harmonics, Cogging.energy_forces).
+    cog = [c for h in range(1, 7) for c in _sincos(2 * t1, h)]
     cog_g = cog + _times(cog, _dg)  # amplitude a smooth function of g (eq. (9): exponential in g)
     fr_g = [lambda f: np.tanh(f["g_dot"] / _V_SIGN), lambda f: f["g_dot"]]
     fr_d = [lambda f: np.tanh(f["d_dot"] / _V_SIGN), lambda f: f["d_dot"]]
@@ -100,8 +103,9 @@ def _catalogue() -> dict[str, Signature]:
     i_q: Column = lambda f: f["i_q"]  # noqa: E731
     i_d: Column = lambda f: f["i_d"]  # noqa: E731
     sigs = [
-        Signature("cogging", ("d", "g"), CHANNELS, (t1, t1 / 2, t1 / 3),
-                  "periodic in d with the slot pitch (harmonics 1-3), amplitude smooth in g",
+        Signature("cogging", ("d", "g"), CHANNELS, tuple(2 * t1 / h for h in range(1, 7)),
+                  "periodic in d with eq. (9)'s period 2 t1 (harmonics 1-6: the slot pitch t1 and its 2nd and 3rd "
+                  "harmonics among them), amplitude smooth in g",
                   {c: cog_g for c in CHANNELS}),
         Signature("friction", ("g_dot", "d_dot"), CHANNELS, (), "odd in each axis' velocity",
                   {"vertical": fr_g, "horizontal": fr_d}),

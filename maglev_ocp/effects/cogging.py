@@ -9,11 +9,22 @@ from typing import ClassVar
 import casadi as ca
 
 from .. import constants as k
-from ..shapes import fourier
 from .base import _P, Effect, EffectParam, Expr, _abs0
 
-#: Slot harmonics of the learned cogging (:meth:`Cogging.learned_forces`): periods t1 / k, k = 1..K.
-_COG_K = 4
+#: Period of the co-energy shape [m]: seed eq. (9)'s ``2 t1`` (its tangential law is ``sin(pi d / t1)``), so that
+#: harmonic ``k`` has period ``2 t1 / k``: the slot pitch ``t1`` itself is ``k = 2`` (MODEL.md, Table I).
+ENERGY_PERIOD: float = 2 * k.t1
+#: Harmonics of the co-energy shape (periods ``2 t1 / k``, k = 1..6: the slot pitch ``t1`` and its 2nd and 3rd
+#: harmonics are k = 2, 4, 6).
+_ENERGY_K = 6
+#: Gap at which the co-energy shape's amplitudes are referred [m]: the centre of the tracking envelope (MODEL.md),
+#: inside the gaps a rig visits, so that a fast-decaying harmonic is not extrapolated far to be referred.
+G_ENERGY_REF: float = 0.5 * (k.g_envelope[0] + k.g_envelope[1])
+#: Physical range of each harmonic's gap-decay rate, relative to its wavenumber ``q_k = 2 pi k / (2 t1)``. A field
+#: harmonic between two iron surfaces decays as ``exp(-q_k g)`` (the Laplace solution, rate 1) and the force it
+#: makes with the magnets' field as up to its square (rate 2); the magnet's load line and the slot-opening
+#: permeance (Zhu & Howe 1993) slow or speed that by a factor of a few (a power law ``g^-n`` is ``n / (q_k g)``).
+ENERGY_DECAY_RANGE: tuple[float, float] = (0.1, 3.0)
 
 
 class Cogging(Effect):
@@ -33,19 +44,33 @@ class Cogging(Effect):
     With the shared model's cogging switched off (``xi0 = 0`` in ``p``) and
     ``h1 = 1, h2 = h3 = 0, power = 0, kn = 1`` this is exactly the spec's law.
 
-    Learned shape (flexible member, :meth:`learned_forces`): Fourier series of
-    harmonics ``k = 1..K`` of the slot pitch (phase ``2 pi d / t1``, periods
-    ``t1 / k``, the periods of the cogging signature in
-    :mod:`maglev_ocp.diagnosis.signatures`; the seed's own law, period ``2 t1``,
-    stays in ``p``), tangential and normal parts with coefficients of their own
-    [N at g = 10 mm], times a positive amplitude ``A(g) = exp(a1 z + a2 z^2)``,
-    ``z = (g - g_ref) / g_ref`` (an exponential decay is ``a1 = -g_ref / ell``,
-    a power law is close to a quadratic in ``z``). Zero coefficients (the
-    default) add nothing.
+    Learned shape (flexible member, :meth:`energy_forces`): the cogging's own physical signature with a shape
+    learned inside it. Cogging is the force of the magnets' stored field energy ``W(d, g)`` as the mover's
+    magnets pass the stator slots (the slot-permeance / energy method: Zhu & Howe, "Analytical prediction of
+    the cogging torque in radial-field permanent magnet brushless motors", IEEE Trans. Magn. 28(2), 1992;
+    Bianchi & Bolognani, "Design techniques for reducing the cogging torque in surface-mounted PM motors",
+    IEEE Trans. Ind. Appl. 38(5), 2002)::
+
+        W(d, g) = sum_k (A_k(g) / q_k) (c_k cos(q_k d) + s_k sin(q_k d)),  q_k = 2 pi k / (2 t1),  k = 1..K
+        A_k(g)  = exp(-rho_k q_k (g - g_e) - curv ((g - g_e) / g_e)^2)          (A_k(g_e) = 1, g_e = 20 mm)
+        Fx      = -dW/dd = sum_k A_k(g) (c_k sin(q_k d) - s_k cos(q_k d))       (tangential, along +d)
+        F_g     = -dW/dg,  Fn = -F_g                                            (normal, Fn > 0 closes the gap)
+
+    so that the tangential and the normal parts are linked (one co-energy: the normal part of harmonic ``k``
+    is its tangential part shifted by a quarter period and scaled by its decay rate over ``q_k``), and each
+    harmonic's amplitude decays with the gap at a rate of its own within :data:`ENERGY_DECAY_RANGE` times
+    ``q_k``: the ``k``-th harmonic of the gap field decays as ``exp(-q_k g)`` between iron surfaces, so higher
+    harmonics fall off faster. Skewed magnets multiply harmonic ``k`` by a skew factor (a sinc of ``k`` times
+    the skew; Islam, Mir & Sebastian, IEEE Trans. Ind. Appl. 40(3), 2004): the same family with other
+    ``c_k, s_k``. ``curv`` bends every log-amplitude alike (a power law ``g^-n`` is ``curv ~ -n / 2``).
+    There is no term independent of ``d``: the shape is periodic with zero mean in ``d`` at every gap, and
+    no velocity enters it, so it can take up neither friction (odd in the velocities) nor an end effect (not
+    periodic) nor a change of the magnetic forces' gap law. The seed's own law (eq. (9), ``xi0``, ``ell`` in
+    ``p``) stays in the model; zero coefficients (the default) add nothing.
     """
 
-    #: Number of slot harmonics of the learned shape.
-    HARMONICS: ClassVar[int] = _COG_K
+    #: Number of harmonics of the co-energy shape.
+    HARMONICS: ClassVar[int] = _ENERGY_K
 
     name = "cogging"
     params = (
@@ -59,36 +84,42 @@ class Cogging(Effect):
         EffectParam("phi3", 0.0, -math.pi, math.pi, "rad", "phase of the 3rd harmonic"),
         EffectParam("kn", 1.0, 0.0, 4.0, "-", "normal-to-tangential peak ratio"),
         EffectParam("curv", 0.0, -20.0, 20.0, "-", "curvature of the log-decay, exp(-curv ((g - g_ref)/g_ref)^2)"),
-        EffectParam("cog_a1", 0.0, -30.0, 10.0, "-", "learned amplitude's log-slope in (g - g_ref) / g_ref"),
-        EffectParam("cog_a2", 0.0, -30.0, 30.0, "-", "learned amplitude's log-curvature in (g - g_ref) / g_ref"),
+        EffectParam("e_curv", 0.0, -4.0, 1.0, "-", "co-energy shape: log-amplitude curvature in (g - g_e) / g_e"),
         *(
-            EffectParam(
-                f"cog_{part}{trig}{j}", 0.0, -20.0, 20.0, "N", f"learned {what} cogging, {trig}({2 * j} pi d/t1)"
+            p
+            for j in range(1, _ENERGY_K + 1)
+            for p in (
+                EffectParam(f"e_c{j}", 0.0, -20.0, 20.0, "N", f"co-energy shape: cos({j} q1 d) term of W, N at g_e"),
+                EffectParam(f"e_s{j}", 0.0, -20.0, 20.0, "N", f"co-energy shape: sin({j} q1 d) term of W, N at g_e"),
+                EffectParam(f"e_r{j}", 1.0, *ENERGY_DECAY_RANGE, "-", f"co-energy shape: harmonic {j}'s decay / q_{j}"),
             )
-            for part, what in (("x", "tangential"), ("n", "normal"))
-            for trig in ("cos", "sin")
-            for j in range(1, _COG_K + 1)
         ),
     )
 
     @classmethod
-    def shape_names(cls, part: str, trig: str) -> tuple[str, ...]:
-        """Names of the learned coefficients of ``part`` (``"x"`` tangential, ``"n"`` normal), ``"cos"``/``"sin"``."""
-        return tuple(f"cog_{part}{trig}{j}" for j in range(1, cls.HARMONICS + 1))
+    def energy_names(cls, harmonics: int | None = None) -> tuple[str, ...]:
+        """Names of the co-energy shape's coefficients ``c_k, s_k, rho_k`` of harmonics ``1..harmonics``."""
+        n = cls.HARMONICS if harmonics is None else harmonics
+        return tuple(f"e_{q}{j}" for j in range(1, n + 1) for q in ("c", "s", "r"))
 
     @classmethod
-    def learned_forces(cls, g: Expr, d: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
-        """The learned shape's tangential and normal forces ``(Fx, Fn)`` [N] (0 with the default coefficients; a
-        ``theta`` written before the learned shape existed, without its keys, means zero coefficients)."""
-        z = (g - k.g_cog_ref) / k.g_cog_ref
-        amp = ca.exp(theta.get("cog_a1", 0.0) * z + theta.get("cog_a2", 0.0) * z**2)
-        phase = 2 * math.pi * d / k.t1
-        parts = []
-        for part in ("x", "n"):
-            cos_c = [theta.get(n, 0.0) for n in cls.shape_names(part, "cos")]
-            sin_c = [theta.get(n, 0.0) for n in cls.shape_names(part, "sin")]
-            parts.append(amp * fourier(phase, cos_c, sin_c))
-        return parts[0], parts[1]
+    def energy_forces(cls, g: Expr, d: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
+        """The co-energy shape's tangential and normal forces ``(Fx, Fn)`` [N], ``-dW/dd`` and ``dW/dg`` (class
+        docstring; 0 with the default coefficients, and for a ``theta`` written before the shape existed)."""
+        z = g - G_ENERGY_REF
+        curv = theta.get("e_curv", 0.0)
+        fx: Expr = 0.0
+        fn: Expr = 0.0
+        for j in range(1, cls.HARMONICS + 1):
+            c, s = theta.get(f"e_c{j}", 0.0), theta.get(f"e_s{j}", 0.0)
+            q = 2 * math.pi * j / ENERGY_PERIOD
+            rate = theta.get(f"e_r{j}", 1.0) * q
+            amp = ca.exp(-rate * z - curv * (z / G_ENERGY_REF) ** 2)
+            dlog = -rate - 2 * curv * z / G_ENERGY_REF**2  # d ln A_k / dg
+            cq, sq = ca.cos(q * d), ca.sin(q * d)
+            fx = fx + amp * (c * sq - s * cq)  # -dW_k/dd
+            fn = fn + dlog * amp / q * (c * cq + s * sq)  # dW_k/dg: attraction (Fn > 0) where W grows with g
+        return fx, fn
 
     def forces(self, g: Expr, d: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
         """Extra tangential and normal cogging forces ``(Fx, Fn)`` [N]."""
@@ -101,8 +132,8 @@ class Cogging(Effect):
         # Every harmonic's normal force is attractive (Maxwell stress grows with B^2): its weight is |h_k|,
         # so that a harmonic's sign is a phase of half its period, never a repulsive normal force.
         Fn = theta["kn"] * xi * (_abs0(theta["h1"]) * s1**2 + _abs0(theta["h2"]) * s2**2 + _abs0(theta["h3"]) * s3**2)
-        Lx, Ln = self.learned_forces(g, d, theta)
-        return Fx + Lx, Fn + Ln
+        Ex, En = self.energy_forces(g, d, theta)
+        return Fx + Ex, Fn + En
 
     def modify(self, terms, x, u, p, theta) -> None:
         P = _P(p)
