@@ -166,7 +166,7 @@ def diagnose(
         clock.run("forward", select)
     finally:
         run.close()
-    guarded = clock.run("guards", run_guards, split, base, att, noise, st, progress)
+    guarded = clock.run("guards", run_guards, split, base, att, noise, st, progress, loc)
     att = clock.run("resolved_refit", resolved_refit, split, base, guarded.attribution, st)
     q = clock.run("quantify", quantify, split, base, loc, att, st, rng)
     verdict = replace(att.verdict, selected=list(att.verdict.selected), reasons=[*att.verdict.reasons, *q.reasons])

@@ -4,8 +4,9 @@ A lag whose improvement lies in a narrow resonance is not counted (:func:`lag_gu
 :func:`apply_resonance_guard`); a verdict whose model leaves a channel's gap mostly open, many times the
 noise floor, is ``unexplained`` (:func:`channel_coverage`, :func:`apply_coverage`); an effect enters the
 verdict only when its own signature closes the gap it claims (:mod:`.claims`, the no-false-claim guard) and a
-named verdict that leaves a located gap no library signature has is partly explained (``a+unexplained``).
-:func:`run_guards` applies them in order and returns a :class:`Guarded`.
+named verdict that leaves a located gap no library signature has is partly explained (``a+unexplained``),
+among them a dependence on session time at a fixed state that the verdict's model leaves (:func:`apply_drift`,
+:mod:`..outside`). :func:`run_guards` applies them in order and returns a :class:`Guarded`.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..fit import residuals_with
+from ..outside import TimeDrift, time_drift
 from ..peaks import GUARD_FLAG, ResonanceGuard, SpectralPeak, confirm_peaks, resonance_guard
 from ..residuals import CHANNELS, Residual
 from ..result import NoiseFindings
@@ -24,6 +26,7 @@ from ..settings import DiagnoseSettings, VerdictRules
 from ..verdict import EffectSets
 from .baseline import Baseline
 from .claims import ClaimChecks, check_claims
+from .localization import Localization
 from .models import Attribution, Run, settle_verdict
 from .split import Split
 
@@ -190,6 +193,42 @@ def apply_resonance_guard(base: Baseline, att: Attribution, guards: dict[str, Re
     return att
 
 
+def apply_drift(
+    split: Split, base: Baseline, att: Attribution, loc: Localization | None, noise: NoiseFindings
+) -> tuple[Attribution, list[TimeDrift]]:
+    """A named verdict cannot explain a drift in session time: with one left, it is partly explained.
+
+    No library effect depends on time at a fixed state (:mod:`..outside`). When the localization found such a
+    drift in the baseline residual (:attr:`.localization.Localization.outside`), the verdict's model is tested
+    for it in turn (:func:`..outside.time_drift` on its training and held-out residuals, against the noise
+    model's floor): an effect's law may take up part of a drift through the runs' operating points, never all
+    of it at every state. If the drift remains, the verdict becomes ``a+unexplained`` and its reasons say where
+    (the swing over the session, as a force and as a reading drift). Returns the selection's record (a new one
+    when the verdict changes) and the drifts that remain.
+    """
+    if loc is None or not loc.outside or not att.verdict.named or att.final_fit is None:
+        return att, []
+    a_train = residuals_with(att.final_spec, att.final_fit, split.train, base.p, split.u_train)
+    a_test = residuals_with(att.final_spec, att.final_fit, split.test, base.p, split.u_test)
+    left: list[TimeDrift] = []
+    for d in loc.outside:
+        c = CHANNELS.index(d.channel)
+        nc = noise.checks.get(d.channel)
+        fl = nc.floor if nc is not None and np.isfinite(nc.floor) else base.fvec[c]
+        td = time_drift(a_train, a_test, c, float(fl), mass=d.mass, stiffness=d.stiffness)
+        if td is not None and td.significant:
+            left.append(td)
+    if not left:
+        return att, []
+    att = _own(att)
+    att.verdict.sets = att.verdict.sets.partly()
+    att.verdict.reasons.append(
+        f"partly explained: {att.verdict.verdict.replace('+unexplained', '')} leaves a drift in session time that "
+        "no library effect has: " + "; ".join(d.describe() for d in left)
+    )
+    return att, left
+
+
 @dataclass(frozen=True)
 class Guarded:
     """What the guards return: the selection's record as they leave it, and their own findings.
@@ -206,6 +245,8 @@ class Guarded:
         When the coverage turned the verdict ``unexplained``: the effect set and its coverage; else empty.
     claims : ClaimChecks or None
         The no-false-claim guard's evidence per effect and the located gap (:func:`.claims.check_claims`).
+    drifts : tuple of TimeDrift
+        Drifts in session time the verdict's model leaves (:func:`apply_drift`).
     warnings : tuple of str
         Fits of the guards whose solver did not converge.
     """
@@ -216,6 +257,7 @@ class Guarded:
     partial: dict
     claims: ClaimChecks | None = None
     warnings: tuple[str, ...] = ()
+    drifts: tuple[TimeDrift, ...] = ()
 
 
 def run_guards(
@@ -225,9 +267,11 @@ def run_guards(
     noise: NoiseFindings,
     st: DiagnoseSettings,
     progress: bool = False,
+    loc: Localization | None = None,
 ) -> Guarded:
     """The guards in order: the lags' resonance guard, the no-false-claim guard (each effect's signature and
-    its gain over the others' full freedom), then the channel coverage (each may overturn the verdict)."""
+    its gain over the others' full freedom), the channel coverage (each may overturn the verdict), then a drift
+    in session time the verdict leaves (``loc``: the localization that found it, :func:`apply_drift`)."""
     guards = lag_guards(split, base, att, noise)
     att = apply_resonance_guard(base, att, guards)
     claims = None
@@ -237,12 +281,14 @@ def run_guards(
         att.models = dict(att.models)
         claims = check_claims(run, att, noise)
     att, coverage, partial = apply_coverage(base, att, noise, st)
-    return Guarded(att, guards, coverage, partial, claims, tuple(run.warnings))
+    att, drifts = apply_drift(split, base, att, loc, noise)
+    return Guarded(att, guards, coverage, partial, claims, tuple(run.warnings), tuple(drifts))
 
 
 __all__ = [
     "Guarded",
     "apply_coverage",
+    "apply_drift",
     "apply_resonance_guard",
     "channel_coverage",
     "lag_guards",
