@@ -29,6 +29,7 @@ from maglev_ocp.diagnosis import DiagnoseSettings, diagnose
 from maglev_ocp.diagnosis.generate import GeneratorSettings, generate_dataset
 from maglev_ocp.diagnosis.outside import session_time, time_drift
 from maglev_ocp.diagnosis.selftest import selftest_plant
+from maglev_ocp.diagnosis.signatures import evidence
 from maglev_ocp.diagnosis.stages.baseline import calibrate_baseline
 from maglev_ocp.diagnosis.stages.localization import localize_gap, noise_stage
 from maglev_ocp.diagnosis.stages.split import split_dataset
@@ -200,3 +201,67 @@ def test_no_drift_without_an_effect_outside_the_library(seed, effects):
     session time (the stages up to the noise model's evidence)."""
     _, _, loc, _ = _localized(_dataset(seed, effects=effects), seed)
     assert len(loc.drifts) == 2 and not loc.outside, [x.describe() for x in loc.drifts]
+
+
+# ----------------------------------------------------------------------------- saturation follows the currents
+def _state_runs(force, seed: int, n_runs: int = 3, n: int = 1500, floor: float = 0.02):
+    """Held-out-like runs: smooth motion in g and d, currents that vary at a fixed state (the controller's
+    dither and accelerations), and the residual ``force(feat, channel) + noise``."""
+    import scipy.sparse as spa
+
+    from maglev_ocp.diagnosis.residuals import PreparedRun, Residual
+
+    rng = np.random.default_rng(seed)
+    out = []
+    for i in range(n_runs):
+        t = np.arange(n) * 8e-3
+        f1, f2, f3, f4 = rng.uniform(0.15, 0.5, 4)
+        ph = rng.uniform(0, 2 * math.pi, 4)
+        feat = {"t": t, "d": 0.04 * np.sin(2 * math.pi * f1 * t + ph[0]),
+                "g": 0.016 + 0.004 * np.sin(2 * math.pi * f2 * t + ph[1]),
+                "i_q": 1.5 * np.sin(2 * math.pi * f3 * t + ph[2]),
+                "i_d": 1.0 + 1.0 * np.sin(2 * math.pi * f4 * t + ph[3])}  # fmt: skip
+        for v in ("g", "d", "i_q", "i_d"):
+            feat[f"{v}_dot" if v in ("g", "d") else f"d{v}"] = np.gradient(feat[v], t)
+        r = np.column_stack([force(feat, 0), force(feat, 1)]) + floor * rng.standard_normal((n, 2))
+        run = PreparedRun(f"run_{i:02d}.csv", (), np.array([True, True]), np.zeros((n, 8)), spa.csr_matrix((n, n)),
+                          r, np.arange(n), feat)  # fmt: skip
+        out.append(Residual(run, r, np.zeros_like(r)))
+    return out
+
+
+def _iron_loss(feat, c):
+    """Saturation written for the test: the iron loses ``L(g) = 0.12 / (1 + ((g - 8 mm) / 4 mm)^2)`` of its
+    flux (a Lorentzian knee, no library profile); the pull ``B^2`` loses ``2 L`` of 9.8 m/s^2, the PM-current
+    pull (0.8 m/s^2 per A of i_d) and the thrust (1.2 m/s^2 per A of i_q) lose ``L``."""
+    loss = 0.12 / (1.0 + ((feat["g"] - 8e-3) / 4e-3) ** 2)
+    if c == 0:
+        return -loss * (2 * 9.8 * 0.5 - 0.8 * feat["i_d"])
+    return -loss * 1.2 * feat["i_q"]
+
+
+def _soft_steel(feat, c):
+    """A soft-steel part 30 mm beyond the gap's zero at d = 10 mm, pulling the mover as ``1 / r^7`` (a dipole
+    field's ``B^2`` gradient): a law of the state alone, 0.3 m/s^2 at the closest approach."""
+    ex, ez = feat["d"] - 0.01, feat["g"] + 0.03
+    r = np.sqrt(ex**2 + ez**2)
+    mag = 0.3 * (0.042 / r) ** 7
+    return mag * (ez / r if c == 0 else -ex / r)
+
+
+@pytest.mark.parametrize("seed", [8, 9])
+def test_saturation_signature_needs_the_currents_at_a_fixed_state(seed):
+    """A loss of the magnetic terms shows saturation's signature, its core too (it follows the currents at a
+    fixed gap and position); a soft-steel pull, a law of the state alone, does not show the core, so
+    saturation's signature does not show.
+
+    Written first also asserting that the steel's pull shows saturation's gap terms (what made the core test
+    necessary): true for seed 8 (share 0.12 against a null quantile of 0.065), not for seed 9 (0.063 against
+    0.066), so that assertion was dropped; the core's is unchanged.
+    """
+    floors = {"vertical": 0.02, "horizontal": 0.02}
+    sat = evidence("saturation", _state_runs(_iron_loss, seed), floors, seed=seed)
+    assert sat.shows, sat.per_channel
+    assert all(sat.per_channel[ch]["core_shows"] for ch in ("vertical", "horizontal")), sat.per_channel
+    steel = evidence("saturation", _state_runs(_soft_steel, seed + 10), floors, seed=seed)
+    assert not steel.shows, steel.per_channel
