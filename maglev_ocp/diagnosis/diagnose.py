@@ -152,7 +152,9 @@ def diagnose(
     base = clock.run("baseline", calibrate_baseline, split, params, st, q_enc)
     loc = clock.run("localization", localize_gap, split, base, st, rng)
     clean = clock.run("clean_calibration", clean_calibration, split, base, loc, st)
-    noise, loc = clock.run("noise", noise_stage, split, base, loc, q_enc, st.seed)
+    noise, loc = clock.run(
+        "noise", noise_stage, split, base, loc, q_enc, st.seed, drift_z=st.z_min, drift_min_floor=st.drift_min_floor
+    )
     base = replace(base, floor_ms=noise_floor_ms(base, noise))
     run = Run(split, base, st, progress=progress)
     try:  # the selection's fit workers (forked on its first fits) stop with it

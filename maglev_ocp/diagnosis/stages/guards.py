@@ -194,17 +194,23 @@ def apply_resonance_guard(base: Baseline, att: Attribution, guards: dict[str, Re
 
 
 def apply_drift(
-    split: Split, base: Baseline, att: Attribution, loc: Localization | None, noise: NoiseFindings
+    split: Split,
+    base: Baseline,
+    att: Attribution,
+    loc: Localization | None,
+    noise: NoiseFindings,
+    st: DiagnoseSettings,
 ) -> tuple[Attribution, list[TimeDrift]]:
     """A named verdict cannot explain a drift in session time: with one left, it is partly explained.
 
     No library effect depends on time at a fixed state (:mod:`..outside`). When the localization found such a
     drift in the baseline residual (:attr:`.localization.Localization.outside`), the verdict's model is tested
     for it in turn (:func:`..outside.time_drift` on its training and held-out residuals, against the noise
-    model's floor): an effect's law may take up part of a drift through the runs' operating points, never all
-    of it at every state. If the drift remains, the verdict becomes ``a+unexplained`` and its reasons say where
-    (the swing over the session, as a force and as a reading drift). Returns the selection's record (a new one
-    when the verdict changes) and the drifts that remain.
+    model's floor, ``st.z_min`` and ``st.drift_min_floor``): an effect's law may take up part of a drift
+    through the runs' operating points, never all of it at every state. If the drift remains, the verdict
+    becomes ``a+unexplained`` and its reasons say where (the swing over the session, as a force and as a
+    reading drift). Returns the selection's record (a new one when the verdict changes) and the drifts that
+    remain.
     """
     if loc is None or not loc.outside or not att.verdict.named or att.final_fit is None:
         return att, []
@@ -215,7 +221,8 @@ def apply_drift(
         c = CHANNELS.index(d.channel)
         nc = noise.checks.get(d.channel)
         fl = nc.floor if nc is not None and np.isfinite(nc.floor) else base.fvec[c]
-        td = time_drift(a_train, a_test, c, float(fl), mass=d.mass, stiffness=d.stiffness)
+        td = time_drift(a_train, a_test, c, float(fl), z_crit=st.z_min, min_over_floor=st.drift_min_floor,
+                        mass=d.mass, stiffness=d.stiffness)  # fmt: skip
         if td is not None and td.significant:
             left.append(td)
     if not left:
@@ -281,7 +288,7 @@ def run_guards(
         att.models = dict(att.models)
         claims = check_claims(run, att, noise)
     att, coverage, partial = apply_coverage(base, att, noise, st)
-    att, drifts = apply_drift(split, base, att, loc, noise)
+    att, drifts = apply_drift(split, base, att, loc, noise, st)
     return Guarded(att, guards, coverage, partial, claims, tuple(run.warnings), tuple(drifts))
 
 

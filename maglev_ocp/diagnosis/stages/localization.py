@@ -155,7 +155,14 @@ def localize_gap(split: Split, base: Baseline, st: DiagnoseSettings, rng: np.ran
 
 
 def noise_stage(
-    split: Split, base: Baseline, loc: Localization, q: float, seed: int = 0, excess_min: float = 1.5
+    split: Split,
+    base: Baseline,
+    loc: Localization,
+    q: float,
+    seed: int = 0,
+    excess_min: float = 1.5,
+    drift_z: float = 4.0,
+    drift_min_floor: float = 0.5,
 ) -> tuple[NoiseFindings, Localization]:
     """Stage 3b (noise): noise-model floors, whiteness and spectral peaks of the baseline residual (:mod:`.noise`).
 
@@ -166,7 +173,8 @@ def noise_stage(
     dependence on session time at a fixed state above the noise model's floor
     (:func:`..outside.time_drift`: no library effect depends on time, so such a
     gap is located and outside the library). Returns the findings and a new
-    localization record with that evidence after its own.
+    localization record with that evidence after its own. ``drift_z`` and ``drift_min_floor``: the drift
+    test's held-out z and rms over the floor (:func:`..outside.time_drift`; a floor of 0: no test).
     """
     allr = base.b_train + base.b_test
     checks: dict[str, NoiseCheck] = {}
@@ -187,12 +195,15 @@ def noise_stage(
                 f"{nc.floor:.3g} m/s^2 and not white (flatness {nc.whiteness.flatness:.2f} < "
                 f"{nc.whiteness.flatness_null:.2f})"
             )
+    drifts: list[TimeDrift] = []
+    if drift_min_floor <= 0:
+        return NoiseFindings(checks, peaks), loc.with_evidence(evidence)
     stiff = model_stiffness(base.spec, base.p, split.test)
     masses = (base.params.Mv, base.params.Mh)
-    drifts: list[TimeDrift] = []
     for c, ch in enumerate(CHANNELS):
         fl = checks[ch].floor if ch in checks and np.isfinite(checks[ch].floor) else base.fvec[c]
-        td = time_drift(base.b_train, base.b_test, c, float(fl), mass=masses[c], stiffness=float(stiff[c]))
+        td = time_drift(base.b_train, base.b_test, c, float(fl), z_crit=drift_z, min_over_floor=drift_min_floor,
+                        mass=masses[c], stiffness=float(stiff[c]))  # fmt: skip
         if td is None:
             continue
         drifts.append(td)
