@@ -1,12 +1,13 @@
 """Stage 5, guards: checks that can overturn a verdict, each returning a new record instead of editing it.
 
-A lag whose improvement lies in a narrow resonance is not counted (:func:`lag_guards`,
-:func:`apply_resonance_guard`); a verdict whose model leaves a channel's gap mostly open, many times the
-noise floor, is ``unexplained`` (:func:`channel_coverage`, :func:`apply_coverage`); an effect enters the
-verdict only when its own signature closes the gap it claims (:mod:`.claims`, the no-false-claim guard) and a
-named verdict that leaves a located gap no library signature has is partly explained (``a+unexplained``),
-among them a dependence on session time at a fixed state that the verdict's model leaves (:func:`apply_drift`,
-:mod:`..outside`). :func:`run_guards` applies them in order and returns a :class:`Guarded`.
+A lag, or a law of the gap and the currents (saturation: :func:`lineless`), whose improvement lies in a
+narrow resonance is not counted (:func:`lag_guards`, :func:`apply_resonance_guard`); a verdict whose model
+leaves a channel's gap mostly open, many times the noise floor, is ``unexplained`` (:func:`channel_coverage`,
+:func:`apply_coverage`); an effect enters the verdict only when its own signature closes the gap it claims
+(:mod:`.claims`, the no-false-claim guard) and a named verdict that leaves a located gap no library signature
+has is partly explained (``a+unexplained``), among them a dependence on session time at a fixed state that
+the verdict's model leaves (:func:`apply_drift`, :mod:`..outside`). :func:`run_guards` applies them in order
+and returns a :class:`Guarded`.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from ..peaks import GUARD_FLAG, ResonanceGuard, SpectralPeak, confirm_peaks, res
 from ..residuals import CHANNELS, Residual
 from ..result import NoiseFindings
 from ..settings import DiagnoseSettings, VerdictRules
+from ..signatures import SIGNATURES
 from ..verdict import EffectSets
 from .baseline import Baseline
 from .claims import ClaimChecks, check_claims
@@ -47,8 +49,21 @@ def _own(att: Attribution) -> Attribution:
     )
 
 
+def lineless(effect: str) -> bool:
+    """Whether ``effect`` can leave no spectral line of its own: its signature has no period in ``d`` and reads
+    only the gap, the position and the currents (:data:`..signatures.SIGNATURES`: saturation, the commutation
+    offset, a parameter error). Such a law scales or rotates the model's own terms, so whatever line it makes
+    is at a frequency of the motion, where the model predicts most of the measured power (a forced line,
+    :func:`..peaks.forced_peaks`, which the resonance guard leaves out); an improvement that lies in a
+    resonance the model does not predict is that resonance absorbed through the currents the controller moves
+    with it (a lightly damped frame mode named ``saturation``, issue 27)."""
+    sig = SIGNATURES.get(effect)
+    return sig is not None and not sig.periods_m and set(sig.variables) <= {"g", "d", "i_q", "i_d"}
+
+
 def lag_guards(split: Split, base: Baseline, att: Attribution, noise: NoiseFindings) -> dict[str, ResonanceGuard]:
-    """Resonance guard of every lag-type candidate on the held-out runs (see :func:`..peaks.resonance_guard`).
+    """Resonance guard of every lag-type candidate, and of every line-less effect of the verdict
+    (:func:`lineless`), on the held-out runs (see :func:`..peaks.resonance_guard`).
 
     A lag named with other effects is judged by what it adds to them: ``before`` is the joint model of the
     others (from the backward check, :func:`.joint.backward`), ``after`` the full model, and only the
@@ -60,7 +75,7 @@ def lag_guards(split: Split, base: Baseline, att: Attribution, noise: NoiseFindi
     out = {}
     sel = list(att.verdict.selected) if att.final_fit is not None else []
     for name, spec in att.specs.items():
-        if not spec.lag or name not in att.fits:
+        if name not in att.fits or not (spec.lag or (name in sel and lineless(name))):
             continue
         rest = frozenset(n for n in sel if n != name)
         if name in sel and rest and rest in att.models:
@@ -175,8 +190,12 @@ def apply_resonance_guard(base: Baseline, att: Attribution, guards: dict[str, Re
         v.reasons.append(
             f"{n}: {g.fraction_in_peaks:.0%} of its improvement lies in the residual's peak(s) at "
             + ", ".join(f"{f:.2f}" for f in g.peaks_hz)
-            + " Hz; a lag scales the residual smoothly over frequency and cannot explain a narrow resonance: "
-            "not counted"
+            + (
+                " Hz; a lag scales the residual smoothly over frequency"
+                if att.specs[n].lag
+                else " Hz; a static law of the gap and the currents makes no line the motion does not have"
+            )
+            + " and cannot explain a narrow resonance: not counted"
         )
     keep = [n for n in names if n not in bad]
     for s_ in att.scores:
@@ -299,5 +318,6 @@ __all__ = [
     "apply_resonance_guard",
     "channel_coverage",
     "lag_guards",
+    "lineless",
     "run_guards",
 ]
