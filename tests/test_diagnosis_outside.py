@@ -29,7 +29,7 @@ from maglev_ocp.diagnosis import DiagnoseSettings, diagnose
 from maglev_ocp.diagnosis.generate import GeneratorSettings, generate_dataset
 from maglev_ocp.diagnosis.outside import session_time, time_drift
 from maglev_ocp.diagnosis.selftest import selftest_plant
-from maglev_ocp.diagnosis.signatures import evidence
+from maglev_ocp.diagnosis.signatures import SIGNATURES, evidence
 from maglev_ocp.diagnosis.stages.baseline import calibrate_baseline
 from maglev_ocp.diagnosis.stages.localization import localize_gap, noise_stage
 from maglev_ocp.diagnosis.stages.split import split_dataset
@@ -272,3 +272,12 @@ def test_saturation_signature_needs_the_currents_at_a_fixed_state(seed):
     assert all(sat.per_channel[ch]["core_shows"] for ch in ("vertical", "horizontal")), sat.per_channel
     steel = evidence("saturation", _state_runs(_soft_steel, seed + 10), floors, seed=seed)
     assert not steel.shows, steel.per_channel
+
+
+def test_line_less_effects_are_laws_of_the_gap_and_the_currents():
+    """The resonance guard judges saturation, the commutation offset and a parameter error (no period in d,
+    only gap, position and currents); not cogging or the end effect (their periods make lines of their own at
+    a steady speed), nor friction, eddy drag or the lag (velocities, current rates: the lag has its own guard)."""
+    from maglev_ocp.diagnosis.stages.guards import lineless
+
+    assert [e for e in SIGNATURES if lineless(e)] == ["saturation", "commutation_offset", "parameter_error"]
