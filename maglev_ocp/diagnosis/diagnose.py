@@ -152,7 +152,9 @@ def diagnose(
     base = clock.run("baseline", calibrate_baseline, split, params, st, q_enc)
     loc = clock.run("localization", localize_gap, split, base, st, rng)
     clean = clock.run("clean_calibration", clean_calibration, split, base, loc, st)
-    noise, loc = clock.run("noise", noise_stage, split, base, loc, q_enc, st.seed)
+    noise, loc = clock.run(
+        "noise", noise_stage, split, base, loc, q_enc, st.seed, drift_z=st.z_min, drift_min_floor=st.drift_min_floor
+    )
     base = replace(base, floor_ms=noise_floor_ms(base, noise))
     run = Run(split, base, st, progress=progress)
     try:  # the selection's fit workers (forked on its first fits) stop with it
@@ -166,7 +168,7 @@ def diagnose(
         clock.run("forward", select)
     finally:
         run.close()
-    guarded = clock.run("guards", run_guards, split, base, att, noise, st, progress)
+    guarded = clock.run("guards", run_guards, split, base, att, noise, st, progress, loc)
     att = clock.run("resolved_refit", resolved_refit, split, base, guarded.attribution, st)
     q = clock.run("quantify", quantify, split, base, loc, att, st, rng)
     verdict = replace(att.verdict, selected=list(att.verdict.selected), reasons=[*att.verdict.reasons, *q.reasons])

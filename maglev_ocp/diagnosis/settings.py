@@ -131,6 +131,10 @@ class DiagnoseSettings(Strict):
     gap_min_floor : float
         A located gap (a period in d that is no library period, a drift in time) is reported when it explains
         at least this rms over the channel's noise floor (0: no search).
+    drift_min_floor : float
+        A dependence of the baseline residual on session time at a fixed state (:mod:`.outside`) is evidence of
+        a gap when its rms on the held-out runs is at least this over the noise floor and its held-out z at
+        least ``z_min`` (0: no test).
     exclude_laws : dict of str to list of str
         Law-family members left out of the candidate library, by effect (``{"end_effect": ["two ends"]}``;
         the member names are :func:`.library.family_specs`' ``law``, ``default`` for the library's own law).
@@ -176,6 +180,7 @@ class DiagnoseSettings(Strict):
     signature_alpha: float = Field(0.01, gt=0.0, lt=0.5)
     signature_min_floor: float = Field(0.3, ge=0.0, le=10.0)
     gap_min_floor: float = Field(1.0, ge=0.0, le=100.0)
+    drift_min_floor: float = Field(0.5, ge=0.0, le=100.0)
     exclude_laws: dict[str, list[str]] = Field(default_factory=dict)
 
     @field_validator("exclude_laws")

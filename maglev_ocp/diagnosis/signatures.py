@@ -24,9 +24,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.interpolate import BSpline
 
 from .. import constants as k
 from .residuals import CHANNELS, Residual
@@ -70,6 +71,11 @@ class Signature:
         What it obeys, in words (odd in velocity, even in d, monotone in g, ...).
     basis : dict
         ``{channel: [columns]}``: a linear basis of laws with this signature, per channel.
+    core : dict
+        ``{channel: [columns]}``: the part of the signature that must show *at a fixed state*
+        (:func:`core_evidence`): beyond a flexible function of ``fixed`` (empty: no such test).
+    fixed : tuple of str
+        The state variables held fixed by the core test.
     """
 
     effect: str
@@ -78,6 +84,8 @@ class Signature:
     periods_m: tuple[float, ...]
     symmetry: str
     basis: dict[str, list[Column]]
+    core: dict[str, list[Column]] = field(default_factory=dict)
+    fixed: tuple[str, ...] = ()
 
     def matrix(self, feat: Feat, channel: str) -> np.ndarray:
         """The basis evaluated on a run's residual samples, shape ``(n, p)`` (``p = 0`` off its channels)."""
@@ -86,6 +94,22 @@ class Signature:
         if not cols or n == 0:
             return np.zeros((n, 0))
         return np.column_stack([np.asarray(c(feat), float) for c in cols])
+
+
+def _saturation_core(sat: Sequence[Column], i_q: Column, i_d: Column) -> dict[str, list[Column]]:
+    """What makes a loss saturation and not another law of the gap: it is a loss of the magnetic *terms*.
+
+    The iron saturates on the total flux and every magnetic force is carried by that flux: the magnets'
+    pull (``B^2``), the PM-current pull (``B i_d``), the thrust (``B i_q``) and the reluctance term. Whatever
+    the law of the loss (a field, current-term or per-term member, an exponential, a knee or a learned shape),
+    it scales the current-carrying terms too, so at a *fixed* gap and position the loss changes with the
+    currents: ``s(g) i_d`` and ``s(g) i_d^2`` in the vertical channel, ``s(g) i_q`` and ``s(g) i_q i_d`` in the
+    horizontal one (the thrust loses with the field whatever else does). A gap that is a function of the state
+    alone (a sensor's bow, a soft-steel part's pull, a spring) does not follow the currents there: the
+    flexible function of ``(g, d)`` fitted first takes all of it (:func:`core_evidence`).
+    """
+    return {"vertical": _times(sat, i_d) + _times(sat, lambda f: f["i_d"] ** 2),
+            "horizontal": _times(sat, i_q) + _times(sat, lambda f: f["i_q"] * f["i_d"])}  # fmt: skip
 
 
 def _catalogue() -> dict[str, Signature]:
@@ -116,9 +140,12 @@ def _catalogue() -> dict[str, Signature]:
         Signature("end_effect", ("d", "i_q", "i_d"), CHANNELS, (tau, tau / 2),
                   "a loss growing with the overhang |d| (each end its own) and a thrust ripple with the pole pitch",
                   {"horizontal": _times(over + ripple, i_q) + over, "vertical": over + _times(over, i_d)}),
-        Signature("saturation", ("g", "i_q", "i_d"), CHANNELS, (), "a loss of the magnetic terms monotone in g",
+        Signature("saturation", ("g", "i_q", "i_d"), CHANNELS, (),
+                  "a loss of the magnetic terms monotone in g, in proportion to each term: at a fixed state it "
+                  "follows the currents (the thrust and the PM-current pull lose with the field)",
                   {"vertical": sat + _times(sat, i_d) + _times(sat, lambda f: f["i_d"] ** 2),
-                   "horizontal": _times(sat, i_q) + _times(sat, lambda f: f["i_q"] * f["i_d"])}),
+                   "horizontal": _times(sat, i_q) + _times(sat, lambda f: f["i_q"] * f["i_d"])},
+                  core=_saturation_core(sat, i_q, i_d), fixed=("g", "d")),
         Signature("commutation_offset", ("i_q", "i_d", "d"), CHANNELS, (),
                   "a rotation of the currents: i_d into the thrust, i_q into the lift, constant or drifting in d",
                   {"horizontal": [i_d, lambda f: f["i_d"] * f["d"] / 0.05],
@@ -264,6 +291,9 @@ def evidence(
     Returns
     -------
     SignatureEvidence
+        ``shows`` also needs the signature's core at a fixed state where it has one (:attr:`Signature.core`,
+        :func:`core_evidence`: saturation's loss follows the currents at a fixed gap and position), with the
+        core's figures in ``per_channel``.
     """
     sig = SIGNATURES[effect]
     rng = np.random.default_rng(np.random.SeedSequence([seed, len(effect)]))
@@ -288,7 +318,86 @@ def evidence(
         ok = bool(share > q and (not np.isfinite(over) or over >= min_over_floor))
         out[ch] = {"explained": share, "null_q": q, "rms_explained_over_floor": over, "shows": ok}
         shows = shows or ok
+    if sig.core:
+        core = core_evidence(sig, residuals, floors, others, n_null, alpha, min_over_floor, seed)
+        for ch, rec in core.items():
+            out.setdefault(ch, {}).update(rec)
+        shows = shows and any(rec["core_shows"] for rec in core.values())
     return SignatureEvidence(effect, out, shows)
+
+
+def _bsplines(x: np.ndarray, lo: float, hi: float, n: int) -> np.ndarray:
+    """``n`` cubic B-splines with equal knot spacing over ``[lo, hi]`` at ``x`` (clipped into the range)."""
+    kk = 3
+    t = np.concatenate([[lo] * kk, np.linspace(lo, hi, n - kk + 1), [hi] * kk])
+    xx = np.clip(x, lo, hi - 1e-9 * (hi - lo))
+    return BSpline.design_matrix(xx, t, kk).toarray()
+
+
+#: Cubic B-splines per fixed variable, and per variable in the tensor product of two (the core test's state map).
+STATE_SPLINES: tuple[int, int] = (8, 5)
+
+
+def state_map_basis(feat: Feat, variables: Sequence[str]) -> np.ndarray:
+    """A flexible function of the state ``variables``: cubic B-splines in each (:data:`STATE_SPLINES`) and their
+    tensor products two by two, over the 0.5..99.5 % range of the samples."""
+    n1, n2 = STATE_SPLINES
+    one, two = [], []
+    for v in variables:
+        lo, hi = (float(x) for x in np.percentile(feat[v], [0.5, 99.5]))
+        if not hi > lo:
+            continue
+        one.append(_bsplines(feat[v], lo, hi, n1))
+        two.append(_bsplines(feat[v], lo, hi, n2))
+    cols = list(one)
+    for i in range(len(two)):
+        for j in range(i + 1, len(two)):
+            cols.append((two[i][:, :, None] * two[j][:, None, :]).reshape(len(two[i]), -1))
+    return np.column_stack(cols) if cols else np.zeros((len(feat["t"]), 0))
+
+
+def core_evidence(
+    sig: Signature,
+    residuals: Sequence[Residual],
+    floors: dict[str, float],
+    others: Sequence[str] = (),
+    n_null: int = 60,
+    alpha: float = 0.01,
+    min_over_floor: float = 0.3,
+    seed: int = 0,
+) -> dict[str, dict[str, float]]:
+    """Does the core of ``sig``'s signature show at a fixed state (:attr:`Signature.core`)?
+
+    Per channel of the core: the share of what a constant, the other named effects' bases and a flexible
+    function of the fixed state variables (:func:`state_map_basis`) leave of the residual that the core's
+    columns explain, against the same share on that remainder circularly shifted within its runs (the
+    ``1 - alpha`` quantile), and the rms it explains over the noise floor (at least ``min_over_floor``).
+    Returns ``{channel: {core_explained, core_null_q, core_rms_over_floor, core_shows}}``.
+    """
+    rng = np.random.default_rng(np.random.SeedSequence([seed, len(sig.effect), 1]))
+    out: dict[str, dict[str, float]] = {}
+    for c, ch in enumerate(CHANNELS):
+        cols = sig.core.get(ch)
+        if not cols:
+            continue
+        y, feat, ids = _stack(residuals, c)
+        if len(y) < 100:
+            continue
+        b = _normalized(np.column_stack([np.asarray(col(feat), float) for col in cols]))
+        a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != sig.effect]
+        a = [np.ones((len(y), 1)), state_map_basis(feat, sig.fixed), *(_normalized(x) for x in a if x.shape[1])]
+        inc = _Increment(np.column_stack(a), b)
+        # The test is on what the state map and the others leave (``y_a``): shifted, a large structure of the
+        # state would lend the core's smooth columns a share no remainder has, and hide the core in the null.
+        y_a = y - inc.qa @ (inc.qa.T @ y)
+        share = inc(y_a)
+        null = [inc(_shifted(y_a, ids, rng)) for _ in range(n_null)]
+        q = float(np.quantile(null, 1 - alpha)) if null else math.inf
+        fl = floors.get(ch, math.nan)
+        over = math.sqrt(share * float(np.mean(y_a**2))) / fl if np.isfinite(fl) and fl > 0 else math.nan
+        ok = bool(share > q and (not np.isfinite(over) or over >= min_over_floor))
+        out[ch] = {"core_explained": share, "core_null_q": q, "core_rms_over_floor": over, "core_shows": ok}
+    return out
 
 
 def period_scan(
@@ -376,4 +485,15 @@ def locate_gap(
     return out
 
 
-__all__ = ["LIBRARY_PERIODS_M", "SIGNATURES", "Signature", "SignatureEvidence", "evidence", "locate_gap", "period_scan"]
+__all__ = [
+    "LIBRARY_PERIODS_M",
+    "SIGNATURES",
+    "STATE_SPLINES",
+    "Signature",
+    "SignatureEvidence",
+    "core_evidence",
+    "evidence",
+    "locate_gap",
+    "period_scan",
+    "state_map_basis",
+]

@@ -1,11 +1,13 @@
 """Stage 5, guards: checks that can overturn a verdict, each returning a new record instead of editing it.
 
-A lag whose improvement lies in a narrow resonance is not counted (:func:`lag_guards`,
-:func:`apply_resonance_guard`); a verdict whose model leaves a channel's gap mostly open, many times the
-noise floor, is ``unexplained`` (:func:`channel_coverage`, :func:`apply_coverage`); an effect enters the
-verdict only when its own signature closes the gap it claims (:mod:`.claims`, the no-false-claim guard) and a
-named verdict that leaves a located gap no library signature has is partly explained (``a+unexplained``).
-:func:`run_guards` applies them in order and returns a :class:`Guarded`.
+A lag, or a law of the gap and the currents (saturation: :func:`lineless`), whose improvement lies in a
+narrow resonance is not counted (:func:`lag_guards`, :func:`apply_resonance_guard`); a verdict whose model
+leaves a channel's gap mostly open, many times the noise floor, is ``unexplained`` (:func:`channel_coverage`,
+:func:`apply_coverage`); an effect enters the verdict only when its own signature closes the gap it claims
+(:mod:`.claims`, the no-false-claim guard) and a named verdict that leaves a located gap no library signature
+has is partly explained (``a+unexplained``), among them a dependence on session time at a fixed state that
+the verdict's model leaves (:func:`apply_drift`, :mod:`..outside`). :func:`run_guards` applies them in order
+and returns a :class:`Guarded`.
 """
 
 from __future__ import annotations
@@ -17,13 +19,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..fit import residuals_with
+from ..outside import TimeDrift, time_drift
 from ..peaks import GUARD_FLAG, ResonanceGuard, SpectralPeak, confirm_peaks, resonance_guard
 from ..residuals import CHANNELS, Residual
 from ..result import NoiseFindings
 from ..settings import DiagnoseSettings, VerdictRules
+from ..signatures import SIGNATURES
 from ..verdict import EffectSets
 from .baseline import Baseline
 from .claims import ClaimChecks, check_claims
+from .localization import Localization
 from .models import Attribution, Run, settle_verdict
 from .split import Split
 
@@ -44,8 +49,21 @@ def _own(att: Attribution) -> Attribution:
     )
 
 
+def lineless(effect: str) -> bool:
+    """Whether ``effect`` can leave no spectral line of its own: its signature has no period in ``d`` and reads
+    only the gap, the position and the currents (:data:`..signatures.SIGNATURES`: saturation, the commutation
+    offset, a parameter error). Such a law scales or rotates the model's own terms, so whatever line it makes
+    is at a frequency of the motion, where the model predicts most of the measured power (a forced line,
+    :func:`..peaks.forced_peaks`, which the resonance guard leaves out); an improvement that lies in a
+    resonance the model does not predict is that resonance absorbed through the currents the controller moves
+    with it (a lightly damped frame mode named ``saturation``, issue 27)."""
+    sig = SIGNATURES.get(effect)
+    return sig is not None and not sig.periods_m and set(sig.variables) <= {"g", "d", "i_q", "i_d"}
+
+
 def lag_guards(split: Split, base: Baseline, att: Attribution, noise: NoiseFindings) -> dict[str, ResonanceGuard]:
-    """Resonance guard of every lag-type candidate on the held-out runs (see :func:`..peaks.resonance_guard`).
+    """Resonance guard of every lag-type candidate, and of every line-less effect of the verdict
+    (:func:`lineless`), on the held-out runs (see :func:`..peaks.resonance_guard`).
 
     A lag named with other effects is judged by what it adds to them: ``before`` is the joint model of the
     others (from the backward check, :func:`.joint.backward`), ``after`` the full model, and only the
@@ -57,7 +75,7 @@ def lag_guards(split: Split, base: Baseline, att: Attribution, noise: NoiseFindi
     out = {}
     sel = list(att.verdict.selected) if att.final_fit is not None else []
     for name, spec in att.specs.items():
-        if not spec.lag or name not in att.fits:
+        if name not in att.fits or not (spec.lag or (name in sel and lineless(name))):
             continue
         rest = frozenset(n for n in sel if n != name)
         if name in sel and rest and rest in att.models:
@@ -172,8 +190,12 @@ def apply_resonance_guard(base: Baseline, att: Attribution, guards: dict[str, Re
         v.reasons.append(
             f"{n}: {g.fraction_in_peaks:.0%} of its improvement lies in the residual's peak(s) at "
             + ", ".join(f"{f:.2f}" for f in g.peaks_hz)
-            + " Hz; a lag scales the residual smoothly over frequency and cannot explain a narrow resonance: "
-            "not counted"
+            + (
+                " Hz; a lag scales the residual smoothly over frequency"
+                if att.specs[n].lag
+                else " Hz; a static law of the gap and the currents makes no line the motion does not have"
+            )
+            + " and cannot explain a narrow resonance: not counted"
         )
     keep = [n for n in names if n not in bad]
     for s_ in att.scores:
@@ -188,6 +210,49 @@ def apply_resonance_guard(base: Baseline, att: Attribution, guards: dict[str, Re
     if len(keep) == 1 and keep[0] in att.fits:
         att.final_spec, att.final_fit = att.specs[keep[0]], att.fits[keep[0]]
     return att
+
+
+def apply_drift(
+    split: Split,
+    base: Baseline,
+    att: Attribution,
+    loc: Localization | None,
+    noise: NoiseFindings,
+    st: DiagnoseSettings,
+) -> tuple[Attribution, list[TimeDrift]]:
+    """A named verdict cannot explain a drift in session time: with one left, it is partly explained.
+
+    No library effect depends on time at a fixed state (:mod:`..outside`). When the localization found such a
+    drift in the baseline residual (:attr:`.localization.Localization.outside`), the verdict's model is tested
+    for it in turn (:func:`..outside.time_drift` on its training and held-out residuals, against the noise
+    model's floor, ``st.z_min`` and ``st.drift_min_floor``): an effect's law may take up part of a drift
+    through the runs' operating points, never all of it at every state. If the drift remains, the verdict
+    becomes ``a+unexplained`` and its reasons say where (the swing over the session, as a force and as a
+    reading drift). Returns the selection's record (a new one when the verdict changes) and the drifts that
+    remain.
+    """
+    if loc is None or not loc.outside or not att.verdict.named or att.final_fit is None:
+        return att, []
+    a_train = residuals_with(att.final_spec, att.final_fit, split.train, base.p, split.u_train)
+    a_test = residuals_with(att.final_spec, att.final_fit, split.test, base.p, split.u_test)
+    left: list[TimeDrift] = []
+    for d in loc.outside:
+        c = CHANNELS.index(d.channel)
+        nc = noise.checks.get(d.channel)
+        fl = nc.floor if nc is not None and np.isfinite(nc.floor) else base.fvec[c]
+        td = time_drift(a_train, a_test, c, float(fl), z_crit=st.z_min, min_over_floor=st.drift_min_floor,
+                        mass=d.mass, stiffness=d.stiffness)  # fmt: skip
+        if td is not None and td.significant:
+            left.append(td)
+    if not left:
+        return att, []
+    att = _own(att)
+    att.verdict.sets = att.verdict.sets.partly()
+    att.verdict.reasons.append(
+        f"partly explained: {att.verdict.verdict.replace('+unexplained', '')} leaves a drift in session time that "
+        "no library effect has: " + "; ".join(d.describe() for d in left)
+    )
+    return att, left
 
 
 @dataclass(frozen=True)
@@ -206,6 +271,8 @@ class Guarded:
         When the coverage turned the verdict ``unexplained``: the effect set and its coverage; else empty.
     claims : ClaimChecks or None
         The no-false-claim guard's evidence per effect and the located gap (:func:`.claims.check_claims`).
+    drifts : tuple of TimeDrift
+        Drifts in session time the verdict's model leaves (:func:`apply_drift`).
     warnings : tuple of str
         Fits of the guards whose solver did not converge.
     """
@@ -216,6 +283,7 @@ class Guarded:
     partial: dict
     claims: ClaimChecks | None = None
     warnings: tuple[str, ...] = ()
+    drifts: tuple[TimeDrift, ...] = ()
 
 
 def run_guards(
@@ -225,9 +293,11 @@ def run_guards(
     noise: NoiseFindings,
     st: DiagnoseSettings,
     progress: bool = False,
+    loc: Localization | None = None,
 ) -> Guarded:
     """The guards in order: the lags' resonance guard, the no-false-claim guard (each effect's signature and
-    its gain over the others' full freedom), then the channel coverage (each may overturn the verdict)."""
+    its gain over the others' full freedom), the channel coverage (each may overturn the verdict), then a drift
+    in session time the verdict leaves (``loc``: the localization that found it, :func:`apply_drift`)."""
     guards = lag_guards(split, base, att, noise)
     att = apply_resonance_guard(base, att, guards)
     claims = None
@@ -237,14 +307,17 @@ def run_guards(
         att.models = dict(att.models)
         claims = check_claims(run, att, noise)
     att, coverage, partial = apply_coverage(base, att, noise, st)
-    return Guarded(att, guards, coverage, partial, claims, tuple(run.warnings))
+    att, drifts = apply_drift(split, base, att, loc, noise, st)
+    return Guarded(att, guards, coverage, partial, claims, tuple(run.warnings), tuple(drifts))
 
 
 __all__ = [
     "Guarded",
     "apply_coverage",
+    "apply_drift",
     "apply_resonance_guard",
     "channel_coverage",
     "lag_guards",
+    "lineless",
     "run_guards",
 ]

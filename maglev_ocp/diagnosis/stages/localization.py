@@ -3,7 +3,8 @@
 The baseline residual binned over gap x position and each state, its spectrum and the period scan in d
 (:func:`localize_gap`, :mod:`..localize`); regions of the gap x position plane (:func:`regions`); the
 noise-model floor, whiteness and spectral peaks (:func:`noise_stage`, :mod:`..noise`, :mod:`..peaks`). The
-result is a :class:`Localization`; the noise stage returns a new one with its evidence added.
+result is a :class:`Localization`; the noise stage returns a new one with its evidence added, among it a
+dependence of the residual on session time at a fixed state, which no library effect has (:mod:`..outside`).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..localize import ChannelFloor, Region, bin_stats, edges_for, period_scan, pool, regions_from_map
+from ..outside import TimeDrift, model_stiffness, time_drift
 from ..peaks import NoiseCheck, SpectralPeak, confirm_peaks, noise_check
 from ..residuals import CHANNELS, Residual
 from ..result import ChannelView, NoiseFindings
@@ -32,15 +34,23 @@ class Localization:
     evidence: tuple[str, ...]
     infl: np.ndarray
     fs: float
+    #: Per channel, the residual's dependence on session time at a fixed state (:func:`..outside.time_drift`),
+    #: significant or not (the noise stage's; empty before it).
+    drifts: tuple[TimeDrift, ...] = ()
 
     @property
     def gap_detected(self) -> bool:
         """Any evidence of a gap beyond the floor."""
         return bool(self.evidence)
 
-    def with_evidence(self, more: Sequence[str]) -> Localization:
-        """A new record with more evidence of a gap (the noise stage's), after this one's."""
-        return replace(self, evidence=(*self.evidence, *more))
+    def with_evidence(self, more: Sequence[str], drifts: Sequence[TimeDrift] = ()) -> Localization:
+        """A new record with more evidence of a gap (the noise stage's), after this one's, and its drift tests."""
+        return replace(self, evidence=(*self.evidence, *more), drifts=(*self.drifts, *drifts))
+
+    @property
+    def outside(self) -> tuple[TimeDrift, ...]:
+        """The significant drifts: located gaps that no library effect can have caused."""
+        return tuple(d for d in self.drifts if d.significant)
 
 
 def views(
@@ -145,15 +155,26 @@ def localize_gap(split: Split, base: Baseline, st: DiagnoseSettings, rng: np.ran
 
 
 def noise_stage(
-    split: Split, base: Baseline, loc: Localization, q: float, seed: int = 0, excess_min: float = 1.5
+    split: Split,
+    base: Baseline,
+    loc: Localization,
+    q: float,
+    seed: int = 0,
+    excess_min: float = 1.5,
+    drift_z: float = 4.0,
+    drift_min_floor: float = 0.5,
 ) -> tuple[NoiseFindings, Localization]:
     """Stage 3b (noise): noise-model floors, whiteness and spectral peaks of the baseline residual (:mod:`.noise`).
 
     Adds to the localization's evidence of a gap what the data-based floor
     hides: peaks (resonances, lines) beyond the noise model that the training
-    and the held-out runs both show, and a filtered residual above
-    ``excess_min`` times the noise-model floor that is not white. Returns the
-    findings and a new localization record with that evidence after its own.
+    and the held-out runs both show, a filtered residual above
+    ``excess_min`` times the noise-model floor that is not white, and a
+    dependence on session time at a fixed state above the noise model's floor
+    (:func:`..outside.time_drift`: no library effect depends on time, so such a
+    gap is located and outside the library). Returns the findings and a new
+    localization record with that evidence after its own. ``drift_z`` and ``drift_min_floor``: the drift
+    test's held-out z and rms over the floor (:func:`..outside.time_drift`; a floor of 0: no test).
     """
     allr = base.b_train + base.b_test
     checks: dict[str, NoiseCheck] = {}
@@ -174,7 +195,21 @@ def noise_stage(
                 f"{nc.floor:.3g} m/s^2 and not white (flatness {nc.whiteness.flatness:.2f} < "
                 f"{nc.whiteness.flatness_null:.2f})"
             )
-    return NoiseFindings(checks, peaks), loc.with_evidence(evidence)
+    drifts: list[TimeDrift] = []
+    if drift_min_floor <= 0:
+        return NoiseFindings(checks, peaks), loc.with_evidence(evidence)
+    stiff = model_stiffness(base.spec, base.p, split.test)
+    masses = (base.params.Mv, base.params.Mh)
+    for c, ch in enumerate(CHANNELS):
+        fl = checks[ch].floor if ch in checks and np.isfinite(checks[ch].floor) else base.fvec[c]
+        td = time_drift(base.b_train, base.b_test, c, float(fl), z_crit=drift_z, min_over_floor=drift_min_floor,
+                        mass=masses[c], stiffness=float(stiff[c]))  # fmt: skip
+        if td is None:
+            continue
+        drifts.append(td)
+        if td.significant:
+            evidence.append(td.describe())
+    return NoiseFindings(checks, peaks), loc.with_evidence(evidence, drifts)
 
 
 def noise_floor_ms(base: Baseline, noise: NoiseFindings) -> float:
