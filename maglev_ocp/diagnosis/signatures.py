@@ -69,6 +69,9 @@ class Signature:
         What it obeys, in words (odd in velocity, even in d, monotone in g, ...).
     basis : dict
         ``{channel: [columns]}``: a linear basis of laws with this signature, per channel.
+    dynamic : bool
+        The effect is no map of the state and the currents (the amplifier lag: a force following the current
+        *rate*): its evidence must show at a fixed state, beyond a flexible static map (:func:`static_basis`).
     """
 
     effect: str
@@ -77,6 +80,7 @@ class Signature:
     periods_m: tuple[float, ...]
     symmetry: str
     basis: dict[str, list[Column]]
+    dynamic: bool = False
 
     def matrix(self, feat: Feat, channel: str) -> np.ndarray:
         """The basis evaluated on a run's residual samples, shape ``(n, p)`` (``p = 0`` off its channels)."""
@@ -119,14 +123,47 @@ def _catalogue() -> dict[str, Signature]:
                   "a rotation of the currents: i_d into the thrust, i_q into the lift, constant or drifting in d",
                   {"horizontal": [i_d, lambda f: f["i_d"] * f["d"] / 0.05],
                    "vertical": [i_q, lambda f: f["i_q"] * f["d"] / 0.05, lambda f: f["i_q"] * f["i_d"]]}),
-        Signature("amplifier_lag", ("di_q", "di_d"), CHANNELS, (), "proportional to the current rates",
+        Signature("amplifier_lag", ("di_q", "di_d"), CHANNELS, (),
+                  "proportional to the current rates at a fixed state (no static map of state and currents)",
                   {"horizontal": [lambda f: f["di_q"], lambda f: f["di_q"] * f["i_d"]],
-                   "vertical": [lambda f: f["di_d"], lambda f: f["di_d"] * f["i_d"], lambda f: f["di_q"]]}),
+                   "vertical": [lambda f: f["di_d"], lambda f: f["di_d"] * f["i_d"], lambda f: f["di_q"]]},
+                  dynamic=True),
         Signature("parameter_error", ("g", "i_q", "i_d"), CHANNELS, (), "the model's own terms scaled",
                   {"horizontal": [i_q, lambda f: f["i_q"] * f["i_d"]],
                    "vertical": [one, i_d, lambda f: f["i_d"] ** 2, lambda f: f["i_q"] ** 2]}),
     ]  # fmt: skip
     return {s.effect: s for s in sigs}
+
+
+#: Velocity scales [m/s] of the odd shapes of :func:`static_basis`: from below the velocity resolution of a 1 um
+#: encoder smoothed at 25 Hz to the stage's sweeps (a Stribeck dip, a Coulomb step, a LuGre pre-sliding slope).
+STATIC_V_SCALES: tuple[float, ...] = (2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 5e-2)
+
+
+def static_basis(feat: Feat) -> np.ndarray:
+    """A flexible static map of the state and the currents, shape ``(n, p)``: what a dynamic signature must show
+    beyond (its *fixed state*).
+
+    Per velocity, odd shapes at every scale of :data:`STATIC_V_SCALES` (``tanh(v / s)``) with ``v``, ``v |v|``
+    and ``v^3`` (any friction law of the library or outside it that is a function of the velocity: Coulomb,
+    Stribeck, viscous, a smoothed LuGre's steady state); polynomials of the gap, the position and the currents
+    to second order (saturation, end effects, parameter errors, a commutation offset). In closed loop the
+    current rates are correlated with the velocities (a lag's force error ``-t dF/dt`` is a damping term at a
+    single frequency): only what they explain beyond this map is a lag's own signature.
+    """
+    n = len(feat["t"])
+    cols = [np.ones(n)]
+    for v in ("g_dot", "d_dot"):
+        x = feat[v]
+        cols += [np.tanh(x / s) for s in STATIC_V_SCALES]
+        cols += [x, x * np.abs(x), x**3]
+    z = {"g": _dg(feat), "d": feat["d"] / 0.05, "i_q": feat["i_q"], "i_d": feat["i_d"]}
+    names = list(z)
+    for i, a in enumerate(names):
+        cols.append(z[a])
+        for b in names[i:]:
+            cols.append(z[a] * z[b])
+    return np.column_stack(cols)
 
 
 #: The catalogue of signatures, one per library effect.
@@ -247,7 +284,8 @@ def evidence(
     others : sequence of str
         Effects named with it: their bases are fitted first, and only what ``effect``'s basis explains beyond
         them counts (a basis correlated with another effect's remainder through the closed loop is not
-        evidence).
+        evidence). A dynamic signature (:attr:`Signature.dynamic`) is also judged beyond a flexible static map
+        of the state and currents (:func:`static_basis`), whatever effects are named with it.
     n_null : int
         Circular shifts of the residual against the features (the null reference).
     alpha : float
@@ -273,6 +311,8 @@ def evidence(
             continue
         b = _normalized(sig.matrix(feat, ch))
         a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != effect]
+        if sig.dynamic:  # at a fixed state: beyond a flexible static map (:func:`static_basis`)
+            a.append(static_basis(feat))
         a = _normalized(np.column_stack(a)) if a and sum(x.shape[1] for x in a) else np.zeros((len(y), 0))
         a = np.column_stack([np.ones(len(y)), a])
         inc = _Increment(a, b)
@@ -372,4 +412,14 @@ def locate_gap(
     return out
 
 
-__all__ = ["LIBRARY_PERIODS_M", "SIGNATURES", "Signature", "SignatureEvidence", "evidence", "locate_gap", "period_scan"]
+__all__ = [
+    "LIBRARY_PERIODS_M",
+    "SIGNATURES",
+    "STATIC_V_SCALES",
+    "Signature",
+    "SignatureEvidence",
+    "evidence",
+    "locate_gap",
+    "period_scan",
+    "static_basis",
+]
