@@ -24,7 +24,10 @@ channel (:func:`maglev_ocp.estimation.ident.hac_stderr`).
 The amplifier lag is the one dynamic effect: the plant filters the commanded
 currents (:meth:`AmplifierLag.filter_currents`, reused here as it is), and the
 candidate's ``bandwidth_hz`` is found by a bounded scalar search over the
-effective delay, with the remaining parameters fitted at every trial.
+effective delay, with the remaining parameters fitted at every trial. The
+transfer-function members of its family (a lag of first or second order and a
+fractional delay) are searched the same way over their group delay, the lag's
+share of it and the damping (:mod:`.lagfit`).
 """
 
 from __future__ import annotations
