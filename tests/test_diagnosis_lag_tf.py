@@ -391,3 +391,25 @@ def test_at_a_single_frequency_a_lag_is_a_damping_and_no_lag_evidence(seed):
     floors = {"vertical": FLOOR, "horizontal": FLOOR}
     res = _closed_loop_runs([0.7], lambda f, c: _stribeck_excess(f, c) + _lag_force(f, c), seed)
     assert not evidence("amplifier_lag", res, floors, seed=seed).shows
+
+
+@pytest.mark.parametrize("law", ["fractional", "second"])
+def test_the_search_coordinates_map_to_physical_parameters_with_the_same_group_delay(law):
+    """Group delay, lag share and damping give a bandwidth within the library's range, a non-negative transport
+    delay, and the same group delay back (the plant's equivalent first order + whole samples too)."""
+    from maglev_ocp.diagnosis.lagfit import tf_theta
+    from maglev_ocp.effects import AmplifierLag
+
+    lo, hi = AmplifierLag.bounds()["bandwidth_hz"]
+    for t_eff in (0.0, 0.3e-3, 1.0e-3, 1.477e-3, 3.9e-3):
+        for rho in (0.0, 0.3, 1.0):
+            for zeta in (0.35, 0.7, 1.4):
+                th = tf_theta(law, t_eff, rho, zeta, TS)
+                assert lo <= th["tf_bandwidth_hz"] <= hi and th["delay_s"] >= 0.0
+                order = int(th["order"])
+                got = tf_group_delay(order, th["tf_bandwidth_hz"], th["zeta"], th["delay_s"])
+                assert got == pytest.approx(th["effective_delay_s"], abs=1e-12)
+                # up to the lag of the highest bandwidth (2 zeta / w_max < 10 us, a hundredth of a period)
+                assert th["effective_delay_s"] == pytest.approx(t_eff, abs=1e-5)
+                plant = th["delay_samples"] * TS + 1 / (2 * math.pi * th["bandwidth_hz"])
+                assert plant == pytest.approx(th["effective_delay_s"], abs=1e-5)
