@@ -182,8 +182,9 @@ class SignatureEvidence:
         The effect.
     per_channel : dict
         ``{channel: {explained, null_q, rms_explained_over_floor}}``: the share of the residual's energy the
-        signature explains beyond the others' bases, the null's ``1 - alpha`` quantile of the same share,
-        and the rms it explains over the channel's noise floor.
+        signature explains beyond the others' bases (a dynamic signature: also beyond :func:`static_basis`),
+        the null's ``1 - alpha`` quantile of the same share, and the rms it explains beyond the others' bases
+        over the channel's noise floor.
     shows : bool
         The share exceeds the null quantile in some channel and what it explains is above ``min_over_floor``
         times the floor there.
@@ -311,16 +312,22 @@ def evidence(
             continue
         b = _normalized(sig.matrix(feat, ch))
         a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != effect]
-        if sig.dynamic:  # at a fixed state: beyond a flexible static map (:func:`static_basis`)
-            a.append(static_basis(feat))
-        a = _normalized(np.column_stack(a)) if a and sum(x.shape[1] for x in a) else np.zeros((len(y), 0))
-        a = np.column_stack([np.ones(len(y)), a])
-        inc = _Increment(a, b)
-        share = inc(y)
+        a_o = _normalized(np.column_stack(a)) if a and sum(x.shape[1] for x in a) else np.zeros((len(y), 0))
+        a_o = np.column_stack([np.ones(len(y)), a_o])
+        size = share_o = _Increment(a_o, b)(y)
+        if sig.dynamic:  # significance at a fixed state: beyond a flexible static map (:func:`static_basis`)
+            a_ = np.column_stack([a_o, _normalized(static_basis(feat))])
+        else:
+            a_ = a_o
+        inc = _Increment(a_, b)
+        share = inc(y) if sig.dynamic else share_o
         null = [inc(_shifted(y, ids, rng)) for _ in range(n_null)]
         q = float(np.quantile(null, 1 - alpha)) if null else math.inf
         fl = floors.get(ch, math.nan)
-        over = math.sqrt(share * float(np.mean(y**2))) / fl if np.isfinite(fl) and fl > 0 else math.nan
+        # Its size is what its basis explains beyond the other effects (a dynamic signature's part at a fixed
+        # state proves it is no static map; in closed loop that part is a fraction of the whole, e.g. 0.25 of
+        # it where the current rate correlates -0.97 with the velocity).
+        over = math.sqrt(size * float(np.mean(y**2))) / fl if np.isfinite(fl) and fl > 0 else math.nan
         ok = bool(share > q and (not np.isfinite(over) or over >= min_over_floor))
         out[ch] = {"explained": share, "null_q": q, "rms_explained_over_floor": over, "shows": ok}
         shows = shows or ok
