@@ -161,8 +161,7 @@ def effect_force(
             continue
         Z = run.Z
         if spec.lag and i < len(u_runs):
-            th = {"bandwidth_hz": fit.extra["bandwidth_hz"], "delay_samples": int(fit.extra["delay_samples"])}
-            Z = lag_features(run.Z, u_runs[i], th)
+            Z = lag_features(run.Z, u_runs[i], fit.extra)  # the fitted member's amplifier (any law)
         a_aug = accel_series(spec, Z, pv, fit.w)
         a_off = accel_series(base, run.Z, p_off, np.zeros(0))
         da = a_aug - a_off

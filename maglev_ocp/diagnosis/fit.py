@@ -24,7 +24,10 @@ channel (:func:`maglev_ocp.estimation.ident.hac_stderr`).
 The amplifier lag is the one dynamic effect: the plant filters the commanded
 currents (:meth:`AmplifierLag.filter_currents`, reused here as it is), and the
 candidate's ``bandwidth_hz`` is found by a bounded scalar search over the
-effective delay, with the remaining parameters fitted at every trial.
+effective delay, with the remaining parameters fitted at every trial. The
+transfer-function members of its family (a lag of first or second order and a
+fractional delay) are searched the same way over their group delay, the lag's
+share of it and the damping (:mod:`.lagfit`).
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ from ..effects import AmplifierLag, EffectSet
 from ..estimation.ident import autocorr_factor, hac_stderr
 from ..signals import PARAM_NAMES
 from .fitdata import Dataset, one_blas_thread
+from .lagfit import TF_LAWS, fit_lag_tf
 from .library import CandidateSpec
 from .residuals import Z_NAMES, PreparedRun, Residual, residual_of
 from .sxnumpy import vectorized
@@ -161,7 +165,8 @@ class FitResult:
     @property
     def k(self) -> int:
         """Number of fitted parameters."""
-        return len(self.w) + (1 if "effective_delay_s" in self.extra else 0)
+        lag = self.extra.get("lag_params", 1.0 if "effective_delay_s" in self.extra else 0.0)
+        return len(self.w) + int(lag)
 
     def bic(self) -> float:
         """Information criterion with the effective sample size ``n_eff = n / inflation``.
@@ -499,6 +504,9 @@ def fit_candidate(
         return fitter.solve(starts=starts)
     if u_runs is None:
         raise ValueError("the amplifier lag needs the commanded currents of each run")
+    if spec.law in TF_LAWS:  # a transfer function with a fractional delay (.lagfit)
+        fr, extra = fit_lag_tf(fitter, data, u_runs, _lag_Z_theta, max_delay, starts, warm, hold=hold_lag)
+        return FitResult(fitter.spec, fr.w, fr.stderr, fr.sse, fr.n, fr.inflation, extra, fr.success, fr.status)
     t0 = warm.get("effective_delay_s") if warm else None
     return _fit_lag(fitter, data, u_runs, max_delay, starts, t0, hold=hold_lag)
 
@@ -539,6 +547,11 @@ def lag_Z(data: Dataset, u_runs: Sequence[np.ndarray], bw: float, delay: int) ->
     return np.vstack([lag_features(r.Z, u, theta) for r, u in zip(data.runs, u_runs, strict=True)])
 
 
+def _lag_Z_theta(data: Dataset, u_runs: Sequence[np.ndarray], theta: Mapping[str, float]) -> np.ndarray:
+    """Stacked features of ``data`` with the currents through the amplifier model ``theta`` (any member)."""
+    return np.vstack([lag_features(r.Z, u, theta) for r, u in zip(data.runs, u_runs, strict=True)])
+
+
 def lag_theta(t_eff: float, Ts: float = 1e-3) -> dict[str, float]:
     """Amplifier parameters for an effective delay ``t_eff`` [s]: whole samples of delay plus a lag.
 
@@ -548,11 +561,7 @@ def lag_theta(t_eff: float, Ts: float = 1e-3) -> dict[str, float]:
     into ``delay_samples = floor(t_eff / Ts)`` and ``bandwidth_hz = 1 / (2 pi r)``
     with the remainder ``r`` (capped at the library's upper bandwidth).
     """
-    lo, hi = AmplifierLag.bounds()["bandwidth_hz"]
-    n = math.floor(t_eff / Ts + 1e-9)
-    rem = t_eff - n * Ts
-    bw = hi if rem <= 1.0 / (2 * math.pi * hi) else 1.0 / (2 * math.pi * rem)
-    return {"bandwidth_hz": float(min(max(bw, lo), hi)), "delay_samples": float(n)}
+    return AmplifierLag.equivalent(t_eff, Ts)
 
 
 def _fit_lag(
@@ -623,8 +632,7 @@ def residuals_with(
     for i, run in enumerate(runs):
         Z = run.Z
         if spec.lag and fit is not None and u_runs is not None and run.n > 0:
-            theta = {"bandwidth_hz": fit.extra["bandwidth_hz"], "delay_samples": int(fit.extra["delay_samples"])}
-            Z = lag_features(run.Z, u_runs[i], theta)
+            Z = lag_features(run.Z, u_runs[i], fit.extra)  # the fitted member's amplifier (any law)
         if run.n == 0:
             out.append(Residual(run, np.zeros((0, 2)), np.zeros((0, 2))))
             continue
@@ -662,8 +670,7 @@ def resolution_spread(
             continue
         Z = run.Z
         if spec.lag and fit is not None and u_runs is not None:
-            theta = {"bandwidth_hz": fit.extra["bandwidth_hz"], "delay_samples": int(fit.extra["delay_samples"])}
-            Z = lag_features(run.Z, u_runs[i], theta)
+            Z = lag_features(run.Z, u_runs[i], fit.extra)  # the fitted member's amplifier (any law)
         a0 = accel_series(spec, Z, p, w)
         s = np.zeros_like(a0)
         for col in (Z_NAMES.index("g_dot"), Z_NAMES.index("d_dot")):

@@ -323,8 +323,12 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       smooth shape in ``|d|`` that never falls as the overhang grows (a cubic
       B-spline with non-negative steps, the same at both ends, so it also
       takes a loss that levels off), and the cogging's share of the loss;
-    - the amplifier lag searches a continuous effective delay (whole samples
-      plus a lag or a fractional delay, which act alike below the cut-off);
+    - ``amplifier_lag``: the library's member searches a continuous effective
+      delay (whole samples plus a lag, which act alike below the cut-off);
+      ``fractional``: a first-order lag and a transport delay of any length;
+      ``second``: a second-order response (natural frequency, damping) and a
+      fractional delay (:mod:`.lagfit`: the search over the group delay,
+      the lag's share of it and the damping);
       ``eddy_drag``: ``reitz``: a drag shaped in velocity (linear at low
       speed, falling above a critical velocity) with a lift that opens the
       gap (Reitz 1970), its coefficient decaying with g at a rate bounded
@@ -418,6 +422,28 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             ),
             law="spline",
             flexible=True,
+        ),
+    )
+    out["amplifier_lag"] += (
+        CandidateSpec(
+            "amplifier_lag",
+            (),
+            lag=True,
+            note=(
+                "first-order lag of bandwidth f_b and a transport delay of any length (the fraction of a sample "
+                "solved exactly within the ZOH period): 2 parameters searched"
+            ),
+            law="fractional",
+        ),
+        CandidateSpec(
+            "amplifier_lag",
+            (),
+            lag=True,
+            note=(
+                "second-order response wn^2 / (s^2 + 2 zeta wn s + wn^2) (a PI current loop with the inverter's "
+                "lag) of natural frequency f_n and damping zeta, and a fractional transport delay: 3 parameters"
+            ),
+            law="second",
         ),
     )
     out["eddy_drag"] += (

@@ -9,9 +9,11 @@ of :mod:`maglev_ocp.rigsim.laws`), the library members that were matched to it (
 reason and the commit that added them), diagnoses datasets of that family alone and in a pair, and reports
 how often the effect set is still named right (the issue's target: >= 85 % per family).
 
-A family whose only library member is the one it was matched by (the amplifier lag: one member whose lag
-search covers first and second order and fractional delays) cannot be left out without removing the effect
-itself; it is listed with ``members = ()`` and not run.
+A family whose only library member is the one it was matched by cannot be left out without removing the effect
+itself; it would be listed with ``members = ()`` and not run. The amplifier lag's transfer-function members
+(``fractional``, ``second``: :mod:`.lagfit`) have the form of the rig's first- and second-order laws with
+their fractional delays; left out, the library's first order + whole samples (its continuous effective delay)
+must take the rig's law.
 """
 
 from __future__ import annotations
@@ -131,11 +133,15 @@ MATCHED: tuple[MatchedMembers, ...] = (
         MatchedMembers(
             "amplifier_lag",
             f,
-            (),
-            "one member: its lag search (whole samples plus a lag or fractional delay, continuous effective delay) "
-            "covers the rig's first and second order and fractional delays; leaving it out removes the effect",
+            (member,),
+            f"'{member}' ({what}, issue 27 item 1, written from the current-loop literature) has the form of the "
+            "rig's law; left out, the first order + whole samples (a continuous effective delay) must take it",
         )
-        for f in ("first", "second", "delay")
+        for f, member, what in (
+            ("first", "fractional", "a first-order lag and a fractional delay"),
+            ("second", "second", "a second-order response and a fractional delay"),
+            ("delay", "fractional", "a fractional delay with a lag that may vanish"),
+        )
     ),
     MatchedMembers(
         "commutation_offset",

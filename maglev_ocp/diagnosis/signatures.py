@@ -76,6 +76,9 @@ class Signature:
         (:func:`core_evidence`): beyond a flexible function of ``fixed`` (empty: no such test).
     fixed : tuple of str
         The state variables held fixed by the core test.
+    dynamic : bool
+        The effect is no map of the state and the currents (the amplifier lag: a force following the current
+        *rate*): its evidence must show at a fixed state, beyond a flexible static map (:func:`static_basis`).
     """
 
     effect: str
@@ -86,6 +89,7 @@ class Signature:
     basis: dict[str, list[Column]]
     core: dict[str, list[Column]] = field(default_factory=dict)
     fixed: tuple[str, ...] = ()
+    dynamic: bool = False
 
     def matrix(self, feat: Feat, channel: str) -> np.ndarray:
         """The basis evaluated on a run's residual samples, shape ``(n, p)`` (``p = 0`` off its channels)."""
@@ -150,14 +154,47 @@ def _catalogue() -> dict[str, Signature]:
                   "a rotation of the currents: i_d into the thrust, i_q into the lift, constant or drifting in d",
                   {"horizontal": [i_d, lambda f: f["i_d"] * f["d"] / 0.05],
                    "vertical": [i_q, lambda f: f["i_q"] * f["d"] / 0.05, lambda f: f["i_q"] * f["i_d"]]}),
-        Signature("amplifier_lag", ("di_q", "di_d"), CHANNELS, (), "proportional to the current rates",
+        Signature("amplifier_lag", ("di_q", "di_d"), CHANNELS, (),
+                  "proportional to the current rates at a fixed state (no static map of state and currents)",
                   {"horizontal": [lambda f: f["di_q"], lambda f: f["di_q"] * f["i_d"]],
-                   "vertical": [lambda f: f["di_d"], lambda f: f["di_d"] * f["i_d"], lambda f: f["di_q"]]}),
+                   "vertical": [lambda f: f["di_d"], lambda f: f["di_d"] * f["i_d"], lambda f: f["di_q"]]},
+                  dynamic=True),
         Signature("parameter_error", ("g", "i_q", "i_d"), CHANNELS, (), "the model's own terms scaled",
                   {"horizontal": [i_q, lambda f: f["i_q"] * f["i_d"]],
                    "vertical": [one, i_d, lambda f: f["i_d"] ** 2, lambda f: f["i_q"] ** 2]}),
     ]  # fmt: skip
     return {s.effect: s for s in sigs}
+
+
+#: Velocity scales [m/s] of the odd shapes of :func:`static_basis`: from below the velocity resolution of a 1 um
+#: encoder smoothed at 25 Hz to the stage's sweeps (a Stribeck dip, a Coulomb step, a LuGre pre-sliding slope).
+STATIC_V_SCALES: tuple[float, ...] = (2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 5e-2)
+
+
+def static_basis(feat: Feat) -> np.ndarray:
+    """A flexible static map of the state and the currents, shape ``(n, p)``: what a dynamic signature must show
+    beyond (its *fixed state*).
+
+    Per velocity, odd shapes at every scale of :data:`STATIC_V_SCALES` (``tanh(v / s)``) with ``v``, ``v |v|``
+    and ``v^3`` (any friction law of the library or outside it that is a function of the velocity: Coulomb,
+    Stribeck, viscous, a smoothed LuGre's steady state); polynomials of the gap, the position and the currents
+    to second order (saturation, end effects, parameter errors, a commutation offset). In closed loop the
+    current rates are correlated with the velocities (a lag's force error ``-t dF/dt`` is a damping term at a
+    single frequency): only what they explain beyond this map is a lag's own signature.
+    """
+    n = len(feat["t"])
+    cols = [np.ones(n)]
+    for v in ("g_dot", "d_dot"):
+        x = feat[v]
+        cols += [np.tanh(x / s) for s in STATIC_V_SCALES]
+        cols += [x, x * np.abs(x), x**3]
+    z = {"g": _dg(feat), "d": feat["d"] / 0.05, "i_q": feat["i_q"], "i_d": feat["i_d"]}
+    names = list(z)
+    for i, a in enumerate(names):
+        cols.append(z[a])
+        for b in names[i:]:
+            cols.append(z[a] * z[b])
+    return np.column_stack(cols)
 
 
 #: The catalogue of signatures, one per library effect.
@@ -176,8 +213,9 @@ class SignatureEvidence:
         The effect.
     per_channel : dict
         ``{channel: {explained, null_q, rms_explained_over_floor}}``: the share of the residual's energy the
-        signature explains beyond the others' bases, the null's ``1 - alpha`` quantile of the same share,
-        and the rms it explains over the channel's noise floor.
+        signature explains beyond the others' bases (a dynamic signature: also beyond :func:`static_basis`),
+        the null's ``1 - alpha`` quantile of the same share, and the rms it explains beyond the others' bases
+        over the channel's noise floor.
     shows : bool
         The share exceeds the null quantile in some channel and what it explains is above ``min_over_floor``
         times the floor there.
@@ -278,7 +316,8 @@ def evidence(
     others : sequence of str
         Effects named with it: their bases are fitted first, and only what ``effect``'s basis explains beyond
         them counts (a basis correlated with another effect's remainder through the closed loop is not
-        evidence).
+        evidence). A dynamic signature (:attr:`Signature.dynamic`) is also judged beyond a flexible static map
+        of the state and currents (:func:`static_basis`), whatever effects are named with it.
     n_null : int
         Circular shifts of the residual against the features (the null reference).
     alpha : float
@@ -307,14 +346,22 @@ def evidence(
             continue
         b = _normalized(sig.matrix(feat, ch))
         a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != effect]
-        a = _normalized(np.column_stack(a)) if a and sum(x.shape[1] for x in a) else np.zeros((len(y), 0))
-        a = np.column_stack([np.ones(len(y)), a])
-        inc = _Increment(a, b)
-        share = inc(y)
+        a_o = _normalized(np.column_stack(a)) if a and sum(x.shape[1] for x in a) else np.zeros((len(y), 0))
+        a_o = np.column_stack([np.ones(len(y)), a_o])
+        size = share_o = _Increment(a_o, b)(y)
+        if sig.dynamic:  # significance at a fixed state: beyond a flexible static map (:func:`static_basis`)
+            a_ = np.column_stack([a_o, _normalized(static_basis(feat))])
+        else:
+            a_ = a_o
+        inc = _Increment(a_, b)
+        share = inc(y) if sig.dynamic else share_o
         null = [inc(_shifted(y, ids, rng)) for _ in range(n_null)]
         q = float(np.quantile(null, 1 - alpha)) if null else math.inf
         fl = floors.get(ch, math.nan)
-        over = math.sqrt(share * float(np.mean(y**2))) / fl if np.isfinite(fl) and fl > 0 else math.nan
+        # Its size is what its basis explains beyond the other effects (a dynamic signature's part at a fixed
+        # state proves it is no static map; in closed loop that part is a fraction of the whole, e.g. 0.25 of
+        # it where the current rate correlates -0.97 with the velocity).
+        over = math.sqrt(size * float(np.mean(y**2))) / fl if np.isfinite(fl) and fl > 0 else math.nan
         ok = bool(share > q and (not np.isfinite(over) or over >= min_over_floor))
         out[ch] = {"explained": share, "null_q": q, "rms_explained_over_floor": over, "shows": ok}
         shows = shows or ok
@@ -489,6 +536,7 @@ __all__ = [
     "LIBRARY_PERIODS_M",
     "SIGNATURES",
     "STATE_SPLINES",
+    "STATIC_V_SCALES",
     "Signature",
     "SignatureEvidence",
     "core_evidence",
@@ -496,4 +544,5 @@ __all__ = [
     "locate_gap",
     "period_scan",
     "state_map_basis",
+    "static_basis",
 ]

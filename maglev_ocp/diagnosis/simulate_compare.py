@@ -136,8 +136,7 @@ def compare_trajectories(
             Zm = Z_full
             if spec.lag and fit is not None:
                 # The amplifier's output currents, from the plant's own filter (see candidates.lag_features).
-                th = {"bandwidth_hz": fit.extra["bandwidth_hz"], "delay_samples": int(fit.extra["delay_samples"])}
-                ua = AmplifierLag.filter_currents(u, th, run.Ts)
+                ua = AmplifierLag.filter_currents(u, fit.extra, run.Ts)  # the fitted member's amplifier (any law)
                 Zm = np.column_stack([X, ua, np.vstack([ua[:1], ua[:-1]])])
             sim = _window_sim(spec, n, n_sub, run.Ts)
             msim = sim.map(len(starts))
