@@ -42,6 +42,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         405197630,  # issue 27's blind rig check rerun (eleventh session): spent
         144262670,  # issue 27's blind check on rigsim's third law set (twelfth session): spent
         2126563435, 128601744,  # diagnosed-vs-blind validation rigs butter_elasto, pi_brauer (twelfth session)
+        26068247, 1127350836,  # diagnosed-vs-blind validation rigs maxwell_fringe, langevin_iron (thirteenth session)
         *range(27001, 27009),  # none datasets of the independent rig: the drift test's false alarms (s13, outlib)
         27101, 27102, 27103, 27104, 27105,  # own out-of-library effects and controls (test_diagnosis_outside, s13)
     }
