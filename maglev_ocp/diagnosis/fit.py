@@ -318,6 +318,16 @@ class CandidateFitter:
         with one_blas_thread():
             return self._solve(Z, starts)
 
+    def solve_from_best(self, Z: np.ndarray, starts: Sequence[np.ndarray], done: Sequence[FitResult]) -> FitResult:
+        """:meth:`solve` on features ``Z`` (a delay search's trial) from the best converged fit of ``done``, the
+        fits made so far in the search (a profile over the delay is smooth, and the other parameters move little
+        with it), with the given ``starts`` as the fallback; every start when ``done`` holds none."""
+        ok = [c for c in done if c.success]
+        fr = self.solve(Z=Z, starts=starts if not ok else [min(ok, key=lambda c_: c_.sse).w])
+        if ok and not fr.success:
+            fr = self.solve(Z=Z, starts=starts)
+        return fr
+
     def _solve(self, Z: np.ndarray | None, starts: Sequence[np.ndarray] | None) -> FitResult:
         spec = self.spec
         Z = self.data.Z if Z is None else Z
@@ -582,14 +592,7 @@ def _fit_lag(
         if key not in cache:
             th = lag_theta(key, Ts)
             Z = lag_Z(data, u_runs, th["bandwidth_hz"], int(th["delay_samples"]))
-            # Every start at the first delay; then from the best fit so far (the profile over the delay is
-            # smooth, and the other parameters move little with it), with the given starts as a fallback.
-            done = [c for c in cache.values() if c.success]
-            here = starts if not done else [min(done, key=lambda c_: c_.sse).w]
-            fr = fitter.solve(Z=Z, starts=here)
-            if done and not fr.success:
-                fr = fitter.solve(Z=Z, starts=starts)
-            cache[key] = fr
+            cache[key] = fitter.solve_from_best(Z, starts, list(cache.values()))
         return cache[key].sse
 
     # A warm start (the single fit's delay) searches around it only; otherwise a grid over [0, t_max].

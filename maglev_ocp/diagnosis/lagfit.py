@@ -158,12 +158,7 @@ def fit_lag_tf(
         if key not in cache:
             th = tf_theta(law, *key, Ts)
             Z = lag_Z(data, u_runs, th)
-            done = [c for c in cache.values() if c.success]
-            here = starts if not done else [min(done, key=lambda c_: c_.sse).w]
-            fr = fitter.solve(Z=Z, starts=here)
-            if done and not fr.success:
-                fr = fitter.solve(Z=Z, starts=starts)
-            cache[key] = fr
+            cache[key] = fitter.solve_from_best(Z, starts, list(cache.values()))
         return cache[key].sse
 
     def best() -> tuple[float, float, float]:
