@@ -35,7 +35,7 @@ def _mode(f0: float, zeta: float, n: int, rng: np.random.Generator) -> np.ndarra
     return e / e.std()
 
 
-def synthetic_residuals(f0=None, zeta=0.02, x_rms=10e-6, n_runs=4, n=10000, seed=0, line=None):
+def synthetic_residuals(f0=None, zeta=0.02, x_rms=10e-6, n_runs=4, n=10000, seed=0, line=None, gain_error=None):
     """Residuals of a PD loop with white acceleration noise, 2 um encoder noise, 10 um quantization.
 
     The model knows the loop's own acceleration, so the residual is the noise (and the mode, if
@@ -49,6 +49,7 @@ def synthetic_residuals(f0=None, zeta=0.02, x_rms=10e-6, n_runs=4, n=10000, seed
     out = []
     for i in range(n_runs):
         a_n = SIG_A * rng.standard_normal(n - 1)
+        a_c = gain_error[0] * rng.standard_normal(n - 1) if gain_error else np.zeros(n - 1)
         t = np.arange(n) * k.Ts
         ref = np.column_stack([0.015 + 2e-3 * np.sin(2 * np.pi * 0.2 * t + i), 0.04 * np.sin(2 * np.pi * 0.15 * t)])
         if line is not None:
@@ -59,7 +60,7 @@ def synthetic_residuals(f0=None, zeta=0.02, x_rms=10e-6, n_runs=4, n=10000, seed
         acc = np.zeros((n - 1, 2))
         for j in range(n - 1):
             acc[j] = -400.0 * (x[j] - ref[j]) - 40.0 * v
-            acc[j, 0] += a_n[j]
+            acc[j, 0] += a_n[j] + a_c[j]
             x[j + 1] = x[j] + v * k.Ts + 0.5 * acc[j] * k.Ts**2
             v = v + acc[j] * k.Ts
         if f0:
@@ -67,7 +68,7 @@ def synthetic_residuals(f0=None, zeta=0.02, x_rms=10e-6, n_runs=4, n=10000, seed
         y = np.round((x + 2e-6 * rng.standard_normal(x.shape)) / k.encoder_resolution) * k.encoder_resolution
         run = prepare_run(RunInput(f"r{i}", k.Ts, y, np.zeros((n, 2))), filt)
         model = acc.copy()
-        model[:, 0] -= a_n
+        model[:, 0] -= a_n + (gain_error[1] * a_c if gain_error else 0.0)  # the model's current force is off
         if line is not None:
             bp = sps.butter(2, [line[0] - 1.0, line[0] + 1.0], btype="bandpass", fs=1 / k.Ts, output="sos")
             model[:, 0] -= line[2] * sps.sosfiltfilt(bp, model[:, 0])
@@ -97,6 +98,24 @@ def test_white_residual_passes_the_whiteness_check_and_its_model_floor_is_the_no
     assert m["position_noise_m"] == pytest.approx(math.sqrt(1e-10 / 12 + 4e-12), rel=0.1)
     assert m["accel_noise_m_s2"] == pytest.approx(SIG_A, rel=0.25)
     assert nc.quantization == pytest.approx(filt.quantization_floor(), rel=1e-12)
+
+
+def test_a_broadband_misfit_raises_the_noise_model_floor_and_the_right_model_gives_the_noise(white):
+    """Why the claim guard takes its floor from the verdict's model (:func:`..stages.claims._verdict_floors`): a
+    model whose force on the current is off (a constant, a commutation offset) leaves a broad-band misfit where
+    the current has broad-band content, above the residual filter's cut-off where the noise model is fitted, and
+    its floor rises well above the noise's; the model without the misfit gives the noise's floor (truth: the
+    synthetic levels, as in the white case)."""
+    res, filt = white
+    right = noise_check(res, 0, filt.w_y, filt.w_a)
+    off_res, _ = synthetic_residuals(gain_error=(3 * SIG_A, 0.5))
+    wrong = noise_check(off_res, 0, filt.w_y, filt.w_a)
+    assert right.model.to_dict()["accel_noise_m_s2"] == pytest.approx(SIG_A, rel=0.25)
+    # White misfit 1.5 SIG_A beside the noise SIG_A: acceleration level sqrt(1 + 1.5^2) = 1.8 times the noise's.
+    assert wrong.model.to_dict()["accel_noise_m_s2"] == pytest.approx(math.sqrt(1 + 1.5**2) * SIG_A, rel=0.25)
+    # The floor also carries the readings' noise and quantization through the filter, which no misfit changes:
+    # it rises by less than the acceleration level, but it rises.
+    assert wrong.floor > 1.15 * right.floor, (wrong.floor, right.floor)
 
 
 def test_a_resonance_does_not_inflate_the_floor_and_is_found_with_its_damping(white, resonant):

@@ -34,6 +34,15 @@ An effect of the selection's verdict stays in it only when
     grows where the motion has several frequencies (the lag's apparent damping scales with ``w^2``, a
     friction's does not), which is the excitation that separates them.
 
+The noise floor that test (a) measures a signature's size against is the noise model's (:mod:`..noise`) fitted
+to the residual of the verdict's model, all its effects in (the lower of that and the baseline's floor,
+:func:`_verdict_floors`). The noise model is fitted to the spectrum above the residual filter's cut-off, and a
+baseline misfit with broad-band content there (the amplifier lag's error grows with frequency; a commutation
+offset's follows the current's spectrum) raises the baseline's floor: on the foreign rig 2.3 times the verdict
+model's in the vertical channel, where the held-out residual of the model without the lag was half that
+floor. As in a nested F test, whose denominator is the fullest model's residual variance, the noise level is
+taken from the fullest model; significance (against the circular-shift null) does not depend on it.
+
 Effects failing either are dropped, with the reasons in the verdict and the evidence in :class:`ClaimChecks`
 (this stage's own record). What the final model leaves is then scanned for structure that no library
 signature has (:func:`..signatures.locate_gap`: a period in ``d`` that is no library period, a drift in time);
@@ -51,6 +60,8 @@ from tqdm import tqdm
 from ..attribution import EffectScore, paired_z
 from ..fit import FitResult, residuals_with
 from ..library import CandidateSpec, combine, family_specs
+from ..peaks import noise_check
+from ..residuals import CHANNELS
 from ..result import NoiseFindings
 from ..signatures import SIGNATURES, evidence, locate_gap
 from ..verdict import EffectSets
@@ -85,15 +96,19 @@ class ClaimChecks:
     gap : list of dict
         Located structure the final model leaves that no library signature has
         (:func:`..signatures.locate_gap`).
+    floors : dict
+        ``{channel: {baseline, verdict_model, used}}`` [m/s^2]: the noise model's floors of the baseline's and
+        of the verdict model's residual, and the one test (a) measured sizes against (:func:`_verdict_floors`).
     """
 
     effects: dict[str, dict] = field(default_factory=dict)
     dropped: list[str] = field(default_factory=list)
     gap: list[dict] = field(default_factory=list)
+    floors: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """JSON form."""
-        return {"effects": self.effects, "dropped": self.dropped, "gap": self.gap}
+        return {"effects": self.effects, "dropped": self.dropped, "gap": self.gap, "floors": self.floors}
 
 
 def most_flexible(
@@ -114,6 +129,30 @@ def _floors(noise: NoiseFindings, run: Run) -> dict[str, float]:
     for ch, nc in noise.checks.items():
         if np.isfinite(nc.floor) and nc.floor > 0:
             out[ch] = float(nc.floor)
+    return out
+
+
+def _verdict_floors(
+    run: Run, att: Attribution, noise: NoiseFindings, floors: dict[str, float]
+) -> dict[str, dict[str, float]]:
+    """The noise floor of test (a): the noise model fitted to the residual of the verdict's model (training and
+    held-out runs, as the baseline's), capped at the baseline's floor (a misfit can only raise a noise-model
+    floor: the lower of the two is the nearer to the noise). ``{channel: {baseline, verdict_model, used}}``."""
+    split, base = run.split, run.base
+    out = {ch: {"baseline": fl, "verdict_model": float("nan"), "used": fl} for ch, fl in floors.items()}
+    if att.final_spec is None or att.final_fit is None or not att.final_fit.success:
+        return out
+    res = residuals_with(att.final_spec, att.final_fit, split.train, base.p, split.u_train) + residuals_with(
+        att.final_spec, att.final_fit, split.test, base.p, split.u_test
+    )
+    q = noise.checks[next(iter(noise.checks))].model.q if noise.checks else base.q_enc
+    for c, ch in enumerate(CHANNELS):
+        nc = noise_check(res, c, split.filt.w_y, split.filt.w_a, q, split.filt.Ts, run.settings.seed)
+        if nc is None or not (np.isfinite(nc.floor) and nc.floor > 0) or ch not in out:
+            continue
+        rec = out[ch]
+        rec["verdict_model"] = float(nc.floor)
+        rec["used"] = min(rec["baseline"], float(nc.floor)) if np.isfinite(rec["baseline"]) else float(nc.floor)
     return out
 
 
@@ -236,6 +275,8 @@ def check_claims(run: Run, att: Attribution, noise: NoiseFindings) -> ClaimCheck
     v = att.verdict
     sets = v.sets
     floors = _floors(noise, run)
+    out.floors = _verdict_floors(run, att, noise, floors)
+    sig_floors = {ch: rec["used"] for ch, rec in out.floors.items()}
     # The effects judged: a single slot's members (each is the verdict's candidate), else each slot's effect.
     names = list(sets.slots[0]) if len(sets.slots) == 1 else list(sets.effects)
     chosen = list(sets.effects)
@@ -249,7 +290,7 @@ def check_claims(run: Run, att: Attribution, noise: NoiseFindings) -> ClaimCheck
             without = residuals_with(r_spec, r_fit, split.test, base.p, split.u_test)
         else:
             without = base.b_test
-        ev = evidence(e, without, floors, others=rest, n_null=st.signature_null, alpha=st.signature_alpha,
+        ev = evidence(e, without, sig_floors, others=rest, n_null=st.signature_null, alpha=st.signature_alpha,
                       min_over_floor=st.signature_min_floor, seed=st.seed)  # fmt: skip
         rec: dict = {"signature": ev.to_dict(), "own_gain": None}
         why = ""
