@@ -439,7 +439,8 @@ class AmplifierV4(_V4, AmplifierV3):
       diffusion (Feeley, "A simple dynamic model for eddy currents in a magnetic actuator", IEEE Trans. Magn.
       32(2), 1996): a share ``m`` of the flux follows the current through a slab's response ``tanh(sqrt(s
       tau_e)) / sqrt(s tau_e)``, expanded exactly into first-order modes (Mittag-Leffler: weights
-      ``8 / ((2n-1)^2 pi^2)``, time constants ``4 tau_e / ((2n-1)^2 pi^2)``; six kept, renormalized), behind a
+      ``8 / ((2n-1)^2 pi^2)``, time constants ``4 tau_e / ((2n-1)^2 pi^2)``; six kept, the faster ones' 1.5 % of
+      weight taken as instantaneous), behind a
       current loop of bandwidth ``bandwidth_hz``; plus a transport delay. Half-order (``-45 deg``) phase above
       ``1 / tau_e``; group delay ``1/wc + m tau_e / 3`` at zero frequency.
     """
@@ -452,11 +453,10 @@ class AmplifierV4(_V4, AmplifierV3):
     }
 
     def modes(self) -> tuple[np.ndarray, np.ndarray]:
-        """Weights (sum 1) and time constants [s] of the kept diffusion modes."""
+        """Weights (of the full series: they sum to a little under 1) and time constants [s] of the kept modes."""
         n = np.arange(1, self.N_MODES + 1)
         q = ((2 * n - 1) * math.pi) ** 2
-        w = 8.0 / q
-        return w / w.sum(), 4.0 * self.p["tau_e"] / q
+        return 8.0 / q, 4.0 * self.p["tau_e"] / q
 
     def ss(self, axis: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Continuous ``(A, B, C)`` of axis ``axis`` (inputs ``[u, v]``; the velocity is not used)."""
@@ -476,7 +476,7 @@ class AmplifierV4(_V4, AmplifierV3):
         A[1:, 1:] = np.diag(-1.0 / taus)
         B = np.zeros((n, 2))
         B[0, 0] = wc
-        return A, B, np.concatenate([[1.0 - p["m"]], p["m"] * w])
+        return A, B, np.concatenate([[1.0 - p["m"] * float(np.sum(w))], p["m"] * w])
 
     def group_delay(self, Ts: float) -> float:
         """Low-frequency group delay [s] of the command-to-current response, transport delay included."""
