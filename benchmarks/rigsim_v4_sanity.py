@@ -4,7 +4,8 @@ For each (effect, family) of :mod:`maglev_ocp.rigsim.laws_v4` the first scenario
 ``rigsim.draw(seed, laws="v4")`` (seeds from ``--first`` on) that contains it gives the law's parameters; the
 law alone is then simulated on the default rig (6 runs x 10 s, the rig's own FL-PID controller), with the
 dataset's seed. Reported per family: the truth's peak size, the readings' range, the samples within 50 µm of
-a stop, and the tracking RMS (reading minus reference after the first second). ``none`` is the baseline.
+a stop, and the tracking RMS (reading minus reference after the first second), beside the RMS of the same
+seed's rig without the effect (same constants, excitation and noise: the difference is the effect's).
 
 ``python benchmarks/rigsim_v4_sanity.py --first 5000 --out results/rigsim_v4_sanity.md``
 """
@@ -81,19 +82,24 @@ def main() -> None:
             f = generate(Path(tmp) / "ds", eff, seed=seed, settings=RigSettings())
             truth = json.loads((f / "truth.json").read_text())
             m = measure(f)
+        with tempfile.TemporaryDirectory() as tmp:
+            base = measure(generate(Path(tmp) / "ds", {}, seed=seed, settings=RigSettings()))
+        m.update(base_rms_g_um=base["rms_g_um"], base_rms_d_um=base["rms_d_um"])
         e = truth["effects"].get(name, {})
         size = {a: b for a, b in e.items() if a.startswith(("peak_", "effective_delay"))}
         rows.append({"effect": name, "family": fam, "seed": seed, "size": size, **m, "s": time.perf_counter() - t0})
         print(json.dumps(rows[-1]), flush=True)
     lines = [
-        "| effect | family | seed | peak size | g range [mm] | d range [mm] | stop hits | RMS g / d [µm] |",
-        "|---|---|---|---|---|---|---|---|",
+        "| effect | family | seed | peak size | g range [mm] | d range [mm] | stop hits | RMS g / d [µm] | "
+        "without it [µm] |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         sz = ", ".join(f"{a} {b:.3g}" for a, b in r["size"].items() if not a.endswith(("_g_n", "_d_n")))
         lines.append(
             f"| {r['effect']} | {r['family']} | {r['seed']} | {sz or '-'} | {r['g_min_mm']:.2f}-{r['g_max_mm']:.2f} | "
-            f"{r['d_min_mm']:.1f}-{r['d_max_mm']:.1f} | {r['stop_hits']} | {r['rms_g_um']:.1f} / {r['rms_d_um']:.1f} |"
+            f"{r['d_min_mm']:.1f}-{r['d_max_mm']:.1f} | {r['stop_hits']} | {r['rms_g_um']:.1f} / {r['rms_d_um']:.1f} | "
+            f"{r['base_rms_g_um']:.1f} / {r['base_rms_d_um']:.1f} |"
         )
     print("\n".join(lines))
     if args.out:
