@@ -7,7 +7,11 @@ dataset's seed. Reported per family: the truth's peak size, the readings' range,
 a stop, and the tracking RMS (reading minus reference after the first second), beside the RMS of the same
 seed's rig without the effect (same constants, excitation and noise: the difference is the effect's).
 
-``python benchmarks/rigsim_v4_sanity.py --first 5000 --out results/rigsim_v4_sanity.md``
+With ``--sweep N`` it instead generates the ``N`` scenarios ``draw(seed, laws="v4")`` for seeds from ``--first``
+on, as the blind self-check draws them (none, single, pairs, triples, out of library), on the default rig.
+
+``python benchmarks/rigsim_v4_sanity.py --first 5000 --out results/rigsim/v4_sanity.md``
+``python benchmarks/rigsim_v4_sanity.py --first 7000 --sweep 40 --out results/rigsim/v4_sweep.md``
 """
 
 from __future__ import annotations
@@ -73,7 +77,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--first", type=int, default=5000, help="first draw seed searched (default 5000)")
     ap.add_argument("--out", type=Path, help="write the table (markdown) and a .json beside it")
+    ap.add_argument("--sweep", type=int, default=0, metavar="N", help="N drawn scenarios instead of one per family")
     args = ap.parse_args()
+    if args.sweep:
+        sweep(args.first, args.sweep, args.out)
+        return
     rows = []
     for name, fam, seed, spec in tqdm(pick(args.first), desc="families"):
         eff = {} if name == "none" else {name: spec}
@@ -106,6 +114,33 @@ def main() -> None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text("\n".join(lines) + "\n")
         args.out.with_suffix(".json").write_text(json.dumps(rows, indent=2) + "\n")
+
+
+def sweep(first: int, n: int, out: Path | None) -> None:
+    """Generate ``n`` drawn v4 scenarios and tabulate stop hits, ranges and tracking."""
+    rows = []
+    for seed in tqdm(range(first, first + n), desc="scenarios"):
+        sc = draw(seed, laws="v4")
+        with tempfile.TemporaryDirectory() as tmp:
+            f = generate(Path(tmp) / "ds", sc["effects"], seed=seed, settings=RigSettings())
+            m = measure(f)
+        eff = ", ".join(f"{a} ({b['family']})" for a, b in sc["effects"].items()) or "-"
+        rows.append({"seed": seed, "kind": sc["kind"], "effects": eff, **m})
+        print(json.dumps(rows[-1]), flush=True)
+    lines = [
+        "| seed | kind | effects | g range [mm] | d range [mm] | stop hits | RMS g / d [µm] |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['seed']} | {r['kind']} | {r['effects']} | {r['g_min_mm']:.2f}-{r['g_max_mm']:.2f} | "
+            f"{r['d_min_mm']:.1f}-{r['d_max_mm']:.1f} | {r['stop_hits']} | {r['rms_g_um']:.1f} / {r['rms_d_um']:.1f} |"
+        )
+    print("\n".join(lines))
+    if out:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text("\n".join(lines) + "\n")
+        out.with_suffix(".json").write_text(json.dumps(rows, indent=2) + "\n")
 
 
 if __name__ == "__main__":
