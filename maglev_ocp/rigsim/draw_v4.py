@@ -138,8 +138,12 @@ def _eddy(rng):
 
 
 def _mount(rng):
-    # a long read-head bracket: 40-90 Hz, lightly damped (0.5-3 % of critical)
-    return {"family": "read_head", "f_hz": _u(rng, 40.0, 90.0), "zeta": _u(rng, 0.005, 0.03)}
+    # a long read-head bracket, lightly damped (1-4 % of critical), 55-90 Hz: a non-collocated mode near 50 Hz
+    # makes the rig's own position loop unstable (sanity runs: 44 Hz at zeta 0.005 hit the stops, 47 Hz rang at
+    # 2 mm RMS, 50 Hz stayed controlled), and a rig that shakes itself unstable is not one that gets logged; the
+    # first range (40-90 Hz, 0.5-3 %) reached it. Above ~90 Hz the head's deflection is below the 10 um encoder
+    # resolution.
+    return {"family": "read_head", "f_hz": _u(rng, 55.0, 90.0), "zeta": _u(rng, 0.01, 0.04)}
 
 
 def _coil(rng):
