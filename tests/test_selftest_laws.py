@@ -2,8 +2,9 @@
 
 Issue 27's pre-registered checks run the diagnosis on law families it was not written from; the third set
 (:mod:`maglev_ocp.rigsim.laws_v3`) is reached through ``maglev diagnose selftest --generator independent
---laws v3``. These tests check the wiring without running a diagnosis: the setting is validated, the library
-generator refuses it in one line, and the drawn cases of a ``v3`` check carry only that set's laws.
+--laws v3``, the fourth (:mod:`maglev_ocp.rigsim.laws_v4`) through ``--laws v4``. These tests check the wiring
+without running a diagnosis: the setting is validated, the library generator refuses it in one line, and the
+drawn cases of a ``v3`` / ``v4`` check carry only that set's laws.
 """
 
 from __future__ import annotations
@@ -15,11 +16,13 @@ from maglev_ocp.cli import main
 from maglev_ocp.diagnosis.selftest import SelftestSettings
 from maglev_ocp.rigsim import draw
 from maglev_ocp.rigsim.laws_v3 import V3_LAWS
+from maglev_ocp.rigsim.laws_v4 import V4_LAWS
 
 
 def test_an_unknown_law_set_is_refused():
     with pytest.raises(ValidationError, match="laws"):
-        SelftestSettings(laws="v4")
+        SelftestSettings(laws="v9")
+    assert SelftestSettings(laws="v4").laws == "v4"
 
 
 def test_the_library_generator_refuses_a_law_set(capsys):
@@ -34,4 +37,12 @@ def test_a_v3_draw_holds_only_v3_families(seed):
     scen = draw(seed, laws="v3")
     for name, spec in scen["effects"].items():
         assert spec["family"] in V3_LAWS[name].families, (name, spec["family"])
+        assert spec["new_law"] is True
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_a_v4_draw_holds_only_v4_families(seed):
+    scen = draw(seed, laws="v4")
+    for name, spec in scen["effects"].items():
+        assert spec["family"] in V4_LAWS[name].families, (name, spec["family"])
         assert spec["new_law"] is True

@@ -27,7 +27,7 @@ from ..riglog import RunLog, write_dataset
 from .excite import references
 from .laws import Law
 from .laws_new import AmplifierNew
-from .laws_v3 import EFFECTS_V3, make_law
+from .laws_v4 import EFFECTS_V4, make_law
 from .physics import NOMINAL, Constants
 from .sim import Rig, RigSettings, Trajectory, simulate
 
@@ -46,7 +46,7 @@ def build_laws(effects: EffectsArg) -> list[Law]:
     names = [law.name for law in laws]
     if len(set(names)) != len(names):
         raise ValueError(f"each effect at most once, got {names}")
-    order = list(EFFECTS_V3)
+    order = list(EFFECTS_V4)
     return sorted(laws, key=lambda law: order.index(law.name))
 
 
@@ -168,7 +168,10 @@ def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
     one = Rig(rig.c, [law], rig.s)
     F0 = _forces(base, X, u, 1.0)
     out: dict[str, Any] = {}
-    if law.name == "amplifier_lag":
+    if hasattr(law, "recorded"):  # a state the trajectory does not hold (laws_v4): the law's own record
+        out.update(law.recorded())
+        F1 = F0
+    elif law.name == "amplifier_lag":
         F1 = _forces(base, X, traj.i_amp, 1.0)
         if isinstance(law, AmplifierNew) or getattr(law, "lti", False):
             out["effective_delay_s"] = law.group_delay(rig.s.Ts)

@@ -125,6 +125,9 @@ class Rig:
         # hooks of the third law set (:mod:`.laws_v3`): the whole state and the dataset time
         self.rotate_at_laws = [law for law in self.laws if getattr(law, "has_rotate_at", False)]
         self.read_at_laws = [law for law in self.laws if getattr(law, "has_read_at", False)]
+        # hooks of the fourth law set (:mod:`.laws_v4`): factors that see the currents, a per-period state
+        self.factor_i_laws = [law for law in self.laws if getattr(law, "has_factors_i", False)]
+        self.advance_laws = [law for law in self.laws if getattr(law, "has_advance", False)]
         self.lti = bool(getattr(self.amp, "lti", False))
         self.t_now = np.zeros(1)  #: dataset time of the current period per run [s] (set by :func:`simulate`)
         delay = float(self.amp.p["delay_samples"])
@@ -169,6 +172,8 @@ class Rig:
         f = [km, 1.0, 1.0, 1.0]
         for law in self.factor_laws:
             law.factors(g, d, f)
+        for law in self.factor_i_laws:
+            law.factors_i(g, d, i_q, i_d, f)
         km, kc, rho, thr = f
         a_up = rho * (
             c.C2 * sh.f2 * km * km - c.C3 * sh.f3 * i_d * km * kc + c.C4 * sh.f4 * (i_q * i_q + i_d * i_d) * kc * kc
@@ -371,6 +376,8 @@ def simulate(rig: Rig, ref: np.ndarray, rng: np.random.Generator, model: Constan
     t_base = np.arange(R)[:, None] * s.duration  # runs recorded one after the other (temperature)
     for n in range(N):
         rig.t_now = t_base[:, 0] + n * Ts
+        for law in rig.advance_laws:  # slow states (laws_v4), from the currents delivered at the period's start
+            law.advance(rig.delivered(Z), rig.t_now, Ts)
         y = rig.read(X)
         if s.encoder_noise:
             y = y + s.encoder_noise * rng.standard_normal((R, 2))
