@@ -65,6 +65,7 @@ from maglev_ocp.controllers.model_file import model_file_untrusted  # noqa: E402
 from maglev_ocp.output import atomic_write_text  # noqa: E402
 from maglev_ocp.plant.plant import StopEvent  # noqa: E402
 from maglev_ocp.rigsim import Constants, RigSettings, generate  # noqa: E402
+from maglev_ocp.rigsim.draw_v4 import draw_v4  # noqa: E402
 from maglev_ocp.rigsim.generate import build_laws  # noqa: E402
 from maglev_ocp.rigsim.sim import Rig  # noqa: E402
 
@@ -192,6 +193,13 @@ RIGS: dict[str, dict[str, Any]] = {
             "friction": {"family": "dahl"},
         },
     },
+    # Fourteenth session's validation rigs, defined before their first run: three library effects each, drawn
+    # (effects, families and parameters) from rigsim's fourth law set exactly as its pre-registered check draws a
+    # triple (`draw_v4(seed, "triple", 3)`), with fresh seeds from `secrets.randbelow`; nothing chosen by hand.
+    # v4_a: permeance-wave cogging, energy-overhang end effect, two-axis eddy sheet.
+    "v4_a": {"mismatch": 0.1, "seed": 1643817956, "effects": draw_v4(1643817956, "triple", 3)},
+    # v4_b: permeance-wave cogging, winding-and-iron end effect, symmetric-optimum current loop.
+    "v4_b": {"mismatch": 0.1, "seed": 743507477, "effects": draw_v4(743507477, "triple", 3)},
 }
 #: Controllers compared (each blind and diagnosed).
 CONTROLLERS: tuple[str, ...] = ("fl", "nmpc", "pid")
