@@ -45,6 +45,8 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         26068247, 1127350836,  # diagnosed-vs-blind validation rigs maxwell_fringe, langevin_iron (thirteenth session)
         *range(27001, 27009),  # none datasets of the independent rig: the drift test's false alarms (s13, outlib)
         27101, 27102, 27103, 27104, 27105,  # own out-of-library effects and controls (test_diagnosis_outside, s13)
+        1643817956, 743507477,  # diagnosed-vs-blind validation rigs v4_a, v4_b (fourteenth session): spent
+        511342673,  # issue 27's pre-registered blind check on rigsim's fourth law set (fourteenth session): spent
     }
 )  # fmt: skip
 
