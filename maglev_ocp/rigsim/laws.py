@@ -30,6 +30,7 @@ resonance have states of their own and are handled by the simulator
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -529,10 +530,47 @@ LIBRARY_EFFECTS: tuple[str, ...] = tuple(n for n, c in LAWS.items() if c.library
 OUT_OF_LIBRARY: tuple[str, ...] = tuple(n for n, c in LAWS.items() if not c.library)
 
 
+#: Keys of a law spec that describe the law (its family, its truth record) and are no parameter of its class.
+SPEC_KEYS: tuple[str, ...] = ("family", "library", "new_law", "law_set")
+
+
+def resolve_law(
+    name: str, family: str | None, registries: Sequence[Mapping[str, type[Law]]], known: Sequence[str]
+) -> type[Law]:
+    """The class that implements ``family`` of effect ``name``: the first of ``registries`` (``{effect: class}``,
+    in the law sets' order) whose class has that family; no family: the first class of the effect. ``known``
+    names the effects for the error message."""
+    cands = [r[name] for r in registries if name in r]
+    if not cands:
+        raise ValueError(f"unknown effect {name!r}; known: {', '.join(known)}")
+    if family is None:
+        return cands[0]
+    for c in cands:
+        if family in c.families:
+            return c
+    fams = [f for c in cands for f in c.families]
+    raise ValueError(f"{name}: family must be one of {fams}, got {family!r}")
+
+
+def build_law(
+    name: str,
+    spec: Mapping[str, Any] | None,
+    registries: Sequence[Mapping[str, type[Law]]],
+    known: Sequence[str],
+) -> Law:
+    """Build effect ``name`` from ``{"family": ..., <param>: value, ...}`` or ``{"params": {...}}`` (defaults for
+    the rest; :data:`SPEC_KEYS` are no parameters), its class from :func:`resolve_law`."""
+    spec = dict(spec or {})
+    params = dict(spec.pop("params", {}) or {})
+    params.update({a: b for a, b in spec.items() if a not in SPEC_KEYS})
+    return resolve_law(name, spec.get("family"), registries, known)(spec.get("family"), **params)
+
+
 __all__ = [
     "LAWS",
     "LIBRARY_EFFECTS",
     "OUT_OF_LIBRARY",
+    "SPEC_KEYS",
     "AmplifierLag",
     "Cable",
     "Cogging",
@@ -544,4 +582,6 @@ __all__ = [
     "Resonance",
     "Saturation",
     "TemperatureDrift",
+    "build_law",
+    "resolve_law",
 ]

@@ -29,6 +29,8 @@ from .laws import (
     Law,
     Saturation,
     _expm2,
+    build_law,
+    resolve_law,
 )
 
 G_STOP_HI = k.g_stop[1]
@@ -463,27 +465,13 @@ ALL_OUT_OF_LIBRARY: tuple[str, ...] = tuple(n for n in ALL_EFFECTS if n not in A
 
 def law_class(name: str, family: str | None) -> type[Law]:
     """The class that implements ``family`` of effect ``name`` (old law first, then the new one)."""
-    old, new = LAWS.get(name), NEW_LAWS.get(name)
-    if old is None and new is None:
-        raise ValueError(f"unknown effect {name!r}; known: {', '.join(ALL_EFFECTS)}")
-    if family is None:
-        return old or new  # type: ignore[return-value]
-    for c in (old, new):
-        if c is not None and family in c.families:
-            return c
-    fams = [f for c in (old, new) if c is not None for f in c.families]
-    raise ValueError(f"{name}: family must be one of {fams}, got {family!r}")
+    return resolve_law(name, family, (LAWS, NEW_LAWS), ALL_EFFECTS)
 
 
 def make_law(name: str, spec: Mapping[str, Any] | None = None) -> Law:
-    """Build effect ``name`` from ``{"family": ..., <param>: value, ...}`` (defaults for the rest).
-
-    The family picks the class: one of the first laws (:mod:`.laws`) or a new one (this module).
-    """
-    spec = dict(spec or {})
-    params = dict(spec.pop("params", {}) or {})
-    params.update({a: b for a, b in spec.items() if a not in ("family", "library", "new_law")})
-    return law_class(name, spec.get("family"))(spec.get("family"), **params)
+    """Build effect ``name`` from ``{"family": ..., <param>: value, ...}`` (defaults for the rest): the family picks
+    the class, one of the first laws (:mod:`.laws`) or a new one (this module)."""
+    return build_law(name, spec, (LAWS, NEW_LAWS), ALL_EFFECTS)
 
 
 __all__ = [

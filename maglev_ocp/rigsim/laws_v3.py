@@ -38,6 +38,8 @@ from .laws import (
     Friction,
     Law,
     Saturation,
+    build_law,
+    resolve_law,
 )
 from .laws_new import ALL_EFFECTS, NEW_LAWS, EddyDrag
 
@@ -667,24 +669,12 @@ V3_OUT_OF_LIBRARY: tuple[str, ...] = tuple(n for n, c in V3_LAWS.items() if not 
 
 def law_class(name: str, family: str | None) -> type[Law]:
     """The class that implements ``family`` of effect ``name`` (first laws, then :mod:`.laws_new`, then v3)."""
-    cands = [c for c in (LAWS.get(name), NEW_LAWS.get(name), V3_LAWS.get(name)) if c is not None]
-    if not cands:
-        raise ValueError(f"unknown effect {name!r}; known: {', '.join(EFFECTS_V3)}")
-    if family is None:
-        return cands[0]
-    for c in cands:
-        if family in c.families:
-            return c
-    fams = [f for c in cands for f in c.families]
-    raise ValueError(f"{name}: family must be one of {fams}, got {family!r}")
+    return resolve_law(name, family, (LAWS, NEW_LAWS, V3_LAWS), EFFECTS_V3)
 
 
 def make_law(name: str, spec: Mapping[str, Any] | None = None) -> Law:
     """Build effect ``name`` from ``{"family": ..., <param>: value, ...}`` (any law set; defaults for the rest)."""
-    spec = dict(spec or {})
-    params = dict(spec.pop("params", {}) or {})
-    params.update({a: b for a, b in spec.items() if a not in ("family", "library", "new_law", "law_set")})
-    return law_class(name, spec.get("family"))(spec.get("family"), **params)
+    return build_law(name, spec, (LAWS, NEW_LAWS, V3_LAWS), EFFECTS_V3)
 
 
 __all__ = [

@@ -36,6 +36,8 @@ from .laws import (
     Friction,
     Law,
     Saturation,
+    build_law,
+    resolve_law,
 )
 from .laws_new import NEW_LAWS, EddyDrag
 from .laws_v3 import EFFECTS_V3, V3_LAWS, AmplifierV3, _rot
@@ -739,24 +741,12 @@ V4_OUT_OF_LIBRARY: tuple[str, ...] = tuple(n for n, c in V4_LAWS.items() if not 
 
 def law_class(name: str, family: str | None) -> type[Law]:
     """The class that implements ``family`` of effect ``name`` (first laws, :mod:`.laws_new`, v3, then v4)."""
-    cands = [c for c in (LAWS.get(name), NEW_LAWS.get(name), V3_LAWS.get(name), V4_LAWS.get(name)) if c is not None]
-    if not cands:
-        raise ValueError(f"unknown effect {name!r}; known: {', '.join(EFFECTS_V4)}")
-    if family is None:
-        return cands[0]
-    for c in cands:
-        if family in c.families:
-            return c
-    fams = [f for c in cands for f in c.families]
-    raise ValueError(f"{name}: family must be one of {fams}, got {family!r}")
+    return resolve_law(name, family, (LAWS, NEW_LAWS, V3_LAWS, V4_LAWS), EFFECTS_V4)
 
 
 def make_law(name: str, spec: Mapping[str, Any] | None = None) -> Law:
     """Build effect ``name`` from ``{"family": ..., <param>: value, ...}`` (any law set; defaults for the rest)."""
-    spec = dict(spec or {})
-    params = dict(spec.pop("params", {}) or {})
-    params.update({a: b for a, b in spec.items() if a not in ("family", "library", "new_law", "law_set")})
-    return law_class(name, spec.get("family"))(spec.get("family"), **params)
+    return build_law(name, spec, (LAWS, NEW_LAWS, V3_LAWS, V4_LAWS), EFFECTS_V4)
 
 
 __all__ = [
