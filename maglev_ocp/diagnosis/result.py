@@ -131,6 +131,11 @@ class NoiseFindings:
     partial: dict = field(default_factory=dict)
     claims: dict = field(default_factory=dict)
 
+    def resolution(self, default: float) -> float:
+        """The encoder resolution [m] the noise model was fitted with (its quantization part), else ``default``:
+        what a noise model of another residual of the same data is fitted with."""
+        return self.checks[next(iter(self.checks))].model.q if self.checks else default
+
     def to_dict(self) -> dict:
         """JSON-ready view."""
         return {

@@ -61,7 +61,7 @@ from ..attribution import EffectScore, paired_z
 from ..fit import FitResult, residuals_with
 from ..library import CandidateSpec, combine, family_specs
 from ..peaks import noise_check
-from ..residuals import CHANNELS
+from ..residuals import CHANNELS, Residual
 from ..result import NoiseFindings
 from ..signatures import SIGNATURES, evidence, locate_gap
 from ..verdict import EffectSets
@@ -133,21 +133,19 @@ def _floors(noise: NoiseFindings, run: Run) -> dict[str, float]:
 
 
 def _verdict_floors(
-    run: Run, att: Attribution, noise: NoiseFindings, floors: dict[str, float]
+    run: Run, noise: NoiseFindings, floors: dict[str, float], verdict_res: Sequence[Residual]
 ) -> dict[str, dict[str, float]]:
-    """The noise floor of test (a): the noise model fitted to the residual of the verdict's model (training and
-    held-out runs, as the baseline's), capped at the baseline's floor (a misfit can only raise a noise-model
-    floor: the lower of the two is the nearer to the noise). ``{channel: {baseline, verdict_model, used}}``."""
-    split, base = run.split, run.base
+    """The noise floor of test (a): the noise model fitted to ``verdict_res``, the residual of the verdict's model
+    (training and held-out runs, as the baseline's; empty: the baseline's floors), capped at the baseline's
+    floor (a misfit can only raise a noise-model floor: the lower of the two is the nearer to the noise).
+    ``{channel: {baseline, verdict_model, used}}``."""
+    split = run.split
     out = {ch: {"baseline": fl, "verdict_model": float("nan"), "used": fl} for ch, fl in floors.items()}
-    if att.final_spec is None or att.final_fit is None or not att.final_fit.success:
+    if not verdict_res:
         return out
-    res = residuals_with(att.final_spec, att.final_fit, split.train, base.p, split.u_train) + residuals_with(
-        att.final_spec, att.final_fit, split.test, base.p, split.u_test
-    )
-    q = noise.checks[next(iter(noise.checks))].model.q if noise.checks else base.q_enc
+    q = noise.resolution(run.base.q_enc)
     for c, ch in enumerate(CHANNELS):
-        nc = noise_check(res, c, split.filt.w_y, split.filt.w_a, q, split.filt.Ts, run.settings.seed)
+        nc = noise_check(verdict_res, c, split.filt.w_y, split.filt.w_a, q, split.filt.Ts, run.settings.seed)
         if nc is None or not (np.isfinite(nc.floor) and nc.floor > 0) or ch not in out:
             continue
         rec = out[ch]
@@ -275,7 +273,14 @@ def check_claims(run: Run, att: Attribution, noise: NoiseFindings) -> ClaimCheck
     v = att.verdict
     sets = v.sets
     floors = _floors(noise, run)
-    out.floors = _verdict_floors(run, att, noise, floors)
+    # The verdict model's residual: its noise model is test (a)'s floor, and its held-out part is where the gap
+    # is located when no effect is dropped.
+    v_train: list[Residual] = []
+    v_test: list[Residual] = []
+    if att.final_spec is not None and att.final_fit is not None and att.final_fit.success:
+        v_train = residuals_with(att.final_spec, att.final_fit, split.train, base.p, split.u_train)
+        v_test = residuals_with(att.final_spec, att.final_fit, split.test, base.p, split.u_test)
+    out.floors = _verdict_floors(run, noise, floors, v_train + v_test)
     sig_floors = {ch: rec["used"] for ch, rec in out.floors.items()}
     # The effects judged: a single slot's members (each is the verdict's candidate), else each slot's effect.
     names = list(sets.slots[0]) if len(sets.slots) == 1 else list(sets.effects)
@@ -322,7 +327,8 @@ def check_claims(run: Run, att: Attribution, noise: NoiseFindings) -> ClaimCheck
         out.dropped = list(bad)
         _drop(run, att, bad)
     if att.verdict.named and st.gap_min_floor > 0:
-        final = residuals_with(att.final_spec, att.final_fit, split.test, base.p, split.u_test)
+        same = not bad and v_test
+        final = v_test if same else residuals_with(att.final_spec, att.final_fit, split.test, base.p, split.u_test)
         out.gap = locate_gap(final, floors, min_over_floor=st.gap_min_floor, seed=st.seed)
         if out.gap:
             att.verdict.sets = att.verdict.sets.partly()

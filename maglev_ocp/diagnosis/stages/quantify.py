@@ -126,7 +126,7 @@ def unexplained_stage(
     checks_after: dict[str, NoiseCheck] = {}
     remaining_peaks: list[SpectralPeak] = []
     unexplained: list[dict] = []
-    q_res = noise.checks[next(iter(noise.checks))].model.q if noise.checks else encoder_resolution
+    q_res = noise.resolution(encoder_resolution)
     for c, ch in enumerate(CHANNELS):
         nc = noise_check(after, c, split.filt.w_y, split.filt.w_a, q_res, split.filt.Ts, st.seed)
         if nc is not None:
