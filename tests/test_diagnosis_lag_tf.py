@@ -390,7 +390,25 @@ def test_at_a_single_frequency_a_lag_is_a_damping_and_no_lag_evidence(seed):
 
     floors = {"vertical": FLOOR, "horizontal": FLOOR}
     res = _closed_loop_runs([0.7], lambda f, c: _stribeck_excess(f, c) + _lag_force(f, c), seed)
-    assert not evidence("amplifier_lag", res, floors, seed=seed).shows
+    ev = evidence("amplifier_lag", res, floors, seed=seed)
+    assert not ev.shows
+    # Beyond the other effects alone (no static map) it does show: this is the case the claim guard hands to the
+    # library's static rivals fitted in the lag's place (stages.claims._static_rivals).
+    assert any(rec["shows_beyond_others"] for rec in ev.per_channel.values()), ev.per_channel
+    noise = _closed_loop_runs([0.7], lambda f, c: 0.0 * f["t"], seed)
+    ev0 = evidence("amplifier_lag", noise, floors, seed=seed)
+    assert not any(rec["shows_beyond_others"] for rec in ev0.per_channel.values()), ev0.per_channel
+
+
+def test_the_static_rivals_of_the_lag_are_the_velocity_laws():
+    """The static families a closed loop lets imitate a lag are those whose signature has a velocity: friction and
+    eddy drag; a static effect has none (its fixed-state test is not the lag's)."""
+    from maglev_ocp.diagnosis.library import family_specs
+    from maglev_ocp.diagnosis.stages.claims import static_rivals
+
+    fams = family_specs()
+    assert sorted(static_rivals("amplifier_lag", fams)) == ["eddy_drag", "friction"]
+    assert "friction" not in static_rivals("friction", fams)
 
 
 @pytest.mark.parametrize("law", ["fractional", "second"])

@@ -215,7 +215,8 @@ class SignatureEvidence:
         ``{channel: {explained, null_q, rms_explained_over_floor}}``: the share of the residual's energy the
         signature explains beyond the others' bases (a dynamic signature: also beyond :func:`static_basis`),
         the null's ``1 - alpha`` quantile of the same share, and the rms it explains beyond the others' bases
-        over the channel's noise floor.
+        over the channel's noise floor. A dynamic signature's record also holds ``explained_beyond_others``,
+        ``null_q_beyond_others`` and ``shows_beyond_others``: the same test beyond the others' bases only.
     shows : bool
         The share exceeds the null quantile in some channel and what it explains is above ``min_over_floor``
         times the floor there.
@@ -355,15 +356,25 @@ def evidence(
             a_ = a_o
         inc = _Increment(a_, b)
         share = inc(y) if sig.dynamic else share_o
-        null = [inc(_shifted(y, ids, rng)) for _ in range(n_null)]
+        shifts = [_shifted(y, ids, rng) for _ in range(n_null)]
+        null = [inc(ys) for ys in shifts]
         q = float(np.quantile(null, 1 - alpha)) if null else math.inf
         fl = floors.get(ch, math.nan)
         # Its size is what its basis explains beyond the other effects (a dynamic signature's part at a fixed
         # state proves it is no static map; in closed loop that part is a fraction of the whole, e.g. 0.25 of
         # it where the current rate correlates -0.97 with the velocity).
         over = math.sqrt(size * float(np.mean(y**2))) / fl if np.isfinite(fl) and fl > 0 else math.nan
-        ok = bool(share > q and (not np.isfinite(over) or over >= min_over_floor))
+        big = not np.isfinite(over) or over >= min_over_floor
+        ok = bool(share > q and big)
         out[ch] = {"explained": share, "null_q": q, "rms_explained_over_floor": over, "shows": ok}
+        if sig.dynamic:
+            # The same test beyond the other effects only (not beyond the static map): what the claim guard needs
+            # to know whether only the fixed-state part failed (then the library's static rivals are fitted in
+            # the effect's place, :func:`..stages.claims.check_claims`).
+            inc_o = _Increment(a_o, b)
+            q_o = float(np.quantile([inc_o(ys) for ys in shifts], 1 - alpha)) if shifts else math.inf
+            out[ch].update(explained_beyond_others=share_o, null_q_beyond_others=q_o,
+                           shows_beyond_others=bool(share_o > q_o and big))  # fmt: skip
         shows = shows or ok
     if sig.core:
         core = core_evidence(sig, residuals, floors, others, n_null, alpha, min_over_floor, seed)
