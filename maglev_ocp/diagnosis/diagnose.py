@@ -229,6 +229,7 @@ def diagnose(
         }
         if not base.given
         else {},
+        thrust_constant=base.thrust.to_dict() if base.thrust is not None else {},
     )
 
 

@@ -261,6 +261,9 @@ class Diagnosis:
         kept, the constants of the fit over all samples and of the refit, held-out check, adopted or why not).
     prior : dict
         The prior at nominal of the calibration (sd and weight).
+    thrust_constant : dict
+        The thrust constant partialled out of the forces that do not scale with ``i_q`` (plain and partialled
+        values, standard error, used or why not; :mod:`.stages.thrust`).
     residual_baseline_params : Params or None
         The constants the baseline residuals (``floors``, ``views_before``, scores' "before") were computed with.
     """
@@ -298,6 +301,7 @@ class Diagnosis:
     constants_moved: dict[str, dict] = field(default_factory=dict)
     baseline_calibration: dict = field(default_factory=dict)
     prior: dict = field(default_factory=dict)
+    thrust_constant: dict = field(default_factory=dict)
     residual_baseline_params: Params | None = None
 
     def to_json(self) -> dict:
@@ -366,6 +370,7 @@ def report_json(d: Diagnosis) -> dict:
         "constants_moved": d.constants_moved,
         "baseline_calibration": d.baseline_calibration,
         "baseline_prior": d.prior,
+        "thrust_constant": d.thrust_constant,
         "residual_baseline_params": d.residual_baseline_params.as_dict() if d.residual_baseline_params else None,
     }
     if d.noise is not None:

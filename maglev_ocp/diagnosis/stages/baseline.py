@@ -23,6 +23,7 @@ from ..localize import ChannelFloor, channel_floor
 from ..residuals import CHANNELS, Residual
 from ..settings import DiagnoseSettings
 from .split import Split
+from .thrust import ThrustConstant, partialled_thrust
 
 
 def check_fit(fit: FitResult, what: str, warnings: list[str]) -> None:
@@ -75,6 +76,8 @@ class Baseline:
     # (:func:`.refit.resolved_masks`).
     q_enc: float = encoder_resolution
     warnings: tuple[str, ...] = ()  # fits of this stage whose solver did not converge
+    # C1 partialled out of the forces that do not scale with the thrust current (:mod:`.thrust`); None: not tried.
+    thrust: ThrustConstant | None = None
 
     def floors_of(self, spec: CandidateSpec, fit: FitResult | None, split: Split) -> dict[str, ChannelFloor]:
         """Channel floors of the residuals of a fitted candidate (training and held-out runs)."""
@@ -118,7 +121,15 @@ def calibrate_baseline(
         p_base = params_with(p0, fit0)
     else:
         p_base = p0
-    return _baseline_at(split, p_base, given, st, warnings, noise_lag, q_enc)
+    thrust = None
+    if cal_free and any(f.key == "p.C1" for f in cal_free):
+        sd = prior_sd(st)
+        sd_c1 = sd["C1"] * NOMINAL.C1 if sd else math.inf
+        thrust = partialled_thrust(train, p_base, noise_lag, sd_c1)
+        if thrust is not None and thrust.used:
+            p_base = np.array(p_base, float)
+            p_base[PARAM_NAMES.index("C1")] = thrust.c1
+    return _baseline_at(split, p_base, given, st, warnings, noise_lag, q_enc, thrust)
 
 
 def calibrated_free(params: Params, split: Split, st: DiagnoseSettings) -> tuple:
@@ -165,6 +176,7 @@ def _baseline_at(
     warnings: list[str],
     noise_lag: int,
     q_enc: float = encoder_resolution,
+    thrust: ThrustConstant | None = None,
 ) -> Baseline:
     """The baseline stage at calibrated constants ``p_base``: residuals, floors, the joint-refit start.
 
@@ -178,7 +190,9 @@ def _baseline_at(
     under the floors of the previous pass's residual until they move by less
     than :data:`FLOOR_RTOL` (at most :data:`FLOOR_PASSES` passes); the floors
     reported and tested are those of the last residual, and ``fvec`` holds the
-    weights the last fit used (the candidates' fits use the same).
+    weights the last fit used (the candidates' fits use the same). A thrust constant partialled out of the
+    forces that do not scale with ``i_q`` (``thrust.used``, :mod:`.thrust`) is held in these passes; the
+    candidates' joint refits free it again (``cal_free``).
     """
     filt, train, test = split.filt, split.train, split.test
     base_spec = CandidateSpec("baseline")
@@ -193,8 +207,10 @@ def _baseline_at(
         cal_free2 = calibrated_free(base_params, split, st)
         base_fit: FitResult | None = None
         fit_fvec = fvec  # the weights of base_fit
+        held = ("p.C1",) if thrust is not None and thrust.used else ()
         for i in range(FLOOR_PASSES):
-            fit = fit_candidate(CandidateSpec("baseline", free=cal_free2), data_train, p_base)
+            free = tuple(f for f in cal_free2 if f.key not in held)
+            fit = fit_candidate(CandidateSpec("baseline", free=free), data_train, p_base)
             check_fit(fit, "baseline calibration", warnings)
             if not fit.success:
                 if base_fit is None:
@@ -218,13 +234,15 @@ def _baseline_at(
             data_train = Dataset(train, 1.0 / fvec, filt, prior_weight=noise_lag)
         assert base_fit is not None
         base_stderr = {k_.split(".", 1)[1]: float(s) for k_, s in zip(base_fit.spec.keys, base_fit.stderr, strict=True)}
+        if held and thrust is not None:
+            base_stderr["C1"] = float(thrust.stderr)
     else:
         cal_free2 = ()
         base_fit = fit_candidate(base_spec, data_train, p_base)
     return Baseline(
         base_spec, given, p_base, base_params, base_stderr, cal_free2, base_fit, b_train, b_test, floors, fvec,
         data_train, q_floor, noise_lag, noise_inflation(filt.w_y, filt.decimate), q_enc=q_enc,
-        warnings=tuple(warnings),
+        warnings=tuple(warnings), thrust=thrust,
     )  # fmt: skip
 
 
