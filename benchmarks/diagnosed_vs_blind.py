@@ -200,6 +200,13 @@ RIGS: dict[str, dict[str, Any]] = {
     "v4_a": {"mismatch": 0.1, "seed": 1643817956, "effects": draw_v4(1643817956, "triple", 3)},
     # v4_b: permeance-wave cogging, winding-and-iron end effect, symmetric-optimum current loop.
     "v4_b": {"mismatch": 0.1, "seed": 743507477, "effects": draw_v4(743507477, "triple", 3)},
+    # Fifteenth session's validation rigs, defined (drawn as v4_a / v4_b are, fresh seeds from secrets.randbelow)
+    # before their first run and before the session's end-effect change was merged; the session's lag and
+    # thrust-constant changes were on main already.
+    # v4_c: magnet-shift cogging, energy-overhang end effect, symmetric-optimum current loop.
+    "v4_c": {"mismatch": 0.1, "seed": 826170937, "effects": draw_v4(826170937, "triple", 3)},
+    # v4_d: Bouc-Wen friction, energy-overhang end effect, solid-iron eddy drag.
+    "v4_d": {"mismatch": 0.1, "seed": 449907008, "effects": draw_v4(449907008, "triple", 3)},
 }
 #: Controllers compared (each blind and diagnosed).
 CONTROLLERS: tuple[str, ...] = ("fl", "nmpc", "pid")

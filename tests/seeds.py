@@ -46,6 +46,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         *range(27001, 27009),  # none datasets of the independent rig: the drift test's false alarms (s13, outlib)
         27101, 27102, 27103, 27104, 27105,  # own out-of-library effects and controls (test_diagnosis_outside, s13)
         1643817956, 743507477,  # diagnosed-vs-blind validation rigs v4_a, v4_b (fourteenth session): spent
+        826170937, 449907008,  # diagnosed-vs-blind validation rigs v4_c, v4_d (fifteenth session): spent on run
         511342673,  # issue 27's pre-registered blind check on rigsim's fourth law set (fourteenth session): spent
     }
 )  # fmt: skip
