@@ -144,3 +144,20 @@ def test_end_columns_are_nil_in_the_middle_and_grow_with_each_ends_overhang():
     assert np.all(cols[d <= 0, :n] == 0.0) and np.all(cols[d >= 0, n:] == 0.0)
     assert np.all(np.diff(cols[:, :n], axis=0) >= 0.0) and np.all(np.diff(cols[:, n:], axis=0) <= 0.0)
     assert np.allclose(cols[d >= hi_p, :n], 1.0) and np.allclose(cols[-d >= hi_n, n:], 1.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_loss_over_the_whole_stroke_does_not_show(seed):
+    """A loss of the pull that follows the gap everywhere (a knee ``(1 - tanh((g - 11 mm) / 2 mm)) / 2`` of the
+    PM pull and the PM-current pull, 5x the noise) and a uniform error of the thrust and PM-current constants
+    (``-0.1 i_q``, ``-0.1 i_d`` m/s^2 per A): no end effect (a saturation, a constant's error)."""
+
+    def knee(feat, c):
+        return -0.1 * 0.5 * (1 - np.tanh((feat["g"] - 0.011) / 2e-3)) * (1 + 0.5 * feat["i_d"]) * (c == 0)
+
+    def constants(feat, c):
+        return -0.1 * (feat["i_d"] if c == 0 else feat["i_q"])
+
+    for law in (knee, constants):
+        shows, pc = _shows(law, seed)
+        assert not shows, pc

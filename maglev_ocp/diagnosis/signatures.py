@@ -97,11 +97,14 @@ def end_columns(n: int = END_STEPS, middle: float = END_MIDDLE) -> list[Column]:
     That is what separates an end effect from other smooth functions of ``d``: a spring or a cable's pull acts
     over the whole stroke (in the middle too: the signature is judged beyond a linear function of ``d``,
     :data:`SIGNATURES`' ``beyond``), an encoder or sensor error follows the motion, cogging and the thrust ripple
-    are periodic in ``d``. In the same way the loss of the thrust and of the PM-current pull at the ends is
-    judged beyond a uniform scale of ``i_q`` and ``i_d`` over the whole stroke: that is a constant's error or
-    a saturation (a loss in ``g``), not an end. A spring whose stiffness follows the gap is magnetic, and on a
-    stator of uniform slots only its ends give one: it is the end effect's. ``2 n`` columns per channel and
-    factor (``n = 2``: 16 horizontal, 12 vertical) keep the circular-shift null's power.
+    are periodic in ``d``. In the same way every localized column is judged beyond its uniform counterpart over
+    the whole stroke: the steps times ``g - 10 mm`` beyond ``g - 10 mm`` itself (a loss or force that follows
+    the gap everywhere is a saturation or a gap law), the thrust's and the PM-current pull's loss at the ends
+    beyond a uniform scale of ``i_q`` and ``i_d`` (a constant's error). Without that, on a stroke that dwells at
+    its ends (a sinusoid spends two thirds of its time beyond half its amplitude) the localized columns cover
+    most samples and pass for functions of ``g`` and the currents alone. A spring whose stiffness follows the
+    gap is magnetic, and on a stator of uniform slots only its ends give one: it is the end effect's. ``2 n``
+    columns per channel and factor (``n = 2``: 16 horizontal, 12 vertical) keep the circular-shift null's power.
     """
     return [lambda f, s=s, j=j: _end_step(f, s, j, n, middle) for s in (1, -1) for j in range(n)]
 
@@ -139,8 +142,8 @@ class Signature:
         *rate*): its evidence must show at a fixed state, beyond a flexible static map (:func:`static_basis`).
     beyond : dict
         ``{channel: [columns]}``: laws of another kind that the basis also spans in part (the end effect's: a
-        spring and a uniform scale of the current's force over the whole stroke); the basis must show beyond
-        them, as beyond the other effects' bases.
+        spring, a linear function of the gap and a uniform scale of the current's force over the whole stroke);
+        the basis must show beyond them, as beyond the other effects' bases.
     """
 
     effect: str
@@ -210,7 +213,7 @@ def _catalogue() -> dict[str, Signature]:
                   "forces localized at each end of the stroke, nil in its middle and growing with each end's "
                   "overhang (the end force, the thrust and pull losses), and a thrust ripple with the pole pitch",
                   {"horizontal": ends_g + _times(ends + ripple, i_q), "vertical": ends_g + _times(ends, i_d)},
-                  beyond={"horizontal": [_spring, i_q], "vertical": [_spring, i_d]}),
+                  beyond={"horizontal": [_spring, _dg, i_q], "vertical": [_spring, _dg, i_d]}),
         Signature("saturation", ("g", "i_q", "i_d"), CHANNELS, (),
                   "a loss of the magnetic terms monotone in g, in proportion to each term: at a fixed state it "
                   "follows the currents (the thrust and the PM-current pull lose with the field)",
@@ -387,8 +390,8 @@ def evidence(
         them counts (a basis correlated with another effect's remainder through the closed loop is not
         evidence). A dynamic signature (:attr:`Signature.dynamic`) is also judged beyond a flexible static map
         of the state and currents (:func:`static_basis`), whatever effects are named with it; every signature
-        beyond its own :attr:`Signature.beyond` columns (the end effect: beyond a spring and a uniform scale of
-        the current's force over the whole stroke).
+        beyond its own :attr:`Signature.beyond` columns (the end effect: beyond a spring, a linear function of
+        the gap and a uniform scale of the current's force over the whole stroke).
     n_null : int
         Circular shifts of the residual against the features (the null reference).
     alpha : float
