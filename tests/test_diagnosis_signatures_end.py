@@ -1,5 +1,6 @@
 """The end effect's signature (:mod:`maglev_ocp.diagnosis.signatures`): forces localized at each end of the
-stroke, seen beyond a spring over the whole stroke (issue 27).
+stroke, seen beyond their uniform counterparts over the whole stroke (a spring, a law of the gap, a constants'
+error; issue 27).
 
 Truths written here, not computed by the code under test:
 
@@ -13,7 +14,8 @@ Truths written here, not computed by the code under test:
   the middle of the stroke;
 * a tanh-profile overlap: each end loses the pull and the thrust over ``(1 + tanh((s d - e_s) / w_s)) / 2`` with
   its own onset, width and size;
-* a spring over the whole stroke, ``-k d``, and white noise: no end effect.
+* a spring over the whole stroke, ``-k d``, a tanh knee of the pull in the gap, a uniform error of the thrust and
+  PM-current constants, and white noise: no end effect.
 
 The residuals are the signature tests' runs (:func:`test_diagnosis_signatures._runs`: a sinusoidal stroke of
 +-45 mm, the gap 12 +- 3 mm, currents), with white noise of 0.02 m/s^2, above the diagnosis's noise floors
