@@ -135,17 +135,21 @@ def test_white_noise_shows_no_end_effect():
 
 
 def test_end_columns_are_nil_in_the_middle_and_grow_with_each_ends_overhang():
-    """Every column is exactly 0 for |d| below END_MIDDLE of the covered stroke, each end's only on its side,
-    each non-decreasing with that end's overhang, and at its full value 1 at the end of the stroke."""
+    """Every column is exactly 0 for |d| below END_MIDDLE of the farther end of the covered stroke, each end's
+    only on its side, each non-decreasing with that end's overhang, and at its full value 1 at the end of the
+    stroke; a side the samples do not cover beyond the middle has no end columns."""
     d = np.linspace(-0.045, 0.03, 1501)  # an asymmetric stroke: each end's range is its own
     cols = np.column_stack([c({"d": d}) for c in end_columns()])
     hi_p, hi_n = np.percentile(d, 99.5), np.percentile(-d, 99.5)
-    middle = (d < END_MIDDLE * hi_p) & (-d < END_MIDDLE * hi_n)
-    assert np.all(cols[middle] == 0.0)
+    lo = END_MIDDLE * max(hi_p, hi_n)
+    assert np.all(cols[np.abs(d) < lo] == 0.0)
     n = cols.shape[1] // 2
     assert np.all(cols[d <= 0, :n] == 0.0) and np.all(cols[d >= 0, n:] == 0.0)
     assert np.all(np.diff(cols[:, :n], axis=0) >= 0.0) and np.all(np.diff(cols[:, n:], axis=0) <= 0.0)
     assert np.allclose(cols[d >= hi_p, :n], 1.0) and np.allclose(cols[-d >= hi_n, n:], 1.0)
+    short = np.linspace(-0.008, 0.045, 1501)  # d < 0 is not covered beyond the middle (11 mm): no end there
+    cols = np.column_stack([c({"d": short}) for c in end_columns()])
+    assert np.all(cols[:, n:] == 0.0) and np.any(cols[:, :n] > 0.0)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

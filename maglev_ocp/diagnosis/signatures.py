@@ -55,7 +55,7 @@ def _dg(f: Feat) -> np.ndarray:
 
 #: Smooth steps per end of the end effect's signature (:func:`end_columns`).
 END_STEPS: int = 2
-#: The end effect's columns are nil for ``|d|`` below this fraction of the stroke the data cover on each side.
+#: The end effect's columns are nil for ``|d|`` below this fraction of the farther end of the stroke the data cover.
 END_MIDDLE: float = 0.25
 
 
@@ -66,14 +66,17 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
 
 
 def _end_step(f: Feat, side: int, j: int, n: int = END_STEPS, middle: float = END_MIDDLE) -> np.ndarray:
-    """Step ``j`` of ``n`` at the end ``side`` (+1: ``d > 0``, -1: ``d < 0``) of the stroke the samples cover."""
-    u = side * f["d"]
-    hi = float(np.percentile(u, 99.5)) if len(u) else 0.0
-    if not hi > 0:
-        return np.zeros_like(u)
-    lo = middle * hi
+    """Step ``j`` of ``n`` at the end ``side`` (+1: ``d > 0``, -1: ``d < 0``) of the stroke the samples cover
+    (nil where that side does not reach beyond the middle)."""
+    d = f["d"]
+    if not len(d):
+        return np.zeros_like(d)
+    reach = {s: float(np.percentile(s * d, 99.5)) for s in (1, -1)}
+    lo, hi = middle * max(reach.values()), reach[side]
+    if not hi > lo:
+        return np.zeros_like(d)
     width = (hi - lo) / n
-    return _smoothstep((u - lo - j * width) / width)
+    return _smoothstep((side * d - lo - j * width) / width)
 
 
 def end_columns(n: int = END_STEPS, middle: float = END_MIDDLE) -> list[Column]:
@@ -86,7 +89,9 @@ def end_columns(n: int = END_STEPS, middle: float = END_MIDDLE) -> list[Column]:
     end detent force of PM linear motors) are nil while the array fully overlaps the stator and grow with the
     overhang of that end, with an onset, a fringing width and a size of each end's own. Per end ``s = +-1``:
     ``u = s d``; over ``[lo, hi]`` with ``hi`` the 99.5 % quantile of ``u`` (the stroke the samples cover on that
-    side) and ``lo = middle * hi``, ``n`` steps ``S((u - lo - j w) / w)``, ``w = (hi - lo) / n``, ``S`` the
+    side) and ``lo`` a fraction ``middle`` of the farther side's (``d = 0`` is the centre of the stroke,
+    MODEL.md; a side that does not reach beyond ``lo`` has no end in the data and its columns are nil),
+    ``n`` steps ``S((u - lo - j w) / w)``, ``w = (hi - lo) / n``, ``S`` the
     smootherstep (:func:`_smoothstep`): each is 0 below its onset and 1 above it, so that a non-negative sum of
     them is any smooth profile that only grows with the overhang, and every column is exactly 0 in the middle
     of the stroke, ``|d| < lo``. In the signature (:data:`SIGNATURES`) the current-free columns (the end force
