@@ -214,7 +214,7 @@ def _catalogue() -> dict[str, Signature]:
                   "even in it, both falling as the gap opens",
                   {"horizontal": [lambda f: f["d_dot"], lambda f: f["d_dot"] * _dg(f)],
                    "vertical": [lambda f: f["d_dot"] ** 2, lambda f: f["d_dot"] ** 2 * _dg(f)]}),
-        Signature("end_effect", ("d", "i_q", "i_d"), CHANNELS, (tau, tau / 2),
+        Signature("end_effect", ("d", "g", "i_q", "i_d"), CHANNELS, (tau, tau / 2),
                   "forces localized at each end of the stroke, nil in its middle and growing with each end's "
                   "overhang (the end force, the thrust and pull losses), and a thrust ripple with the pole pitch",
                   {"horizontal": ends_g + _times(ends + ripple, i_q), "vertical": ends_g + _times(ends, i_d)},
