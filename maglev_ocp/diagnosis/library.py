@@ -155,6 +155,8 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "end_effect.edge_cog": (0.0, 1.0, 1.0, 0.5),
     "end_effect.edge_skew": (-0.05, 0.05, 0.0, 0.005),
     "end_effect.gain_skew": (-0.9, 0.9, 0.0, 0.2),
+    "end_effect.end_force": (0.0, 20.0, 0.5, 1.0),  # the end force at g = 10 mm [N]
+    "end_effect.end_ell": (1e-3, 0.05, 5e-3, 3e-3),
     # the free profile's steps of its B-spline coefficients: a loss of force of a few 10 % at most on a real
     # stroke; the weak ridge at 0 holds a step whose knot the data do not reach (the profile keeps its level).
     # No step is negative: an overhang only loses force, and more of it the farther the magnets overhang (a
@@ -560,6 +562,20 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
                 "d < 0) and the thrust ripple's second harmonic"
             ),
             law="two ends",
+        ),
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
+            free=(
+                *lib["end_effect"].free,
+                *_free("end_effect.edge_gain", "end_effect.edge_quad", "end_effect.edge_skew", "end_effect.gain_skew"),
+                *_free("end_effect.end_force", "end_effect.end_ell"),
+            ),
+            note=(
+                "the two ends' overhang loss with the end force that goes with it: the overlap's co-energy "
+                "pulls an overhanging array back along d (virtual work), with the loss's onset at each end"
+            ),
+            law="two ends, end force",
         ),
         CandidateSpec(
             "end_effect",

@@ -104,21 +104,21 @@ MATCHED: tuple[MatchedMembers, ...] = (
     MatchedMembers(
         "end_effect",
         "cosine",
-        ("spline profile", "spline profile, ripple harmonics", "two ends"),
+        ("spline profile", "spline profile, ripple harmonics", "two ends", "two ends, end force"),
         "the spline members were written for a loss that levels off, the rig's half cosine (7e043ea: it left "
         "49-66 % of the gap); " + _RIPPLE,
     ),
     MatchedMembers(
         "end_effect",
         "quadratic",
-        ("free profile", "spline profile", "spline profile, ripple harmonics", "two ends"),
+        ("free profile", "spline profile", "spline profile, ripple harmonics", "two ends", "two ends, end force"),
         "'free profile' bends the overhang loss (edge_quad, 2acc506) and the spline follows the rig's quadratic "
         "law to 3 % (7e043ea); " + _RIPPLE,
     ),
     MatchedMembers(
         "end_effect",
         "asymmetric",
-        ("two ends", "spline profile, ripple harmonics"),
+        ("two ends", "two ends, end force", "spline profile, ripple harmonics"),
         "'two ends' gives each end its own onset and loss, for the rig's asymmetric ends (9fe7c3a); " + _RIPPLE,
     ),
     MatchedMembers("saturation", "exp", ("field", "current terms", "per term"), _SAT),

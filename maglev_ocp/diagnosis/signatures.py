@@ -7,8 +7,8 @@ variables it depends on (gap ``g``, position ``d``, velocities, currents, curren
 (harmonics of seed eq. (9)'s ``2 t1`` for cogging, the slot pitch ``t1`` among them; the pole pitch ``tau``
 for the end effect's ripple, MODEL.md), its
 symmetry (friction odd in each velocity, eddy drag odd in the horizontal velocity and its lift even in it, the
-end effect's overhang even in ``d``), its monotonicity (saturation: a smooth monotone loss in ``g``) and the
-channels it acts on. A signature is turned into a small
+end effect localized at each end of the stroke, :func:`end_columns`), its monotonicity (saturation: a smooth
+monotone loss in ``g``) and the channels it acts on. A signature is turned into a small
 linear basis of the residual samples' features (:attr:`~.residuals.PreparedRun.feat`), a local linearization of
 every law with that signature.
 
@@ -53,6 +53,72 @@ def _dg(f: Feat) -> np.ndarray:
     return (f["g"] - _G_REF) / 1e-3
 
 
+#: Smooth steps per end of the end effect's signature (:func:`end_columns`).
+END_STEPS: int = 2
+#: The end effect's columns are nil for ``|d|`` below this fraction of the farther end of the stroke the data cover.
+END_MIDDLE: float = 0.25
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    """``0`` below 0, ``1`` above 1, ``x^3 (10 - 15 x + 6 x^2)`` between (twice continuously differentiable)."""
+    x = np.clip(x, 0.0, 1.0)
+    return x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+
+
+def _end_step(f: Feat, side: int, j: int, n: int = END_STEPS, middle: float = END_MIDDLE) -> np.ndarray:
+    """Step ``j`` of ``n`` at the end ``side`` (+1: ``d > 0``, -1: ``d < 0``) of the stroke the samples cover
+    (nil where that side does not reach beyond the middle)."""
+    d = f["d"]
+    if not len(d):
+        return np.zeros_like(d)
+    reach = {s: float(np.percentile(s * d, 99.5)) for s in (1, -1)}
+    lo, hi = middle * max(reach.values()), reach[side]
+    if not hi > lo:
+        return np.zeros_like(d)
+    width = (hi - lo) / n
+    return _smoothstep((side * d - lo - j * width) / width)
+
+
+def end_columns(n: int = END_STEPS, middle: float = END_MIDDLE) -> list[Column]:
+    """The end effect's localized columns: ``n`` smooth steps in the overhang at each end, each end on its own.
+
+    An end effect is a function of each end's overhang: the array (length ``pm tau``, MODEL.md) leaves the
+    stator at ``d = e_+`` on one side and ``d = -e_-`` on the other, and what it loses there (the pull's and the
+    thrust's share of the overlap, ``-dW/dg`` of the overlap's co-energy ``W``) and the end force it feels
+    (``F_d = -dW/dd``, virtual work: Furlani, *Permanent Magnet and Electromechanical Devices*, 2001, ch. 4; the
+    end detent force of PM linear motors) are nil while the array fully overlaps the stator and grow with the
+    overhang of that end, with an onset, a fringing width and a size of each end's own. Per end ``s = +-1``:
+    ``u = s d``; over ``[lo, hi]`` with ``hi`` the 99.5 % quantile of ``u`` (the stroke the samples cover on that
+    side) and ``lo`` a fraction ``middle`` of the farther side's (``d = 0`` is the centre of the stroke,
+    MODEL.md; a side that does not reach beyond ``lo`` has no end in the data and its columns are nil),
+    ``n`` steps ``S((u - lo - j w) / w)``, ``w = (hi - lo) / n``, ``S`` the
+    smootherstep (:func:`_smoothstep`): each is 0 below its onset and 1 above it, so that a non-negative sum of
+    them is any smooth profile that only grows with the overhang, and every column is exactly 0 in the middle
+    of the stroke, ``|d| < lo``. In the signature (:data:`SIGNATURES`) the current-free columns (the end force
+    along ``d``, the pull's loss along ``g``) also come times ``(g - 10 mm) / 1 mm``: their size falls as the gap
+    opens (the co-energy's, as the pull it comes from); times ``i_q`` (the thrust's loss) and ``i_d`` (the
+    PM-current pull's loss) they do not.
+
+    That is what separates an end effect from other smooth functions of ``d``: a spring or a cable's pull acts
+    over the whole stroke (in the middle too: the signature is judged beyond a linear function of ``d``,
+    :data:`SIGNATURES`' ``beyond``), an encoder or sensor error follows the motion, cogging and the thrust ripple
+    are periodic in ``d``. In the same way every localized column is judged beyond its uniform counterpart over
+    the whole stroke: the steps times ``g - 10 mm`` beyond ``g - 10 mm`` itself (a loss or force that follows
+    the gap everywhere is a saturation or a gap law), the thrust's and the PM-current pull's loss at the ends
+    beyond a uniform scale of ``i_q`` and ``i_d`` (a constant's error). Without that, on a stroke that dwells at
+    its ends (a sinusoid spends two thirds of its time beyond half its amplitude) the localized columns cover
+    most samples and pass for functions of ``g`` and the currents alone. A spring whose stiffness follows the
+    gap is magnetic, and on a stator of uniform slots only its ends give one: it is the end effect's. ``2 n``
+    columns per channel and factor (``n = 2``: 16 horizontal, 12 vertical) keep the circular-shift null's power.
+    """
+    return [lambda f, s=s, j=j: _end_step(f, s, j, n, middle) for s in (1, -1) for j in range(n)]
+
+
+def _spring(f: Feat) -> np.ndarray:
+    """A force linear in ``d`` over the whole stroke (a spring, a cable's pull): what an end effect is not."""
+    return f["d"] / 0.05
+
+
 @dataclass(frozen=True)
 class Signature:
     """The physical signature of one library effect.
@@ -79,6 +145,10 @@ class Signature:
     dynamic : bool
         The effect is no map of the state and the currents (the amplifier lag: a force following the current
         *rate*): its evidence must show at a fixed state, beyond a flexible static map (:func:`static_basis`).
+    beyond : dict
+        ``{channel: [columns]}``: laws of another kind that the basis also spans in part (the end effect's: a
+        spring, a linear function of the gap and a uniform scale of the current's force over the whole stroke);
+        the basis must show beyond them, as beyond the other effects' bases.
     """
 
     effect: str
@@ -90,10 +160,12 @@ class Signature:
     core: dict[str, list[Column]] = field(default_factory=dict)
     fixed: tuple[str, ...] = ()
     dynamic: bool = False
+    beyond: dict[str, list[Column]] = field(default_factory=dict)
 
-    def matrix(self, feat: Feat, channel: str) -> np.ndarray:
-        """The basis evaluated on a run's residual samples, shape ``(n, p)`` (``p = 0`` off its channels)."""
-        cols = self.basis.get(channel, [])
+    def matrix(self, feat: Feat, channel: str, part: str = "basis") -> np.ndarray:
+        """The basis (``part="beyond"``: the :attr:`beyond` columns) evaluated on a run's residual samples,
+        shape ``(n, p)`` (``p = 0`` off its channels)."""
+        cols = getattr(self, part).get(channel, [])
         n = len(feat["t"]) if "t" in feat else 0
         if not cols or n == 0:
             return np.zeros((n, 0))
@@ -124,7 +196,8 @@ def _catalogue() -> dict[str, Signature]:
     cog_g = cog + _times(cog, _dg)  # amplitude a smooth function of g (eq. (9): exponential in g)
     fr_g = [lambda f: np.tanh(f["g_dot"] / _V_SIGN), lambda f: f["g_dot"]]
     fr_d = [lambda f: np.tanh(f["d_dot"] / _V_SIGN), lambda f: f["d_dot"]]
-    over = [lambda f: (f["d"] / 0.05) ** 2, lambda f: (f["d"] / 0.05) ** 4, lambda f: f["d"] * np.abs(f["d"]) / 2.5e-3]
+    ends = end_columns()
+    ends_g = ends + _times(ends, _dg)  # the current-free end force and pull loss, their size smooth in g
     ripple = [c for h in (1, 2) for c in _sincos(tau, h)]
     sat = [lambda f, ell=ell: np.exp(-(f["g"] - 8e-3) / ell) for ell in (2e-3, 5e-3)]
     one: Column = lambda f: np.ones_like(f["t"])  # noqa: E731
@@ -141,9 +214,11 @@ def _catalogue() -> dict[str, Signature]:
                   "even in it, both falling as the gap opens",
                   {"horizontal": [lambda f: f["d_dot"], lambda f: f["d_dot"] * _dg(f)],
                    "vertical": [lambda f: f["d_dot"] ** 2, lambda f: f["d_dot"] ** 2 * _dg(f)]}),
-        Signature("end_effect", ("d", "i_q", "i_d"), CHANNELS, (tau, tau / 2),
-                  "a loss growing with the overhang |d| (each end its own) and a thrust ripple with the pole pitch",
-                  {"horizontal": _times(over + ripple, i_q) + over, "vertical": over + _times(over, i_d)}),
+        Signature("end_effect", ("d", "g", "i_q", "i_d"), CHANNELS, (tau, tau / 2),
+                  "forces localized at each end of the stroke, nil in its middle and growing with each end's "
+                  "overhang (the end force, the thrust and pull losses), and a thrust ripple with the pole pitch",
+                  {"horizontal": ends_g + _times(ends + ripple, i_q), "vertical": ends_g + _times(ends, i_d)},
+                  beyond={"horizontal": [_spring, _dg, i_q], "vertical": [_spring, _dg, i_d]}),
         Signature("saturation", ("g", "i_q", "i_d"), CHANNELS, (),
                   "a loss of the magnetic terms monotone in g, in proportion to each term: at a fixed state it "
                   "follows the currents (the thrust and the PM-current pull lose with the field)",
@@ -215,8 +290,10 @@ class SignatureEvidence:
         ``{channel: {explained, null_q, rms_explained_over_floor}}``: the share of the residual's energy the
         signature explains beyond the others' bases (a dynamic signature: also beyond :func:`static_basis`),
         the null's ``1 - alpha`` quantile of the same share, and the rms it explains beyond the others' bases
-        over the channel's noise floor. A dynamic signature's record also holds ``explained_beyond_others``,
-        ``null_q_beyond_others`` and ``shows_beyond_others``: the same test beyond the others' bases only.
+        over the channel's noise floor. A signature with :attr:`Signature.beyond` columns is tested on what
+        they leave of the residual (shares of that remainder's energy), with ``beyond_share`` the share they
+        took. A dynamic signature's record also holds ``explained_beyond_others``, ``null_q_beyond_others`` and
+        ``shows_beyond_others``: the same test beyond the others' bases only.
     shows : bool
         The share exceeds the null quantile in some channel and what it explains is above ``min_over_floor``
         times the floor there.
@@ -318,7 +395,9 @@ def evidence(
         Effects named with it: their bases are fitted first, and only what ``effect``'s basis explains beyond
         them counts (a basis correlated with another effect's remainder through the closed loop is not
         evidence). A dynamic signature (:attr:`Signature.dynamic`) is also judged beyond a flexible static map
-        of the state and currents (:func:`static_basis`), whatever effects are named with it.
+        of the state and currents (:func:`static_basis`), whatever effects are named with it; every signature
+        beyond its own :attr:`Signature.beyond` columns (the end effect: beyond a spring, a linear function of
+        the gap and a uniform scale of the current's force over the whole stroke).
     n_null : int
         Circular shifts of the residual against the features (the null reference).
     alpha : float
@@ -345,8 +424,19 @@ def evidence(
         y, feat, ids = _stack(residuals, c)
         if len(y) < 20:
             continue
+        extra: dict[str, float] = {}
+        w = sig.matrix(feat, ch, "beyond")
+        if w.shape[1]:
+            # The test is on what the laws of another kind leave (as :func:`core_evidence`'s on what the state map
+            # leaves): shifted, a large spring-like residual would lend the signature's smooth columns a share
+            # that no remainder has, and hide the signature in the null.
+            y0 = float(y @ y)
+            qw = _orth(np.column_stack([np.ones(len(y)), w]))
+            y = y - qw @ (qw.T @ y)
+            extra["beyond_share"] = 1.0 - float(y @ y) / y0 if y0 > 0 else 0.0
         b = _normalized(sig.matrix(feat, ch))
         a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != effect]
+        a.append(w)
         a_o = _normalized(np.column_stack(a)) if a and sum(x.shape[1] for x in a) else np.zeros((len(y), 0))
         a_o = np.column_stack([np.ones(len(y)), a_o])
         size = share_o = _Increment(a_o, b)(y)
@@ -366,7 +456,7 @@ def evidence(
         over = math.sqrt(size * float(np.mean(y**2))) / fl if np.isfinite(fl) and fl > 0 else math.nan
         big = not np.isfinite(over) or over >= min_over_floor
         ok = bool(share > q and big)
-        out[ch] = {"explained": share, "null_q": q, "rms_explained_over_floor": over, "shows": ok}
+        out[ch] = {"explained": share, "null_q": q, "rms_explained_over_floor": over, "shows": ok, **extra}
         if sig.dynamic:
             # The same test beyond the other effects only (not beyond the static map): what the claim guard needs
             # to know whether only the fixed-state part failed (then the library's static rivals are fitted in
@@ -443,6 +533,7 @@ def core_evidence(
             continue
         b = _normalized(np.column_stack([np.asarray(col(feat), float) for col in cols]))
         a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != sig.effect]
+        a.append(sig.matrix(feat, ch, "beyond"))
         a = [np.ones((len(y), 1)), state_map_basis(feat, sig.fixed), *(_normalized(x) for x in a if x.shape[1])]
         inc = _Increment(np.column_stack(a), b)
         # The test is on what the state map and the others leave (``y_a``): shifted, a large structure of the
@@ -544,6 +635,8 @@ def locate_gap(
 
 
 __all__ = [
+    "END_MIDDLE",
+    "END_STEPS",
     "LIBRARY_PERIODS_M",
     "SIGNATURES",
     "STATE_SPLINES",
@@ -551,6 +644,7 @@ __all__ = [
     "Signature",
     "SignatureEvidence",
     "core_evidence",
+    "end_columns",
     "evidence",
     "locate_gap",
     "period_scan",

@@ -16,7 +16,7 @@ Expr = Any  # casadi SX or MX expression
 
 #: Model terms that are magnetic forces (scaled by saturation / end effects).
 MAGNETIC_TERMS: frozenset[str] = frozenset(
-    {"a_pm", "a_id", "a_rel", "a_cogn", "a_thrust", "a_cogx", "cog_extra_n", "cog_extra_x"}
+    {"a_pm", "a_id", "a_rel", "a_cogn", "a_thrust", "a_cogx", "cog_extra_n", "cog_extra_x", "end_x"}
 )
 VERTICAL_MODEL_TERMS: tuple[str, ...] = ("a_grav", "a_pm", "a_id", "a_rel", "a_cogn")
 HORIZONTAL_MODEL_TERMS: tuple[str, ...] = ("a_thrust", "a_cogx")

@@ -10,10 +10,14 @@ import casadi as ca
 
 from .. import constants as k
 from ..shapes import bspline, cumulative
-from .base import MAGNETIC_TERMS, Effect, EffectParam, Expr, _smooth_abs
+from .base import _P, MAGNETIC_TERMS, Effect, EffectParam, Expr, _smooth_abs
 
 #: Centres [m] of the end effect's free-profile coefficients in |d|: every 5 mm from 10 mm to the stops.
 _END_KNOTS: tuple[float, ...] = tuple(round(0.01 + 0.005 * j, 4) for j in range(11))
+
+
+#: Gap at which the end force's size is given [m] (the model's nominal gap, MODEL.md).
+_G_END_REF = 10e-3
 
 
 def _knot_name(c: float) -> str:
@@ -32,6 +36,14 @@ class EndEffect(Effect):
       the overhanging length ``o(d) = w softplus((|d| - d_edge) / w)`` of the
       magnet array (length ``pm * tau``, Table I) produces no force, so every
       magnetic term is multiplied by ``1 - o(d) / (pm * tau)``.
+
+    * an **end force** (``end_force``, 0 by default): the co-energy of the magnets over the stator iron falls
+      with the overlap, so an overhanging array is pulled back, ``F_d = -dW/dd`` (virtual work; Furlani,
+      *Permanent Magnet and Electromechanical Devices*, 2001, ch. 4; the end detent force of PM linear motors,
+      Zhu, Xia, Shi et al., IEEE Trans. Magn. 2009): a force along ``-sign(d)`` that rises with the same smooth
+      onset as the loss (its derivative: the logistic of the overhang argument, each end with its own onset and
+      size through ``edge_skew`` and ``gain_skew``) to ``end_force`` at ``g = 10 mm``, falling as the gap opens
+      with ``end_ell``. The loss of the vertical pull is the same co-energy's ``-dW/dg``, already the factor.
 
     Law family (all extra parameters default to the geometric law above): a
     second ripple harmonic ``ripple2 cos(4 pi d / tau + ripple2_phase)``; a
@@ -74,6 +86,8 @@ class EndEffect(Effect):
         ),
         EffectParam("edge_skew", 0.0, -0.05, 0.05, "m", "onset of the overhang loss at d > 0 later (d < 0 earlier)"),
         EffectParam("gain_skew", 0.0, -0.9, 0.9, "-", "loss per overhang at d > 0 times 1 + gain_skew (d < 0: 1 -)"),
+        EffectParam("end_force", 0.0, 0.0, 20.0, "N", "restoring end force once the array overhangs, at g = 10 mm"),
+        EffectParam("end_ell", 5e-3, 1e-3, 0.05, "m", "decay length of the end force in the gap"),
     )
 
     @staticmethod
@@ -96,6 +110,17 @@ class EndEffect(Effect):
         softplus = ca.if_else(z > 30, z, ca.log1p(ca.exp(ca.fmin(z, 30))))
         f = w * softplus / (k.pm * k.tau)
         return 1 - gain * (1 + side * gain_skew) * f - quad * f**2
+
+    @staticmethod
+    def end_force_x(d: Expr, g: Expr, theta: Mapping[str, Expr]) -> Expr:
+        """The end force along ``d`` [N] (0 with ``end_force = 0``): ``-sign(d) F_end exp(-(g - 10 mm) / end_ell)
+        s(z) (1 + sign(d) gain_skew)`` with ``s`` the logistic of the overhang argument of :meth:`overhang_factor`
+        (the derivative of its softplus: the end force is where the overlap changes)."""
+        side = ca.sign(d)
+        z = (_smooth_abs(d, 1e-5) - theta["d_edge"] - side * theta["edge_skew"]) / theta["edge_width"]
+        onset = 1 / (1 + ca.exp(-ca.fmax(ca.fmin(z, 30), -30)))
+        decay = ca.exp(-(g - _G_END_REF) / theta["end_ell"])
+        return -side * theta["end_force"] * decay * onset * (1 + side * theta["gain_skew"])
 
     @classmethod
     def profile_names(cls) -> tuple[str, ...]:
@@ -132,3 +157,5 @@ class EndEffect(Effect):
         cog = {"a_cogn", "a_cogx", "cog_extra_n", "cog_extra_x"}
         terms.scale(MAGNETIC_TERMS - cog, fac)
         terms.scale(cog, 1 - theta["edge_cog"] * (1 - fac))
+        # The end force: the overlap's co-energy pulled along d (a magnetic force, which a saturation scales).
+        terms.horizontal["end_x"] = self.end_force_x(d, x[0], theta) / _P(p)["Mh"]

@@ -60,6 +60,7 @@ class Saturation(Effect):
         "a_cogx": "w_pm",
         "cog_extra_n": "w_pm",
         "cog_extra_x": "w_pm",
+        "end_x": "w_pm",
         "a_id": "w_id",
         "a_rel": "w_rel",
         "a_thrust": "w_thrust",
