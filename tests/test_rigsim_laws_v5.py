@@ -299,6 +299,7 @@ def test_phase_finding_offsets_per_run():
     again = make_law("commutation_offset", spec)
     again.reset(6)
     assert np.array_equal(again.offsets, law.offsets)
+    assert again.describe()["run_offsets_rad"] == pytest.approx(list(law.offsets), abs=0)
     iq, idd = law.rotate_at(np.ones((6, 50)), 2 * np.ones((6, 50)), X, None)
     assert np.allclose(iq**2 + idd**2, 5.0)
 

@@ -516,6 +516,13 @@ class CommutationV5(_V5, CommutationOffset):
             kf = NOMINAL.Mh * NOMINAL.C1 * float(shape(k.g_cog_ref).f1)
             self.offsets = self.p["delta0"] + np.arcsin(np.clip(u * self.p["F_stick"] / (kf * self.p["I_inj"]), -1, 1))
 
+    def describe(self) -> dict[str, Any]:
+        """Family and parameters; for ``phase_finding`` also the angle of each run simulated last [rad]."""
+        out = super().describe()
+        if self.family == "phase_finding":
+            out["run_offsets_rad"] = [float(x) for x in self.offsets]
+        return out
+
     def sw_error(self, psi, h):
         """Stoner-Wohlfarth angle error ``e`` of the magnetization for field angle ``psi`` and ``h = Hk / H``."""
         psi, h = np.broadcast_arrays(np.asarray(psi, dtype=float), np.asarray(h, dtype=float))
