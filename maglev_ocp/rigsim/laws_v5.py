@@ -160,17 +160,19 @@ class CoggingV5(_V5, Cogging):
         g, d = np.asarray(g, dtype=float), np.asarray(d, dtype=float)
         W = 0.0 * (g + d)
         Fd = 0.0 * W
-        for j in range(2 * N_CELLS + 1):
-            i = j - N_CELLS
-            u = d - i * LAMBDA - p[f"dx{j}"]
-            w = _cell_step(u + 3 * LAMBDA)[0] - _cell_step(u - 3 * LAMBDA)[0]
-            dw = _cell_step(u + 3 * LAMBDA)[1] - _cell_step(u - 3 * LAMBDA)[1]
-            if not (np.any(w) or np.any(dw)):
+        n = 2 * N_CELLS + 1
+        col = (n,) + (1,) * d.ndim  # every cell at once (same arithmetic as one by one), summed in order below
+        dx = np.array([p[f"dx{j}"] for j in range(n)]).reshape(col)
+        u = d[None, ...] - ((np.arange(n) - N_CELLS) * LAMBDA).reshape(col) - dx
+        hi, lo = _cell_step(u + 3 * LAMBDA), _cell_step(u - 3 * LAMBDA)
+        w, dw = hi[0] - lo[0], hi[1] - lo[1]
+        S, P = self.wave(d[None, ...] - dx)
+        for j in range(n):
+            if not (np.any(w[j]) or np.any(dw[j])):
                 continue
-            S, P = self.wave(d - p[f"dx{j}"])
             wt = 1.0 + p[f"eps{j}"]
-            W = W + wt * w * P
-            Fd = Fd + wt * (w * S - LAMBDA / (2 * math.pi) * dw * P)
+            W = W + wt * w[j] * P[j]
+            Fd = Fd + wt * (w[j] * S[j] - LAMBDA / (2 * math.pi) * dw[j] * P[j])
         A = self.amplitude(g) / 6.0
         # F_g = -dW/dg with W = (lambda / 2 pi) A sum(...) and dA/dg = -A / ell
         return LAMBDA / (2 * math.pi) * A * W / p["ell"], A * Fd
@@ -375,6 +377,9 @@ class SaturationV5(_V5, Saturation):
             raise ValueError("saturation (magnet_knee): target must be 'magnet' (the magnets' own knee)")
         self.has_factors = False
         self.has_factors_i = True
+        if self.family == "cross_flux":  # constants of the circuit, computed once
+            self._r = self.ratio_r()
+            self._f_hi = self.flux(self.p["b_lo"] * field_ratio(G_STOP_HI, G_STOP_LO))
 
     def ratio_r(self) -> float:
         """Iron-to-gap reluctance ratio ``r`` giving ``loss_lo`` at the lower stop without current."""
@@ -385,7 +390,7 @@ class SaturationV5(_V5, Saturation):
     def flux(self, b):
         """Flux ratio ``f`` (to the linear circuit) solving ``f (1 + r nu(f b)) = 1 + r eps`` for ``b`` (bisection)."""
         p = self.p
-        r = self.ratio_r()
+        r = getattr(self, "_r", None) or self.ratio_r()
         b = np.asarray(b, dtype=float)
         lo, hi = np.zeros_like(b), np.ones_like(b)
         for _ in range(self.N_BISECT):  # f (1 + r nu(f b)) grows with f: one root in (0, 1]
@@ -401,7 +406,7 @@ class SaturationV5(_V5, Saturation):
         re, im = net_field(g, i_q, i_d)
         if self.family == "cross_flux":
             b = p["b_lo"] * field_ratio(g, G_STOP_LO) * np.hypot(re, im)
-            return 1.0 - self.flux(b) / self.flux(p["b_lo"] * field_ratio(G_STOP_HI, G_STOP_LO))
+            return 1.0 - self.flux(b) / self._f_hi
         w = p["w_g"] * (g / (g + k.hm / k.mu_rec) + (1.0 - re))
         knee = p["w_s"] * np.logaddexp(0.0, (w - 1.0) / p["w_s"])
         return p["l_max"] * np.tanh(p["s_k"] * knee / p["l_max"])
