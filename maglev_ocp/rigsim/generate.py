@@ -27,7 +27,7 @@ from ..riglog import RunLog, write_dataset
 from .excite import references
 from .laws import Law
 from .laws_new import AmplifierNew
-from .laws_v4 import EFFECTS_V4, make_law
+from .laws_v5 import EFFECTS_V5, make_law
 from .physics import NOMINAL, Constants
 from .sim import Rig, RigSettings, Trajectory, simulate
 
@@ -46,7 +46,7 @@ def build_laws(effects: EffectsArg) -> list[Law]:
     names = [law.name for law in laws]
     if len(set(names)) != len(names):
         raise ValueError(f"each effect at most once, got {names}")
-    order = list(EFFECTS_V4)
+    order = list(EFFECTS_V5)
     return sorted(laws, key=lambda law: order.index(law.name))
 
 
@@ -142,6 +142,9 @@ def _forces(rig: Rig, X: np.ndarray, I: np.ndarray, km, t=None) -> tuple[np.ndar
     for law in rig.force_laws:
         fg, fd = law.force(g, gd, d, dd)
         Fg, Fd = Fg + fg, Fd + fd
+    for law in rig.force_i_laws:
+        fg, fd = law.force_i(g, gd, d, dd, iq, idd)
+        Fg, Fd = Fg + fg, Fd + fd
     return Fg, Fd
 
 
@@ -168,8 +171,10 @@ def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
     one = Rig(rig.c, [law], rig.s)
     F0 = _forces(base, X, u, 1.0)
     out: dict[str, Any] = {}
-    if hasattr(law, "recorded"):  # a state the trajectory does not hold (laws_v4): the law's own record
-        out.update(law.recorded())
+    recorded: dict[str, Any] = {}
+    if hasattr(law, "recorded"):  # a state the trajectory does not hold (laws_v4, v5): the law's own record
+        recorded = law.recorded()
+        out.update(recorded)
         F1 = F0
     elif law.name == "amplifier_lag":
         F1 = _forces(base, X, traj.i_amp, 1.0)
@@ -205,6 +210,7 @@ def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
     pg = float(np.max(np.abs(F1[0] - F0[0])))
     pd = float(np.max(np.abs(F1[1] - F0[1])))
     out.update({"peak_force_n": max(pg, pd), "peak_force_g_n": pg, "peak_force_d_n": pd})
+    out.update({a: b for a, b in recorded.items() if a.startswith("peak_force")})  # a force the law recorded
     return out
 
 

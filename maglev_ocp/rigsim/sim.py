@@ -128,6 +128,8 @@ class Rig:
         # hooks of the fourth law set (:mod:`.laws_v4`): factors that see the currents, a per-period state
         self.factor_i_laws = [law for law in self.laws if getattr(law, "has_factors_i", False)]
         self.advance_laws = [law for law in self.laws if getattr(law, "has_advance", False)]
+        # hook of the fifth law set (:mod:`.laws_v5`): forces that see the carried currents
+        self.force_i_laws = [law for law in self.laws if getattr(law, "has_force_i", False)]
         self.lti = bool(getattr(self.amp, "lti", False))
         self.t_now = np.zeros(1)  #: dataset time of the current period per run [s] (set by :func:`simulate`)
         delay = float(self.amp.p["delay_samples"])
@@ -192,6 +194,9 @@ class Rig:
         Fg, Fd = Fg_held, Fd_held
         for law in self.force_laws:
             fg, fd = law.force(g, gd, d, dd)
+            Fg, Fd = Fg + fg, Fd + fd
+        for law in self.force_i_laws:
+            fg, fd = law.force_i(g, gd, d, dd, i_q, i_d)
             Fg, Fd = Fg + fg, Fd + fd
         c = self.c
         dX = np.empty_like(X)

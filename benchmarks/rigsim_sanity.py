@@ -1,17 +1,19 @@
-"""One dataset per family of rigsim's fourth law set: does it keep the stage off its stops, and how big is it?
+"""One dataset per family of one of rigsim's law sets: does it keep the stage off its stops, and how big is it?
 
-For each (effect, family) of :mod:`maglev_ocp.rigsim.laws_v4` the first scenario drawn by
-``rigsim.draw(seed, laws="v4")`` (seeds from ``--first`` on) that contains it gives the law's parameters; the
-law alone is then simulated on the default rig (6 runs x 10 s, the rig's own FL-PID controller), with the
-dataset's seed. Reported per family: the truth's peak size, the readings' range, the samples within 50 µm of
+For each (effect, family) of the law set ``--laws`` (:mod:`maglev_ocp.rigsim.laws_v4` or ``laws_v5``) the first
+scenario drawn by ``rigsim.draw(seed, laws=LAWS)`` (seeds from ``--first`` on) that contains it gives the law's
+parameters; the law alone is then simulated on the default rig (6 runs x 10 s, the rig's own FL-PID controller),
+with the dataset's seed. Reported per family: the truth's peak size, the readings' range, the samples within 50 µm of
 a stop, and the tracking RMS (reading minus reference after the first second), beside the RMS of the same
 seed's rig without the effect (same constants, excitation and noise: the difference is the effect's).
 
-With ``--sweep N`` it instead generates the ``N`` scenarios ``draw(seed, laws="v4")`` for seeds from ``--first``
+With ``--sweep N`` it instead generates the ``N`` scenarios ``draw(seed, laws=LAWS)`` for seeds from ``--first``
 on, as the blind self-check draws them (none, single, pairs, triples, out of library), on the default rig.
 
-``python benchmarks/rigsim_v4_sanity.py --first 5000 --out results/rigsim/v4_sanity.md``
-``python benchmarks/rigsim_v4_sanity.py --first 7000 --sweep 40 --out results/rigsim/v4_sweep.md``
+``python benchmarks/rigsim_sanity.py --laws v4 --first 5000 --out results/rigsim/v4_sanity.md``
+``python benchmarks/rigsim_sanity.py --laws v4 --first 7000 --sweep 40 --out results/rigsim/v4_sweep.md``
+``python benchmarks/rigsim_sanity.py --laws v5 --first 5000 --out results/rigsim/v5_sanity.md``
+``python benchmarks/rigsim_sanity.py --laws v5 --first 7000 --sweep 40 --out results/rigsim/v5_sweep.md``
 """
 
 from __future__ import annotations
@@ -28,17 +30,21 @@ from tqdm import tqdm
 from maglev_ocp import constants as k
 from maglev_ocp.rigsim import RigSettings, draw, generate
 from maglev_ocp.rigsim.laws_v4 import V4_LAWS
+from maglev_ocp.rigsim.laws_v5 import V5_LAWS
+
+#: The law sets this check knows, with their classes by effect.
+SETS = {"v4": V4_LAWS, "v5": V5_LAWS}
 
 STOP_MARGIN = 5e-5  #: a reading within this of a stop counts as a stop hit [m]
 
 
-def pick(first: int) -> list[tuple[str, str, int, dict]]:
-    """``(effect, family, seed, spec)`` for every family: the first drawn scenario that has it."""
-    want = {(n, f) for n, c in V4_LAWS.items() for f in c.families}
+def pick(first: int, laws: str = "v4") -> list[tuple[str, str, int, dict]]:
+    """``(effect, family, seed, spec)`` for every family of ``laws``: the first drawn scenario that has it."""
+    want = {(n, f) for n, c in SETS[laws].items() for f in c.families}
     out = [("none", "-", first, {})]
     s = first
     while want and s < first + 5000:
-        for name, spec in draw(s, laws="v4")["effects"].items():
+        for name, spec in draw(s, laws=laws)["effects"].items():
             if (name, spec["family"]) in want:
                 want.discard((name, spec["family"]))
                 out.append((name, spec["family"], s, spec))
@@ -75,15 +81,16 @@ def measure(folder: Path) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--laws", choices=tuple(SETS), default="v4", help="law set (default v4)")
     ap.add_argument("--first", type=int, default=5000, help="first draw seed searched (default 5000)")
     ap.add_argument("--out", type=Path, help="write the table (markdown) and a .json beside it")
     ap.add_argument("--sweep", type=int, default=0, metavar="N", help="N drawn scenarios instead of one per family")
     args = ap.parse_args()
     if args.sweep:
-        sweep(args.first, args.sweep, args.out)
+        sweep(args.first, args.sweep, args.out, args.laws)
         return
     rows = []
-    for name, fam, seed, spec in tqdm(pick(args.first), desc="families"):
+    for name, fam, seed, spec in tqdm(pick(args.first, args.laws), desc="families"):
         eff = {} if name == "none" else {name: spec}
         t0 = time.perf_counter()
         with tempfile.TemporaryDirectory() as tmp:
@@ -116,11 +123,11 @@ def main() -> None:
         args.out.with_suffix(".json").write_text(json.dumps(rows, indent=2) + "\n")
 
 
-def sweep(first: int, n: int, out: Path | None) -> None:
-    """Generate ``n`` drawn v4 scenarios and tabulate stop hits, ranges and tracking."""
+def sweep(first: int, n: int, out: Path | None, laws: str = "v4") -> None:
+    """Generate ``n`` drawn scenarios of the law set ``laws`` and tabulate stop hits, ranges and tracking."""
     rows = []
     for seed in tqdm(range(first, first + n), desc="scenarios"):
-        sc = draw(seed, laws="v4")
+        sc = draw(seed, laws=laws)
         with tempfile.TemporaryDirectory() as tmp:
             f = generate(Path(tmp) / "ds", sc["effects"], seed=seed, settings=RigSettings())
             m = measure(f)
