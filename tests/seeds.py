@@ -37,6 +37,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         # second_frohlich): run, then spent
         2711, 5077,  # leave-one-law-out development run, 2-dataset end-to-end run of the rig self-check (s11)
         41,  # learned-shape dataset tests (test_diagnosis_shapes, s11)
+        42,  # the phase-finding commutation law's own draw (test_rigsim_laws_v5, s15)
         710027,  # lag + friction (test_heldout): failed 2026-11-29 (size from the single fit), then developed on
         710043,  # lag + friction (test_heldout): passed 2026-11-29, spent when the backward check's rule changed
         405197630,  # issue 27's blind rig check rerun (eleventh session): spent
