@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .. import constants as k
+from ._rand import _pm, _u
 from .draw_v4 import draw_v4
 from .draw_v5 import draw_v5
 from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
@@ -26,14 +27,6 @@ from .laws_v3 import EFFECTS_V3, V3_LAWS, V3_LIBRARY, V3_OUT_OF_LIBRARY
 from .physics import NOMINAL, shape
 
 Spec = dict[str, Any]
-
-
-def _u(rng: np.random.Generator, lo: float, hi: float) -> float:
-    return float(rng.uniform(lo, hi))
-
-
-def _pm(rng: np.random.Generator, lo: float, hi: float) -> float:
-    return float(rng.choice([-1.0, 1.0]) * rng.uniform(lo, hi))
 
 
 def _family(rng: np.random.Generator, name: str) -> str:

@@ -15,21 +15,10 @@ from typing import Any
 import numpy as np
 
 from .. import constants as k
+from ._rand import _log, _pm, _u
 from .laws_v4 import EFFECTS_V4, V4_LAWS, V4_LIBRARY, V4_OUT_OF_LIBRARY
 
 Spec = dict[str, Any]
-
-
-def _u(rng: np.random.Generator, lo: float, hi: float) -> float:
-    return float(rng.uniform(lo, hi))
-
-
-def _pm(rng: np.random.Generator, lo: float, hi: float) -> float:
-    return float(rng.choice([-1.0, 1.0]) * rng.uniform(lo, hi))
-
-
-def _log(rng: np.random.Generator, lo: float, hi: float) -> float:
-    return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
 
 
 def _family(rng: np.random.Generator, name: str) -> str:

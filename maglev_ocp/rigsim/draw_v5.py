@@ -15,22 +15,11 @@ from typing import Any
 import numpy as np
 
 from .. import constants as k
+from ._rand import _log, _pm, _u
 from .laws_v5 import EFFECTS_V5, N_CELLS, V5_LAWS, V5_LIBRARY, V5_OUT_OF_LIBRARY
 from .laws_v5_ool import N_WAVES
 
 Spec = dict[str, Any]
-
-
-def _u(rng: np.random.Generator, lo: float, hi: float) -> float:
-    return float(rng.uniform(lo, hi))
-
-
-def _pm(rng: np.random.Generator, lo: float, hi: float) -> float:
-    return float(rng.choice([-1.0, 1.0]) * rng.uniform(lo, hi))
-
-
-def _log(rng: np.random.Generator, lo: float, hi: float) -> float:
-    return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
 
 
 def _family(rng: np.random.Generator, name: str) -> str:
