@@ -34,21 +34,24 @@ def end_force_rig(tmp_path_factory):
 
 def test_an_end_force_the_loop_balances_does_not_drag_the_thrust_constant(end_force_rig):
     """The plain calibration takes C1 far below the rig's (the loop's current follows the end force, the
-    acceleration does not); partialled out of the nuisance forces, C1 is within 10 % of the rig's, and the
-    baseline holds it."""
+    acceleration does not); partialled out of the nuisance forces, C1 is within 10 % of the rig's."""
     from maglev_ocp.diagnosis.settings import DiagnoseSettings
+    from maglev_ocp.diagnosis.stages import baseline
     from maglev_ocp.diagnosis.stages.baseline import calibrate_baseline
     from maglev_ocp.diagnosis.stages.split import split_dataset
 
     ds, truth = end_force_rig
     st = DiagnoseSettings()
-    base = calibrate_baseline(split_dataset(ds, st), None, st)
+    split = split_dataset(ds, st)
+    base = calibrate_baseline(split, None, st)
     th = base.thrust
-    assert th is not None and th.used, th
-    assert abs(th.c1 / truth["C1"] - 1) < 0.10, (th, truth["C1"])
+    assert th is not None and abs(th.c1 / truth["C1"] - 1) < 0.10, (th, truth["C1"])
     assert abs(th.c1_plain / truth["C1"] - 1) > 2 * abs(th.c1 / truth["C1"] - 1), (th, truth["C1"])
-    assert base.params.C1 == pytest.approx(th.c1)
-    assert base.stderr["C1"] == pytest.approx(th.stderr) and th.stderr < 0.05 * truth["C1"]
+    assert th.stderr < 0.05 * truth["C1"]
+    # Reported only by default (baseline.HOLD_PARTIALLED_C1): the baseline keeps the plain calibration's C1.
+    assert th.used is baseline.HOLD_PARTIALLED_C1
+    if not th.used:  # the baseline's own calibration passes keep the plain, dragged C1
+        assert abs(base.params.C1 - th.c1) > 5 * th.stderr, (base.params.C1, th)
 
 
 def test_the_nuisance_does_not_hold_the_thrust_current():

@@ -111,7 +111,7 @@ def _stack(runs: Sequence, res_a: Sequence, res_b: Sequence) -> tuple[np.ndarray
 
 
 def partialled_thrust(
-    train: Sequence[PreparedRun], p: np.ndarray, noise_lag: int, prior_sd_c1: float
+    train: Sequence[PreparedRun], p: np.ndarray, noise_lag: int, prior_sd_c1: float, hold: bool = True
 ) -> ThrustConstant | None:
     """``C1`` by the partially linear model of the module docstring, on the training runs at constants ``p``.
 
@@ -127,6 +127,8 @@ def partialled_thrust(
     prior_sd_c1 : float
         The calibration prior's sd of ``C1`` [m/s^2/A] (``inf``: none): a partialled estimate less precise than
         that is not used.
+    hold : bool
+        Whether the baseline is to hold a determined estimate (``used``); False: computed and reported only.
 
     Returns
     -------
@@ -156,9 +158,10 @@ def partialled_thrust(
     if not (np.isfinite(c1) and c1 > 0 and se <= prior_sd_c1):
         return ThrustConstant(c1_plain, c1, se, False, f"partialled C1 = {c1:.3g} +- {se:.2g} is not determined "
                               f"within the prior's sd {prior_sd_c1:.2g}: plain calibration kept", n)  # fmt: skip
+    what = "held in the baseline" if hold else "reported; the baseline keeps the plain calibration's"
     why = (f"C1 partialled out of the forces that do not scale with i_q: {c1:.4g} +- {se:.2g} (plain calibration "
-           f"{c1_plain:.4g}); held in the baseline")  # fmt: skip
-    return ThrustConstant(c1_plain, c1, se, True, why, n)
+           f"{c1_plain:.4g}); {what}")  # fmt: skip
+    return ThrustConstant(c1_plain, c1, se, hold, why, n)
 
 
 __all__ = ["ThrustConstant", "nuisance_basis", "partialled_thrust"]
