@@ -439,12 +439,12 @@ def evidence(
         a.append(w)
         a_o = _normalized(np.column_stack(a)) if a and sum(x.shape[1] for x in a) else np.zeros((len(y), 0))
         a_o = np.column_stack([np.ones(len(y)), a_o])
-        size = share_o = _Increment(a_o, b)(y)
+        inc_o = _Increment(a_o, b)
+        size = share_o = inc_o(y)
         if sig.dynamic:  # significance at a fixed state: beyond a flexible static map (:func:`static_basis`)
-            a_ = np.column_stack([a_o, _normalized(static_basis(feat))])
+            inc = _Increment(np.column_stack([a_o, _normalized(static_basis(feat))]), b)
         else:
-            a_ = a_o
-        inc = _Increment(a_, b)
+            inc = inc_o
         share = inc(y) if sig.dynamic else share_o
         shifts = [_shifted(y, ids, rng) for _ in range(n_null)]
         null = [inc(ys) for ys in shifts]
@@ -461,7 +461,6 @@ def evidence(
             # The same test beyond the other effects only (not beyond the static map): what the claim guard needs
             # to know whether only the fixed-state part failed (then the library's static rivals are fitted in
             # the effect's place, :func:`..stages.claims.check_claims`).
-            inc_o = _Increment(a_o, b)
             q_o = float(np.quantile([inc_o(ys) for ys in shifts], 1 - alpha)) if shifts else math.inf
             out[ch].update(explained_beyond_others=share_o, null_q_beyond_others=q_o,
                            shows_beyond_others=bool(share_o > q_o and big))  # fmt: skip
