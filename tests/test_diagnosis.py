@@ -467,11 +467,13 @@ def test_saturation_law_family_scales_the_terms_it_names():
         assert a1 == pytest.approx(expect * a0, rel=1e-12)
 
 
-def test_polyphase_filter_equals_the_sparse_rows(model):
+def test_polyphase_filter_equals_the_sparse_rows(model, monkeypatch):
     """The fits' filter (dense polyphase form) gives the data's sparse filter rows' product, per channel, for
-    series and for Jacobian blocks, on runs of different lengths and one run without a valid g channel."""
+    series and for Jacobian blocks, on runs of different lengths and one run without a valid g channel; its two
+    ways of summing the phases give the same bits."""
     import scipy.sparse as spa
 
+    from maglev_ocp.diagnosis import fitdata
     from maglev_ocp.diagnosis.candidates import Dataset
 
     filt = ZeroPhaseFilter(ResidualSettings())
@@ -480,13 +482,18 @@ def test_polyphase_filter_equals_the_sparse_rows(model):
     data = Dataset(runs, np.array([10.0, 10.0]), filt)
     W = spa.block_diag([r.W for r in data.runs], format="csr")
     rng = np.random.default_rng(3)
-    for X in (rng.standard_normal(len(data.Z)), rng.standard_normal((len(data.Z), 7))):
+    for X in (rng.standard_normal(len(data.Z)), *(rng.standard_normal((len(data.Z), m)) for m in (7, 23))):
         for c in range(2):
             rows = np.repeat([bool(r.valid[c]) for r in data.runs], [r.n for r in data.runs])
             ref = W[rows] @ X
             got = data.filter(X, c)
             assert got.shape == ref.shape
             np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.max(np.abs(ref)))
+            # the phases summed by a strided reduction or by shifted slices: the same bits
+            for ncols in (1, 10**9):
+                monkeypatch.setattr(fitdata, "_SHIFTED_ADDS_MIN_COLUMNS", ncols)
+                assert np.array_equal(data.filter(X, c), got)
+            monkeypatch.undo()
 
 
 def test_a_confusable_slot_keeps_only_what_the_final_joint_model_cannot_tell_apart(monkeypatch):
@@ -624,3 +631,23 @@ def test_a_drop_one_model_is_refitted_from_the_full_models_values_when_that_fits
     got, _, att = run(110.0)
     assert got[2].name == "old" and [s.name for s in att.scores] == ["old"]
     assert len(warm_seen) == 2  # once per set
+
+
+def test_the_polyphase_filters_two_sums_agree_to_the_last_bit():
+    """The fits' filter sums its phases either as a strided reduction (few columns) or as shifted slice
+    additions (many): both add the same terms in the same order, so a diagnosis cannot depend on which ran."""
+    from numpy.lib.stride_tricks import as_strided
+
+    from maglev_ocp.diagnosis.fitdata import _shifted_sum
+
+    rng = np.random.default_rng(4)
+    for Q, k_, n in ((51, 1, 300), (51, 12, 1250), (7, 5, 40)):
+        P = rng.standard_normal((Q, k_, n + Q - 1)) * 10.0 ** rng.integers(-6, 6, size=(Q, 1, 1))
+        s0, s1, s2 = P.strides
+        ref = as_strided(P, shape=(k_, n, Q), strides=(s1, s2, s0 + s2), writeable=False).sum(axis=2)
+        got = _shifted_sum(P, n)
+        assert got.shape == ref.shape
+        assert np.array_equal(got, ref)
+        # and it is the FIR sum it stands for (a truth not computed by either path)
+        j = int(rng.integers(n))
+        assert got[:, j] == pytest.approx(sum(P[q, :, j + q] for q in range(Q)), rel=1e-9, abs=1e-300)
