@@ -20,8 +20,9 @@ from .residuals import PreparedRun, ZeroPhaseFilter
 #: From this many columns on, the polyphase filter's sum over its phases is taken as shifted slice additions
 #: (:func:`_shifted_sum`) instead of one strided reduction: numpy reduces a strided axis element by element in
 #: the same order, so the two agree to the last bit, and the slices stream through memory where the strided
-#: view jumps by a phase's stride at every term (5-6x faster at 12-30 columns; slower for a single series).
-_SHIFTED_ADDS_MIN_COLUMNS: int = 4
+#: view jumps by a phase's stride at every term (1.6-2.5x faster at 5-30 columns, no faster below:
+#: ``benchmarks/bench_filter.py``).
+_SHIFTED_ADDS_MIN_COLUMNS: int = 5
 
 
 def _shifted_sum(P: np.ndarray, n: int) -> np.ndarray:
