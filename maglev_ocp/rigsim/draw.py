@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .. import constants as k
-from ._rand import _pm, _u
+from ._rand import _pm, _u, draw_effects, pick_effects
 from .draw_v4 import draw_v4
 from .draw_v5 import draw_v5
 from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
@@ -456,11 +456,7 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
         raise ValueError(f"kind must be one of {kinds}, got {kind!r}")
     n = {"none": 0, "single": 1, "pair": 2, "triple": 3}.get(kind, 0)
     if laws == "old":
-        names = [str(x) for x in rng.choice(LIBRARY_EFFECTS, size=n, replace=False)]
-        if kind == "out_of_library":
-            names = [str(rng.choice(OUT_OF_LIBRARY))]
-        order = list(LAWS)
-        effects = {nm: {**DRAWS[nm](rng), "new_law": False} for nm in sorted(names, key=order.index)}
+        effects = draw_effects(rng, kind, n, LIBRARY_EFFECTS, OUT_OF_LIBRARY, DRAWS, list(LAWS), False)
         return {"kind": kind, "seed": int(seed), "laws": laws, "effects": effects}
     if laws == "v4":
         return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v4(seed, kind, n)}
@@ -468,20 +464,14 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
         return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v5(seed, kind, n)}
     if laws == "v3":
         rng3 = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157, 27, 3]))
-        names = [str(x) for x in rng3.choice(V3_LIBRARY, size=n, replace=False)]
-        if kind == "out_of_library":
-            names = [str(rng3.choice(V3_OUT_OF_LIBRARY))]
-        effects = {nm: {**V3_DRAWS[nm](rng3), "new_law": True} for nm in sorted(names, key=EFFECTS_V3.index)}
+        effects = draw_effects(rng3, kind, n, V3_LIBRARY, V3_OUT_OF_LIBRARY, V3_DRAWS, EFFECTS_V3, True)
         return {"kind": kind, "seed": int(seed), "laws": laws, "effects": effects}
     rng2 = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157, 27]))
     only_new = laws == "new"
     lib = [x for x in ALL_LIBRARY if x in NEW_LAWS] if only_new else list(ALL_LIBRARY)
     ool = [x for x in ALL_OUT_OF_LIBRARY if x in NEW_LAWS] if only_new else list(ALL_OUT_OF_LIBRARY)
-    names = [str(x) for x in rng2.choice(lib, size=n, replace=False)]
-    if kind == "out_of_library":
-        names = [str(rng2.choice(ool))]
     effects = {}
-    for nm in sorted(names, key=list(ALL_EFFECTS).index):
+    for nm in sorted(pick_effects(rng2, kind, n, lib, ool), key=list(ALL_EFFECTS).index):
         new = nm not in DRAWS or (nm in NEW_DRAWS and (only_new or rng2.uniform() < P_NEW))
         effects[nm] = {**(NEW_DRAWS if new else DRAWS)[nm](rng2), "new_law": bool(new)}
     return {"kind": kind, "seed": int(seed), "laws": laws, "effects": effects}

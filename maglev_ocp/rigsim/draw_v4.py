@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from .. import constants as k
-from ._rand import _log, _pm, _u
+from ._rand import _log, _pm, _u, draw_effects
 from .laws_v4 import EFFECTS_V4, V4_LAWS, V4_LIBRARY, V4_OUT_OF_LIBRARY
 
 Spec = dict[str, Any]
@@ -170,10 +170,7 @@ V4_DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
 def draw_v4(seed: int, kind: str, n: int) -> dict[str, Spec]:
     """The effects of a v4 scenario of ``kind`` with ``n`` library effects, from the seed's fourth stream."""
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157, 27, 4]))
-    names = [str(x) for x in rng.choice(V4_LIBRARY, size=n, replace=False)]
-    if kind == "out_of_library":
-        names = [str(rng.choice(V4_OUT_OF_LIBRARY))]
-    return {nm: {**V4_DRAWS[nm](rng), "new_law": True} for nm in sorted(names, key=EFFECTS_V4.index)}
+    return draw_effects(rng, kind, n, V4_LIBRARY, V4_OUT_OF_LIBRARY, V4_DRAWS, EFFECTS_V4, True)
 
 
 __all__ = ["V4_DRAWS", "draw_v4"]

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from .. import constants as k
-from ._rand import _log, _pm, _u
+from ._rand import _log, _pm, _u, draw_effects
 from .laws_v5 import EFFECTS_V5, N_CELLS, V5_LAWS, V5_LIBRARY, V5_OUT_OF_LIBRARY
 from .laws_v5_ool import N_WAVES
 
@@ -189,10 +189,7 @@ V5_DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
 def draw_v5(seed: int, kind: str, n: int) -> dict[str, Spec]:
     """The effects of a v5 scenario of ``kind`` with ``n`` library effects, from the seed's fifth stream."""
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157, 27, 5]))
-    names = [str(x) for x in rng.choice(V5_LIBRARY, size=n, replace=False)]
-    if kind == "out_of_library":
-        names = [str(rng.choice(V5_OUT_OF_LIBRARY))]
-    return {nm: {**V5_DRAWS[nm](rng), "new_law": True} for nm in sorted(names, key=EFFECTS_V5.index)}
+    return draw_effects(rng, kind, n, V5_LIBRARY, V5_OUT_OF_LIBRARY, V5_DRAWS, EFFECTS_V5, True)
 
 
 __all__ = ["V5_DRAWS", "draw_v5"]
