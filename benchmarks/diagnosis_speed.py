@@ -5,6 +5,7 @@ Run::
     .venv/bin/python benchmarks/diagnosis_speed.py --n 10 --seed 970221753
     .venv/bin/python benchmarks/diagnosis_speed.py --n 10 --seed 970221753 --cases 0,16 --fit-workers 1
     .venv/bin/python benchmarks/diagnosis_speed.py --cases 0,1,9 --fit-workers 1 --profile /tmp/prof
+    .venv/bin/python benchmarks/diagnosis_speed.py --n 60 --seed 548879380 --laws v5 --cases 12,13,34
 
 The datasets are the blind self-check's (``maglev diagnose selftest N --generator independent --seed SEED``:
 the same kinds and case seeds, :func:`maglev_ocp.diagnosis.selftest_rig.kinds_order`, 6 runs x 10 s),
@@ -56,12 +57,13 @@ def cases(n: int, seed: int) -> list[tuple[int, str, int]]:
     return [(i, k, sd) for i, (k, sd) in enumerate(zip(order, seeds, strict=True))]
 
 
-def dataset(folder: Path, kind: str, case_seed: int, runs: int, duration: float) -> Path:
-    """The case's dataset in ``folder`` (generated if absent; the same bytes for the same seed)."""
+def dataset(folder: Path, kind: str, case_seed: int, runs: int, duration: float, laws: str = "all") -> Path:
+    """The case's dataset in ``folder`` (generated if absent; the same bytes for the same seed), its effects
+    drawn from the rig's law set ``laws`` (as ``maglev diagnose selftest --laws``)."""
     from maglev_ocp.rigsim import RigSettings, draw, generate
 
     if not (folder / "truth.json").exists():
-        scen = draw(case_seed, kind, laws="all")
+        scen = draw(case_seed, kind, laws=laws)
         generate(folder, scen["effects"], case_seed, RigSettings(n_runs=runs, duration=duration))
     return folder
 
@@ -165,6 +167,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cases", default="", help="only these case indices (comma-separated)")
     ap.add_argument("--runs", type=int, default=6, help="runs per dataset")
     ap.add_argument("--duration", type=float, default=10.0, help="seconds per run")
+    ap.add_argument("--laws", default="all", help="the rig's law set the effects are drawn from (selftest --laws)")
     ap.add_argument("--fit-workers", type=int, default=0, help="DiagnoseSettings.fit_workers (0: auto)")
     ap.add_argument("--data", type=Path, default=Path(tempfile.gettempdir()) / "maglev_diagnosis_speed",
                     help="where the datasets are generated (kept: a second run diagnoses the same files)")  # fmt: skip
@@ -177,7 +180,8 @@ def main(argv: list[str] | None = None) -> int:
     todo = [c for c in cases(args.n, args.seed) if not pick or c[0] in pick]
     folders = {}
     for i, kind, sd in todo:  # generated first: the timed loop only diagnoses
-        folders[i] = dataset(args.data / f"{args.seed}_{i:02d}", kind, sd, args.runs, args.duration)
+        tag = "" if args.laws == "all" else f"_{args.laws}"
+        folders[i] = dataset(args.data / f"{args.seed}{tag}_{i:02d}", kind, sd, args.runs, args.duration, args.laws)
     load0 = os.getloadavg()
     rows = []
     clock = StageCPU()

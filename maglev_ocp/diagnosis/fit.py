@@ -53,6 +53,8 @@ from .sxnumpy import vectorized
 _DEBUG = False  # print the SQP iterations
 #: Solver outcomes of :meth:`CandidateFitter.solve` that count as a converged fit.
 CONVERGED: tuple[str, ...] = ("converged", "stalled")
+#: Levenberg-Marquardt steps of a profile search's trial (:meth:`CandidateFitter.solve_trial`).
+TRIAL_ITERS: int = 3
 
 
 # -------------------------------------------------------------------- functions
@@ -318,6 +320,26 @@ class CandidateFitter:
         with one_blas_thread():
             return self._solve(Z, starts)
 
+    def solve_trial(
+        self, Z: np.ndarray, starts: Sequence[np.ndarray], done: Sequence[FitResult], iters: int | None = None
+    ) -> FitResult:
+        """A profile search's trial on features ``Z``: at most ``iters`` (default :data:`TRIAL_ITERS`)
+        Levenberg-Marquardt steps from the best fit of ``done`` (the search's fits so far), without standard
+        errors (``status`` ``trial``); a full :meth:`solve_from_best` when ``done`` holds no usable fit.
+
+        A profile over a delay or a filter's shape is smooth, and the other parameters move little between
+        neighbouring trials: a few steps from the best neighbour reach its minimum to the fit's own tolerance
+        (the profile's value is at worst a little high where they do not, so the search still ranks trials
+        right), where a full solve spends most of its steps confirming convergence. The search's chosen trial
+        is then solved in full (:func:`finish_search`).
+        """
+        ok = [c for c in done if c.success and math.isfinite(c.sse)]
+        if not ok:
+            return self.solve_from_best(Z, starts, done)
+        with one_blas_thread():
+            fr = self._solve(Z, [min(ok, key=lambda c_: c_.sse).w], max_iter=iters or TRIAL_ITERS)
+        return fr if fr.success else self.solve_from_best(Z, starts, done)
+
     def solve_from_best(self, Z: np.ndarray, starts: Sequence[np.ndarray], done: Sequence[FitResult]) -> FitResult:
         """:meth:`solve` on features ``Z`` (a delay search's trial) from the best converged fit of ``done``, the
         fits made so far in the search (a profile over the delay is smooth, and the other parameters move little
@@ -328,7 +350,9 @@ class CandidateFitter:
             fr = self.solve(Z=Z, starts=starts)
         return fr
 
-    def _solve(self, Z: np.ndarray | None, starts: Sequence[np.ndarray] | None) -> FitResult:
+    def _solve(
+        self, Z: np.ndarray | None, starts: Sequence[np.ndarray] | None, max_iter: int | None = None
+    ) -> FitResult:
         spec = self.spec
         Z = self.data.Z if Z is None else Z
         Zt = np.ascontiguousarray(np.asarray(Z, float).T)
@@ -340,12 +364,21 @@ class CandidateFitter:
         hi = np.array([f.hi for f in spec.free]) / scale
         if starts is None:
             starts = [np.array([f.start for f in spec.free])]
+        ends = [
+            (f, x, st) for x, f, st in (self._solve_from(np.clip(np.asarray(x0) / scale, lo, hi), lo, hi, Zt, max_iter)
+                                        for x0 in starts)
+        ]  # fmt: skip
         best = None
-        for x0 in starts:
-            x, f, status = self._solve_from(np.clip(np.asarray(x0) / scale, lo, hi), lo, hi, Zt)
+        for f, x, status in ends:
             if best is None or f < best[0] or not math.isfinite(best[0]):
                 best = (f, x, status)
         f, s_opt, status = best
+        if max_iter is not None:  # a search's trial: its objective only (no Jacobian, no standard errors)
+            r, _ = self.residual_jacobian(s_opt, Zt, jac=False)
+            sse = float(r @ r)
+            ok = status != "failed" and math.isfinite(sse)
+            nan = np.full(self.nw, math.nan)
+            return FitResult(spec, s_opt * scale, nan, sse, self.data.n, 1.0, success=ok, status="trial")
         r, J = self.residual_jacobian(s_opt, Zt)
         sse = float(r @ r)
         infl = _inflation(r, self.data)
@@ -355,9 +388,10 @@ class CandidateFitter:
         return FitResult(spec, s_opt * scale, stderr, sse, self.data.n, infl, success=ok, status=status)
 
     def _solve_from(
-        self, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, Zt: np.ndarray
+        self, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, Zt: np.ndarray, max_iter: int | None = None
     ) -> tuple[np.ndarray, float, str]:
-        """Bounded Levenberg-Marquardt from ``x``: ``(x, f, status)`` (see :meth:`solve`)."""
+        """Bounded Levenberg-Marquardt from ``x``: ``(x, f, status)`` (see :meth:`solve`); at most
+        ``max_iter`` steps when given (a search's trial: ``iteration limit`` after them)."""
         x = np.asarray(x, float).copy()
         r, J = self.residual_jacobian(x, Zt)
         f = self._objective(x, r)
@@ -365,7 +399,8 @@ class CandidateFitter:
             return x, math.inf, "failed"
         lam = 1e-3
         f_chunk = f
-        for it in range(1, self.chunk * self.max_chunks + 1):
+        n_iter = self.chunk * self.max_chunks if max_iter is None else max_iter
+        for it in range(1, n_iter + 1):
             # Gauss-Newton model of data + prior: H = J^T J + diag(pw), g = J^T r + pw (s - c0).
             H = J.T @ J + np.diag(self.pw)
             g = J.T @ r + self.pw * (x - self.c0)
@@ -394,6 +429,8 @@ class CandidateFitter:
                 if f_chunk - f <= self.rtol * abs(f):
                     return x, f, "stalled"
                 f_chunk = f
+            if it == n_iter:
+                break  # the last step's Jacobian is not needed
             r, J = self.residual_jacobian(x, Zt)
         return x, f, "iteration limit"
 
@@ -515,7 +552,9 @@ def fit_candidate(
     if u_runs is None:
         raise ValueError("the amplifier lag needs the commanded currents of each run")
     if spec.law in TF_LAWS:  # a transfer function with a fractional delay (.lagfit)
-        fr, extra = fit_lag_tf(fitter, data, u_runs, _lag_Z_theta, max_delay, starts, warm, hold=hold_lag)
+        fr, extra = fit_lag_tf(
+            fitter, finish_search, data, u_runs, _lag_Z_theta, max_delay, starts, warm, hold=hold_lag
+        )
         return FitResult(fitter.spec, fr.w, fr.stderr, fr.sse, fr.n, fr.inflation, extra, fr.success, fr.status)
     t0 = warm.get("effective_delay_s") if warm else None
     return _fit_lag(fitter, data, u_runs, max_delay, starts, t0, hold=hold_lag)
@@ -574,6 +613,20 @@ def lag_theta(t_eff: float, Ts: float = 1e-3) -> dict[str, float]:
     return AmplifierLag.equivalent(t_eff, Ts)
 
 
+def finish_search(
+    fitter: CandidateFitter, Z: np.ndarray, trial: FitResult, starts: Sequence[np.ndarray] | None
+) -> FitResult:
+    """The full solve (standard errors, convergence) at a profile search's chosen trial, from the trial's values;
+    from ``starts`` as well if that one does not converge. A trial that was solved in full is returned as it is."""
+    if trial.status != "trial":
+        return trial
+    fr = fitter.solve(Z=Z, starts=[trial.w])
+    if not fr.success and starts is not None:
+        alt = fitter.solve(Z=Z, starts=starts)
+        fr = alt if alt.success or alt.sse < fr.sse else fr
+    return fr
+
+
 def _fit_lag(
     fitter: CandidateFitter,
     data: Dataset,
@@ -587,20 +640,22 @@ def _fit_lag(
     t_max = (max_delay + 1) * Ts
     cache: dict[float, FitResult] = {}
 
+    def features(key: float) -> np.ndarray:
+        th = lag_theta(key, Ts)
+        return lag_Z(data, u_runs, th["bandwidth_hz"], int(th["delay_samples"]))
+
     def sse(t_eff: float) -> float:
+        # a trial of the profile search: a few steps from the best trial so far (the chosen one is solved in full)
         key = round(float(t_eff), 9)
         if key not in cache:
-            th = lag_theta(key, Ts)
-            Z = lag_Z(data, u_runs, th["bandwidth_hz"], int(th["delay_samples"]))
-            cache[key] = fitter.solve_from_best(Z, starts, list(cache.values()))
+            cache[key] = fitter.solve_trial(features(key), starts, list(cache.values()))
         return cache[key].sse
 
     # A warm start (the single fit's delay) searches around it only; otherwise a grid over [0, t_max].
     # ``hold``: the effective delay held at ``t0`` (the other parameters refitted).
     if hold and t0 is not None:
         key = round(float(t0), 9)
-        sse(key)
-        fr = cache[key]
+        fr = fitter.solve_from_best(features(key), starts, [])
         th = lag_theta(key, Ts)
         extra = {**th, "effective_delay_s": float(t0), "effective_delay_s_stderr": math.nan}
         return FitResult(fitter.spec, fr.w, fr.stderr, fr.sse, fr.n, fr.inflation, extra, fr.success, fr.status)
@@ -611,7 +666,7 @@ def _fit_lag(
     res = spo.minimize_scalar(sse, bounds=(a, b), method="bounded", options={"xatol": 2e-6})
     t_best = min(cache, key=lambda t_: cache[t_].sse)
     del res
-    fr = cache[t_best]
+    fr = cache[t_best] = finish_search(fitter, features(t_best), cache[t_best], starts)
     # Standard error of the effective delay from the curvature of the profile SSE.
     h = 2e-5
     c2 = (sse(t_best + h) - 2 * fr.sse + sse(max(t_best - h, 0.0))) / h**2 if t_best >= h else math.nan

@@ -106,6 +106,7 @@ def tf_theta(law: str, t_eff: float, rho: float, zeta: float, Ts: float) -> dict
 
 def fit_lag_tf(
     fitter,
+    finish: Callable,
     data: Dataset,
     u_runs: Sequence[np.ndarray],
     lag_Z: Callable[[Dataset, Sequence[np.ndarray], Mapping[str, float]], np.ndarray],
@@ -119,7 +120,10 @@ def fit_lag_tf(
     Parameters
     ----------
     fitter : CandidateFitter
-        The candidate's fitter (its spec's ``law`` a key of :data:`TF_LAWS`).
+        The candidate's fitter (its spec's ``law`` a key of :data:`TF_LAWS`); the search's trials are its
+        :meth:`~.fit.CandidateFitter.solve_trial`.
+    finish : callable
+        ``finish(fitter, Z, trial, starts)``: the full solve at the chosen trial (:func:`.fit.finish_search`).
     data : Dataset
         Training data.
     u_runs : sequence of ndarray
@@ -153,12 +157,14 @@ def fit_lag_tf(
     shape[1] = min(max(shape[1], ZETA_RANGE[0]), ZETA_RANGE[1])
     cache: dict[tuple[float, float, float], object] = {}
 
+    def features(key: tuple[float, float, float]) -> np.ndarray:
+        return lag_Z(data, u_runs, tf_theta(law, *key, Ts))
+
     def sse(t_eff: float, rho: float, zeta: float) -> float:
+        # a trial of the profile search: a few steps from the best trial so far (the chosen one is solved in full)
         key = (round(float(t_eff), 9), round(float(rho), 4), round(float(zeta), 4))
         if key not in cache:
-            th = tf_theta(law, *key, Ts)
-            Z = lag_Z(data, u_runs, th)
-            cache[key] = fitter.solve_from_best(Z, starts, list(cache.values()))
+            cache[key] = fitter.solve_trial(features(key), starts, list(cache.values()))
         return cache[key].sse
 
     def best() -> tuple[float, float, float]:
@@ -168,8 +174,9 @@ def fit_lag_tf(
         return cache[key], {**tf_theta(law, *key, Ts), "effective_delay_s_stderr": se_t}
 
     if hold and t0 is not None:
-        sse(t0, *shape)
-        return result(best(), math.nan)
+        key = (round(float(t0), 9), round(float(shape[0]), 4), round(float(shape[1]), 4))
+        cache[key] = fitter.solve_from_best(features(key), starts, [])
+        return result(key, math.nan)
     # 1. the effective delay at the starting shape (around a warm t_eff, else over the whole range)
     if t0 is not None:
         grid = np.linspace(max(t0 - 0.25 * Ts, 0.0), min(t0 + 0.25 * Ts, t_max), 3)
@@ -195,7 +202,7 @@ def fit_lag_tf(
     a_, b_ = max(t_b - 0.1 * Ts, 0.0), min(t_b + 0.1 * Ts, t_max)
     spo.minimize_scalar(lambda t: sse(t, *shape), bounds=(a_, b_), method="bounded", options={"xatol": 2e-6})
     kb = best()
-    fr = cache[kb]
+    fr = cache[kb] = finish(fitter, features(kb), cache[kb], starts)
     # Standard error of the effective delay from the curvature of the profile SSE at the chosen shape.
     h = 2e-5
     if kb[0] >= h:
