@@ -6,8 +6,8 @@ blind check. They were written from their sources only, without reading the diag
 carries ``new_law = True`` and ``law_set = "v6"`` in its truth record. The source of each law (author, title,
 venue, year) is in its docstring and in ``docs/validation/rigsim-laws.md``.
 
-The set uses the simulator's hooks as they are (``factors``, ``factors_i``, ``force``, ``held``, ``rotate_at``, the
-state-space amplifier); no hook was added. Laws whose force comes from a state the truth record cannot recompute
+The set uses the simulator's hooks as they are (``factors``, ``force``, ``held``, ``rotate_at``, the state-space
+amplifier); no hook was added. Laws whose force comes from a state the truth record cannot recompute
 from the recorded trajectory record their own size while simulated (:meth:`recorded`, as in :mod:`.laws_v4`).
 """
 
@@ -69,8 +69,8 @@ class CoggingV6(_V6, Cogging):
     2-D field of the rig's four alternating magnets (:func:`array_field`: their ends included, so the array's ends
     cog too); the force is ``F = -kappa grad D~`` (``D~ = D`` less its mean over a period, whose gap force is
     the mean pull's Carter correction, already in seed eq. (2)), with ``kappa`` set so that the tangential peak
-    at ``g_ref`` is ``xi0``. Conservative; the shape and its change with the gap come from the field, not from a
-    fitted series.
+    at ``G_REF = 15 mm`` (the gap band's lower edge: the slot-pitch harmonics decay fast with the gap) is
+    ``xi0``. Conservative; the shape and its change with the gap come from the field, not from a fitted series.
 
     * ``finite_array`` -- identical openings ``b0`` at pitch ``t1`` from ``x0``: the configuration repeats every
       slot pitch, so the cogging's period is ``t1`` (half seed eq. (9)'s ``2 t1``).
@@ -90,6 +90,7 @@ class CoggingV6(_V6, Cogging):
         "paired_teeth": {"xi0": 2.0, "x0": 0.0, "delta_p": 1.5e-3, "eps_b": 0.2, "replace": 0.0},
     }
     N_GL = 6  #: Gauss-Legendre points across each slot opening
+    G_REF = 15e-3  #: gap of the tangential peak ``xi0`` [m]
     G_GRID = (6e-3, 36e-3, 46)  #: tabulated gaps
 
     def __init__(self, family: str | None = None, **params: float):
@@ -124,9 +125,9 @@ class CoggingV6(_V6, Cogging):
         D = self.deficit(gg[:, None], dd[None, :])
         D = D - D[:, n // 2 : n // 2 + n].mean(axis=1, keepdims=True)
         spl = RectBivariateSpline(gg, dd, D)
-        # kappa: the tangential peak at g_ref is xi0
+        # kappa: the tangential peak at G_REF is xi0
         x = np.linspace(0.0, self.period, 400)
-        peak = float(np.max(np.abs(spl.ev(0 * x + k.g_cog_ref, x, dy=1))))
+        peak = float(np.max(np.abs(spl.ev(0 * x + self.G_REF, x, dy=1))))
         self.kappa = self.p["xi0"] / peak
         return spl
 
@@ -340,34 +341,36 @@ class EndEffectV6(_V6, EndEffect):
 
 # --------------------------------------------------------------------------- saturation
 class SaturationV6(_V6, Saturation):
-    """Saturation seen through the arctangent B-H curve's two permeabilities, or cross-magnetizing armature reaction.
-
-    The iron's flux density relative to its saturation (or knee) follows the magnets' field, ``b = b_lo x(g)``, ``x =
-    B(g) / B(g_lo)`` (MODEL.md's field).
+    """Saturation seen through the arctangent B-H curve's two permeabilities, or tooth by tooth along the stroke.
 
     * ``incremental_arctan`` -- the iron's curve ``B = (2 B_s / pi) atan(pi mu_i H / (2 B_s))`` (the arctangent
       magnetization curve: Fischer & Moser, "Die Nachbildung von Magnetisierungskurven durch einfache algebraische
-      oder transzendente Funktionen", Arch. Elektrotech. 42, 1956). The magnets' flux sees the *secant* permeability
-      at the operating point, ``mu_s / mu_i = (pi b / 2) / tan(pi b / 2)``, the currents' small field the
-      *incremental* one around it, ``mu_d / mu_i = cos^2(pi b / 2)`` (bias and control flux of a PM-biased magnetic
-      circuit: Schweitzer & Maslen, "Magnetic Bearings", Springer 2009, ch. 2). With the iron's share ``r`` of the
-      linear circuit's reluctance: ``km = (1 + r) / (1 + r mu_i / mu_s)`` (``b`` solved self-consistently, ``b =
-      b_lo x km``) and ``kc = (1 + r) / (1 + r mu_i / mu_d)``, both 1 at the upper stop: the current's force falls
-      faster than the magnets' as the gap closes.
-    * ``armature_reaction`` -- the thrust current's field adds to the magnets' over one half of each pole and
-      subtracts over the other; with a saturating iron the gain is smaller than the loss, so the pole's flux falls
-      (the demagnetizing effect of cross-magnetizing armature reaction: Fitzgerald, Kingsley & Umans, "Electric
-      Machinery", 6th ed., McGraw-Hill 2003, ch. 7). With the Frohlich-Kennelly curve ``f(h) = h / (1 + |h|)``
-      (knee at 1; Kennelly 1891): ``km = (f(b + k_a i_q) + f(b - k_a i_q)) / (2 f(b))`` (hook ``factors_i``): even
-      in ``i_q``, none at zero thrust, larger at small gaps.
+      oder transzendente Funktionen", Arch. Elektrotech. 42, 1956), at the flux density ``b = b_lo x(g)`` relative
+      to ``B_s`` (``x = B(g) / B(g_lo)``, MODEL.md's field). The magnets' flux sees the *secant* permeability at the
+      operating point, ``mu_s / mu_i = (pi b / 2) / tan(pi b / 2)``, the currents' small field the *incremental*
+      one around it, ``mu_d / mu_i = cos^2(pi b / 2)`` (bias and control flux of a PM-biased magnetic circuit:
+      Schweitzer & Maslen, "Magnetic Bearings", Springer 2009, ch. 2). With the iron's share ``r`` of the linear
+      circuit's reluctance: ``km = (1 + r) / (1 + r mu_i / mu_s)`` (``b`` solved self-consistently, ``b = b_lo x
+      km``) and ``kc = (1 + r) / (1 + r mu_i / mu_d)``, both 1 at the upper stop: the currents' force falls faster
+      than the magnets' as the gap closes.
+    * ``tooth_flux`` -- each stator tooth (pitch ``t1``, width ``t1 - b0``, the grid at ``x0``) carries the flux of
+      the array's exact field over it (:func:`array_field`; Zhu & Howe, "Instantaneous magnetic field distribution
+      in brushless permanent magnet DC motors, Part III: Effect of stator slotting", IEEE Trans. Magn. 29(1), 1993:
+      the flux gathers in the teeth), ``b_t = b_lo Phi_t / Phi_ref`` relative to the tooth's knee (``Phi_ref`` the
+      largest tooth flux at the lower stop), and saturates on the Frohlich-Kennelly curve ``f(b) = b / (1 + |b|)``
+      (Kennelly, "Magnetic reluctance", Trans. AIEE 8, 1891). The magnets' pull follows the teeth's flux squared:
+      ``km^2 = sum_t f(b_t)^2 / sum_t b_t^2`` (each tooth's share of the linear law), 1 at the upper stop: a loss
+      that depends on where the teeth sit under the poles (period ``t1`` in ``d``) as well as on the gap.
+      Tabulated once per law on a (gap, position) grid, bicubic spline.
     """
 
-    families = ("incremental_arctan", "armature_reaction")
+    families = ("incremental_arctan", "tooth_flux")
     DEFAULTS: ClassVar[dict[str, dict[str, Any]]] = {
         "incremental_arctan": {"b_lo": 0.7, "r": 0.15, "target": "both"},
-        "armature_reaction": {"b_lo": 1.0, "k_a": 0.04, "target": "magnet"},
+        "tooth_flux": {"b_lo": 0.25, "x0": 0.0, "target": "magnet"},
     }
     N_FIX = 30  #: fixed-point iterations of the self-consistent operating point
+    G_GRID = (6e-3, 36e-3, 31)  #: tabulated gaps (``tooth_flux``)
 
     def __init__(self, family: str | None = None, **params: Any):
         super().__init__(family, **params)
@@ -376,10 +379,11 @@ class SaturationV6(_V6, Saturation):
             raise ValueError(f"saturation ({self.family}): target must be {want!r}")
         if self.family == "incremental_arctan" and not 0.0 < self.p["b_lo"] < 1.0:
             raise ValueError("saturation (incremental_arctan): b_lo must be in (0, 1) (below saturation)")
-        self.has_factors = self.family == "incremental_arctan"
-        self.has_factors_i = not self.has_factors
-        if self.has_factors:
+        self.has_factors = True
+        if self.family == "incremental_arctan":
             self._hi = self._arctan(np.array([G_STOP_HI]))
+        else:
+            self._spline = self._table()
 
     def _arctan(self, g):
         """``(km, kc)`` of ``incremental_arctan`` before normalizing."""
@@ -393,28 +397,52 @@ class SaturationV6(_V6, Saturation):
         kc = (1.0 + p["r"]) / (1.0 + p["r"] / np.cos(0.5 * math.pi * b) ** 2)
         return km, kc
 
-    @staticmethod
-    def _f(h):
-        return h / (1.0 + np.abs(h))
+    def tooth_fluxes(self, g, d):
+        """Flux of each tooth under the array [(Br/pi) m] at ``(g, d)`` (teeth along the last axis)."""
+        g, d = np.asarray(g, dtype=float)[..., None], np.asarray(d, dtype=float)[..., None]
+        z, w = np.polynomial.legendre.leggauss(6)
+        wt = k.t1 - k.b0
+        n = np.arange(-14, 15)
+        xt = self.p["x0"] + n * k.t1 + 0.5 * k.t1  # tooth centres between the openings at x0 + n t1
+        out = 0.0 * (g + d + xt)
+        for zi, wi in zip(z, w, strict=True):
+            out = out + 0.5 * wt * wi * array_field(xt + 0.5 * wt * zi - d, g)
+        return out
 
-    def loss(self, g, i_q=0.0, i_d=0.0):
-        """Fraction of the magnets' field lost (``armature_reaction`` at ``i_q``; ``incremental_arctan``: ``km``)."""
+    def _km2(self, g, d, ref: float):
+        b = self.p["b_lo"] * self.tooth_fluxes(g, d) / ref
+        f = b / (1.0 + np.abs(b))
+        return np.sum(f * f, axis=-1) / np.sum(b * b, axis=-1)
+
+    def _table(self):
+        from scipy.interpolate import RectBivariateSpline
+
+        u = np.linspace(0.0, k.t1, 25)
+        ref = float(np.max(np.abs(self.tooth_fluxes(np.full_like(u, G_STOP_LO), u))))
+        gg = np.linspace(*self.G_GRID)
+        dd = np.arange(-12, 37) * (k.t1 / 24)
+        K2 = self._km2(gg[:, None], dd[None, :], ref)
+        hi = float(np.mean(self._km2(np.full_like(u, G_STOP_HI), u, ref)))
+        return RectBivariateSpline(gg, dd, np.sqrt(K2 / hi))
+
+    def loss(self, g, i_q=0.0, i_d=0.0, d=0.0):
+        """Fraction of the magnets' field lost at gap ``g`` (and position ``d``, ``tooth_flux``)."""
         g = np.asarray(g, dtype=float)
         if self.family == "incremental_arctan":
             return 1.0 - self._arctan(g)[0] / self._hi[0]
-        b = self.p["b_lo"] * field_ratio(g, G_STOP_LO)
-        ba = self.p["k_a"] * np.asarray(i_q, dtype=float)
-        return 1.0 - (self._f(b + ba) + self._f(b - ba)) / (2.0 * self._f(b))
+        gc = np.clip(g, self.G_GRID[0], self.G_GRID[1])
+        u = np.mod(np.asarray(d, dtype=float), k.t1) + 0.0 * gc
+        gc = gc + 0.0 * u
+        return 1.0 - self._spline.ev(gc.ravel(), u.ravel()).reshape(u.shape)
 
     def factors(self, g, d, f: list) -> None:
-        """``incremental_arctan``: the magnets' field by ``km``, the currents' by ``kc`` (1 at the upper stop)."""
+        """The magnets' field by ``km`` (and the currents' by ``kc``, ``incremental_arctan``)."""
+        if self.family == "tooth_flux":
+            f[0] = f[0] * (1.0 - self.loss(g, d=d))
+            return
         km, kc = self._arctan(np.asarray(g, dtype=float))
         f[0] = f[0] * km / self._hi[0]
         f[1] = f[1] * kc / self._hi[1]
-
-    def factors_i(self, g, d, i_q, i_d, f: list) -> None:
-        """``armature_reaction``: the magnets' field by ``1 - loss(g, i_q)``."""
-        f[0] = f[0] * (1.0 - self.loss(g, i_q))
 
 
 # ------------------------------------------------------------------- amplifier and delay
@@ -498,8 +526,8 @@ class CommutationV6(_V6, CommutationOffset):
 
     families = ("tracking_observer", "armature_field_sensor")
     DEFAULTS: ClassVar[dict[str, dict[str, float]]] = {
-        "tracking_observer": {"delta0": 0.0, "fn_hz": 20.0, "zeta": 0.7},
-        "armature_field_sensor": {"delta0": 0.0, "a_q": 0.01, "a_d": 0.005, "c_s": 5e-3},
+        "tracking_observer": {"delta0": 0.0, "fn_hz": 8.0, "zeta": 0.7},
+        "armature_field_sensor": {"delta0": 0.0, "a_q": 0.04, "a_d": 0.005, "c_s": 5e-3},
     }
     has_rotate = False
     has_rotate_at = True
@@ -588,8 +616,8 @@ class EddyDragV6(_V6, EddyDrag):
 
     families = ("plate_patch", "receding_image")
     DEFAULTS: ClassVar[dict[str, dict[str, float]]] = {
-        "plate_patch": {"c0": 20.0, "x_a": -0.02, "l_p": 0.08, "r_p": 0.015},
-        "receding_image": {"c0": 10.0, "tau_e": 2e-3},
+        "plate_patch": {"c0": 40.0, "x_a": -0.02, "l_p": 0.08, "r_p": 0.015},
+        "receding_image": {"c0": 30.0, "tau_e": 2e-3},
     }
 
     def __init__(self, family: str | None = None, **params: float):
