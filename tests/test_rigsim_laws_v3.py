@@ -17,6 +17,7 @@ import pathlib
 import numpy as np
 import pytest
 from law_checks import check_law_over_envelope
+from rig_bytes import assert_same_dataset, assert_same_draws
 
 from maglev_ocp import constants as k
 from maglev_ocp.rigsim import RigSettings, draw, generate
@@ -296,7 +297,9 @@ def test_every_drawn_v3_law_is_finite_and_bounded_and_every_family_is_drawn():
     assert seen == {(n, f) for n, c in V3_LAWS.items() for f in c.families}
 
 
-# recorded at commit c652758 (before laws_v3) with /tmp/laws3_hash.py: sha256 of json.dumps of draw(s, laws) for s < 60
+# recorded at commit c652758 (before laws_v3) with /tmp/laws3_hash.py: sha256 of json.dumps of draw(s, laws) for s < 60,
+# on the AVX512 (X86_V4) CI machine; the same bytes at c652758 and ac59446 on an AMD EPYC at X86_V3 (rig_bytes.BOTH);
+# elsewhere rig_bytes compares the draws to their digest in data/rig_digests.json
 BEFORE = {
     "all": "0aeaf2f8af4338fb6c56fc76e21a9bae3bc19f9791becea7e31e5a1259483cd3",
     "old": "d5c4373a10ddd66a63179bd65b54d882a96ee2e9ed2ce99535ca01e09369e106",
@@ -306,8 +309,7 @@ BEFORE = {
 
 @pytest.mark.parametrize("laws", ["all", "old", "new"])
 def test_earlier_law_sets_draw_the_same_scenarios(laws):
-    blob = json.dumps([draw(s, laws=laws) for s in range(60)], sort_keys=True).encode()
-    assert hashlib.sha256(blob).hexdigest() == BEFORE[laws]
+    assert_same_draws(laws, [draw(s, laws=laws) for s in range(60)], BEFORE[laws])
 
 
 def _dataset_hash(folder: pathlib.Path) -> str:
@@ -329,14 +331,24 @@ def _runs_fingerprint(folder: pathlib.Path) -> str:
 
 def test_old_law_dataset_is_the_same_bytes_as_before(tmp_path):
     # LuGre friction, drifting commutation and a fractionally delayed second-order amplifier (seed 5); the whole
-    # folder was checked byte for byte against commit c652758 (/tmp/laws3_hash.py in the branch's report)
+    # folder was checked byte for byte against commit c652758 (/tmp/laws3_hash.py in the branch's report). The runs'
+    # fingerprint per SIMD level (rig_bytes): X86_V4 recorded on the AVX512 CI machine; X86_V3 the same at c652758 and
+    # ac59446 on an AMD EPYC (numpy 2.4.6); elsewhere the unquantized call against data/rig_digests.json
     effects = {
         "friction": {"family": "lugre"},
         "commutation_offset": {"family": "drift"},
         "amplifier_lag": {"family": "second", "delay_samples": 1.4},
     }
-    f = generate(tmp_path / "a", effects, seed=5, settings=RigSettings(n_runs=2, duration=2.0))
-    assert _runs_fingerprint(f) == "56e29bfea16883953a35173c6aafbadcae2d144abe2938802796f0ef5a1e64d2"
+
+    def make(res):
+        s = RigSettings(n_runs=2, duration=2.0, resolution=res)
+        return generate(tmp_path / str(res), effects, seed=5, settings=s)
+
+    fingerprints = {
+        "X86_V4": "56e29bfea16883953a35173c6aafbadcae2d144abe2938802796f0ef5a1e64d2",
+        "X86_V3": "9d518407bda5ffab0709ffbecaadd69b374c79b662146206d8bc8ba6e9841f76",
+    }
+    assert_same_dataset(make, fingerprints, "v3_old_law", fingerprint=_runs_fingerprint)
 
 
 def test_v3_generation_is_deterministic_and_stable(tmp_path):
