@@ -50,6 +50,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         826170937, 449907008,  # diagnosed-vs-blind validation rigs v4_c, v4_d (fifteenth session): spent on run
         511342673,  # issue 27's pre-registered blind check on rigsim's fourth law set (fourteenth session): spent
         548879380,  # issue 27's pre-registered blind check on rigsim's fifth law set (sixteenth session): spent
+        1049996647,  # issue 27's pre-registered blind check on rigsim's sixth law set (seventeenth session): spent
         465278471,  # leave-one-law-out at c30d41c (sixteenth session, n = 2, six families): spent
     }
 )  # fmt: skip
