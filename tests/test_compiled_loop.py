@@ -57,6 +57,18 @@ def _compare(d: dict) -> float:
     return _log_difference(run_scenario(sc, progress=False), run_scenario_compiled(sc))
 
 
+def _same(a, b) -> bool:
+    """Equal; floats (SI units) to :data:`TOL`, as the log's columns: C and numpy differ in the last bits (an error
+    of 5.4e-7 m read 3.5e-18 m apart on an AVX2 machine), counts and flags exactly."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float) and isinstance(b, float):
+        return a == b or abs(a - b) <= TOL
+    return a == b
+
+
 def _log_difference(py, cc) -> float:
     """Largest difference of two runs' logs (asserted <= TOL column by column, same metrics)."""
     assert list(py.columns) == list(cc.columns)
@@ -69,12 +81,19 @@ def _log_difference(py, cc) -> float:
             assert a.tolist() == b.tolist(), key
             continue
         assert np.array_equal(np.isnan(a), np.isnan(b)), key
+        if key == "limited":
+            # The limiter's flag may differ at an isolated sample where the command sits on the limit to the last
+            # bits (C and numpy differ by an ulp there: one sample of a run on an AVX2 machine, every other column
+            # equal to 1e-12). A flip that changed a current fails in the current columns, compared here too.
+            flip = np.flatnonzero(a != b)
+            assert len(flip) <= max(1, len(a) // 1000), (key, flip)
+            a, b = np.delete(a, flip), np.delete(b, flip)
         diff = np.abs(a - b)[~np.isnan(a)]
         worst = max(worst, float(diff.max()) if diff.size else 0.0)
         assert worst <= TOL, (key, worst)
     mp, mc = py.metrics.to_dict(), cc.metrics.to_dict()
     for key in ("targets", "stop_hits", "max_current_A", "passed", "solver_failures", "fallbacks"):
-        assert mp.get(key) == mc.get(key), key
+        assert _same(mp.get(key), mc.get(key)), (key, mp.get(key), mc.get(key))
     # the quantized readings are identical, not just close (no encoder count flipped)
     assert np.array_equal(py.columns["g"], cc.columns["g"]) and np.array_equal(py.columns["d"], cc.columns["d"])
     return worst
