@@ -152,5 +152,19 @@ def assert_same_dataset(make, recorded: str | Mapping[str, str], key: str, finge
         assert_digest(make(None), _stored("datasets", key))
 
 
+def assert_same_datasets(root: pathlib.Path, cases: Mapping[str, tuple], prefix: str) -> None:
+    """:func:`assert_same_dataset` for each ``name -> (effects, seed, recorded)`` of ``cases``: the rig's
+    ``generate`` with 2 runs of 2 s under ``root / name``, its digest key ``prefix_name``."""
+    from maglev_ocp.rigsim import RigSettings, generate
+
+    for name, (eff, seed, want) in cases.items():
+
+        def make(res, name=name, eff=eff, seed=seed):
+            s = RigSettings(n_runs=2, duration=2.0, resolution=res)
+            return generate(root / name / str(res), eff, seed=seed, settings=s)
+
+        assert_same_dataset(make, want, f"{prefix}_{name}")
+
+
 if __name__ == "__main__":
     print(json.dumps(digest(pathlib.Path(sys.argv[1])), indent=1))

@@ -17,7 +17,7 @@ import pathlib
 import numpy as np
 import pytest
 from law_checks import check_law_over_envelope
-from rig_bytes import assert_same_dataset, assert_same_draws
+from rig_bytes import assert_same_dataset, assert_same_draws, dataset_hash
 
 from maglev_ocp import constants as k
 from maglev_ocp.rigsim import RigSettings, draw, generate
@@ -312,15 +312,6 @@ def test_earlier_law_sets_draw_the_same_scenarios(laws):
     assert_same_draws(laws, [draw(s, laws=laws) for s in range(60)], BEFORE[laws])
 
 
-def _dataset_hash(folder: pathlib.Path) -> str:
-    h = hashlib.sha256()
-    for p in sorted(folder.rglob("*")):
-        if p.is_file():
-            h.update(p.name.encode())
-            h.update(p.read_bytes())
-    return h.hexdigest()
-
-
 def _runs_fingerprint(folder: pathlib.Path) -> str:
     """sha256 of the runs' numbers rounded to 1e-9 (m, A, s): the same bytes on this machine, robust to printing."""
     h = hashlib.sha256()
@@ -360,7 +351,7 @@ def test_v3_generation_is_deterministic_and_stable(tmp_path):
     s = RigSettings(n_runs=2, duration=2.0)
     a = generate(tmp_path / "a", effects, seed=11, settings=s)
     b = generate(tmp_path / "b", effects, seed=11, settings=s)
-    assert _dataset_hash(a) == _dataset_hash(b)
+    assert dataset_hash(a) == dataset_hash(b)
     truth = json.loads((a / "truth.json").read_text())
     assert truth["expected_verdict"] == "amplifier_lag+commutation_offset"
     assert all(e["law_set"] == "v3" for e in truth["effects"].values())

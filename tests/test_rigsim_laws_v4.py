@@ -9,15 +9,13 @@ from them are the same bytes as at commit 934155e (before this set).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
-import pathlib
 
 import numpy as np
 import pytest
 from law_checks import check_law_over_envelope, envelope_grid
-from rig_bytes import assert_same_dataset, assert_same_draws
+from rig_bytes import assert_same_datasets, assert_same_draws, dataset_hash
 from scipy import integrate, signal
 
 from maglev_ocp import constants as k
@@ -400,15 +398,6 @@ def test_earlier_law_sets_draw_the_same_scenarios(laws):
     assert_same_draws(laws, [draw(s, laws=laws) for s in range(60)], BEFORE[laws])
 
 
-def _dataset_hash(folder: pathlib.Path) -> str:
-    h = hashlib.sha256()
-    for p in sorted(folder.rglob("*")):
-        if p.is_file():
-            h.update(p.name.encode())
-            h.update(p.read_bytes())
-    return h.hexdigest()
-
-
 def test_v3_and_resonance_datasets_are_the_same_bytes_as_before(tmp_path):
     # whole folders (runs, dataset.yaml, truth.json) recorded at commit 934155e with the same call, per SIMD level
     # (rig_bytes): X86_V4 on the AVX512 CI machine; X86_V3 the same at 934155e and ac59446 on an AMD EPYC (numpy
@@ -435,13 +424,7 @@ def test_v3_and_resonance_datasets_are_the_same_bytes_as_before(tmp_path):
             },
         ),
     }
-    for name, (eff, seed, want) in cases.items():
-
-        def make(res, name=name, eff=eff, seed=seed):
-            s = RigSettings(n_runs=2, duration=2.0, resolution=res)
-            return generate(tmp_path / name / str(res), eff, seed=seed, settings=s)
-
-        assert_same_dataset(make, want, f"v4_{name}")
+    assert_same_datasets(tmp_path, cases, "v4")
 
 
 def test_v4_generation_is_deterministic_and_records_sizes(tmp_path):
@@ -453,7 +436,7 @@ def test_v4_generation_is_deterministic_and_records_sizes(tmp_path):
     s = RigSettings(n_runs=2, duration=2.0)
     a = generate(tmp_path / "a", effects, seed=11, settings=s)
     b = generate(tmp_path / "b", effects, seed=11, settings=s)
-    assert _dataset_hash(a) == _dataset_hash(b)
+    assert dataset_hash(a) == dataset_hash(b)
     truth = json.loads((a / "truth.json").read_text())
     assert truth["expected_verdict"] == "amplifier_lag+saturation"
     assert all(e["law_set"] == "v4" for e in truth["effects"].values())

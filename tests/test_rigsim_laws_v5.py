@@ -9,15 +9,13 @@ sets drawn before and datasets generated from them are the same bytes as at comm
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
-import pathlib
 
 import numpy as np
 import pytest
 from law_checks import check_law_over_envelope, envelope_grid
-from rig_bytes import assert_same_dataset, assert_same_draws
+from rig_bytes import assert_same_datasets, assert_same_draws, dataset_hash
 from scipy import integrate, signal, special
 
 from maglev_ocp import constants as k
@@ -437,15 +435,6 @@ def test_earlier_law_sets_draw_the_same_scenarios(laws):
     assert_same_draws(laws, [draw(s, laws=laws) for s in range(60)], BEFORE[laws])
 
 
-def _dataset_hash(folder: pathlib.Path) -> str:
-    h = hashlib.sha256()
-    for p in sorted(folder.rglob("*")):
-        if p.is_file():
-            h.update(p.name.encode())
-            h.update(p.read_bytes())
-    return h.hexdigest()
-
-
 def test_v4_datasets_are_the_same_bytes_as_before(tmp_path):
     # whole folders (runs, dataset.yaml, truth.json) recorded at commit 0cfa3b3 with the same call, per SIMD level
     # (rig_bytes): X86_V4 on the AVX512 CI machine; X86_V3 the same at 0cfa3b3 and ac59446 on an AMD EPYC (numpy
@@ -492,13 +481,7 @@ def test_v4_datasets_are_the_same_bytes_as_before(tmp_path):
             },
         ),
     }
-    for name, (eff, seed, want) in cases.items():
-
-        def make(res, name=name, eff=eff, seed=seed):
-            s = RigSettings(n_runs=2, duration=2.0, resolution=res)
-            return generate(tmp_path / name / str(res), eff, seed=seed, settings=s)
-
-        assert_same_dataset(make, want, f"v5_{name}")
+    assert_same_datasets(tmp_path, cases, "v5")
 
 
 def test_v5_generation_is_deterministic_and_records_sizes(tmp_path):
@@ -510,7 +493,7 @@ def test_v5_generation_is_deterministic_and_records_sizes(tmp_path):
     s = RigSettings(n_runs=2, duration=2.0)
     a = generate(tmp_path / "a", effects, seed=11, settings=s)
     b = generate(tmp_path / "b", effects, seed=11, settings=s)
-    assert _dataset_hash(a) == _dataset_hash(b)
+    assert dataset_hash(a) == dataset_hash(b)
     truth = json.loads((a / "truth.json").read_text())
     assert truth["expected_verdict"] == "cogging+eddy_drag+friction"
     assert all(e["law_set"] == "v5" for e in truth["effects"].values())

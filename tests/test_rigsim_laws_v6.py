@@ -10,15 +10,13 @@ from them are the same bytes as at commit ac59446 (before this set).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
-import pathlib
 
 import numpy as np
 import pytest
 from law_checks import check_law_over_envelope, envelope_grid
-from rig_bytes import assert_same_dataset, assert_same_draws
+from rig_bytes import assert_same_datasets, assert_same_draws, dataset_hash
 from scipy import integrate, signal
 
 from maglev_ocp import constants as k
@@ -399,15 +397,6 @@ def test_earlier_law_sets_draw_the_same_scenarios(laws):
     assert_same_draws(laws, [draw(s, laws=laws) for s in range(60)], BEFORE[laws])
 
 
-def _dataset_hash(folder: pathlib.Path) -> str:
-    h = hashlib.sha256()
-    for p in sorted(folder.rglob("*")):
-        if p.is_file():
-            h.update(p.name.encode())
-            h.update(p.read_bytes())
-    return h.hexdigest()
-
-
 def test_v5_datasets_are_the_same_bytes_as_before(tmp_path):
     # whole folders (runs, dataset.yaml, truth.json) recorded at commit ac59446 with the same call on an AMD EPYC
     # (numpy 2.4.6 at X86_V3); on another SIMD level the unquantized call against data/rig_digests.json ("v6_*",
@@ -420,7 +409,7 @@ def test_v5_datasets_are_the_same_bytes_as_before(tmp_path):
                 "commutation_offset": {"family": "sw_lag"},
             },
             13,
-            "a6a4d116ff4c212b9d7d7f743ba8c5c0ecb874ef778d5d8141e67e0f7a87345c",
+            {"X86_V3": "a6a4d116ff4c212b9d7d7f743ba8c5c0ecb874ef778d5d8141e67e0f7a87345c"},
         ),
         "v5b": (
             {
@@ -429,21 +418,15 @@ def test_v5_datasets_are_the_same_bytes_as_before(tmp_path):
                 "amplifier_lag": {"family": "loop_delay"},
             },
             17,
-            "86a56c59f517ecd2cab885285d14087d4694552d40e62a21299df589330d38ad",
+            {"X86_V3": "86a56c59f517ecd2cab885285d14087d4694552d40e62a21299df589330d38ad"},
         ),
         "v5ool": (
             {"core_hysteresis": None, "end_effect": {"family": "chamfer"}},
             19,
-            "dc68f5b23ac1f3ebcbd65f7c69dae51a4bf20ce38451adaef1a2f4e47429f6bf",
+            {"X86_V3": "dc68f5b23ac1f3ebcbd65f7c69dae51a4bf20ce38451adaef1a2f4e47429f6bf"},
         ),
     }
-    for name, (eff, seed, want) in cases.items():
-
-        def make(res, name=name, eff=eff, seed=seed):
-            s = RigSettings(n_runs=2, duration=2.0, resolution=res)
-            return generate(tmp_path / name / str(res), eff, seed=seed, settings=s)
-
-        assert_same_dataset(make, {"X86_V3": want}, f"v6_{name}")
+    assert_same_datasets(tmp_path, cases, "v6")
 
 
 def test_v6_generation_is_deterministic_and_records_sizes(tmp_path):
@@ -455,7 +438,7 @@ def test_v6_generation_is_deterministic_and_records_sizes(tmp_path):
     s = RigSettings(n_runs=2, duration=2.0)
     a = generate(tmp_path / "a", effects, seed=11, settings=s)
     b = generate(tmp_path / "b", effects, seed=11, settings=s)
-    assert _dataset_hash(a) == _dataset_hash(b)
+    assert dataset_hash(a) == dataset_hash(b)
     truth = json.loads((a / "truth.json").read_text())
     assert truth["expected_verdict"] == "cogging+commutation_offset+eddy_drag"
     assert all(e["law_set"] == "v6" for e in truth["effects"].values())
