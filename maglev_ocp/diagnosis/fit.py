@@ -364,12 +364,9 @@ class CandidateFitter:
         hi = np.array([f.hi for f in spec.free]) / scale
         if starts is None:
             starts = [np.array([f.start for f in spec.free])]
-        ends = [
-            (f, x, st) for x, f, st in (self._solve_from(np.clip(np.asarray(x0) / scale, lo, hi), lo, hi, Zt, max_iter)
-                                        for x0 in starts)
-        ]  # fmt: skip
         best = None
-        for f, x, status in ends:
+        for x0 in starts:
+            x, f, status = self._solve_from(np.clip(np.asarray(x0) / scale, lo, hi), lo, hi, Zt, max_iter)
             if best is None or f < best[0] or not math.isfinite(best[0]):
                 best = (f, x, status)
         f, s_opt, status = best
