@@ -267,6 +267,33 @@ def test_eddy_reitz_member_recovers_a_moving_magnet_drag_and_lift() -> None:
     assert 1.0 / theta["inv_vc"] == pytest.approx(0.05, rel=TOL)
 
 
+def test_eddy_two_axis_member_recovers_a_damper_on_both_velocities() -> None:
+    """An eddy-current damper (Sodano, Bae & Inman, J. Vib. Acoust. 128(3), 2006: at low speed a conductor
+    damps each velocity component of the magnet in proportion to the field squared at the conductor),
+    ``F = -c(g) (0.6 g_dot, d_dot)``, ``c = 60 N s/m exp(-2 pi (g - 12 mm) / tau)``: the drag coefficient at
+    12 mm and the vertical ratio 0.6 within 20 %; the drag-only member leaves the vertical damping in the
+    vertical residual (its held-out rms there at least twice the two-axis member's)."""
+
+    def law(x, u):
+        c = 60.0 * ca.exp(-2 * math.pi * (x[0] - 0.012) / k.tau)
+        return [-0.6 * c * x[1], -c * x[3]]
+
+    runs, filt = _runs(law, g0=0.012)
+    fit, theta = _fit(_member("eddy_drag", "two_axis"), runs, filt)
+    assert float(EddyDrag.coefficient(0.012, theta)) == pytest.approx(60.0, rel=TOL)
+    assert theta["c_vert"] == pytest.approx(0.6, rel=TOL)
+    for x in (0.01, -0.02):  # the vertical force opposes the gap's motion
+        f_g, _ = EddyDrag.forces(0.012, 0.0, theta, x)
+        assert float(f_g) * x < 0
+    one, _ = _fit(_member("eddy_drag", "default"), runs, filt)
+
+    def vertical_rms(f):
+        r = residuals_with(f.spec, f, runs, BASE.vector())
+        return math.sqrt(np.mean(np.concatenate([x.r[:, 0] for x in r]) ** 2))
+
+    assert vertical_rms(one) > 2.0 * vertical_rms(fit)
+
+
 def test_commutation_spline_recovers_a_periodic_encoder_error() -> None:
     """An offset ``1.7 deg + 2.9 deg sin(2 pi d / 80 mm)`` (an encoder's eccentricity: periodic along the
     stroke, neither constant nor a drift): its largest value on the stroke visited within 20 %."""

@@ -193,6 +193,8 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "eddy_drag.kappa": (*EddyDrag.KAPPA_BOUNDS, 4 * math.pi / k.tau, 50.0),
     "eddy_drag.inv_vc": (*_eb("eddy_drag", "inv_vc"), 5.0, 5.0),
     "eddy_drag.lift": (*_eb("eddy_drag", "lift"), 0.5, 0.5),
+    # vertical eddy damping over the drag's coefficient (a normal velocity induces eddy currents too)
+    "eddy_drag.c_vert": (*_eb("eddy_drag", "c_vert"), 0.5, 0.5),
     # parameter error: factors on C1..C4 (C4, a small term, may be off by more)
     "parameter_error.k_C1": _FACTOR,
     "parameter_error.k_C2": _FACTOR,
@@ -461,6 +463,17 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
                 "that would be viscous friction)"
             ),
             law="reitz",
+        ),
+        CandidateSpec(
+            "eddy_drag",
+            ("eddy_drag",),
+            free=_free("eddy_drag.c_eddy", "eddy_drag.c_vert"),
+            note=(
+                "the drag of B(g)^2 on both velocities: c(g) v along d and c_vert c(g) g_dot along g (a velocity "
+                "normal to the conductor induces eddy currents as a tangential one does; the ratio depends on the "
+                "conductor's extent and thickness): 2 parameters"
+            ),
+            law="two_axis",
         ),
     )
     sat = lib["saturation"].free

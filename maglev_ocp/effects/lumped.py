@@ -87,6 +87,7 @@ class EddyDrag(Effect):
         EffectParam("kappa", 2 * math.pi / k.tau, *KAPPA_BOUNDS, "1/m", "decay rate of the exponential with g"),
         EffectParam("inv_vc", 0.0, 0.0, 50.0, "s/m", "inverse critical velocity (0: drag linear in velocity)"),
         EffectParam("lift", 0.0, 0.0, 2.0, "-", "lift over Reitz's thin-sheet lift (opens the gap)"),
+        EffectParam("c_vert", 0.0, 0.0, 2.0, "-", "vertical damping over the drag's low-speed coefficient"),
     )
 
     @classmethod
@@ -98,15 +99,24 @@ class EddyDrag(Effect):
         )
 
     @classmethod
-    def forces(cls, g: Expr, v: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
-        """Eddy forces ``(F_g, F_d)`` [N] at gap ``g`` [m] and horizontal velocity ``v`` [m/s] (Reitz 1970):
-        ``F_g`` along +g (opens the gap), ``F_d`` opposes the motion."""
+    def forces(cls, g: Expr, v: Expr, theta: Mapping[str, Expr], g_dot: Expr = 0.0) -> tuple[Expr, Expr]:
+        """Eddy forces ``(F_g, F_d)`` [N] at gap ``g`` [m], horizontal velocity ``v`` and vertical velocity
+        ``g_dot`` [m/s] (Reitz 1970): ``F_g`` along +g (opens the gap), ``F_d`` opposes the motion.
+
+        A velocity normal to the conductor induces eddy currents as a tangential one does: the conductor
+        then damps the gap's motion too, ``-c_vert c(g) g_dot`` (a magnet approaching a conducting plate is
+        repelled in proportion to its speed: Saslow, "Maxwell's theory of eddy currents in thin conducting
+        sheets", Am. J. Phys. 60(8), 1992, sec. V; Sodano, Bae & Inman, "Improved concept and model of eddy
+        current damper", J. Vib. Acoust. 128(3), 2006). The ratio ``c_vert`` depends on the conductor's extent
+        and thickness against the pole pitch, so it is a parameter of its own (0: a drag along d only).
+        """
         c, s = cls.coefficient(g, theta), theta.get("inv_vc", 0.0)
         den = 1 + (s * v) ** 2
-        return theta.get("lift", 0.0) * c * s * v**2 / den, -c * v / den
+        f_g = theta.get("lift", 0.0) * c * s * v**2 / den - theta.get("c_vert", 0.0) * c * g_dot
+        return f_g, -c * v / den
 
     def modify(self, terms, x, u, p, theta) -> None:
         P = _P(p)
-        f_g, f_d = self.forces(x[0], x[3], theta)
+        f_g, f_d = self.forces(x[0], x[3], theta, x[1])
         terms.horizontal["eddy"] = f_d / P["Mh"]
         terms.vertical["eddy_lift"] = f_g / P["Mv"]

@@ -33,27 +33,40 @@ from ...signals import PARAM_NAMES
 from ..fit import residuals_with
 from ..library import CandidateSpec
 from ..residuals import PreparedRun
-from ..signatures import _V_SIGN, STATIC_V_SCALES, Feat, state_map_basis
+from ..signatures import _V_SIGN, STATIC_V_SCALES, Feat, _bsplines, state_map_basis
 
 _C1 = PARAM_NAMES.index("C1")
 _H = 1  # the horizontal channel
+
+#: Harmonics of ``2 t1`` in the nuisance (to ``t1 / 6``: a slot opening's sharp force profile).
+COGGING_HARMONICS: int = 12
+#: Cubic B-splines in ``g`` each harmonic is multiplied by (its amplitude a smooth function of the gap). With a
+#: fixed amplitude per harmonic, a cogging that decays with the gap (the sixth law set's finite-array law,
+#: 6-10 N at the lower gaps) stayed in the thrust current's part: C1 partialled 3.6-4.5 against 13.7-14.0.
+COGGING_GAP_SPLINES: int = 5
 
 
 def nuisance_basis(feat: Feat) -> np.ndarray:
     """Columns of every horizontal force that does not scale with the thrust current ``i_q``, shape ``(n, p)``.
 
     A constant; a flexible function of ``(g, d)`` (:func:`..signatures.state_map_basis`: an end force, a spring,
-    a cable, the gap-dependent part of any of them); harmonics 1-6 of seed eq. (9)'s period ``2 t1`` in ``d``
-    (a cogging of any shape); odd shapes of ``d_dot`` at the velocity scales of a Stribeck dip to a viscous slope
+    a cable, the gap-dependent part of any of them); harmonics 1..:data:`COGGING_HARMONICS` of seed eq. (9)'s
+    period ``2 t1`` in ``d``, each times cubic B-splines in ``g`` (a cogging of any shape, its harmonics decaying
+    with the gap each at its own rate); odd shapes of ``d_dot`` at the velocity scales of a Stribeck dip to a viscous slope
     (:data:`..signatures.STATIC_V_SCALES`); ``i_d``, ``i_d d`` and ``i_d tanh(d_dot / v)`` (a commutation offset
     rotating the levitation current into the thrust, constant, drifting along ``d``, or switching with the
     direction of motion as a Hall sensor's hysteresis does).
     """
-    d = feat["d"]
+    d, g = feat["d"], feat["g"]
     cols: list[np.ndarray] = [np.ones_like(d)[:, None], state_map_basis(feat, ("g", "d"))]
-    for h in range(1, 7):
+    lo, hi = (float(x) for x in np.percentile(g, [0.5, 99.5]))
+    # A cogging's harmonics decay with the gap, each at a rate of its own (the slot openings' field, seed eq. (9)
+    # and MODEL.md's field): each harmonic times smooth functions of g, not a fixed amplitude.
+    amp = _bsplines(g, lo, hi, COGGING_GAP_SPLINES) if hi > lo else np.ones((len(g), 1))
+    for h in range(1, COGGING_HARMONICS + 1):
         w = 2 * math.pi * h / (2 * k.t1)
-        cols.append(np.column_stack([np.sin(w * d), np.cos(w * d)]))
+        for wave in (np.sin(w * d), np.cos(w * d)):
+            cols.append(amp * wave[:, None])
     v = feat["d_dot"]
     cols.append(np.column_stack([np.tanh(v / s) for s in STATIC_V_SCALES] + [v]))
     i_d = feat["i_d"]
@@ -79,6 +92,9 @@ class ThrustConstant:
         Why, in words.
     n : int
         Residual samples used.
+    determined : bool
+        ``c1`` is positive and its standard error within the prior's sd (held or not): the candidates' joint
+        refits start from it.
     """
 
     c1_plain: float
@@ -87,11 +103,12 @@ class ThrustConstant:
     used: bool
     reason: str
     n: int = 0
+    determined: bool = False
 
     def to_dict(self) -> dict:
         """JSON form."""
         return {"C1_plain": self.c1_plain, "C1_partialled": self.c1, "stderr": self.stderr, "used": self.used,
-                "reason": self.reason, "samples": self.n}  # fmt: skip
+                "determined": self.determined, "reason": self.reason, "samples": self.n}  # fmt: skip
 
 
 def _stack(runs: Sequence, res_a: Sequence, res_b: Sequence) -> tuple[np.ndarray, np.ndarray, Feat]:
@@ -158,10 +175,11 @@ def partialled_thrust(
     if not (np.isfinite(c1) and c1 > 0 and se <= prior_sd_c1):
         return ThrustConstant(c1_plain, c1, se, False, f"partialled C1 = {c1:.3g} +- {se:.2g} is not determined "
                               f"within the prior's sd {prior_sd_c1:.2g}: plain calibration kept", n)  # fmt: skip
-    what = "held in the baseline" if hold else "reported; the baseline keeps the plain calibration's"
+    what = ("held in the baseline" if hold else "reported; the baseline keeps the plain calibration's, and the "
+            "candidates' joint refits start from it")  # fmt: skip
     why = (f"C1 partialled out of the forces that do not scale with i_q: {c1:.4g} +- {se:.2g} (plain calibration "
            f"{c1_plain:.4g}); {what}")  # fmt: skip
-    return ThrustConstant(c1_plain, c1, se, hold, why, n)
+    return ThrustConstant(c1_plain, c1, se, hold, why, n, determined=True)
 
 
 __all__ = ["ThrustConstant", "nuisance_basis", "partialled_thrust"]
