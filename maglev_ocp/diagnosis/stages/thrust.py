@@ -52,10 +52,10 @@ def nuisance_basis(feat: Feat) -> np.ndarray:
     A constant; a flexible function of ``(g, d)`` (:func:`..signatures.state_map_basis`: an end force, a spring,
     a cable, the gap-dependent part of any of them); harmonics 1..:data:`COGGING_HARMONICS` of seed eq. (9)'s
     period ``2 t1`` in ``d``, each times cubic B-splines in ``g`` (a cogging of any shape, its harmonics decaying
-    with the gap each at its own rate); odd shapes of ``d_dot`` at the velocity scales of a Stribeck dip to a viscous slope
-    (:data:`..signatures.STATIC_V_SCALES`); ``i_d``, ``i_d d`` and ``i_d tanh(d_dot / v)`` (a commutation offset
-    rotating the levitation current into the thrust, constant, drifting along ``d``, or switching with the
-    direction of motion as a Hall sensor's hysteresis does).
+    with the gap each at its own rate); odd shapes of ``d_dot`` at the velocity scales of a Stribeck dip to a
+    viscous slope (:data:`..signatures.STATIC_V_SCALES`); ``i_d``, ``i_d d`` and ``i_d tanh(d_dot / v)`` (a
+    commutation offset rotating the levitation current into the thrust, constant, drifting along ``d``, or
+    switching with the direction of motion as a Hall sensor's hysteresis does).
     """
     d, g = feat["d"], feat["g"]
     cols: list[np.ndarray] = [np.ones_like(d)[:, None], state_map_basis(feat, ("g", "d"))]
