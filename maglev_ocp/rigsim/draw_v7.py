@@ -71,9 +71,10 @@ def _end_effect(rng):
 
 def _saturation(rng):
     fam = _family(rng, "saturation")
-    if fam == "leakage_knee":  # knee at 5-12 A of the 8 A limit, sharpness 2.5-5: 1-10 % of the currents' field lost
-        # at the hover's 2-4 A, 10-40 % at the limit
-        return {"family": fam, "i_k": _u(rng, 5.0, 12.0), "p": _u(rng, 2.5, 5.0), "target": "current"}
+    if fam == "leakage_knee":  # knee at 8-16 A (at or above the 8 A limit), sharpness 2-4: 0-6 % of the currents'
+        # field lost at the hover's 2-4 A, 3-30 % at the limit (a knee at 5 A took the stage to its lower stop: the
+        # levitation current at 12 mm could no longer hold it)
+        return {"family": fam, "i_k": _u(rng, 8.0, 16.0), "p": _u(rng, 2.0, 4.0), "target": "current"}
     # the iron's magnetic voltage 5-20 % of the gap's at the lower stop (10-30 % of the pull lost there, a few % in
     # the gap band, as the earlier sets), growing as B^2-B^4
     return {"family": fam, "k_lo": _u(rng, 0.05, 0.2), "n": _u(rng, 2.0, 4.0), "target": "both"}

@@ -215,10 +215,12 @@ class EndEffectV7(_V7, EndEffect):
       Univ. Press 1997, the static end effect's unbalanced phases; Gieras, Piech & Tomczuk, "Linear Synchronous
       Motors", 2nd ed., CRC Press 2011). Slot ``n`` (width ``t1``, from ``x_w``) holds phase ``n mod 3`` (a, c, b:
       the sequence ``a, -c, b, -a, c, -b`` of one slot per pole and phase); phase ``j`` loses the share ``eps_j =
-      (its slot length in the overhang) / (L / 3)`` of its force constant. The dq currents go to the phases at the
-      electrical angle ``theta = pi (d - x_w - t1/2) / tau`` (phase a's axis at its slot's centre), are scaled by
-      ``1 - eps_j`` and come back (amplitude-invariant Park transforms): the motor carries those (hook
-      ``rotate_at``). Inside the stator (no overhang) nothing changes.
+      (its slot length in the overhang) / (L / 3)`` of its force constant, and the overhanging magnets lose their
+      pull on the iron, ``rho = 1 - (overhang) / L`` (every magnetic term, hook ``factors``; ``rho`` is the phases'
+      mean ``1 - eps_j``). The dq currents go to the phases at the electrical angle ``theta = pi (d - x_w - t1/2) /
+      tau`` (phase a's axis at its slot's centre), are scaled by ``(1 - eps_j) / rho`` and come back
+      (amplitude-invariant Park transforms), so that with ``rho`` each phase keeps ``1 - eps_j`` of its force: the
+      motor carries those (hook ``rotate_at``). Inside the stator (no overhang) nothing changes.
     * ``armature_reluctance`` -- the winding's inductance falls where the mover's back iron leaves it at a stator
       end, ``L(d) = L0 - dL_p S((d - e_p) / w) - dL_n S((-d - e_n) / w)`` (``S`` logistic over the fringe ``w``),
       and the co-energy ``(1/2) L (3/2) |i|^2`` of the three phases (amplitude-invariant dq currents) gives a
@@ -236,7 +238,7 @@ class EndEffectV7(_V7, EndEffect):
 
     def __init__(self, family: str | None = None, **params: float):
         super().__init__(family, **params)
-        self.has_factors = False
+        self.has_factors = self.family == "phase_unbalance"
         self.has_rotate_at = self.family == "phase_unbalance"
         self.has_force_i = self.family == "armature_reluctance"
 
@@ -254,15 +256,25 @@ class EndEffectV7(_V7, EndEffect):
             out.append(miss / (L_ARRAY / 3.0))
         return np.concatenate(out, axis=-1)
 
+    def rho(self, d):
+        """Fraction of the magnets over the stator: ``1 - (overhang) / L``."""
+        p = self.p
+        d = np.asarray(d, dtype=float)
+        return 1.0 - (np.maximum(d - p["e_p"], 0.0) + np.maximum(-d - p["e_n"], 0.0)) / L_ARRAY
+
+    def factors(self, g, d, f: list) -> None:
+        """Every magnetic term by ``rho(d)`` (``phase_unbalance``)."""
+        f[2] = f[2] * self.rho(d)
+
     def carried(self, i_q, i_d, d):
-        """Currents ``(i_q, i_d)`` the phases' unequal force constants make of the delivered ones at ``d``."""
+        """Currents ``(i_q, i_d)`` that, with :meth:`rho`, give each phase ``1 - eps_j`` of its force at ``d``."""
         i_q, i_d, d = (np.asarray(x, dtype=float) for x in (i_q, i_d, d))
         th = math.pi * (d - self.p["x_w"] - 0.5 * k.t1) / k.tau
-        eps = self.shares(d)
+        eps, rho = self.shares(d), self.rho(d)
         q2 = d2 = 0.0
         for j, sh in enumerate((0.0, -TWO_PI_3, TWO_PI_3)):
             c, s = np.cos(th + sh), np.sin(th + sh)
-            ij = (i_d * c - i_q * s) * (1.0 - eps[..., j])
+            ij = (i_d * c - i_q * s) * (1.0 - eps[..., j]) / rho
             d2, q2 = d2 + (2.0 / 3.0) * ij * c, q2 - (2.0 / 3.0) * ij * s
         return q2, d2
 
