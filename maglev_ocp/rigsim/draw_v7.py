@@ -29,8 +29,9 @@ def _family(rng: np.random.Generator, name: str) -> str:
 def _cogging(rng):
     fam = _family(rng, "cogging")
     replace = bool(rng.uniform() < 0.5)
-    # tangential peak at 10 mm 2-5 N (3-6 N replacing seed eq. (9), whose peak there is 4 N), as the first sets'
-    # sizes; the second slot harmonic +-0-40 % of it at 10 mm (it decays twice as fast); the slot grid anywhere
+    # harmonics' amplitudes summing to 2-5 N at 10 mm (3-6 N replacing seed eq. (9), whose peak there is 4 N), as
+    # the first sets' sizes; the second slot harmonic +-0-40 % of it at 10 mm (it decays twice as fast); the slot
+    # grid anywhere
     p: Spec = {"family": fam, "replace": float(replace), "xi0": _u(rng, 3.0, 6.0) if replace else _u(rng, 2.0, 5.0)}
     p.update(c2=_pm(rng, 0.0, 0.4), phi2=_u(rng, -math.pi, math.pi), x0=_u(rng, 0.0, k.t1))
     if fam == "lossy_teeth":  # solid tooth tips 3-8 mm wide, mu_r 300-1000, sigma 5e6 S/m: mu sigma w^2 / 12 spans

@@ -61,10 +61,10 @@ class CoggingV7(_V7, Cogging):
     slots per pole cogs with the slot pitch ``t1``: Zhu & Howe, "Influence of design parameters on cogging torque in
     permanent magnet machines", IEEE Trans. Energy Convers. 15(4), 2000), each harmonic decaying across the gap as
     a Laplace field of its wavenumber: ``a_k(g) = xi0 c_k exp(-2 pi k (g - g_ref) / t1)``, ``theta_k = 2 pi k (d -
-    x0) / t1 + phi_k`` (``c_1 = 1 - |c2|``, ``phi_1 = 0``; ``xi0`` the tangential peak at ``g_ref = 10 mm``, as
-    seed eq. (9)'s; the first harmonic falls to 0.19 of it at 15 mm, the second to 0.04). The
-    static law is ``W = (t1 / 2 pi) sum_k (a_k / k) cos theta_k``: ``F_d = sum_k a_k sin theta_k``, ``F_g = sum_k
-    a_k cos theta_k`` (``F = -grad W``; ``F_g > 0`` opens the gap).
+    x0) / t1 + phi_k`` (``c_1 = 1 - |c2|``, ``phi_1 = 0``; ``xi0`` the sum of the harmonics' tangential amplitudes
+    at ``g_ref = 10 mm``, their peak where they align, as seed eq. (9)'s peak; the first harmonic falls to 0.19 of it
+    at 15 mm, the second to 0.04). The static law is ``W = (t1 / 2 pi) sum_k (a_k / k) cos theta_k``: ``F_d =
+    sum_k a_k sin theta_k``, ``F_g = sum_k a_k cos theta_k`` (``F = -grad W``; ``F_g > 0`` opens the gap).
 
     * ``lossy_teeth`` -- the stator's tooth tips are solid (unlaminated) iron, whose eddy currents delay the flux's
       change by ``tau_e = mu sigma w^2 / 12`` (the low-frequency lag of the classical eddy field in a plate of
