@@ -22,7 +22,7 @@ from rig_bytes import assert_same_datasets, assert_same_draws, dataset_hash
 from scipy import integrate, signal
 
 from maglev_ocp import constants as k
-from maglev_ocp.rigsim import RigSettings, draw, generate
+from maglev_ocp.rigsim import RigSettings, draw, generate, laws_v6, laws_v7
 from maglev_ocp.rigsim.laws_v6 import array_field
 from maglev_ocp.rigsim.laws_v7 import G_REF, V7_LAWS, make_law
 from maglev_ocp.rigsim.physics import NOMINAL, Constants, accelerations, shape
@@ -468,6 +468,17 @@ BEFORE = {
     },
     "v6": {"X86_V4": "314b236562c025ae4051f4c1a9c172bde9e2c9fb2a052d331eb9b5422ca97456"},
 }
+
+
+def test_every_earlier_family_resolves_to_the_same_class_as_before():
+    seen = 0
+    for reg in laws_v6.REGISTRIES:
+        for name, cls in reg.items():
+            for fam in cls.families:
+                assert laws_v7.law_class(name, fam) is laws_v6.law_class(name, fam), (name, fam)
+                seen += 1
+            assert laws_v7.law_class(name, None) is laws_v6.law_class(name, None), name
+    assert seen > 80 and laws_v7.REGISTRIES[:-1] == laws_v6.REGISTRIES
 
 
 @pytest.mark.parametrize("laws", sorted(BEFORE))

@@ -31,7 +31,8 @@ class _V7:
 
 
 def _per_run(v: np.ndarray, x) -> np.ndarray:
-    """``v`` (one value per run) shaped to broadcast against ``x`` (runs along its first axis)."""
+    """``v`` (one value per run) shaped to broadcast against ``x`` (runs along its first axis); the first run's value
+    where ``x`` has no run axis of that length (a call outside a simulation of ``v.size`` runs)."""
     x = np.asarray(x)
     if x.ndim == 0 or x.shape[0] != v.shape[0]:
         return np.asarray(v[0] if v.size else 0.0)
@@ -63,15 +64,15 @@ class PayloadSwap(_V7, Law):
         super().__init__(family, **params)
         self.mass = np.zeros(0)
 
-    def reset(self, n_runs: int) -> None:
-        """The payload per run: ``m_p`` in runs ``first, first + 2, ...``."""
-        r = np.arange(n_runs)
-        self.mass = self.p["m_p"] * ((r - round(self.p["first"])) % 2 == 0) * (r >= round(self.p["first"]))
-
     def masses(self, n_runs: int) -> np.ndarray:
-        """Payload [kg] of each of ``n_runs`` runs."""
-        self.reset(n_runs)
-        return self.mass
+        """Payload [kg] of each of ``n_runs`` runs: ``m_p`` in runs ``first, first + 2, ...``."""
+        r = np.arange(n_runs)
+        first = round(self.p["first"])
+        return self.p["m_p"] * (((r - first) % 2 == 0) & (r >= first))
+
+    def reset(self, n_runs: int) -> None:
+        """The payload per run (:meth:`masses`)."""
+        self.mass = self.masses(n_runs)
 
     def factors(self, g, d, f: list) -> None:
         """Divide the magnetic accelerations by the loaded masses (per run)."""
