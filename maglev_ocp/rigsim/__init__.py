@@ -8,9 +8,9 @@ can be checked on a rig they were not built from.
 
 * :mod:`.physics` - nominal shape functions, seed eq. (2) and the cogging of eq. (9), from MODEL.md;
 * :mod:`.laws` - effects as law families (library effects and ones outside the library);
-* :mod:`.laws_new`, :mod:`.laws_v3`, :mod:`.laws_v4`, :mod:`.laws_v5`, :mod:`.laws_v6` - a second to sixth set of
-  families from the literature (issue 27; :mod:`.draw_v4`, :mod:`.draw_v5`, :mod:`.draw_v6` draw the fourth to
-  sixth);
+* :mod:`.laws_new`, :mod:`.laws_v3`, :mod:`.laws_v4`, :mod:`.laws_v5`, :mod:`.laws_v6`, :mod:`.laws_v7` - a
+  second to seventh set of families from the literature (issue 27; :mod:`.draw_v4` ... :mod:`.draw_v7` draw the
+  fourth to seventh);
 * :mod:`.control` - the generator's own feedback-linearizing PID controller;
 * :mod:`.sim` - the rig (amplifier, encoders, noise, stops) and the closed loop (Dormand-Prince 5);
 * :mod:`.excite` - min-jerk moves at varied speeds plus dither over the gap band and the stroke;
@@ -29,7 +29,8 @@ from .laws_new import ALL_EFFECTS, ALL_LIBRARY, ALL_OUT_OF_LIBRARY, NEW_LAWS
 from .laws_v3 import EFFECTS_V3, V3_LAWS
 from .laws_v4 import EFFECTS_V4, V4_LAWS
 from .laws_v5 import EFFECTS_V5, V5_LAWS
-from .laws_v6 import EFFECTS_V6, V6_LAWS, make_law
+from .laws_v6 import EFFECTS_V6, V6_LAWS
+from .laws_v7 import EFFECTS_V7, V7_LAWS, make_law
 from .physics import NOMINAL, Constants
 from .sim import RigSettings
 
@@ -41,6 +42,7 @@ __all__ = [
     "EFFECTS_V4",
     "EFFECTS_V5",
     "EFFECTS_V6",
+    "EFFECTS_V7",
     "LAWS",
     "LIBRARY_EFFECTS",
     "NEW_LAWS",
@@ -50,6 +52,7 @@ __all__ = [
     "V4_LAWS",
     "V5_LAWS",
     "V6_LAWS",
+    "V7_LAWS",
     "Constants",
     "RigSettings",
     "draw",
