@@ -52,6 +52,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         548879380,  # issue 27's pre-registered blind check on rigsim's fifth law set (sixteenth session): spent
         1049996647,  # issue 27's pre-registered blind check on rigsim's sixth law set (seventeenth session): spent
         465278471,  # leave-one-law-out at c30d41c (sixteenth session, n = 2, six families): spent
+        1671401763,  # issue 27's pre-registered blind check on rigsim's seventh law set (eighteenth session): spent
         2232377194,  # case 8 of the sixth set's blind check (seed 1049996647): test_diagnosis_thrust's cogging rig
     }
 )  # fmt: skip
