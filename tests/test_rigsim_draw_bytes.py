@@ -1,0 +1,43 @@
+"""Every law set's random draws are the same bytes as when they were recorded (``rigsim.draw(s, laws)``, s < 60).
+
+One table for every set: each law set's tests used to hold their own copy of the hashes of the sets before them
+(test_rigsim_laws_v3 to _v7), the later copies a superset of the earlier ones. Each hash is the sha256 of
+``json.dumps`` of the draws, per numpy SIMD level where the levels differ (:mod:`rig_bytes`); on a level without a
+hash the draws are compared to their CPU-independent digest in ``data/rig_digests.json``.
+
+Provenance (each entry at the commit before the set after it): ``all``, ``old``, ``new`` at c652758 (before
+laws_v3) on the AVX512 (X86_V4) CI machine, the same bytes at c652758 and ac59446 on an AMD EPYC at X86_V3 (one
+string: :data:`rig_bytes.BOTH`); ``v3`` at 934155e (before laws_v4) on the CI machine, whose X86_V3 draws differ by
+an ulp (glibc's ``cosh`` in ``shape(0.01)``), recorded at ac59446 on the EPYC; ``v4`` at 0cfa3b3 (before laws_v5),
+one string; ``v5`` at ac59446 (before laws_v6) on the EPYC at X86_V3, the same string found at X86_V4 at 8fb2b1d;
+``v6`` at 8fb2b1d (before laws_v7) on an AMD EPYC at X86_V4.
+A new law set adds its entry here, recorded at the commit before it.
+"""
+
+from __future__ import annotations
+
+import pytest
+from rig_bytes import assert_same_draws
+
+from maglev_ocp.rigsim import draw
+
+DRAWS = {
+    "all": "0aeaf2f8af4338fb6c56fc76e21a9bae3bc19f9791becea7e31e5a1259483cd3",
+    "old": "d5c4373a10ddd66a63179bd65b54d882a96ee2e9ed2ce99535ca01e09369e106",
+    "new": "4838bf4d375b30be6e7cc3ff50c3b834fde3b17f0cdf75854036a5cc3063aeff",
+    "v3": {
+        "X86_V4": "2a9d29a79062f28298cc896a5eebe8ddef9d83c6aa2a95a3cd1720eb24feb120",
+        "X86_V3": "e59f7a240552924e6f961a94ea3394b5b9b6e320e1d180b4ed27b3aa888484d5",
+    },
+    "v4": "36a83350b82fa5b9f0a6d1272899ee9927ec84fec17f4409fcf62b66dfd06ace",
+    "v5": {
+        "X86_V3": "4caed51a1c99fec93ed1e97b357503faf505dc3e8a13fbd2b742cf84a5c9d080",
+        "X86_V4": "4caed51a1c99fec93ed1e97b357503faf505dc3e8a13fbd2b742cf84a5c9d080",
+    },
+    "v6": {"X86_V4": "314b236562c025ae4051f4c1a9c172bde9e2c9fb2a052d331eb9b5422ca97456"},
+}
+
+
+@pytest.mark.parametrize("laws", sorted(DRAWS))
+def test_law_sets_draw_the_same_scenarios_as_when_recorded(laws):
+    assert_same_draws(laws, [draw(s, laws=laws) for s in range(60)], DRAWS[laws])
