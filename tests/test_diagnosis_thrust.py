@@ -102,27 +102,3 @@ def test_a_cogging_decaying_with_the_gap_does_not_drag_the_thrust_constant(tmp_p
     assert th.c1_plain < 0.8 * truth["C1"], (th, truth["C1"])
     start = next(f.start for f in base.cal_free if f.key == "p.C1")
     assert start == pytest.approx(th.c1, rel=1e-12)
-
-
-def test_a_period_at_the_slot_pitch_puts_the_cogging_family_on_trial():
-    """The localization's period scan at the slot pitch ``t1`` (or seed eq. (9)'s ``2 t1``), significant in either
-    channel, is a cogging's signature: its law family is then tried whatever its default member scored; a period
-    of the pole pitch, or one below the scan's noise threshold, is not."""
-    from types import SimpleNamespace
-
-    from maglev_ocp import constants as k
-    from maglev_ocp.diagnosis.localize import PeriodScan
-    from maglev_ocp.diagnosis.stages.selection import localized_effects
-
-    def loc(*scans):
-        return SimpleNamespace(
-            views={ch: SimpleNamespace(period=s) for ch, s in zip(("vertical", "horizontal"), scans, strict=True)}
-        )
-
-    def scan(period, match, significant=True):
-        return PeriodScan(np.array([period]), np.array([0.5]), period, 0.1, 0.5, 0.1, significant, match)
-
-    assert localized_effects(loc(None, scan(k.t1, "t1"))) == {"cogging"}
-    assert localized_effects(loc(scan(2 * k.t1, "2 t1"), None)) == {"cogging"}
-    assert localized_effects(loc(scan(k.tau, "tau"), scan(0.04, None))) == set()
-    assert localized_effects(loc(scan(k.t1, "t1", significant=False), None)) == set()

@@ -45,7 +45,7 @@ def attribute(run: Run, loc: Localization) -> Attribution:
         specs[job.name], fits[job.name] = job.spec, fit
         scores.append(sc)
     att = Attribution(specs, fits, scores, Verdict(EffectSets.none(), [], False, []), None)
-    _choose_laws(run, att, shown=localized_effects(loc))
+    _choose_laws(run, att)
     att.verdict, att.best = decide(att.scores, loc.gap_detected, rules, loc.evidence)
     if att.best is None and loc.gap_detected:
         # Several effects at once: each single fit sees the others in its residual, which inflates the held-out
@@ -64,29 +64,12 @@ def attribute(run: Run, loc: Localization) -> Attribution:
     return att
 
 
-#: Periods in d (:data:`..localize.REFERENCE_PERIODS` names) that are a cogging's signature: the slot pitch and
-#: seed eq. (9)'s period.
-SLOT_PERIODS: frozenset[str] = frozenset({"t1", "2 t1"})
-
-
-def localized_effects(loc: Localization) -> frozenset[str]:
-    """Library effects whose own signature the localization found in the baseline's residual: a significant
-    period in ``d`` at the slot pitch (or seed eq. (9)'s twice that) in either channel is a cogging's."""
-    found = set()
-    for view in loc.views.values():
-        per = view.period
-        if per is not None and per.significant and per.match in SLOT_PERIODS:
-            found.add("cogging")
-    return frozenset(found)
-
-
-def _choose_laws(run: Run, att: Attribution, shown: frozenset[str] = frozenset()) -> None:
+def _choose_laws(run: Run, att: Attribution) -> None:
     """Stage 4a: the law families of the ``st.family_top`` effects whose default member the information
-    criterion favours most, and of every effect whose signature the localization found (``shown``: a cogging
-    of another shape, with no fundamental at seed eq. (9)'s period, left the default member at 0 % and eighth
-    of eight while the residual was periodic at the slot pitch in both channels); a default member the data
-    do not favour may still hide a law of its family that they do (cogging beyond eq. (9) with a decay of its
-    own was seen at dBIC -8 for the default member and far below with its own); the member is chosen by
+    criterion favours most (by default every effect's: a default member the data do not favour may still hide
+    a law of its family that they do, e.g. a cogging of another shape with no fundamental at seed eq. (9)'s
+    period left the default member at 0 %, eighth of eight, while its co-energy member closed the gap); the
+    member is chosen by
     the information criterion (effective sample size) among those whose held-out residual is not
     significantly worse than the best member's (paired z below ``confusable_z``)."""
     base, st, warnings = run.base, run.settings, run.warnings
@@ -94,13 +77,11 @@ def _choose_laws(run: Run, att: Attribution, shown: frozenset[str] = frozenset()
     fam = st.families()  # the library less the settings' exclude_laws
     # The training data's information criterion ranks them (a law that differs can leave the default member's
     # held-out gain small while the data clearly favour the effect).
-    ranked = [
+    promising = [
         s
         for s in sorted(att.scores, key=lambda s: s.delta_bic)
         if len(fam.get(s.name, ())) > 1 and s.fit is not None and s.fit.success
-    ]
-    promising = ranked[: st.family_top]
-    promising += [s for s in ranked[st.family_top :] if s.name in shown]
+    ][: st.family_top]
     # Every member of every family at once (each starts from its own effect's single fit, which no other
     # family's choice changes), spread over the workers; then chosen family by family.
     jobs = [FitJob(sc.name, spec, spec.note, False, warm_start(sc.name, att.fits[sc.name]))
