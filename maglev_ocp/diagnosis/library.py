@@ -19,6 +19,9 @@ from ..effects import EFFECTS, Cogging, CommutationOffset, EddyDrag, EndEffect, 
 from ..effects.cogging import ENERGY_DECAY_RANGE, ENERGY_PERIOD, G_ENERGY_REF
 from ..params import Params
 
+#: The eddy drag's profile coefficients along d (:meth:`~maglev_ocp.effects.EddyDrag.profile_names`).
+_EDDY_PROFILE: tuple[str, ...] = EddyDrag.profile_names()
+
 
 # ------------------------------------------------------------------------- specs
 @dataclass(frozen=True)
@@ -157,6 +160,8 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "end_effect.gain_skew": (-0.9, 0.9, 0.0, 0.2),
     "end_effect.end_force": (0.0, 20.0, 0.5, 1.0),  # the end force at g = 10 mm [N]
     "end_effect.end_ell": (1e-3, 0.05, 5e-3, 3e-3),
+    # the winding's end force per squared current [N/A^2]: (3/4) dL/dd, a few mH over a fringe of 5-20 mm
+    "end_effect.end_i2": (-1.0, 1.0, 0.0, 0.05),
     # the free profile's steps of its B-spline coefficients: a loss of force of a few 10 % at most on a real
     # stroke; the weak ridge at 0 holds a step whose knot the data do not reach (the profile keeps its level).
     # No step is negative: an overhang only loses force, and more of it the farther the magnets overhang (a
@@ -175,6 +180,8 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "saturation.knee": (0.0, 100.0, 1.0, 10.0),
     # saturation's learned loss: non-negative steps (a loss non-increasing in g), start 0.01 per step
     **{f"saturation.{n}": (0.0, 0.5, 0.01, 0.05) for n in Saturation.shape_names()},
+    # the current loss's steps in |i| (every 2 A): a loss of a few % per 2 A at most on a real winding
+    **{f"saturation.{n}": (0.0, 0.5, 0.005, 0.02) for n in Saturation.current_names()},
     # learned shapes (flexible members): friction's non-negative profile coefficients [N] per axis, cogging's
     # co-energy harmonics (coefficients [N at g_e = 20 mm], each harmonic's decay rate over its wavenumber within
     # the physical range of Cogging, a shared log-curvature), the commutation offset's spline [rad]
@@ -195,6 +202,8 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "eddy_drag.lift": (*_eb("eddy_drag", "lift"), 0.5, 0.5),
     # vertical eddy damping over the drag's coefficient (a normal velocity induces eddy currents too)
     "eddy_drag.c_vert": (*_eb("eddy_drag", "c_vert"), 0.5, 0.5),
+    # the drag's relative change along the stroke, per knot (>= -1: the drag never changes sign)
+    **{f"eddy_drag.{n}": (-1.0, 3.0, 0.0, 0.5) for n in EddyDrag.profile_names()},
     # parameter error: factors on C1..C4 (C4, a small term, may be off by more)
     "parameter_error.k_C1": _FACTOR,
     "parameter_error.k_C2": _FACTOR,
@@ -323,7 +332,11 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
     - ``commutation_offset``: ``drift``: the offset grows linearly along the
       stroke (a commutation encoder scale off the position encoder's);
     - ``end_effect``: ``free profile``: the overhang loss scaled and bent
-      (``edge_gain``, ``edge_quad``); ``spline profile``: a loss of any
+      (``edge_gain``, ``edge_quad``); ``two ends``, ``two ends, end force``
+      and ``two ends, winding force``: ends of their own, with the magnets'
+      end force and the winding's (a force along d quadratic in the
+      currents, where the armature's inductance changes at a stator end);
+      ``spline profile``: a loss of any
       smooth shape in ``|d|`` that never falls as the overhang grows (a cubic
       B-spline with non-negative steps, the same at both ends, so it also
       takes a loss that levels off), and the cogging's share of the loss;
@@ -475,6 +488,17 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             ),
             law="two_axis",
         ),
+        CandidateSpec(
+            "eddy_drag",
+            ("eddy_drag",),
+            free=_free("eddy_drag.c_eddy", *(f"eddy_drag.{n}" for n in _EDDY_PROFILE if n != "dprof_0")),
+            note=(
+                "the drag of B(g)^2 times a smooth profile along the stroke, c(g) (1 + p(d)) v (a cubic B-spline "
+                "in d, knots every 20 mm, its value at d = 0 held: the size is c_eddy's): a conductor that ends "
+                "with the stator or whose circuits close differently along d; still falling with the gap"
+            ),
+            law="d profile",
+        ),
     )
     sat = lib["saturation"].free
     knee = (*sat, *_free("saturation.knee"))
@@ -530,6 +554,19 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
                 ("shape", "every magnetic term", ()),
                 ("shape current terms", "the current terms (shares as 'current terms')", w1),
             )
+        ),
+        CandidateSpec(
+            "saturation",
+            ("saturation",),
+            free=_free(*(f"saturation.{n}" for n in Saturation.current_names())),
+            fixed=(("saturation.loss_8mm", 0.0), *w1),
+            note=(
+                "learned loss of the current terms in the current magnitude |i| (the winding's own flux saturating "
+                "its paths, whatever the gap): a cubic B-spline in |i| (knots every 2 A), non-decreasing, 0 at no "
+                "current"
+            ),
+            law="current loss",
+            flexible=True,
         ),
     )
     out["commutation_offset"] += (
@@ -589,6 +626,21 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
                 "pulls an overhanging array back along d (virtual work), with the loss's onset at each end"
             ),
             law="two ends, end force",
+        ),
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
+            free=(
+                *lib["end_effect"].free,
+                *_free("end_effect.edge_gain", "end_effect.edge_quad", "end_effect.edge_skew", "end_effect.gain_skew"),
+                *_free("end_effect.end_force", "end_effect.end_ell", "end_effect.end_i2"),
+            ),
+            note=(
+                "the two ends' overhang loss and end force with the winding's end force: the armature's "
+                "inductance changes where the back iron leaves the winding, a force along d quadratic in the "
+                "currents (co-energy (1/2) L(d) i^2), with the loss's onset at each end"
+            ),
+            law="two ends, winding force",
         ),
         CandidateSpec(
             "end_effect",

@@ -132,6 +132,12 @@ class DiagnoseSettings(Strict):
         The signature must explain more than the null's ``1 - signature_alpha`` quantile.
     signature_min_floor : float
         ... and at least this rms over the channel's noise floor.
+    leftover_ratio : float
+        Test (c) of the claim guard (:mod:`.stages.claims`): an effect named beside others whose signature is a
+        static map of the state and the currents stays only if, in some channel where its signature shows, the
+        rms its signature explains is at least this many times the rms the verdict's model leaves above the
+        noise floor there (the others' leftover misfit, out of which a flexible member can carve a share of
+        its own shape; 0: no test).
     gap_min_floor : float
         A located gap (a period in d that is no library period, a drift in time) is reported when it explains
         at least this rms over the channel's noise floor (0: no search).
@@ -183,6 +189,7 @@ class DiagnoseSettings(Strict):
     signature_null: int = Field(60, ge=20, le=1000)
     signature_alpha: float = Field(0.01, gt=0.0, lt=0.5)
     signature_min_floor: float = Field(0.3, ge=0.0, le=10.0)
+    leftover_ratio: float = Field(1.0, ge=0.0, le=10.0)
     gap_min_floor: float = Field(1.0, ge=0.0, le=100.0)
     drift_min_floor: float = Field(0.5, ge=0.0, le=100.0)
     exclude_laws: dict[str, list[str]] = Field(default_factory=dict)

@@ -180,12 +180,23 @@ def _saturation_core(sat: Sequence[Column], i_q: Column, i_d: Column) -> dict[st
     the law of the loss (a field, current-term or per-term member, an exponential, a knee or a learned shape),
     it scales the current-carrying terms too, so at a *fixed* gap and position the loss changes with the
     currents: ``s(g) i_d`` and ``s(g) i_d^2`` in the vertical channel, ``s(g) i_q`` and ``s(g) i_q i_d`` in the
-    horizontal one (the thrust loses with the field whatever else does). A gap that is a function of the state
+    horizontal one (the thrust loses with the field whatever else does); a loss in the current magnitude (the
+    winding's own flux saturating its paths, :meth:`~maglev_ocp.effects.Saturation.current_loss`) adds ``|i| i_d``,
+    ``|i|^2 i_d`` and ``|i| i_q``, ``|i|^2 i_q``. A gap that is a function of the state
     alone (a sensor's bow, a soft-steel part's pull, a spring) does not follow the currents there: the
     flexible function of ``(g, d)`` fitted first takes all of it (:func:`core_evidence`).
     """
-    return {"vertical": _times(sat, i_d) + _times(sat, lambda f: f["i_d"] ** 2),
-            "horizontal": _times(sat, i_q) + _times(sat, lambda f: f["i_q"] * f["i_d"])}  # fmt: skip
+    return {"vertical": _times(sat, i_d) + _times(sat, lambda f: f["i_d"] ** 2) + _times(_I_MAG, i_d),
+            "horizontal": _times(sat, i_q) + _times(sat, lambda f: f["i_q"] * f["i_d"])
+            + _times(_I_MAG, i_q)}  # fmt: skip
+
+
+#: The current loss's columns (:meth:`~maglev_ocp.effects.Saturation.current_loss`): the current magnitude and its
+#: square, which times a current term are what a loss growing with ``|i|`` takes from it.
+_I_MAG: tuple[Column, ...] = (
+    lambda f: np.hypot(f["i_q"], f["i_d"]),
+    lambda f: f["i_q"] ** 2 + f["i_d"] ** 2,
+)
 
 
 def _catalogue() -> dict[str, Signature]:
@@ -203,6 +214,7 @@ def _catalogue() -> dict[str, Signature]:
     one: Column = lambda f: np.ones_like(f["t"])  # noqa: E731
     i_q: Column = lambda f: f["i_q"]  # noqa: E731
     i_d: Column = lambda f: f["i_d"]  # noqa: E731
+    _i2: Column = lambda f: f["i_q"] ** 2 + f["i_d"] ** 2  # noqa: E731  (the winding's end force, co-energy L i^2)
     sigs = [
         Signature("cogging", ("d", "g"), CHANNELS, tuple(2 * t1 / h for h in range(1, 7)),
                   "periodic in d with eq. (9)'s period 2 t1 (harmonics 1-6: the slot pitch t1 and its 2nd and 3rd "
@@ -210,20 +222,24 @@ def _catalogue() -> dict[str, Signature]:
                   {c: cog_g for c in CHANNELS}),
         Signature("friction", ("g_dot", "d_dot"), CHANNELS, (), "odd in each axis' velocity",
                   {"vertical": fr_g, "horizontal": fr_d}),
-        Signature("eddy_drag", ("d_dot", "g"), CHANNELS, (), "a drag odd in the horizontal velocity and a lift "
-                  "even in it, both falling as the gap opens",
-                  {"horizontal": [lambda f: f["d_dot"], lambda f: f["d_dot"] * _dg(f)],
+        Signature("eddy_drag", ("d_dot", "g", "d"), CHANNELS, (), "a drag odd in the horizontal velocity and a "
+                  "lift even in it, both falling as the gap opens, the drag's size smooth along the stroke",
+                  {"horizontal": [lambda f: f["d_dot"], lambda f: f["d_dot"] * _dg(f),
+                                  lambda f: f["d_dot"] * f["d"] / 0.05, lambda f: f["d_dot"] * (f["d"] / 0.05) ** 2],
                    "vertical": [lambda f: f["d_dot"] ** 2, lambda f: f["d_dot"] ** 2 * _dg(f)]}),
         Signature("end_effect", ("d", "g", "i_q", "i_d"), CHANNELS, (tau, tau / 2),
                   "forces localized at each end of the stroke, nil in its middle and growing with each end's "
-                  "overhang (the end force, the thrust and pull losses), and a thrust ripple with the pole pitch",
-                  {"horizontal": ends_g + _times(ends + ripple, i_q), "vertical": ends_g + _times(ends, i_d)},
+                  "overhang (the end forces of the magnets and of the winding, the thrust and pull losses), and a "
+                  "thrust ripple with the pole pitch",
+                  {"horizontal": ends_g + _times(ends + ripple, i_q) + _times(ends, _i2),
+                   "vertical": ends_g + _times(ends, i_d)},
                   beyond={"horizontal": [_spring, _dg, i_q], "vertical": [_spring, _dg, i_d]}),
         Signature("saturation", ("g", "i_q", "i_d"), CHANNELS, (),
-                  "a loss of the magnetic terms monotone in g, in proportion to each term: at a fixed state it "
-                  "follows the currents (the thrust and the PM-current pull lose with the field)",
-                  {"vertical": sat + _times(sat, i_d) + _times(sat, lambda f: f["i_d"] ** 2),
-                   "horizontal": _times(sat, i_q) + _times(sat, lambda f: f["i_q"] * f["i_d"])},
+                  "a loss of the magnetic terms monotone in g and in the current, in proportion to each term: at a "
+                  "fixed state it follows the currents (the thrust and the PM-current pull lose with the field)",
+                  {"vertical": sat + _times(sat, i_d) + _times(sat, lambda f: f["i_d"] ** 2) + _times(_I_MAG, i_d),
+                   "horizontal": _times(sat, i_q) + _times(sat, lambda f: f["i_q"] * f["i_d"])
+                   + _times(_I_MAG, i_q)},
                   core=_saturation_core(sat, i_q, i_d), fixed=("g", "d")),
         Signature("commutation_offset", ("i_q", "i_d", "d"), CHANNELS, (),
                   "a rotation of the currents: i_d into the thrust, i_q into the lift, constant or drifting in d",

@@ -44,6 +44,13 @@ class EndEffect(Effect):
       onset as the loss (its derivative: the logistic of the overhang argument, each end with its own onset and
       size through ``edge_skew`` and ``gain_skew``) to ``end_force`` at ``g = 10 mm``, falling as the gap opens
       with ``end_ell``. The loss of the vertical pull is the same co-energy's ``-dW/dg``, already the factor.
+    * a **winding end force** (``end_i2``, 0 by default): the armature's own inductance changes where the mover's
+      back iron leaves the winding at a stator end, and the co-energy ``(1/2) L(d) (3/2) |i|^2`` of the three
+      phases pulls along d with ``F_d = (3/4) |i|^2 dL/dd`` (Fitzgerald, Kingsley & Umans, *Electric
+      Machinery*, 6th ed., 2003, ch. 3; the armature-reaction part of a PMLSM's end force, Gieras, Piech &
+      Tomczuk, *Linear Synchronous Motors*, 2nd ed., 2011): a force quadratic in the currents, localized at each
+      end with the same onset as the loss, ``-sign(d) end_i2 |i|^2 s(z) (1 + sign(d) gain_skew)`` (signed:
+      the inductance may fall or rise over the end).
 
     Law family (all extra parameters default to the geometric law above): a
     second ripple harmonic ``ripple2 cos(4 pi d / tau + ripple2_phase)``; a
@@ -88,6 +95,7 @@ class EndEffect(Effect):
         EffectParam("gain_skew", 0.0, -0.9, 0.9, "-", "loss per overhang at d > 0 times 1 + gain_skew (d < 0: 1 -)"),
         EffectParam("end_force", 0.0, 0.0, 20.0, "N", "restoring end force once the array overhangs, at g = 10 mm"),
         EffectParam("end_ell", 5e-3, 1e-3, 0.05, "m", "decay length of the end force in the gap"),
+        EffectParam("end_i2", 0.0, -1.0, 1.0, "N/A^2", "winding end force per squared current, where it overhangs"),
     )
 
     @staticmethod
@@ -111,16 +119,31 @@ class EndEffect(Effect):
         f = w * softplus / (k.pm * k.tau)
         return 1 - gain * (1 + side * gain_skew) * f - quad * f**2
 
-    @staticmethod
-    def end_force_x(d: Expr, g: Expr, theta: Mapping[str, Expr]) -> Expr:
+    @classmethod
+    def end_force_x(cls, d: Expr, g: Expr, theta: Mapping[str, Expr]) -> Expr:
         """The end force along ``d`` [N] (0 with ``end_force = 0``): ``-sign(d) F_end exp(-(g - 10 mm) / end_ell)
         s(z) (1 + sign(d) gain_skew)`` with ``s`` the logistic of the overhang argument of :meth:`overhang_factor`
         (the derivative of its softplus: the end force is where the overlap changes)."""
         side = ca.sign(d)
-        z = (_smooth_abs(d, 1e-5) - theta["d_edge"] - side * theta["edge_skew"]) / theta["edge_width"]
-        onset = 1 / (1 + ca.exp(-ca.fmax(ca.fmin(z, 30), -30)))
+        onset = cls.onset(d, theta)
         decay = ca.exp(-(g - _G_END_REF) / theta["end_ell"])
         return -side * theta["end_force"] * decay * onset * (1 + side * theta["gain_skew"])
+
+    @staticmethod
+    def onset(d: Expr, theta: Mapping[str, Expr]) -> Expr:
+        """The logistic onset of the overhang at ``d`` (0 inside the stator, 1 once the array overhangs), the
+        derivative of :meth:`overhang_factor`'s softplus: where the overlap changes."""
+        side = ca.sign(d)
+        z = (_smooth_abs(d, 1e-5) - theta["d_edge"] - side * theta["edge_skew"]) / theta["edge_width"]
+        return 1 / (1 + ca.exp(-ca.fmax(ca.fmin(z, 30), -30)))
+
+    @classmethod
+    def winding_force_x(cls, d: Expr, i_q: Expr, i_d: Expr, theta: Mapping[str, Expr]) -> Expr:
+        """The winding end force along ``d`` [N] (0 with ``end_i2 = 0``): ``-sign(d) end_i2 (i_q^2 + i_d^2)
+        s(z) (1 + sign(d) gain_skew)``, the co-energy of the winding's inductance at the stator's ends."""
+        side = ca.sign(d)
+        i2 = i_q**2 + i_d**2
+        return -side * theta["end_i2"] * i2 * cls.onset(d, theta) * (1 + side * theta["gain_skew"])
 
     @classmethod
     def profile_names(cls) -> tuple[str, ...]:
@@ -159,3 +182,6 @@ class EndEffect(Effect):
         terms.scale(cog, 1 - theta["edge_cog"] * (1 - fac))
         # The end force: the overlap's co-energy pulled along d (a magnetic force, which a saturation scales).
         terms.horizontal["end_x"] = self.end_force_x(d, x[0], theta) / _P(p)["Mh"]
+        # The winding's end force: the currents' own co-energy, not the magnets' (no saturation of the field
+        # scales it; a separate term).
+        terms.horizontal["end_i2"] = self.winding_force_x(d, u[0], u[1], theta) / _P(p)["Mh"]

@@ -10,7 +10,17 @@ import casadi as ca
 
 from .. import constants as k
 from ..model import get_model
+from ..shapes import bspline
 from .base import _P, Effect, EffectParam, Expr
+
+#: Centres [m] of the eddy drag's profile along d (a cubic B-spline, knots every 20 mm over the stroke and beyond).
+_EDDY_D_KNOTS: tuple[float, ...] = tuple(round(-0.06 + 0.02 * j, 3) for j in range(7))
+
+
+def _dprof_name(c: float) -> str:
+    """Parameter name of the eddy drag's profile coefficient at ``d = c`` [m]: ``dprof_m40``, ``dprof_20``."""
+    mm = round(c * 1e3)
+    return f"dprof_{'m' if mm < 0 else ''}{abs(mm):.0f}"
 
 
 def _factor(name: str, what: str, lo: float = 0.5, hi: float = 2.0) -> EffectParam:
@@ -75,7 +85,19 @@ class EddyDrag(Effect):
     ``[2 pi / tau, 6 pi / tau]`` (:attr:`KAPPA_BOUNDS`) and ``B(g)^2`` itself decays faster than the
     fundamental's exponential (its log-slope is ``2 pi / tau coth(pi (h_m + g) / tau)``), so no coefficient
     of this effect is flat in ``g``: over the stroke 8-32 mm it falls by a factor 14 at least.
+
+    Profile along the stroke (``dprof_*``, 0 by default): the conductor under the array need not be the same
+    everywhere along d: it ends with the stator (a finite plate's drag falls as the magnet nears its edge,
+    Sodano, Bae & Inman 2006), and its circuits (slot wedges, parallel winding groups, a split back plate)
+    close differently at each position. The coefficient is then ``c(g) (1 + p(d))`` with ``p`` a cubic B-spline
+    in d (:data:`_EDDY_D_KNOTS`, coefficients >= -1, so the drag never changes sign): still falling with the
+    gap as the field does, so still not viscous friction, whose coefficient depends on neither.
     """
+
+    #: Centres [m] of the profile's B-spline along d.
+    D_KNOTS: ClassVar[tuple[float, ...]] = _EDDY_D_KNOTS
+    #: Their spacing [m].
+    D_STEP: ClassVar[float] = 0.02
 
     #: Bounds [1/m] of the exponential coefficient's decay rate: the fundamental's B^2 to the third harmonic's.
     KAPPA_BOUNDS: ClassVar[tuple[float, float]] = (2 * math.pi / k.tau, 6 * math.pi / k.tau)
@@ -88,18 +110,36 @@ class EddyDrag(Effect):
         EffectParam("inv_vc", 0.0, 0.0, 50.0, "s/m", "inverse critical velocity (0: drag linear in velocity)"),
         EffectParam("lift", 0.0, 0.0, 2.0, "-", "lift over Reitz's thin-sheet lift (opens the gap)"),
         EffectParam("c_vert", 0.0, 0.0, 2.0, "-", "vertical damping over the drag's low-speed coefficient"),
+        *(
+            EffectParam(_dprof_name(c), 0.0, -1.0, 3.0, "-", f"relative change of the drag at d = {c * 1e3:.0f} mm")
+            for c in _EDDY_D_KNOTS
+        ),
     )
 
     @classmethod
-    def coefficient(cls, g: Expr, theta: Mapping[str, Expr]) -> Expr:
-        """Low-speed drag coefficient ``c(g)`` [N s/m] at gap ``g`` [m] (decays at least as the field squared)."""
-        B = get_model().shape(g)[2]
-        return theta["c_eddy"] * B**2 + theta.get("c_ref", 0.0) * ca.exp(
-            -theta.get("kappa", cls.KAPPA_BOUNDS[0]) * (g - k.g_cog_ref)
-        )
+    def profile_names(cls) -> tuple[str, ...]:
+        """Names of the profile's coefficients along d, in knot order."""
+        return tuple(_dprof_name(c) for c in cls.D_KNOTS)
 
     @classmethod
-    def forces(cls, g: Expr, v: Expr, theta: Mapping[str, Expr], g_dot: Expr = 0.0) -> tuple[Expr, Expr]:
+    def profile(cls, d: Expr, theta: Mapping[str, Expr]) -> Expr:
+        """The drag's factor along the stroke, ``1 + sum_j c_j B((d - d_j) / step)`` (1 with the defaults)."""
+        return 1 + bspline(d, cls.D_KNOTS, cls.D_STEP, [theta.get(n, 0.0) for n in cls.profile_names()])
+
+    @classmethod
+    def coefficient(cls, g: Expr, theta: Mapping[str, Expr], d: Expr | None = None) -> Expr:
+        """Low-speed drag coefficient ``c(g)`` [N s/m] at gap ``g`` [m] (decays at least as the field squared),
+        times the profile along the stroke at ``d`` [m] when given (:meth:`profile`)."""
+        B = get_model().shape(g)[2]
+        c = theta["c_eddy"] * B**2 + theta.get("c_ref", 0.0) * ca.exp(
+            -theta.get("kappa", cls.KAPPA_BOUNDS[0]) * (g - k.g_cog_ref)
+        )
+        return c if d is None else c * cls.profile(d, theta)
+
+    @classmethod
+    def forces(
+        cls, g: Expr, v: Expr, theta: Mapping[str, Expr], g_dot: Expr = 0.0, d: Expr | None = None
+    ) -> tuple[Expr, Expr]:
         """Eddy forces ``(F_g, F_d)`` [N] at gap ``g`` [m], horizontal velocity ``v`` and vertical velocity
         ``g_dot`` [m/s] (Reitz 1970): ``F_g`` along +g (opens the gap), ``F_d`` opposes the motion.
 
@@ -110,13 +150,13 @@ class EddyDrag(Effect):
         current damper", J. Vib. Acoust. 128(3), 2006). The ratio ``c_vert`` depends on the conductor's extent
         and thickness against the pole pitch, so it is a parameter of its own (0: a drag along d only).
         """
-        c, s = cls.coefficient(g, theta), theta.get("inv_vc", 0.0)
+        c, s = cls.coefficient(g, theta, d), theta.get("inv_vc", 0.0)
         den = 1 + (s * v) ** 2
         f_g = theta.get("lift", 0.0) * c * s * v**2 / den - theta.get("c_vert", 0.0) * c * g_dot
         return f_g, -c * v / den
 
     def modify(self, terms, x, u, p, theta) -> None:
         P = _P(p)
-        f_g, f_d = self.forces(x[0], x[3], theta, x[1])
+        f_g, f_d = self.forces(x[0], x[3], theta, x[1], x[2])
         terms.horizontal["eddy"] = f_d / P["Mh"]
         terms.vertical["eddy_lift"] = f_g / P["Mv"]

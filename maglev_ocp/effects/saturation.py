@@ -14,6 +14,9 @@ from .base import MAGNETIC_TERMS, Effect, EffectParam, Expr
 #: Centres [m] of the saturation's learned-loss coefficients in g: every 3 mm from 5 mm (below the lower stop, so
 #: the spline is not cut there) to 23 mm (the loss vanishes above 29 mm).
 _SAT_KNOTS: tuple[float, ...] = tuple(round(0.005 + 0.003 * j, 4) for j in range(7))
+#: Centres [A] of the current loss's B-spline in the current magnitude ``|i|``: every 2 A from -2 A (the first two
+#: held at 0, so that the spline is a partition of unity from 0 A on) to 12 A (beyond the 8 A amplitude limit).
+_SAT_I_KNOTS: tuple[float, ...] = tuple(-2.0 + 2.0 * j for j in range(8))
 
 
 class Saturation(Effect):
@@ -31,6 +34,15 @@ class Saturation(Effect):
     a flux density: little loss above a gap, a steep rise below it) whose knee
     lies at ``g = 8 mm + ell_sat ln(knee)`` and whose width is ``ell_sat``;
     far above the knee both decay as ``exp(-g / ell_sat)``.
+
+    The iron saturates on the total flux, the magnets' and the winding's: the winding's own flux (the slot
+    leakage through the tooth tips, the armature reaction) saturates its paths as the current grows, whatever
+    the gap (Pyrhonen, Jokinen & Hrabovcova, *Design of Rotating Electrical Machines*, 2nd ed., 2014, ch. 3-4).
+    A **current loss** ``L_i(|i|)`` adds to the loss of every term: a cubic B-spline in the current magnitude
+    ``|i| = sqrt(i_q^2 + i_d^2)`` with non-negative steps (``iloss_*``), non-decreasing in ``|i|`` and 0 at no
+    current (:meth:`current_loss`), weighted by the terms' shares as the gap loss is (the current terms'
+    shares: the thrust and the PM-current term lose ``L_i``, the reluctance term, quadratic in the currents'
+    field, twice that).
     """
 
     name = "saturation"
@@ -48,7 +60,15 @@ class Saturation(Effect):
             )
             for c in _SAT_KNOTS
         ),
+        *(
+            EffectParam(f"iloss_{c:.0f}", 0.0, 0.0, 0.5, "-", f"step of the current loss at |i| = {c:.0f} A")
+            for c in _SAT_I_KNOTS[2:]
+        ),
     )
+    #: Centres [A] of the current loss's B-spline in ``|i|`` (:meth:`current_loss`).
+    I_KNOTS: ClassVar[tuple[float, ...]] = _SAT_I_KNOTS
+    #: Their spacing [A].
+    I_STEP: ClassVar[float] = 2.0
     #: Centres [m] of the learned loss's B-spline coefficients in g (:meth:`shape_loss`).
     KNOTS: ClassVar[tuple[float, ...]] = _SAT_KNOTS
     #: Knot spacing [m] of the learned loss.
@@ -67,11 +87,32 @@ class Saturation(Effect):
     }
 
     @staticmethod
-    def factor(g: Expr, theta: Mapping[str, Expr], weight: Expr = 1.0) -> Expr:
-        """Force factor ``k_sat(g)`` (<= 1 for a positive weight, smallest at small gaps)."""
+    def factor(g: Expr, theta: Mapping[str, Expr], weight: Expr = 1.0, i_mag: Expr | None = None) -> Expr:
+        """Force factor ``k_sat(g, |i|)`` (<= 1 for a positive weight, smallest at small gaps and large
+        currents; ``i_mag`` the current magnitude [A], None: no current loss)."""
         b = theta["knee"]
         closed = theta["loss_8mm"] * (1 + b) / (b + ca.exp((g - k.g_stop[0]) / theta["ell_sat"]))
-        return 1 - weight * (closed + Saturation.shape_loss(g, theta))
+        loss = closed + Saturation.shape_loss(g, theta)
+        if i_mag is not None:
+            loss = loss + Saturation.current_loss(i_mag, theta)
+        return 1 - weight * loss
+
+    @classmethod
+    def current_names(cls) -> tuple[str, ...]:
+        """Names of the current loss's steps (knots from 2 A on, :attr:`I_KNOTS`), in knot order."""
+        return tuple(f"iloss_{c:.0f}" for c in cls.I_KNOTS[2:])
+
+    @classmethod
+    def current_loss(cls, i_mag: Expr, theta: Mapping[str, Expr]) -> Expr:
+        """The current loss at ``|i| = i_mag`` [A]: non-decreasing in ``|i|``, 0 at no current (0 with the default
+        steps). A cumulative cubic B-spline (non-negative steps, :func:`~maglev_ocp.shapes.cumulative_bspline`)
+        whose first two coefficients (knots -2 A and 0 A) are 0, less its value at 0 A; level above 10 A."""
+        steps = [0.0, 0.0, *(theta.get(n, 0.0) for n in cls.current_names())]
+        # the basis sums to one up to the last knot but one: held level beyond it (a current above 10 A)
+        i_mag = ca.fmin(i_mag, cls.I_KNOTS[-2])
+        return cumulative_bspline(i_mag, cls.I_KNOTS, cls.I_STEP, steps) - cumulative_bspline(
+            0.0, cls.I_KNOTS, cls.I_STEP, steps
+        )
 
     @classmethod
     def shape_names(cls) -> tuple[str, ...]:
@@ -91,5 +132,7 @@ class Saturation(Effect):
         return cumulative_bspline(g, cls.KNOTS, cls.KNOT_STEP, [theta[n] for n in cls.shape_names()], reverse=True)
 
     def modify(self, terms, x, u, p, theta) -> None:
+        # |i| smoothed at 1 mA so that the factor stays differentiable at no current
+        i_mag = ca.sqrt(u[0] ** 2 + u[1] ** 2 + 1e-6)
         for term in sorted(MAGNETIC_TERMS):
-            terms.scale([term], self.factor(x[0], theta, theta[self.TERM_WEIGHT[term]]))
+            terms.scale([term], self.factor(x[0], theta, theta[self.TERM_WEIGHT[term]], i_mag))
