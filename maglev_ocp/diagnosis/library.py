@@ -328,7 +328,9 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       current terms`` (flexible): a learned loss of any shape that never falls
       as the gap closes (a cubic B-spline in g with non-negative steps,
       :meth:`~maglev_ocp.effects.Saturation.shape_loss`), on every magnetic
-      term or on the current terms;
+      term or on the current terms; ``current loss`` (flexible): a loss of the
+      current terms non-decreasing in the current magnitude, whatever the gap
+      (:meth:`~maglev_ocp.effects.Saturation.current_loss`);
     - ``commutation_offset``: ``drift``: the offset grows linearly along the
       stroke (a commutation encoder scale off the position encoder's);
     - ``end_effect``: ``free profile``: the overhang loss scaled and bent
@@ -350,7 +352,9 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       speed, falling above a critical velocity) with a lift that opens the
       gap (Reitz 1970), its coefficient decaying with g at a rate bounded
       by the field's harmonics (:class:`~maglev_ocp.effects.EddyDrag`: a
-      coefficient free in g would nest viscous friction);
+      coefficient free in g would nest viscous friction); ``two_axis``: the
+      drag on both velocities; ``d profile``: the drag times a smooth profile
+      along the stroke (:meth:`~maglev_ocp.effects.EddyDrag.profile`);
     - learned shapes (flexible) of ``cogging`` (``co-energy 3``, ``co-energy 6``:
       a co-energy periodic in d whose gradient is both the tangential and the
       normal force, each harmonic decaying in g at a rate of its own,

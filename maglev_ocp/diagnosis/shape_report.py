@@ -68,6 +68,28 @@ def _end_loss(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
+def _sat_current_text(theta: dict[str, float]) -> str:
+    """The current loss's size (:meth:`Saturation.current_loss`), empty when it is nil."""
+    loss = 100.0 * float(Saturation.current_loss(k.i_amp_max, theta))
+    return f"; current loss at |i| = {k.i_amp_max:.0f} A {loss:.2f} % of a term of unit share" if loss > 0 else ""
+
+
+def _end_winding_text(theta: dict[str, float]) -> str:
+    """The winding end force at the stops at the amplitude limit (:meth:`EndEffect.winding_force_x`)."""
+    if theta.get("end_i2", 0.0) == 0.0:
+        return ""
+    f = [float(EndEffect.winding_force_x(d, k.i_amp_max, 0.0, theta)) for d in k.d_stop]
+    return f"; winding end force at the stops at |i| = {k.i_amp_max:.0f} A: {f[0]:.3f} N, {f[1]:.3f} N"
+
+
+def _eddy_profile_text(theta: dict[str, float]) -> str:
+    """The drag's profile along the stroke (:meth:`EddyDrag.profile`), empty when it is flat."""
+    prof = np.array([float(EddyDrag.profile(d * 1e-3, theta)) for d in _D_MM])
+    if np.allclose(prof, 1.0):
+        return ""
+    return f"; along the stroke the drag is {prof.min():.2f}..{prof.max():.2f} times its value at d = 0"
+
+
 def _offset_deg(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
     """Commutation offset [deg] along the stroke (:meth:`CommutationOffset.angle`: ``delta + drift d`` + spline)."""
     return np.degrees([float(CommutationOffset.angle(d * 1e-3, theta)) for d in d_mm])
@@ -122,7 +144,10 @@ SHAPES: dict[str, Shape] = {
         lambda th: (
             f"loss at the lower stop (g = {k.g_stop[0] * 1e3:.0f} mm) "
             f"{_sat_loss(th, np.array([k.g_stop[0] * 1e3]))[0]:.2f} % of a term of unit share "
-            "(shares " + ", ".join(f"{w} {th[w]:.2f}" for w in ("w_pm", "w_id", "w_rel", "w_thrust")) + ")"
+            "(shares "
+            + ", ".join(f"{w} {th[w]:.2f}" for w in ("w_pm", "w_id", "w_rel", "w_thrust"))
+            + ")"
+            + _sat_current_text(th)
         ),
     ),
     "end_effect": Shape(
@@ -133,6 +158,7 @@ SHAPES: dict[str, Shape] = {
         lambda th: (
             "overhang loss at the stops "
             + ", ".join(f"{v:.2f} %" for v in _end_loss(th, np.array([k.d_stop[0] * 1e3, k.d_stop[1] * 1e3])))
+            + _end_winding_text(th)
         ),
     ),
     "commutation_offset": Shape(
@@ -183,6 +209,7 @@ SHAPES: dict[str, Shape] = {
                 *_eddy_n(th, 0.1),
                 f"{1 / th['inv_vc']:.3f} m/s" if th.get("inv_vc", 0.0) > 0 else "none: linear in velocity",
             )
+            + _eddy_profile_text(th)
         ),
     ),
 }
