@@ -462,8 +462,9 @@ class AmplifierV8(_V8, AmplifierV3):
 
 # ------------------------------------------------------------------------- commutation
 def smooth_saw(w, r: float):
-    """``round(w) - w`` as the Fourier series ``(1/pi) sum_n (-1)^n... `` summed in closed form with damping ``r``:
-    ``(1/pi) atan2(r sin x, 1 - r cos x)``, ``x = 2 pi (w + 1/2)`` (the exact sawtooth for ``r -> 1``)."""
+    """``round(w) - w``, the Fourier series ``(1/pi) sum_n sin(n x) / n`` with ``x = 2 pi (w + 1/2)``, each term
+    damped by ``r^n`` and summed in closed form: ``(1/pi) atan2(r sin x, 1 - r cos x)`` (the exact sawtooth for
+    ``r -> 1``; ``r < 1`` rounds its steps)."""
     x = 2 * math.pi * (np.asarray(w, dtype=float) + 0.5)
     return np.arctan2(r * np.sin(x), 1.0 - r * np.cos(x)) / math.pi
 
