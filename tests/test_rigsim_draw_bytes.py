@@ -10,7 +10,8 @@ laws_v3) on the AVX512 (X86_V4) CI machine, the same bytes at c652758 and ac5944
 string: :data:`rig_bytes.BOTH`); ``v3`` at 934155e (before laws_v4) on the CI machine, whose X86_V3 draws differ by
 an ulp (glibc's ``cosh`` in ``shape(0.01)``), recorded at ac59446 on the EPYC; ``v4`` at 0cfa3b3 (before laws_v5),
 one string; ``v5`` at ac59446 (before laws_v6) on the EPYC at X86_V3, the same string found at X86_V4 at 8fb2b1d;
-``v6`` at 8fb2b1d (before laws_v7) on an AMD EPYC at X86_V4.
+``v6`` at 8fb2b1d (before laws_v7) on an AMD EPYC at X86_V4; ``v7`` at 84b564b (before laws_v8) on an AMD EPYC at
+X86_V4; ``v8`` at 2bacbab (its final draw ranges; branch lawsv8) on the same machine.
 A new law set adds its entry here, recorded at the commit before it.
 """
 
@@ -35,6 +36,8 @@ DRAWS = {
         "X86_V4": "4caed51a1c99fec93ed1e97b357503faf505dc3e8a13fbd2b742cf84a5c9d080",
     },
     "v6": {"X86_V4": "314b236562c025ae4051f4c1a9c172bde9e2c9fb2a052d331eb9b5422ca97456"},
+    "v7": {"X86_V4": "e9a680938f8994a0f3a00175a4b11409cfb6054a9d915a7706383c5c7f5c59a3"},
+    "v8": {"X86_V4": "67181848465d17f26f2b14f5398f13f0e94f55a35ec1f66c9319c6c044bfe8b5"},
 }
 
 

@@ -8,9 +8,9 @@ can be checked on a rig they were not built from.
 
 * :mod:`.physics` - nominal shape functions, seed eq. (2) and the cogging of eq. (9), from MODEL.md;
 * :mod:`.laws` - effects as law families (library effects and ones outside the library);
-* :mod:`.laws_new`, :mod:`.laws_v3`, :mod:`.laws_v4`, :mod:`.laws_v5`, :mod:`.laws_v6`, :mod:`.laws_v7` - a
-  second to seventh set of families from the literature (issue 27; :mod:`.draw_v4` ... :mod:`.draw_v7` draw the
-  fourth to seventh);
+* :mod:`.laws_new`, :mod:`.laws_v3`, :mod:`.laws_v4`, :mod:`.laws_v5`, :mod:`.laws_v6`, :mod:`.laws_v7`,
+  :mod:`.laws_v8` - a second to eighth set of families from the literature (issue 27; :mod:`.draw_v4` ...
+  :mod:`.draw_v8` draw the fourth to eighth);
 * :mod:`.control` - the generator's own feedback-linearizing PID controller;
 * :mod:`.sim` - the rig (amplifier, encoders, noise, stops) and the closed loop (Dormand-Prince 5);
 * :mod:`.excite` - min-jerk moves at varied speeds plus dither over the gap band and the stroke;
@@ -30,7 +30,8 @@ from .laws_v3 import EFFECTS_V3, V3_LAWS
 from .laws_v4 import EFFECTS_V4, V4_LAWS
 from .laws_v5 import EFFECTS_V5, V5_LAWS
 from .laws_v6 import EFFECTS_V6, V6_LAWS
-from .laws_v7 import EFFECTS_V7, V7_LAWS, make_law
+from .laws_v7 import EFFECTS_V7, V7_LAWS
+from .laws_v8 import EFFECTS_V8, V8_LAWS, make_law
 from .physics import NOMINAL, Constants
 from .sim import RigSettings
 
@@ -43,6 +44,7 @@ __all__ = [
     "EFFECTS_V5",
     "EFFECTS_V6",
     "EFFECTS_V7",
+    "EFFECTS_V8",
     "LAWS",
     "LIBRARY_EFFECTS",
     "NEW_LAWS",
@@ -53,6 +55,7 @@ __all__ = [
     "V5_LAWS",
     "V6_LAWS",
     "V7_LAWS",
+    "V8_LAWS",
     "Constants",
     "RigSettings",
     "draw",
