@@ -146,6 +146,8 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "friction.stribeck_g": _GUIDE_FORCE,
     "friction.stribeck_d": _GUIDE_FORCE,
     "friction.v_stribeck": (5e-4, 0.05, 5e-3, 5e-3),
+    "friction.dir_g": (-10.0, 10.0, 0.0, 0.1),  # a guide's forward level minus its Coulomb level [N]
+    "friction.dir_d": (-10.0, 10.0, 0.0, 0.1),
     # end effect
     "end_effect.ripple": (0.0, 0.5, 0.02, 0.05),
     "end_effect.ripple_phase": _PHASE,
@@ -432,14 +434,27 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
         CandidateSpec(
             "friction",
             ("friction",),
+            free=(*lib["friction"].free, *_free("friction.dir_g", "friction.dir_d")),
+            fixed=(("friction.stribeck_g", 0.0), ("friction.stribeck_d", 0.0), ("friction.v_reg", 1e-3)),
+            note=(
+                "Coulomb + viscous with a level of its own in each sliding direction (a seal lip or wiper that "
+                "rubs harder one way): -dir tanh(v / v_reg)^2 per axis, even in v and nil at rest"
+            ),
+            law="directional",
+        ),
+        CandidateSpec(
+            "friction",
+            ("friction",),
             free=(
                 *lib["friction"].free,
                 *_free(*(f"friction.{n}" for ax in "gd" for n in Friction.shape_names(ax))),
+                *_free("friction.dir_g", "friction.dir_d"),
             ),
             fixed=(("friction.stribeck_g", 0.0), ("friction.stribeck_d", 0.0), ("friction.v_reg", 1e-3)),
             note=(
                 "learned friction: Coulomb + viscous plus a non-negative cubic B-spline of the speed per axis "
-                f"(knots uniform in |v| / (|v| + {Friction.V0 * 1e3:.0f} mm/s)), an odd function of each velocity"
+                f"(knots uniform in |v| / (|v| + {Friction.V0 * 1e3:.0f} mm/s)), an odd function of each velocity, "
+                "and a level of its own in each sliding direction (even in v, nil at rest)"
             ),
             law="spline",
             flexible=True,

@@ -205,6 +205,10 @@ def _catalogue() -> dict[str, Signature]:
     # its 2nd and 3rd harmonics are k = 2, 4, 6 (the co-energy member's harmonics, Cogging.energy_forces).
     cog = [c for h in range(1, 7) for c in _sincos(2 * t1, h)]
     cog_g = cog + _times(cog, _dg)  # amplitude a smooth function of g (eq. (9): exponential in g)
+    # Odd in each velocity (Coulomb, viscous). A friction's directional part (even, nil at rest: a level of its
+    # own per sliding direction) is not a column: on a stroke swept back and forth it is a constant with dips at
+    # the reversals, which any force at the turning points shares (a cogging residual showed as friction with
+    # it); a dissipative friction has a Coulomb level at least its directional one, so the odd part shows.
     fr_g = [lambda f: np.tanh(f["g_dot"] / _V_SIGN), lambda f: f["g_dot"]]
     fr_d = [lambda f: np.tanh(f["d_dot"] / _V_SIGN), lambda f: f["d_dot"]]
     ends = end_columns()

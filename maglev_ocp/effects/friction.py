@@ -36,6 +36,13 @@ class Friction(Effect):
     + b |v| + sum_j c_j B((s - s_j) / ds) >= 0`` may take any smooth shape
     (a Stribeck dip of any exponent, a friction that levels off); with all
     ``c_j = 0`` (the default) it is the closed-form law, which it nests.
+
+    Direction (``dir_<axis>`` [N], 0 by default): a seal lip or a preloaded wiper rubs harder in one sliding
+    direction than in the other (Muller & Nau, *Fluid Sealing Technology*, 1998; direction-dependent friction,
+    Armstrong-Helouvry, Dupont & Canudas de Wit, Automatica 30(7), 1994). The force gains ``-dir tanh(v /
+    v_reg)^2``, even in the velocity and nil at rest: the levels moving forward and backward are ``Fc + dir``
+    and ``Fc - dir``. Not constrained to ``|dir| <= Fc`` (the bounds are physical sizes; a fit that breaks
+    dissipation shows in its value).
     """
 
     #: Centres of the learned profile's B-spline in the warped speed ``s`` (:data:`_FRIC_KNOTS`).
@@ -56,6 +63,8 @@ class Friction(Effect):
         EffectParam("viscous_g", 0.5, 0.0, 100.0, "N s/m", "viscous coefficient, vertical"),
         EffectParam("viscous_d", 0.5, 0.0, 100.0, "N s/m", "viscous coefficient, horizontal"),
         EffectParam("v_reg", 2e-4, 1e-6, 1e-2, "m/s", "tanh regularization velocity"),
+        EffectParam("dir_g", 0.0, -10.0, 10.0, "N", "directional friction, vertical (forward level minus Coulomb)"),
+        EffectParam("dir_d", 0.0, -10.0, 10.0, "N", "directional friction, horizontal (forward level minus Coulomb)"),
         *(
             EffectParam(f"fshape_{ax}_{j}", 0.0, 0.0, 10.0, "N", f"learned friction coefficient {j}, axis {ax}")
             for ax in ("g", "d")
@@ -84,7 +93,8 @@ class Friction(Effect):
         """The whole friction force [N] of ``axis`` at velocity ``v``: closed-form law plus the learned profile."""
         t = theta
         F = cls.force(v, t[f"coulomb_{axis}"], t[f"stribeck_{axis}"], t[f"viscous_{axis}"], t["v_stribeck"], t["v_reg"])
-        return F + cls.shape_force(v, [t.get(n, 0.0) for n in cls.shape_names(axis)], t["v_reg"])
+        F = F + cls.shape_force(v, [t.get(n, 0.0) for n in cls.shape_names(axis)], t["v_reg"])
+        return F - t.get(f"dir_{axis}", 0.0) * ca.tanh(v / t["v_reg"]) ** 2
 
     @staticmethod
     def force(v: Expr, Fc: Expr, Fs: Expr, b: Expr, v_s: Expr, v_reg: Expr) -> Expr:
@@ -103,7 +113,7 @@ class Friction(Effect):
         for ax, M in (("g", Mv), ("d", Mh)):
             # the learned profile: at most sum c_j in size, slope at most sum c_j max|B'| / ds / V0 (max|B'| = 1/2)
             c = sum(abs(theta.get(n, 0.0)) for n in Friction.shape_names(ax))
-            peak = theta[f"coulomb_{ax}"] + theta[f"stribeck_{ax}"] + c
+            peak = theta[f"coulomb_{ax}"] + theta[f"stribeck_{ax}"] + c + abs(theta.get(f"dir_{ax}", 0.0))
             s = peak / theta["v_reg"] + theta[f"viscous_{ax}"] + c * 0.5 / Friction.KNOT_STEP / Friction.V0
             worst = max(worst, s / M)
         return worst
