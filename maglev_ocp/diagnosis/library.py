@@ -19,9 +19,6 @@ from ..effects import EFFECTS, Cogging, CommutationOffset, EddyDrag, EndEffect, 
 from ..effects.cogging import ENERGY_DECAY_RANGE, ENERGY_PERIOD, G_ENERGY_REF
 from ..params import Params
 
-#: The eddy drag's profile coefficients along d (:meth:`~maglev_ocp.effects.EddyDrag.profile_names`).
-_EDDY_PROFILE: tuple[str, ...] = EddyDrag.profile_names()
-
 
 # ------------------------------------------------------------------------- specs
 @dataclass(frozen=True)
@@ -510,7 +507,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
         CandidateSpec(
             "eddy_drag",
             ("eddy_drag",),
-            free=_free("eddy_drag.c_eddy", *(f"eddy_drag.{n}" for n in _EDDY_PROFILE if n != "dprof_0")),
+            free=_free("eddy_drag.c_eddy", *(f"eddy_drag.{n}" for n in EddyDrag.profile_names() if n != "dprof_0")),
             note=(
                 "the drag of B(g)^2 times a smooth profile along the stroke, c(g) (1 + p(d)) v (a cubic B-spline "
                 "in d, knots every 20 mm, its value at d = 0 held: the size is c_eddy's): a conductor that ends "

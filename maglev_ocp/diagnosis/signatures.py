@@ -191,12 +191,14 @@ def _saturation_core(sat: Sequence[Column], i_q: Column, i_d: Column) -> dict[st
             + _times(_I_MAG, i_q)}  # fmt: skip
 
 
+def _i2(f: Feat) -> np.ndarray:
+    """The squared current magnitude ``i_q^2 + i_d^2`` (the winding's co-energy ``L |i|^2``; the current loss)."""
+    return f["i_q"] ** 2 + f["i_d"] ** 2
+
+
 #: The current loss's columns (:meth:`~maglev_ocp.effects.Saturation.current_loss`): the current magnitude and its
 #: square, which times a current term are what a loss growing with ``|i|`` takes from it.
-_I_MAG: tuple[Column, ...] = (
-    lambda f: np.hypot(f["i_q"], f["i_d"]),
-    lambda f: f["i_q"] ** 2 + f["i_d"] ** 2,
-)
+_I_MAG: tuple[Column, ...] = (lambda f: np.hypot(f["i_q"], f["i_d"]), _i2)
 
 
 def _catalogue() -> dict[str, Signature]:
@@ -218,7 +220,8 @@ def _catalogue() -> dict[str, Signature]:
     one: Column = lambda f: np.ones_like(f["t"])  # noqa: E731
     i_q: Column = lambda f: f["i_q"]  # noqa: E731
     i_d: Column = lambda f: f["i_d"]  # noqa: E731
-    _i2: Column = lambda f: f["i_q"] ** 2 + f["i_d"] ** 2  # noqa: E731  (the winding's end force, co-energy L i^2)
+    # saturation: the loss's gap law (``sat``, the magnets' pull) and its core, the loss of the current terms
+    sat_core = _saturation_core(sat, i_q, i_d)
     sigs = [
         Signature("cogging", ("d", "g"), CHANNELS, tuple(2 * t1 / h for h in range(1, 7)),
                   "periodic in d with eq. (9)'s period 2 t1 (harmonics 1-6: the slot pitch t1 and its 2nd and 3rd "
@@ -241,10 +244,8 @@ def _catalogue() -> dict[str, Signature]:
         Signature("saturation", ("g", "i_q", "i_d"), CHANNELS, (),
                   "a loss of the magnetic terms monotone in g and in the current, in proportion to each term: at a "
                   "fixed state it follows the currents (the thrust and the PM-current pull lose with the field)",
-                  {"vertical": sat + _times(sat, i_d) + _times(sat, lambda f: f["i_d"] ** 2) + _times(_I_MAG, i_d),
-                   "horizontal": _times(sat, i_q) + _times(sat, lambda f: f["i_q"] * f["i_d"])
-                   + _times(_I_MAG, i_q)},
-                  core=_saturation_core(sat, i_q, i_d), fixed=("g", "d")),
+                  {"vertical": sat + sat_core["vertical"], "horizontal": sat_core["horizontal"]},
+                  core=sat_core, fixed=("g", "d")),
         Signature("commutation_offset", ("i_q", "i_d", "d"), CHANNELS, (),
                   "a rotation of the currents: i_d into the thrust, i_q into the lift, constant or drifting in d",
                   {"horizontal": [i_d, lambda f: f["i_d"] * f["d"] / 0.05],

@@ -87,15 +87,21 @@ class Saturation(Effect):
     }
 
     @staticmethod
-    def factor(g: Expr, theta: Mapping[str, Expr], weight: Expr = 1.0, i_mag: Expr | None = None) -> Expr:
-        """Force factor ``k_sat(g, |i|)`` (<= 1 for a positive weight, smallest at small gaps and large
-        currents; ``i_mag`` the current magnitude [A], None: no current loss)."""
+    def loss(g: Expr, theta: Mapping[str, Expr], i_mag: Expr | None = None) -> Expr:
+        """The loss of a term of unit share at gap ``g`` [m] and current magnitude ``i_mag`` [A] (None: no current
+        loss): the closed form, the learned loss in g and the current loss."""
         b = theta["knee"]
         closed = theta["loss_8mm"] * (1 + b) / (b + ca.exp((g - k.g_stop[0]) / theta["ell_sat"]))
         loss = closed + Saturation.shape_loss(g, theta)
         if i_mag is not None:
             loss = loss + Saturation.current_loss(i_mag, theta)
-        return 1 - weight * loss
+        return loss
+
+    @staticmethod
+    def factor(g: Expr, theta: Mapping[str, Expr], weight: Expr = 1.0, i_mag: Expr | None = None) -> Expr:
+        """Force factor ``k_sat(g, |i|) = 1 - weight * loss`` (<= 1 for a positive weight, smallest at small gaps
+        and large currents; ``i_mag`` the current magnitude [A], None: no current loss; :meth:`loss`)."""
+        return 1 - weight * Saturation.loss(g, theta, i_mag)
 
     @classmethod
     def current_names(cls) -> tuple[str, ...]:
@@ -134,5 +140,6 @@ class Saturation(Effect):
     def modify(self, terms, x, u, p, theta) -> None:
         # |i| smoothed at 1 mA so that the factor stays differentiable at no current
         i_mag = ca.sqrt(u[0] ** 2 + u[1] ** 2 + 1e-6)
+        loss = self.loss(x[0], theta, i_mag)  # one expression for every term (only the shares differ)
         for term in sorted(MAGNETIC_TERMS):
-            terms.scale([term], self.factor(x[0], theta, theta[self.TERM_WEIGHT[term]], i_mag))
+            terms.scale([term], 1 - theta[self.TERM_WEIGHT[term]] * loss)
