@@ -55,13 +55,19 @@ def test_loader_reads_constants_effects_and_lag(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "bad",
-    [{"effects": {"warp": {"enabled": True}}}, {"effects": {"friction": {"enabled": True, "coulomb_d": -1.0}}}],
+    ("bad", "match"),
+    [
+        ({"effects": {"warp": {"enabled": True}}}, "warp"),
+        (
+            {"effects": {"friction": {"enabled": True, "coulomb_d": -1.0}}},
+            r"friction\.coulomb_d = -1 \(allowed 0\.\.10\)",
+        ),
+    ],
 )
-def test_loader_refuses_unknown_or_out_of_bounds_effects(tmp_path, bad):
+def test_loader_refuses_unknown_or_out_of_bounds_effects(tmp_path, bad, match):
     f = tmp_path / "bad.yaml"
     dump_yaml(f, bad)
-    with pytest.raises(ConfigError):
+    with pytest.raises(ConfigError, match=match):
         load_controller_model(f)
 
 

@@ -182,9 +182,10 @@ def load_controller_model(path: str | os.PathLike) -> ControllerModel:
     except KeyError as err:
         raise ConfigError(f"{path}: effects: {err}") from None
     lo, hi = es.bounds()
-    bad = [n for n, v, a, b in zip(es.param_names, theta, lo, hi, strict=True) if not a <= v <= b]
+    bad = [f"{n} = {v:g} (allowed {a:g}..{b:g})" for n, v, a, b in zip(es.param_names, theta, lo, hi, strict=True)
+           if not a <= v <= b]  # fmt: skip
     if bad:
-        raise ConfigError(f"{path}: effects: {', '.join(bad)} outside the effect library's bounds")
+        raise ConfigError(f"{path}: effects: {', '.join(bad)}: outside the effect library's bounds")
     return ControllerModel(params, es.names, theta, delay, str(path), lag_time)
 
 
