@@ -494,9 +494,10 @@ def _claims_md(claims: dict) -> list[str]:
     """The no-false-claim guard's table: per effect, its signature's evidence and its own gain."""
     if not claims or not claims.get("effects"):
         return []
-    md = ["\nNo effect claimed that is not there (signature in the residual without it; gain over the others "
-          "at full freedom, held-out):\n", "| effect | signature shows (explained / null, rms / floor) | own gain z "
-          "(region / all) | kept |", "|---|---|---|---|"]  # fmt: skip
+    md = ["\nNo effect claimed that is not there (signature in the residual without it; what it explains against "
+          "what the verdict's model leaves above the floor; gain over the others at full freedom, held-out):\n",
+          "| effect | signature shows (explained / null, rms / floor) | explains / leaves [m/s²] | own gain z "
+          "(region / all) | kept |", "|---|---|---|---|---|"]  # fmt: skip
     for e, rec in claims["effects"].items():
         sig = rec["signature"]
         parts = ", ".join(
@@ -505,7 +506,9 @@ def _claims_md(claims: dict) -> list[str]:
         )
         g = rec.get("own_gain") or {}
         zg = f"{g['z_region']:.1f} / {g['z_all']:.1f}" if g.get("z_region") is not None else "-"
-        md.append(f"| {e} | {'yes' if sig['shows'] else '**no**'} ({parts}) | {zg} | "
+        lo = (rec.get("leftover") or {}).get("per_channel") or {}
+        left = ", ".join(f"{ch} {c['explained_m_s2']:.3g} / {c['leftover_m_s2']:.3g}" for ch, c in lo.items()) or "-"
+        md.append(f"| {e} | {'yes' if sig['shows'] else '**no**'} ({parts}) | {left} | {zg} | "
                   f"{'yes' if rec['kept'] else '**no**'} |")  # fmt: skip
     if claims.get("gap"):
         md.append("\nGap the effects found leave, that no library signature has (**partly explained**):\n")

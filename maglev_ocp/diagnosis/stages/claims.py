@@ -447,24 +447,13 @@ def check_claims(run: Run, att: Attribution, noise: NoiseFindings) -> ClaimCheck
         if not shows:
             why = (f"{e}: its signature ({SIGNATURES[e].symmetry}) does not show in the held-out residual of the "
                    "model without it beyond the noise and the other effects' signatures: not claimed")  # fmt: skip
-        elif rest and e in chosen and (lo := _leftover_why(e, ev, excess, sig_floors, st.leftover_ratio))[1]:
-            rec["leftover"], why = lo
         elif rest and e in chosen:
-            g = _own_gain(run, att, e, chosen)
-            rec["own_gain"] = g
-            others_txt = ", ".join(f"{o} ({law})" for o, law in g["others"].items())
-            two = g.get("two_sided")
-            if not g["passes"]:
-                why = (f"{e}: with {others_txt} refitted at full freedom it improves the held-out runs where it "
-                       f"acts by z = {g['z_region']:.1f} (all: {g['z_all']:.1f}; needs {run.rules.z_min:.0f})"
-                       + (f", and the others' extra freedom explains the same gap {_two_txt(two)}" if two else "")
-                       + ": its gain is another effect's misfit, not claimed")  # fmt: skip
-            elif two:
-                v.reasons.append(
-                    f"{e}: with {others_txt} refitted at full freedom it improves the held-out runs where it acts by "
-                    f"only z = {g['z_region']:.1f}, but no static map of the state and currents nests its signature: "
-                    f"the verdict's model against the others' extra freedom without it {_two_txt(two)}: kept"
-                )
+            # Test (c), recorded whether it passes or not (the report shows its figures beside (a) and (b)).
+            lo, why = _leftover_why(e, ev, excess, sig_floors, st.leftover_ratio)
+            if lo is not None:
+                rec["leftover"] = lo
+        if shows and rest and e in chosen and not why:
+            why = _own_gain_why(run, att, e, chosen, rec)
         rec["kept"], rec["why"] = not why, why
         out.effects[e] = rec
         if why:
@@ -484,6 +473,27 @@ def check_claims(run: Run, att: Attribution, noise: NoiseFindings) -> ClaimCheck
                 + "; ".join(g["what"] for g in out.gap)
             )
     return out
+
+
+def _own_gain_why(run: Run, att: Attribution, e: str, chosen: Sequence[str], rec: dict) -> str:
+    """Test (b) for effect ``e`` named beside others (recorded in ``rec``): why it is not claimed, empty when it
+    passes (a pass on the two-sided comparison alone is noted in the verdict's reasons)."""
+    g = _own_gain(run, att, e, list(chosen))
+    rec["own_gain"] = g
+    others_txt = ", ".join(f"{o} ({law})" for o, law in g["others"].items())
+    two = g.get("two_sided")
+    if not g["passes"]:
+        return (f"{e}: with {others_txt} refitted at full freedom it improves the held-out runs where it "
+                f"acts by z = {g['z_region']:.1f} (all: {g['z_all']:.1f}; needs {run.rules.z_min:.0f})"
+                + (f", and the others' extra freedom explains the same gap {_two_txt(two)}" if two else "")
+                + ": its gain is another effect's misfit, not claimed")  # fmt: skip
+    if two:
+        att.verdict.reasons.append(
+            f"{e}: with {others_txt} refitted at full freedom it improves the held-out runs where it acts by "
+            f"only z = {g['z_region']:.1f}, but no static map of the state and currents nests its signature: "
+            f"the verdict's model against the others' extra freedom without it {_two_txt(two)}: kept"
+        )
+    return ""
 
 
 def _drop(run: Run, att: Attribution, bad: Sequence[str]) -> None:

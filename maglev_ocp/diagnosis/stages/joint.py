@@ -163,7 +163,7 @@ def _drop_one_test(
         masks = masks if partly_resolved(fracs, st) else None
     note = ""
     if masks is None:
-        z = paired_z(without[2].e_after, full[2].e_after, inflation="product")
+        z = paired_z(without[2].e_after, full[2].e_after, inflation="null")
         return z, delta_bic(full[1], without[1], base.noise_infl), note
     e_full = resolved_errors(split, base, full[0], full[1], masks)
     e_wo = resolved_errors(split, base, without[0], without[1], masks)
@@ -231,8 +231,8 @@ def backward(run: Run, att: Attribution, names: list[str], slots: list[list[str]
             rest = [n for n in names if n != e]
             without = rewarmed(run, att, rest, full)
             # Both models hold every other effect: the difference is this effect's own signature, and its
-            # significance is measured from its own products with the residual (inflation="product"), not
-            # bounded by the slow misfit the other effects' laws leave (see paired_z).
+            # significance is measured with its products' own autocorrelation (inflation="null"), not bounded by
+            # the slow misfit the other effects' laws leave (see paired_z).
             z, dbic, note = _drop_one_test(run, full, without)
             if note:
                 detail[e] = note
@@ -360,6 +360,11 @@ def rechoose_law(
     names = list(names)
     spec, fit, cur = current
     old = att.specs[e]
+    # The other start of each member's refit (fit.fit_candidate's alt): the model without e, the member at its
+    # spec's start. The joint fit's constants made room for the old member, so its values with a new member
+    # may start far above either model (seen: 1e6 against 2.4e3, still at the iteration limit).
+    without = att.models.get(frozenset(n for n in names if n != e))
+    alt = without[1].params() if without is not None and without[1] is not None and without[1].success else None
     jobs = []
     for mem in fam.get(e, ()):
         if mem.law == old.law:
@@ -369,7 +374,7 @@ def rechoose_law(
         for n in names[1:]:
             jspec = combine(jspec, att.specs[n])
         att.specs[e] = old
-        jobs.append((mem, FitJob(jspec.name, jspec, jspec.note, len(names) > 1, fit.params())))
+        jobs.append((mem, FitJob(jspec.name, jspec, jspec.note, len(names) > 1, fit.params(), alt=alt)))
     if not jobs:
         return None
     prefetch(run, [j for _, j in jobs], f"laws of {e} in the joint model")

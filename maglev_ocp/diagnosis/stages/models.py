@@ -42,6 +42,7 @@ class FitJob(NamedTuple):
     pair: bool
     warm: Mapping[str, float] | None = None
     hold_lag: bool = False
+    alt: Mapping[str, float] | None = None
 
     def key(self) -> tuple:
         """What determines the fit: the start values ``warm`` gives ``spec`` (:func:`..fit.fit_candidate` reads
@@ -49,7 +50,8 @@ class FitJob(NamedTuple):
         w = self.warm or {}
         starts = tuple(float(w.get(f.key, f.start)) for f in self.spec.free)
         delay = w.get("effective_delay_s") if w else None
-        return (self.name, self.spec, self.note, self.pair, self.hold_lag, starts, delay)
+        alt = None if self.alt is None else tuple(float(self.alt.get(f.key, f.start)) for f in self.spec.free)
+        return (self.name, self.spec, self.note, self.pair, self.hold_lag, starts, delay, alt)
 
 
 class _Workers:
@@ -187,15 +189,17 @@ def fit_and_score(
     pair: bool,
     warm: dict[str, float] | None = None,
     hold_lag: bool = False,
+    alt: Mapping[str, float] | None = None,
 ) -> tuple[FitResult, EffectScore]:
     """Fit one candidate (or a joint set) on the training runs and score it on the held-out runs (or take the
-    fit :func:`prefetch` made ahead with the same spec and start values)."""
+    fit :func:`prefetch` made ahead with the same spec and start values); ``alt``: another start
+    (:func:`..fit.fit_candidate`)."""
     if run.workers.ready:
-        done = run.workers.ready.pop(FitJob(name, spec, note, pair, warm, hold_lag).key(), None)
+        done = run.workers.ready.pop(FitJob(name, spec, note, pair, warm, hold_lag, alt).key(), None)
         if done is not None:
             return done
     split, base, rules = run.split, run.base, run.rules
-    fit = fit_candidate(spec, base.data_train, base.p, u_runs=split.u_train, warm=warm, hold_lag=hold_lag)
+    fit = fit_candidate(spec, base.data_train, base.p, u_runs=split.u_train, warm=warm, hold_lag=hold_lag, alt=alt)
     after = residuals_with(spec, fit, split.test, base.p, split.u_test)
     vals, errs = _readable(fit, pair=pair)
     sc = score(name, fit, base.fit, base.b_test, after, base.fvec, rules, vals, errs, note, base.noise_infl,

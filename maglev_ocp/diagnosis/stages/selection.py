@@ -140,7 +140,9 @@ def _forward_trials(
             warm.pop("effective_delay_s", None)
         # A lag already in the model keeps the delay its search found while a candidate is tried (the other
         # parameters are refitted jointly); the accepted model's delay is searched again (:func:`_forward`).
-        jobs.append(FitJob(jspec.name, jspec, jspec.note, True, warm, hold_lag=spec.lag))
+        # The current model with the candidate at its spec's start is the other start (fit.fit_candidate): the
+        # single fit's values belong to its own constants.
+        jobs.append(FitJob(jspec.name, jspec, jspec.note, True, warm, hold_lag=spec.lag, alt=fit.params()))
         trials.append((o, t_screen))
     fits = fit_many(run, jobs, f"forward step {len(names) + 1}")
     out = []
