@@ -646,7 +646,7 @@ def test_a_drop_one_model_is_refitted_from_the_full_models_values_when_that_fits
         att = Attribution.__new__(Attribution)
         att.models, att.rewarmed, att.scores = {frozenset(["end_effect"]): old}, set(), [old[2]]
 
-        def fake_fit(run_, name, spec_, note, pair, warm=None, hold_lag=False):
+        def fake_fit(run_, name, spec_, note, pair, warm=None, hold_lag=False, alt=None):
             warm_seen.append(warm)
             return SimpleNamespace(success=True, sse=new_sse), SimpleNamespace(name="new")
 
