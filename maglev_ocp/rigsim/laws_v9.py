@@ -215,8 +215,9 @@ class EndEffectV9(_V9, EndEffect):
       int_{-x_n}^{x_p} Bz(x - d, g)^2 dx`` with the exact 2-D field of the four alternating magnets (their ends'
       fringes included: :func:`.laws_v6.array_field`; Furlani, "Permanent Magnet and Electromechanical Devices",
       Academic Press 2001, ch. 4; finite stators: Gieras, Piech & Tomczuk, "Linear Synchronous Motors", 2nd ed.,
-      CRC Press 2011). Every magnetic term scales with ``rho`` (hook ``factors``): a loss that grows smoothly as an
-      end magnet's fringe crosses the face, faster at small gaps (the fringe is narrower).
+      CRC Press 2011). Every magnetic term scales with ``rho`` (hook ``factors``): a loss that sets in smoothly as an
+      end magnet's fringe crosses the face, earlier at large gaps (the fringe is broader), with a slight ripple as
+      the poles pass the faces.
     * ``cross_coenergy`` -- the levitation winding's flux linkage with the magnets, ``psi(g) = -Mv C3 int_g^inf f3``
       (seed eq. (2)'s cross term ``Mv C3 f3 i_d = i_d dpsi/dg`` with nominal constants), is lost where the array
       overhangs the winding, partly (share ``eta``: the end coils' fringe keeps the rest): ``W' = psi(g) i_d (1 - eta
