@@ -59,7 +59,7 @@ def _end_effect(rng):
     # stator ends 10-35 mm past the array's ends at d = 0 (as v5 ... v8): the moves overhang them by up to ~35 mm
     p: Spec = {"family": fam, "e_p": _u(rng, 0.01, 0.035), "e_n": _u(rng, 0.01, 0.035)}
     if fam == "cross_coenergy":  # 10-35 % of the linkage lost over the overhang (the end coils' fringe keeps the
-        # rest), smoothed over 3-8 mm: 0.5-2 N along d at the hover current of 15 mm (20-60 % gave up to 7 N along d
+        # rest), smoothed over 3-8 mm: 0.7-2.3 N along d at the hover current of 15 mm (20-60 % gave up to 7 N along d
         # and 8 N on the gap in a trial: left out)
         p.update(eta=_u(rng, 0.1, 0.35), w=_u(rng, 3e-3, 8e-3))
     return p
@@ -67,7 +67,7 @@ def _end_effect(rng):
 
 def _saturation(rng):
     fam = _family(rng, "saturation")
-    if fam == "tip_carter":  # the tips saturate from 40-60 % of the lower stop's flux (gaps below 16-23 mm); the
+    if fam == "tip_carter":  # the tips saturate from 40-60 % of the lower stop's flux (gaps below 15-21 mm); the
         # opening 2-5 mm wider at the lower stop (b0 = 12.7 mm, the slot pitch 19.05 mm)
         b_k = _u(rng, 0.4, 0.6)
         return {"family": fam, "w_t": _u(rng, 2e-3, 5e-3) / (1.0 - b_k), "b_k": b_k, "s_w": 0.05, "target": "both"}
@@ -86,7 +86,7 @@ def _saturation(rng):
 def _amplifier(rng):
     fam = _family(rng, "amplifier_lag")
     if fam == "chebyshev3":  # ripple bandwidths of 300-800 Hz (the earlier sets' bandwidths), 0.1-1 dB of ripple,
-        # 0-1 sample of transport delay (group delay 0.4-2.4 ms in all)
+        # 0-1 sample of transport delay (group delay 0.35-2.3 ms in all)
         return {
             "family": fam,
             "f_c": _log(rng, 300.0, 800.0),
@@ -94,7 +94,7 @@ def _amplifier(rng):
             "delay_samples": _u(rng, 0.0, 1.0),
         }
     # loops of 200-600 Hz, the sensor's filter 2-8 times faster, PWM of 8-20 kHz (delay 1.5 carrier periods:
-    # sampling and the half-period average); 0-1 sample of transport delay
+    # sampling and the half-period average); 0-1 sample of transport delay (group delay 0.2-1.65 ms in all)
     return {
         "family": fam,
         "bandwidth_hz": _log(rng, 200.0, 600.0),
