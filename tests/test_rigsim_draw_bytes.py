@@ -11,7 +11,8 @@ string: :data:`rig_bytes.BOTH`); ``v3`` at 934155e (before laws_v4) on the CI ma
 an ulp (glibc's ``cosh`` in ``shape(0.01)``), recorded at ac59446 on the EPYC; ``v4`` at 0cfa3b3 (before laws_v5),
 one string; ``v5`` at ac59446 (before laws_v6) on the EPYC at X86_V3, the same string found at X86_V4 at 8fb2b1d;
 ``v6`` at 8fb2b1d (before laws_v7) on an AMD EPYC at X86_V4; ``v7`` at 84b564b (before laws_v8) on an AMD EPYC at
-X86_V4; ``v8`` at 2bacbab (its final draw ranges; branch lawsv8) on the same machine.
+X86_V4; ``v8`` at 2bacbab (its final draw ranges; branch lawsv8) on the same machine, found the same at 3eb51ca (before
+laws_v9); ``v9`` at 436d469 (its final draw ranges; branch lawsv9) on an AMD EPYC at X86_V4.
 A new law set adds its entry here, recorded at the commit before it.
 """
 
@@ -38,6 +39,7 @@ DRAWS = {
     "v6": {"X86_V4": "314b236562c025ae4051f4c1a9c172bde9e2c9fb2a052d331eb9b5422ca97456"},
     "v7": {"X86_V4": "e9a680938f8994a0f3a00175a4b11409cfb6054a9d915a7706383c5c7f5c59a3"},
     "v8": {"X86_V4": "67181848465d17f26f2b14f5398f13f0e94f55a35ec1f66c9319c6c044bfe8b5"},
+    "v9": {"X86_V4": "ebe6f99a42afbb46bc81ff6495de0960425a69e8f5a642266d5ceb6b53e9753a"},
 }
 
 
