@@ -309,17 +309,23 @@ def test_closed_loop_view_shows_the_gap_and_its_compensation(tmp_path):
     assert (tmp_path / "closed_loop.json").is_file() and (tmp_path / "closed_loop.png").is_file()
 
 
-def test_a_fit_whose_solver_did_not_converge_is_flagged_and_not_evidence(model):
-    """An SQP cut off after one iteration is reported as not converged, and its score is never significant."""
-    from maglev_ocp.diagnosis.attribution import VerdictRules, score
-    from maglev_ocp.diagnosis.candidates import CandidateFitter, Dataset, library_specs
+def _cogging_fit_data(model):
+    """Two quantized runs of the nominal model with seed eq. (9)'s cogging at xi0 = 3 N, ell = 4.2 mm, prepared
+    for the fitter: ``(runs, data, p0, spec)`` with the nominal (cogging-free) vector and the cogging spec."""
+    from maglev_ocp.diagnosis.candidates import Dataset, library_specs
 
     p_true = BASE.with_(xi0=3.0, ell=4.2e-3).vector()
     filt = ZeroPhaseFilter(ResidualSettings())
     runs = [prepare_run(_zoh_run(model, p_true, n=4000, seed=s, q=k.encoder_resolution), filt) for s in (1, 2)]
-    data = Dataset(runs, np.array([10.0, 10.0]), filt)
-    p0 = BASE.vector()
-    spec = library_specs()["cogging"]
+    return runs, Dataset(runs, np.array([10.0, 10.0]), filt), BASE.vector(), library_specs()["cogging"]
+
+
+def test_a_fit_whose_solver_did_not_converge_is_flagged_and_not_evidence(model):
+    """An SQP cut off after one iteration is reported as not converged, and its score is never significant."""
+    from maglev_ocp.diagnosis.attribution import VerdictRules, score
+    from maglev_ocp.diagnosis.candidates import CandidateFitter
+
+    runs, data, p0, spec = _cogging_fit_data(model)
     full = CandidateFitter(spec, data, p0).solve()
     assert full.success and full.status in ("converged", "stalled")
     assert np.all(np.isfinite(full.stderr[:2])) and np.all(full.stderr[:2] > 0)
@@ -342,15 +348,10 @@ def test_a_joint_refit_starts_from_the_start_nearer_the_data(model):
     (xi0 = 40 N, ell = 25 mm, what a single fit that made room for another effect can hand a joint refit)
     with the spec's start as ``alt`` gives the fit from the spec's start, bit for bit, and it finds the rig's
     xi0 and ell; the warm start alone, cut at 8 steps, does not get there."""
-    from maglev_ocp.diagnosis.candidates import CandidateFitter, Dataset, library_specs
+    from maglev_ocp.diagnosis.candidates import CandidateFitter
     from maglev_ocp.diagnosis.fit import fit_candidate
 
-    p_true = BASE.with_(xi0=3.0, ell=4.2e-3).vector()
-    filt = ZeroPhaseFilter(ResidualSettings())
-    runs = [prepare_run(_zoh_run(model, p_true, n=4000, seed=s, q=k.encoder_resolution), filt) for s in (1, 2)]
-    data = Dataset(runs, np.array([10.0, 10.0]), filt)
-    p0 = BASE.vector()
-    spec = library_specs()["cogging"]
+    _, data, p0, spec = _cogging_fit_data(model)
     bad = {"p.xi0": 40.0, "p.ell": 0.025}
     fi = CandidateFitter(spec, data, p0)
     w_bad = np.array([bad.get(f.key, f.start) for f in spec.free])
