@@ -128,13 +128,9 @@ def paired_z(e_a: np.ndarray, e_b: np.ndarray, inflation: str = "residual") -> f
     if rd == 0:
         return 0.0
     gain = float(np.mean(e_a**2) - np.mean(e_b**2))
-    if inflation == "product":
+    if inflation in ("product", "null"):
         prod = e_b * delta
-        ms = float(np.mean(prod**2))
-        return gain / (2 * math.sqrt(ms * autocorr_factor(prod) / n)) if ms > 0 else 0.0
-    if inflation == "null":
-        prod = e_b * delta
-        ms = float(np.mean(e_b**2)) * rd**2
+        ms = float(np.mean(prod**2)) if inflation == "product" else float(np.mean(e_b**2)) * rd**2
         return gain / (2 * math.sqrt(ms * autocorr_factor(prod) / n)) if ms > 0 else 0.0
     if inflation != "residual":
         raise ValueError(f"inflation: {inflation!r} is not one of residual, product, null")

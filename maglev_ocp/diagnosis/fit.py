@@ -303,14 +303,17 @@ class CandidateFitter:
     def start_objective(self, w: np.ndarray) -> float:
         """The objective at values ``w`` (physical units, clipped to the bounds) on the training features: how
         good a start ``w`` is (``inf`` where not finite)."""
-        sc = np.where(self.scale > 0, self.scale, 1.0)
-        lo = np.array([f.lo for f in self.spec.free]) / sc
-        hi = np.array([f.hi for f in self.spec.free]) / sc
-        s = np.clip(np.asarray(w, float) / sc, lo, hi)
+        lo, hi = self._scaled_bounds()
+        s = np.clip(np.asarray(w, float) / self.scale, lo, hi)
         with one_blas_thread():
             r, _ = self.residual_jacobian(s, np.ascontiguousarray(np.asarray(self.data.Z, float).T), jac=False)
         f = self._objective(s, r)
         return f if math.isfinite(f) else math.inf
+
+    def _scaled_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The bounds of the scaled values ``s = w / scale``."""
+        return (np.array([f.lo for f in self.spec.free]) / self.scale,
+                np.array([f.hi for f in self.spec.free]) / self.scale)  # fmt: skip
 
     def _objective(self, s: np.ndarray, r: np.ndarray) -> float:
         return 0.5 * float(r @ r) + 0.5 * float(np.sum(self.pw * (s - self.c0) ** 2))
@@ -372,8 +375,7 @@ class CandidateFitter:
             r, _ = self.residual_jacobian(np.zeros(0), Zt, jac=False)
             return FitResult(spec, np.zeros(0), np.zeros(0), float(r @ r), self.data.n, _inflation(r, self.data))
         scale = self.scale
-        lo = np.array([f.lo for f in spec.free]) / scale
-        hi = np.array([f.hi for f in spec.free]) / scale
+        lo, hi = self._scaled_bounds()
         if starts is None:
             starts = [np.array([f.start for f in spec.free])]
         best = None
