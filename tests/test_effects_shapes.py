@@ -314,6 +314,33 @@ def test_commutation_spline_recovers_a_periodic_encoder_error() -> None:
     assert got == pytest.approx(truth, rel=TOL)
 
 
+def test_commutation_harmonics_recover_a_hall_sensors_stray_field_error() -> None:
+    """Sin/cos Hall sensors reading the array's field plus a constant stray field (offsets of 3 % and -2 % of the
+    array's field at 16 mm; Ramsden, *Hall-Effect Sensors*, 2006, ch. 4) give the angle error
+    ``atan2(sin th + b_s / B, cos th + b_c / B) - th`` with ``B`` the array's fundamental, ``exp(-pi (g - 16 mm) /
+    tau)`` (written here, not the member's form: an arctangent, not a sum of harmonics). Fitted on runs at 13 and
+    19 mm by the ``electrical harmonics`` member: the largest error along +-35 mm at each gap within 20 %."""
+
+    def angle(d, g):
+        th = math.pi * d / k.tau + 0.4
+        inv_b = ca.exp(math.pi * (g - 0.016) / k.tau)
+        return ca.atan2(ca.sin(th) + 0.03 * inv_b, ca.cos(th) - 0.02 * inv_b) - th
+
+    def rotate(x, u):
+        a = angle(x[2], x[0])
+        c, s = ca.cos(a), ca.sin(a)
+        return ca.vertcat(c * u[0] - s * u[1], s * u[0] + c * u[1])
+
+    low, filt = _runs(rotate=rotate, g0=0.013, seeds=(1, 2))
+    high, _ = _runs(rotate=rotate, g0=0.019, seeds=(3, 4))
+    _, theta = _fit(_member("commutation_offset", "electrical harmonics"), low + high, filt)
+    d = np.linspace(-0.035, 0.035, 141)
+    for g in (0.013, 0.019):
+        truth = np.max(np.abs([float(angle(x, g)) for x in d]))
+        got = np.max(np.abs([float(CommutationOffset.angle(x, theta, g)) for x in d]))
+        assert got == pytest.approx(truth, rel=TOL), (g, got, truth)
+
+
 # ------------------------------------------------------------------------------------------ the guard
 def test_another_effects_signature_is_not_evidenced_by_a_friction_misfit(tustin_runs) -> None:
     """Guard test (a): the residual a closed-form friction (Coulomb + viscous) leaves of a Tustin friction

@@ -189,6 +189,10 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     **{f"cogging.{n}": (*ENERGY_DECAY_RANGE, 1.0, 0.5) for n in Cogging.energy_names() if n[2] == "r"},
     "cogging.e_curv": (-4.0, 1.0, 0.0, 1.0),
     **{f"commutation_offset.{n}": (-0.35, 0.35, 0.0, 0.05) for n in CommutationOffset.shape_names()},
+    # the commutation offset's electrical harmonics [rad] and their growth rate with the gap [1/m] (the array's
+    # fundamental falls by pi / tau = 55 /m; a sensor's error grows as the field it reads weakens)
+    **{f"commutation_offset.{n}": (-0.35, 0.35, 0.0, 0.02) for n in CommutationOffset.harmonic_names()[:4]},
+    "commutation_offset.harm_gap": (-300.0, 300.0, 0.0, 50.0),
     # one-parameter effects (the effect's own bounds)
     "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
     "commutation_offset.drift": (*_eb("commutation_offset", "drift"), 0.0, 1.0),
@@ -360,7 +364,10 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       :meth:`~maglev_ocp.effects.Cogging.energy_forces`),
       ``friction`` (``spline``: an odd function of each velocity, Coulomb +
       viscous + a non-negative spline of the speed) and
-      ``commutation_offset`` (``spline``: the angle a spline of d).
+      ``commutation_offset`` (``spline``: the angle a spline of d);
+    - ``commutation_offset``: ``electrical harmonics``: an angle error
+      periodic in the electrical angle (first and second harmonics) whose
+      amplitude grows or falls with the gap at a fitted rate.
     """
     lib = library_specs()
     out = {n: (s,) for n, s in lib.items()}
@@ -604,6 +611,18 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             ),
             law="spline",
             flexible=True,
+        ),
+        CandidateSpec(
+            "commutation_offset",
+            ("commutation_offset",),
+            free=_free(
+                "commutation_offset.delta", *(f"commutation_offset.{n}" for n in CommutationOffset.harmonic_names())
+            ),
+            note=(
+                "an offset plus an angle error periodic in the electrical angle (first and second harmonics), "
+                "growing or falling with the gap at a fitted rate (Hall sensors' offsets and stray fields)"
+            ),
+            law="electrical harmonics",
         ),
     )
     knots = tuple(f"end_effect.{n}" for n in EndEffect.profile_names())

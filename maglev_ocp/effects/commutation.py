@@ -2,17 +2,22 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import ClassVar
 
 import casadi as ca
 
+from .. import constants as k
 from ..shapes import bspline
 from .base import Effect, EffectParam, Expr
 
 #: Centres [m] of the learned offset's B-spline in d: every 30 mm from -90 to 90 mm, so that on the stroke
 #: (+-60 mm) the basis sums to one and reproduces a constant and a linear drift exactly (de Boor, ch. IX).
 _COMM_KNOTS: tuple[float, ...] = tuple(round(-0.09 + 0.03 * j, 3) for j in range(7))
+
+#: Gap [m] at which the electrical harmonics' amplitudes are given (the middle of the targets' gap band).
+_G_HARM_REF = 20e-3
 
 
 class CommutationOffset(Effect):
@@ -34,6 +39,16 @@ class CommutationOffset(Effect):
     angle (:attr:`KNOTS`, coefficients ``cshape_<j>`` [rad]), which nests the
     constant and the drift exactly on the stroke (a commutation pitch error
     that is not uniform, an encoder scale that wanders). 0 by default.
+
+    Electrical harmonics (``harm1_c``, ``harm1_s``, ``harm2_c``, ``harm2_s`` [rad], ``harm_gap`` [1/m]; 0 by
+    default): an angle error periodic in the electrical angle ``theta_e = pi d / tau`` (seed section III),
+    ``exp(harm_gap (g - 20 mm)) sum_k (harmk_c cos k theta_e + harmk_s sin k theta_e)``. A commutation angle read
+    from Hall sensors or interpolated between them errs periodically with the electrical angle (a sensor's
+    offset or a stray field added to the array's field it reads shifts the angle by its ratio to that field;
+    a misplaced sensor or a field that is not sinusoidal, by its second harmonic: Ramsden, *Hall-Effect
+    Sensors*, 2nd ed., 2006, ch. 4; Lenz & Edelstein, IEEE Sensors J. 6(3), 2006), and the error grows where
+    the field it reads is weaker, at a gap-dependent rate (``harm_gap``; the array's fundamental weakens by
+    ``pi / tau`` per metre of gap, MODEL.md).
     """
 
     #: Centres [m] of the learned offset's B-spline in d.
@@ -49,6 +64,11 @@ class CommutationOffset(Effect):
             EffectParam(f"cshape_{j}", 0.0, -0.35, 0.35, "rad", f"learned offset's coefficient at d = {c * 1e3:.0f} mm")
             for j, c in enumerate(_COMM_KNOTS)
         ),
+        EffectParam("harm1_c", 0.0, -0.35, 0.35, "rad", "cos(theta_e) amplitude of the angle error at g = 20 mm"),
+        EffectParam("harm1_s", 0.0, -0.35, 0.35, "rad", "sin(theta_e) amplitude of the angle error at g = 20 mm"),
+        EffectParam("harm2_c", 0.0, -0.35, 0.35, "rad", "cos(2 theta_e) amplitude of the angle error at g = 20 mm"),
+        EffectParam("harm2_s", 0.0, -0.35, 0.35, "rad", "sin(2 theta_e) amplitude of the angle error at g = 20 mm"),
+        EffectParam("harm_gap", 0.0, -300.0, 300.0, "1/m", "growth rate of the harmonics' amplitude with the gap"),
     )
 
     @classmethod
@@ -57,12 +77,26 @@ class CommutationOffset(Effect):
         return tuple(f"cshape_{j}" for j in range(len(cls.KNOTS)))
 
     @classmethod
-    def angle(cls, d: Expr, theta: Mapping[str, Expr]) -> Expr:
-        """Electrical offset angle [rad] at position ``d`` [m]: ``delta + drift d`` plus the learned spline."""
+    def harmonic_names(cls) -> tuple[str, ...]:
+        """Names of the electrical harmonics' amplitudes and their gap rate."""
+        return ("harm1_c", "harm1_s", "harm2_c", "harm2_s", "harm_gap")
+
+    @classmethod
+    def angle(cls, d: Expr, theta: Mapping[str, Expr], g: Expr | None = None) -> Expr:
+        """Electrical offset angle [rad] at position ``d`` [m] and gap ``g`` [m] (20 mm if not given):
+        ``delta + drift d`` plus the learned spline plus the electrical harmonics."""
         learned = bspline(d, cls.KNOTS, cls.KNOT_STEP, [theta.get(n, 0.0) for n in cls.shape_names()])
-        return theta["delta"] + theta["drift"] * d + learned
+        out = theta["delta"] + theta["drift"] * d + learned
+        amps = [theta.get(n, 0.0) for n in cls.harmonic_names()[:4]]
+        if any(not (isinstance(a, float) and a == 0.0) for a in amps):
+            th = math.pi * d / k.tau  # the electrical angle (seed section III)
+            grow = ca.exp(theta.get("harm_gap", 0.0) * ((_G_HARM_REF if g is None else g) - _G_HARM_REF))
+            out = out + grow * (
+                amps[0] * ca.cos(th) + amps[1] * ca.sin(th) + amps[2] * ca.cos(2 * th) + amps[3] * ca.sin(2 * th)
+            )
+        return out
 
     def currents(self, u, x, theta):
-        angle = self.angle(x[2], theta)
+        angle = self.angle(x[2], theta, x[0])
         c, s = ca.cos(angle), ca.sin(angle)
         return ca.vertcat(c * u[0] - s * u[1], s * u[0] + c * u[1])
