@@ -140,8 +140,8 @@ class DiagnoseSettings(Strict):
         its own shape; 0: no test).
     end_locality : float
         Test (d) of the claim guard (:mod:`.stages.claims`): an end effect stays only if its force lost as the
-        array overhangs stays below this share of its largest value within the middle third of the stroke the
-        runs visit (an overhang acts at the ends; 0: no test).
+        array overhangs stays below this share of its largest value within the middle sixth of the stroke the
+        runs visit, ``|d| <= stroke / 6`` (an overhang acts at the ends; 0: no test).
     gap_min_floor : float
         A located gap (a period in d that is no library period, a drift in time) is reported when it explains
         at least this rms over the channel's noise floor (0: no search).
@@ -194,7 +194,7 @@ class DiagnoseSettings(Strict):
     signature_alpha: float = Field(0.01, gt=0.0, lt=0.5)
     signature_min_floor: float = Field(0.3, ge=0.0, le=10.0)
     leftover_ratio: float = Field(1.0, ge=0.0, le=10.0)
-    end_locality: float = Field(0.15, ge=0.0, le=1.0)
+    end_locality: float = Field(0.1, ge=0.0, le=1.0)
     gap_min_floor: float = Field(1.0, ge=0.0, le=100.0)
     drift_min_floor: float = Field(0.5, ge=0.0, le=100.0)
     exclude_laws: dict[str, list[str]] = Field(default_factory=dict)

@@ -69,11 +69,13 @@ taken from the fullest model; significance (against the circular-shift null) doe
     instead.
 
 (d) **an end effect acts at the ends**: the end effect's force lost as the array overhangs (its loss of the magnetic
-    terms and its end forces, as fitted) must stay below ``end_locality`` of its largest value within the middle
-    third of the stroke the runs visit (:func:`end_locality`). An overhang starts near the stroke's ends; a
-    loss that grows from the stroke's middle is some other force that varies with ``|d|`` (on rigsim's ninth set,
-    air purged through the gap under the mover's middle was taken up by end effects whose onset the fit put at
-    0-9 mm, on three of five datasets).
+    terms and its end forces, as fitted, at either end) must stay below ``end_locality`` of its largest value
+    within the middle sixth of the stroke the runs visit, ``|d| <= stroke / 6`` (:func:`end_locality`). The
+    calibrated constants describe the machine with the array over the stator at the stroke's middle; a loss
+    already there rescales them, and one that grows from the middle is some other force that varies with
+    ``|d|`` (on rigsim's ninth set, air purged through the gap under the mover's middle was taken up by end
+    effects whose onset the fit put at 0-9 mm, on three of five datasets; its own end effects start 10-35 mm
+    from the middle, smoothed over 6-7 mm).
 
 Effects failing any of them are dropped, with the reasons in the verdict and the evidence in :class:`ClaimChecks`
 (this stage's own record). What the final model leaves is then scanned for structure that no library
@@ -486,12 +488,13 @@ def check_claims(run: Run, att: Attribution, noise: NoiseFindings) -> ClaimCheck
 
 
 def end_locality(run: Run, att: Attribution, n: int = 241) -> dict | None:
-    """Test (d): how much of the fitted end effect's action lies in the middle third of the stroke visited.
+    """Test (d): how much of the fitted end effect's action lies in the middle sixth of the stroke visited.
 
     The action at ``d`` is the force lost, ``1 - factor`` with the overhang factor and the free profile
     (:meth:`EndEffect.overhang_factor`, :meth:`EndEffect.profile_loss`), or the onset of the end forces
     (:meth:`EndEffect.onset`) where they are fitted; the thrust ripple (everywhere) is not an overhang's.
-    Returns ``inner_share`` (the largest action within ``|d| <= stroke / 3`` over the largest on the stroke),
+    Returns ``inner_share`` (the largest action within ``|d| <= stroke / 6`` over the largest on the stroke, both
+    ends),
     ``inner_mm``, ``stroke_mm`` (the 99th percentile of ``|d|`` in the runs), or ``None`` when the verdict's
     model has no end effect or no overhang action.
     """
@@ -506,7 +509,7 @@ def end_locality(run: Run, att: Attribution, n: int = 241) -> dict | None:
     stroke = float(np.quantile(d_abs, 0.99)) if d_abs.size else 0.0
     if stroke <= 0:
         return None
-    grid = np.linspace(0.0, stroke, n)
+    grid = np.linspace(-stroke, stroke, 2 * n - 1)
     ends = abs(theta["end_force"]) > 0 or abs(theta["end_i2"]) > 0
     act = []
     for x in grid:
@@ -520,8 +523,8 @@ def end_locality(run: Run, att: Attribution, n: int = 241) -> dict | None:
     peak = float(act.max())
     if peak <= 1e-6:
         return None
-    inner = grid <= stroke / 3
-    return {"inner_share": float(act[inner].max() / peak), "inner_mm": stroke / 3 * 1e3, "stroke_mm": stroke * 1e3}
+    inner = np.abs(grid) <= stroke / 6
+    return {"inner_share": float(act[inner].max() / peak), "inner_mm": stroke / 6 * 1e3, "stroke_mm": stroke * 1e3}
 
 
 def _locality_why(run: Run, att: Attribution, rec: dict) -> str:
@@ -534,7 +537,7 @@ def _locality_why(run: Run, att: Attribution, rec: dict) -> str:
     if loc["inner_share"] <= limit:
         return ""
     return (f"end_effect: its loss of force reaches {loc['inner_share']:.0%} of its largest within "
-            f"|d| <= {loc['inner_mm']:.0f} mm, the middle third of the stroke the runs visit "
+            f"|d| <= {loc['inner_mm']:.0f} mm, the middle sixth of the stroke the runs visit "
             f"(+-{loc['stroke_mm']:.0f} mm; at most {limit:.0%}): an overhang acts at the ends, a force "
             "growing from the middle is not an end effect's, not claimed")  # fmt: skip
 
