@@ -79,9 +79,10 @@ class CoggingV10(_V10, Cogging):
       1989). The open slots' energy, ``W = C B^2 sum_{s=0..5} sin^2 psi_s phi(q_s)`` (six slots per electrical
       period, ``tau = 3 t1``), minus its mean over d (the mean is the slots' share of the pull, in MODEL.md's
       ``lam``); ``F = -grad W``, conservative. With fully open slots (``phi = 1``) the fundamental's energy is the
-      same at every d (no cogging): the cogging comes from the bridges' nonlinearity, and its amplitude peaks at the
-      gap where ``B(g) ~ B_b`` -- smaller both as the gap opens (bridges closed) and as it closes (all open).
-      ``xi0`` is the peak ``F_d`` over d at ``G_REF`` (15 mm).
+      same at every d (no cogging): the cogging comes from the bridges' nonlinearity, through the bridges that are
+      half open; its fall with the gap is not an open slot's exponential (slower towards the lower stop, where the
+      bridges near the poles' transitions open too) and its waveform changes with the gap. ``xi0`` is the peak
+      ``F_d`` over d at ``G_NORM`` (12 mm).
     * ``backiron_knee`` -- the slot-pitch harmonics ``a_k = xi0 c_k exp(-2 pi k (g - g_ref) / t1) m(g) / m(g_ref)``
       (k = 1, 2, ``c_1 = 1 - |c2|``) scaled by the share of the slot permeance ripple the flux still follows when the
       array's back iron saturates: the back iron's incremental permeability ``(1 - b / b_s)^2`` (Frohlich's curve,
@@ -96,19 +97,20 @@ class CoggingV10(_V10, Cogging):
     """
 
     families = ("saturable_bridge", "backiron_knee")
+    G_NORM = 12e-3  #: gap at which ``saturable_bridge``'s peak F_d is ``xi0`` [m]
     N_SLOTS = 6
     N_MEAN = 192  #: points of the periodic trapezoid rule for the energy's mean over d
     DEFAULTS: ClassVar[dict[str, dict[str, float]]] = {
-        "saturable_bridge": {"xi0": 2.0, "b_b": 1.0, "n": 3.0, "x0": 0.0, "replace": 0.0},
+        "saturable_bridge": {"xi0": 2.0, "b_b": 0.8, "n": 2.0, "x0": 0.0, "replace": 0.0},
         "backiron_knee": {"xi0": 3.0, "c2": 0.2, "phi2": 0.0, "b_s": 1.3, "r_i": 0.15, "x0": 0.0, "replace": 0.0},
     }
 
     def __init__(self, family: str | None = None, **params: float):
         super().__init__(family, **params)
         self.C = 1.0
-        if self.family == "saturable_bridge":  # the energy's scale: the peak F_d over d at G_REF is xi0
+        if self.family == "saturable_bridge":  # the energy's scale: the peak F_d over d at G_NORM is xi0
             d = np.linspace(0.0, k.t1, 1024, endpoint=False)
-            self.C = self.p["xi0"] / float(np.max(np.abs(self.force(0 * d + G_REF, 0.0, d, 0.0)[1])))
+            self.C = self.p["xi0"] / float(np.max(np.abs(self.force(0 * d + self.G_NORM, 0.0, d, 0.0)[1])))
 
     # saturable_bridge
     def _h(self, c, B):
@@ -281,14 +283,14 @@ class EndEffectV10(_V10, EndEffect):
       (exact per control period, the position of the period's last stage; hook ``advance``); every magnetic term
       scales with ``rho = 1 - (O + T_p - z) / L`` (hook ``factors_i``): at rest the plain overhang loss, moving onto
       a plate a loss that trails it, moving off it a pull that lingers. Size recorded while simulated.
-    * ``wide_end_teeth`` -- the last ``l_t = f_t e`` of each stator end is a wide end tooth without slots and
-      without winding (a usual end of a PM linear motor's stator: Inoue & Sato, "An approach to a suitable stator
-      length for minimizing the detent force of permanent magnet linear synchronous motors", IEEE Trans. Magn.
-      36(4), 2000; Gieras, Piech & Tomczuk 2011): over it the slots' permeance dip is absent, the magnets' pull
-      there larger by ``1 / lam(g)`` (MODEL.md's slot permeance factor; Carter, "Note on air-gap and interpolar
-      induction", J. IEE 29, 1900), while the currents act only over the wound part: pull ``km^2 = 1 + (1/lam(g) -
-      1) T(d)/L - O(d)/L``, currents' coupling ``km kc = 1 - (T(d) + O(d))/L`` (hook ``factors``): a pull that first
-      grows, by a share that grows with the gap, as the array reaches the end teeth, then is lost beyond them.
+    * ``wide_end_teeth`` -- the last ``l_t = f_t e`` of each stator end is a wide end tooth without slots (a usual
+      end of a PM linear motor's stator: Inoue & Sato, "An approach to a suitable stator length for minimizing the
+      detent force of permanent magnet linear synchronous motors", IEEE Trans. Magn. 36(4), 2000; Gieras, Piech &
+      Tomczuk 2011): over it the slots' permeance dip is absent, the magnets' pull there larger by ``1 / lam(g)``
+      (MODEL.md's slot permeance factor; Carter, "Note on air-gap and interpolar induction", J. IEE 29, 1900): pull
+      ``km^2 = 1 + (1/lam(g) - 1) T(d)/L - O(d)/L`` (``T`` the array's overlap with the end teeth), the currents'
+      coupling ``km kc = 1 - O(d)/L`` (hook ``factors``): a pull that first grows, by a share that grows as the gap
+      closes, as the array reaches the end teeth, then is lost beyond them.
     """
 
     families = ("plate_lag", "wide_end_teeth")
@@ -349,7 +351,7 @@ class EndEffectV10(_V10, EndEffect):
         lam = shape(g).lam
         pull = 1.0 + (1.0 / lam - 1.0) * t / L_ARRAY - o / L_ARRAY
         km = np.sqrt(pull)
-        return km, (1.0 - (t + o) / L_ARRAY) / km
+        return km, (1.0 - o / L_ARRAY) / km
 
     def factors(self, g, d, f: list) -> None:
         """``wide_end_teeth``: the magnets' field and the currents' coupling."""
@@ -554,8 +556,8 @@ class CommutationV10(_V10, _Peaks, CommutationOffset):
       loss of a magnet: Campbell, "Permanent Magnet Materials and their Application", Cambridge Univ. Press 1994, ch.
       5; the array's field: Furlani 2001, ch. 4): the angle ``atan2(-Bz_A, Bz_B) - pi/4``, linearized by a table
       over d and g recorded at commissioning with every magnet sound (it takes out the array's harmonics and ends),
-      plus ``delta0``: an error local to where the weak magnet passes the board, larger where the board reads the
-      magnet closer (small gaps) and near the array's ends (fewer magnets to share the field).
+      plus ``delta0``: an error local to where the weak magnet passes the board, that grows as the gap opens (the
+      sensors then see more of the neighbouring magnets' field).
     """
 
     families = ("ground_bounce", "weak_magnet")
