@@ -81,8 +81,8 @@ class CoggingV10(_V10, Cogging):
       ``lam``); ``F = -grad W``, conservative. With fully open slots (``phi = 1``) the fundamental's energy is the
       same at every d (no cogging): the cogging comes from the bridges' nonlinearity, through the bridges that are
       half open; its fall with the gap is not an open slot's exponential (slower towards the lower stop, where the
-      bridges near the poles' transitions open too) and its waveform changes with the gap. ``xi0`` is the peak
-      ``F_d`` over d at ``G_NORM`` (12 mm).
+      bridges near the poles' transitions open too; at the rig's gaps the slot pitch's fundamental is nearly all of
+      it). ``xi0`` is the peak ``F_d`` over d at ``G_NORM`` (12 mm).
     * ``backiron_knee`` -- the slot-pitch harmonics ``a_k = xi0 c_k exp(-2 pi k (g - g_ref) / t1) m(g) / m(g_ref)``
       (k = 1, 2, ``c_1 = 1 - |c2|``) scaled by the share of the slot permeance ripple the flux still follows when the
       array's back iron saturates: the back iron's incremental permeability ``(1 - b / b_s)^2`` (Frohlich's curve,
