@@ -182,7 +182,11 @@ def test_plate_lag_trails_the_plates_overlap_by_its_time_constant():
     # the exact lag of a ramp against the held end-of-period target: z' = (T - z)/tau, solved by hand
     z, prev = None, None
     for d in ds:  # the period's lag from the plate length the last period ended at (advance before the stages)
-        z = float(law.plate(d)) if z is None else float(law.plate(prev)) + (z - float(law.plate(prev))) * math.exp(-Ts / 0.02)
+        if z is None:
+            z = float(law.plate(d))
+        else:
+            tp = float(law.plate(prev))
+            z = tp + (z - tp) * math.exp(-Ts / 0.02)
         prev = d
     assert (1 - rho[-1]) * L == pytest.approx(float(law.plate(ds[-1])) - z, rel=1e-9)
     # moving off it, the pull lingers (rho above its settled value)
@@ -234,7 +238,9 @@ def test_flux_play_holds_the_flux_until_it_moves_by_the_play():
     assert p == pytest.approx(float(_field(gs[-2])) / b_lo + 0.05, rel=1e-9)
     rec = law.recorded()
     sh = shape(0.02)
-    dfg = k.Mv * (NOMINAL.C2 * sh.f2 - NOMINAL.C3 * sh.f3 * 2.0 + NOMINAL.C4 * sh.f4 * 4.0) * ((1 - 0.2 * p**2) ** 2 - 1)
+    dfg = (
+        k.Mv * (NOMINAL.C2 * sh.f2 - NOMINAL.C3 * sh.f3 * 2.0 + NOMINAL.C4 * sh.f4 * 4.0) * ((1 - 0.2 * p**2) ** 2 - 1)
+    )
     assert rec["peak_force_g_n"] >= abs(dfg) - 1e-12
 
 
@@ -421,7 +427,7 @@ def test_mover_pitch_is_a_second_order_mode_driven_by_the_thrust():
 # ------------------------------------------------------------------------------ drawing
 def test_every_drawn_v10_law_is_finite_and_bounded_and_every_family_is_drawn():
     seen = set()
-    g, d, v = envelope_grid()
+    g, d, _ = envelope_grid()
     for seed in range(120):
         sc = draw(seed, laws="v10")
         assert sc == draw(seed, laws="v10")

@@ -161,7 +161,8 @@ def _deadtime(rng):
 def _pitch(rng):
     # 2-8 µm of gap reading per newton of thrust (a probe 30-60 mm off the pitch axis, the thrust 10-30 mm from the
     # centre of mass, a guide of 100-300 N m/rad), the pitch mode at 15-40 Hz, damped 3-15 %
-    return {"family": "thrust_moment", "a_s": _u(rng, 2e-6, 8e-6), "f_p": _u(rng, 15.0, 40.0), "zeta": _u(rng, 0.03, 0.15)}
+    a_s = _u(rng, 2e-6, 8e-6)
+    return {"family": "thrust_moment", "a_s": a_s, "f_p": _u(rng, 15.0, 40.0), "zeta": _u(rng, 0.03, 0.15)}
 
 
 #: Random parameters of the tenth set, by effect name.

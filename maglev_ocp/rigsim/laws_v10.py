@@ -41,7 +41,7 @@ from .laws_v6 import V6_LAWS
 from .laws_v7 import V7_LAWS
 from .laws_v8 import V8_LAWS
 from .laws_v9 import EFFECTS_V9, V9_LAWS, companion
-from .laws_v10_ool import G_REF, InverterDeadtime, MoverPitch, _Peaks, _V10, current_force, dq_to_abc
+from .laws_v10_ool import _V10, G_REF, InverterDeadtime, MoverPitch, _Peaks, current_force, dq_to_abc
 from .physics import NOMINAL, shape
 
 _TWO_PI = 2.0 * math.pi
