@@ -87,7 +87,7 @@ class CoggingV10(_V10, Cogging):
       (k = 1, 2, ``c_1 = 1 - |c2|``) scaled by the share of the slot permeance ripple the flux still follows when the
       array's back iron saturates: the back iron's incremental permeability ``(1 - b / b_s)^2`` (Frohlich's curve,
       ``b = B(g) / B(g_lo)``) in series with the gap, ``m = mu_i / (mu_i + r_i)`` (incremental permeability in the
-      magnetic circuit: Bozorth, "Ferromagnetism", Van Nostrand 1951, ch. 11; saturation and cogging: Azar, Zhu &
+      magnetic circuit: Bozorth, "Ferromagnetism", Van Nostrand 1951; saturation and cogging: Azar, Zhu &
       Ombach, "Influence of electric loading and magnetic saturation on cogging torque, back-EMF and torque ripple of
       PM machines", IEEE Trans. Magn. 48(10), 2012; Frohlich-Kennelly: Kennelly, "Magnetic reluctance", Trans. AIEE
       8, 1891). ``W = (t1 / 2 pi) sum_k (a_k / k) cos theta_k``, ``F = -grad W``: the exponential growth towards the
@@ -276,7 +276,7 @@ class EndEffectV10(_V10, EndEffect):
 
     * ``plate_lag`` -- the last ``l_p`` of each stator end is a solid (unlaminated) steel clamping plate: the flux the
       array drives into it builds up and decays through the plate's eddy currents, a first-order lag ``tau_e`` (the
-      flux diffusion in solid iron: Stoll, "The Analysis of Eddy Currents", Clarendon Press 1974, ch. 3; one time
+      flux diffusion in solid iron: Stoll, "The Analysis of Eddy Currents", Clarendon Press 1974; one time
       constant: Feeley, "A simple dynamic model for eddy currents in a magnetic actuator", IEEE Trans. Magn. 32(2),
       1996; stator end plates: Gieras, Piech & Tomczuk, "Linear Synchronous Motors", 2nd ed., CRC Press 2011). The
       covered plate length the field sees, ``z``, follows the covered length ``T_p(d)``: ``tau_e z' = T_p - z``
@@ -390,7 +390,7 @@ class SaturationV10(_V10, _Peaks, Saturation):
 
     * ``flux_play`` -- the iron's magnetization holds its level until the flux has moved by ``w`` either way (the
       rate-independent hysteresis of a play operator: Krasnosel'skii & Pokrovskii, "Systems with Hysteresis",
-      Springer 1989; the iron's hysteresis: Bertotti, "Hysteresis in Magnetism", Academic Press 1998, ch. 9):
+      Springer 1989; the iron's hysteresis: Bertotti, "Hysteresis in Magnetism", Academic Press 1998):
       ``x <- clip(x, b - w, b + w)``: closing the gap, the loss trails the flux by ``w``; opening it, the loss stays
       until the flux has fallen by ``2 w``.
     * ``yoke_lag`` -- the saturating part is a solid (unlaminated) yoke whose eddy currents delay its flux, ``tau_s
@@ -553,8 +553,8 @@ class CommutationV10(_V10, _Peaks, CommutationOffset):
       i_a, cos th + r_c i_b) - th``: an error that grows with the currents and ripples along d with the phases.
     * ``weak_magnet`` -- a Hall board at ``x_h`` on the stator, its two sensors ``tau / 2`` apart, ``c_s`` behind the
       stator's surface, reads the exact field of the four magnets, magnet ``j_w`` weaker by ``eps`` (irreversible
-      loss of a magnet: Campbell, "Permanent Magnet Materials and their Application", Cambridge Univ. Press 1994, ch.
-      5; the array's field: Furlani 2001, ch. 4): the angle ``atan2(-Bz_A, Bz_B) - pi/4``, linearized by a table
+      loss of a magnet: Campbell, "Permanent Magnet Materials and their Application", Cambridge Univ. Press 1994; the
+      array's field: Furlani 2001, ch. 4): the angle ``atan2(-Bz_A, Bz_B) - pi/4``, linearized by a table
       over d and g recorded at commissioning with every magnet sound (it takes out the array's harmonics and ends),
       plus ``delta0``: an error local to where the weak magnet passes the board, that grows as the gap opens (the
       sensors then see more of the neighbouring magnets' field).
@@ -619,7 +619,7 @@ class EddyDragV10(_V10, _Peaks, EddyDrag):
 
     * ``delta_circulating`` -- the winding is connected in delta: the third harmonics of the three phases' back-EMFs
       are in phase, add up around the delta and drive a circulating current the line currents do not see (Hanselman,
-      "Brushless Permanent Magnet Motor Design", 2nd ed., Magna Physics 2006, ch. 9 (winding connections); Miller,
+      "Brushless Permanent Magnet Motor Design", 2nd ed., Magna Physics 2006 (winding connections); Miller,
       "Brushless Permanent-Magnet and Reluctance Motor Drives", Clarendon Press 1989). With the phases' summed
       third-harmonic linkage ``Lambda(g, d) = h3(g) sin(3 pi (d - x0) / tau)``, ``h3 ~ 1 / sinh(3 pi (hm + g) /
       tau)`` (MODEL.md's field's third harmonic), the loop's EMF is ``-dLambda/dt`` and, resistive at the rig's

@@ -143,7 +143,7 @@ class MoverPitch(_V10, Law):
     that turns the mover on its guide's rotational stiffness, ``J th'' + c th' + k th = h F_x``; a gap probe at a
     lever ``x_s`` from the pitch axis reads ``g + x_s th`` (the Abbe error of a stage not driven through its centre of
     mass: Slocum, "Precision Machine Design", Prentice Hall 1992, ch. 2; Schmidt, Schitter & Rankers, "The Design of
-    High Performance Mechatronics", 2nd ed., IOS Press 2014, ch. 3, centre-of-mass drive). In reading units ``e = x_s
+    High Performance Mechatronics", 2nd ed., IOS Press 2014, centre-of-mass drive). In reading units ``e = x_s
     th``: ``e'' + 2 zeta w_p e' + w_p^2 e = w_p^2 a_s F_x``, ``a_s = x_s h / k`` the static reading error per newton of
     thrust, ``F_x = -Mh C1 f1(g) i_q`` from the delivered thrust current (seed eq. (2), nominal constants; the gap of
     the last reading), held over each control period and solved exactly (hook ``advance``); ``g_read = g + e`` (hook
