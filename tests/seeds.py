@@ -58,6 +58,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         2232377194,  # case 8 of the sixth set's blind check (seed 1049996647): test_diagnosis_thrust's cogging rig
         *range(8800, 8807),  # full-size trials of rigsim's eighth law set (lawsv8: one dataset per family, draws)
         *range(8900, 8907),  # full-size trials of rigsim's ninth law set (lawsv9: one dataset per family, draws)
+        *range(9000, 9007),  # full-size trials of rigsim's tenth law set (lawsv10: one dataset per family, draws)
     }
 )  # fmt: skip
 

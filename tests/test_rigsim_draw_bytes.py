@@ -12,7 +12,9 @@ an ulp (glibc's ``cosh`` in ``shape(0.01)``), recorded at ac59446 on the EPYC; `
 one string; ``v5`` at ac59446 (before laws_v6) on the EPYC at X86_V3, the same string found at X86_V4 at 8fb2b1d;
 ``v6`` at 8fb2b1d (before laws_v7) on an AMD EPYC at X86_V4; ``v7`` at 84b564b (before laws_v8) on an AMD EPYC at
 X86_V4; ``v8`` at 2bacbab (its final draw ranges; branch lawsv8) on the same machine, found the same at 3eb51ca (before
-laws_v9); ``v9`` at 436d469 (its final draw ranges; branch lawsv9) on an AMD EPYC at X86_V4.
+laws_v9); ``v9`` at 436d469 (its final draw ranges; branch lawsv9) on an AMD EPYC at X86_V4, found the same at 230c926
+(before laws_v10, with every other entry); ``v10`` at fc918d9 (its final draw ranges; branch lawsv10) on an AMD EPYC at
+X86_V4.
 A new law set adds its entry here, recorded at the commit before it.
 """
 
@@ -40,6 +42,7 @@ DRAWS = {
     "v7": {"X86_V4": "e9a680938f8994a0f3a00175a4b11409cfb6054a9d915a7706383c5c7f5c59a3"},
     "v8": {"X86_V4": "67181848465d17f26f2b14f5398f13f0e94f55a35ec1f66c9319c6c044bfe8b5"},
     "v9": {"X86_V4": "ebe6f99a42afbb46bc81ff6495de0960425a69e8f5a642266d5ceb6b53e9753a"},
+    "v10": {"X86_V4": "1975abd6959b5a9dacbfead513c2d347642d2408c30f4bcdb2ee34eadfa12d7c"},
 }
 
 

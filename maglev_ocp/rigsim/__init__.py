@@ -9,8 +9,8 @@ can be checked on a rig they were not built from.
 * :mod:`.physics` - nominal shape functions, seed eq. (2) and the cogging of eq. (9), from MODEL.md;
 * :mod:`.laws` - effects as law families (library effects and ones outside the library);
 * :mod:`.laws_new`, :mod:`.laws_v3`, :mod:`.laws_v4`, :mod:`.laws_v5`, :mod:`.laws_v6`, :mod:`.laws_v7`,
-  :mod:`.laws_v8`, :mod:`.laws_v9` - a second to ninth set of families from the literature (issue 27;
-  :mod:`.draw_v4` ... :mod:`.draw_v9` draw the fourth to ninth);
+  :mod:`.laws_v8`, :mod:`.laws_v9`, :mod:`.laws_v10` - a second to tenth set of families from the literature
+  (issue 27; :mod:`.draw_v4` ... :mod:`.draw_v10` draw the fourth to tenth);
 * :mod:`.control` - the generator's own feedback-linearizing PID controller;
 * :mod:`.sim` - the rig (amplifier, encoders, noise, stops) and the closed loop (Dormand-Prince 5);
 * :mod:`.excite` - min-jerk moves at varied speeds plus dither over the gap band and the stroke;
@@ -32,7 +32,8 @@ from .laws_v5 import EFFECTS_V5, V5_LAWS
 from .laws_v6 import EFFECTS_V6, V6_LAWS
 from .laws_v7 import EFFECTS_V7, V7_LAWS
 from .laws_v8 import EFFECTS_V8, V8_LAWS
-from .laws_v9 import EFFECTS_V9, V9_LAWS, make_law
+from .laws_v9 import EFFECTS_V9, V9_LAWS
+from .laws_v10 import EFFECTS_V10, V10_LAWS, make_law
 from .physics import NOMINAL, Constants
 from .sim import RigSettings
 
@@ -47,6 +48,7 @@ __all__ = [
     "EFFECTS_V7",
     "EFFECTS_V8",
     "EFFECTS_V9",
+    "EFFECTS_V10",
     "LAWS",
     "LIBRARY_EFFECTS",
     "NEW_LAWS",
@@ -59,6 +61,7 @@ __all__ = [
     "V7_LAWS",
     "V8_LAWS",
     "V9_LAWS",
+    "V10_LAWS",
     "Constants",
     "RigSettings",
     "draw",

@@ -9,7 +9,7 @@ import time
 
 from .draw import LAW_SETS, draw
 from .generate import generate
-from .laws_v9 import EFFECTS_V9 as LAWS
+from .laws_v10 import EFFECTS_V10 as LAWS
 from .sim import RigSettings
 
 
@@ -25,7 +25,8 @@ def main(argv: list[str] | None = None) -> int:
         choices=LAW_SETS,
         default="all",
         help="with --draw: law families to draw from (old: the first ones; new: issue 27's; v3: the third set; "
-        "v4: the fourth; v5: the fifth; v6: the sixth; v7: the seventh; v8: the eighth; v9: the ninth; default all)",
+        "v4: the fourth; v5: the fifth; v6: the sixth; v7: the seventh; v8: the eighth; v9: the ninth; v10: the tenth; "
+        "default all)",
     )
     ap.add_argument("--runs", type=int, default=6, help="number of runs (default 6)")
     ap.add_argument("--duration", type=float, default=10.0, help="length of each run [s] (default 10)")
