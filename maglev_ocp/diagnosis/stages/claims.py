@@ -493,10 +493,9 @@ def end_locality(run: Run, att: Attribution, n: int = 241) -> dict | None:
     The action at ``d`` is the force lost, ``1 - factor`` with the overhang factor and the free profile
     (:meth:`EndEffect.overhang_factor`, :meth:`EndEffect.profile_loss`), or the onset of the end forces
     (:meth:`EndEffect.onset`) where they are fitted; the thrust ripple (everywhere) is not an overhang's.
-    Returns ``inner_share`` (the largest action within ``|d| <= stroke / 6`` over the largest on the stroke, both
-    ends),
-    ``inner_mm``, ``stroke_mm`` (the 99th percentile of ``|d|`` in the runs), or ``None`` when the verdict's
-    model has no end effect or no overhang action.
+    Returns ``inner_share`` (the largest action within ``|d| <= stroke / 6`` over the largest on the stroke,
+    both ends), ``inner_mm``, ``stroke_mm`` (the 99th percentile of ``|d|`` in the runs), or ``None`` when the
+    verdict's model has no end effect or no overhang action.
     """
     spec, fit = att.final_spec, att.final_fit
     if spec is None or fit is None or "end_effect" not in spec.effects:
