@@ -31,7 +31,7 @@ def _run() -> SimpleNamespace:
 
 def _att(**params: float) -> SimpleNamespace:
     spec = CandidateSpec("end_effect", ("end_effect",))
-    fit = SimpleNamespace(params=lambda: {f"end_effect.{k}": v for k, v in params.items()})
+    fit = SimpleNamespace(spec=spec, params=lambda: {f"end_effect.{k}": v for k, v in params.items()})
     return SimpleNamespace(final_spec=spec, final_fit=fit)
 
 

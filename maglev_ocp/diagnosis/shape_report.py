@@ -18,25 +18,39 @@ import numpy as np
 from .. import constants as k
 from ..effects import EFFECTS, Cogging, CommutationOffset, EddyDrag, EndEffect, Friction, Saturation
 from .attribution import EffectScore
+from .fit import FitResult
 from .result import Diagnosis
 
 
-def effect_theta(score: EffectScore, name: str) -> dict[str, float]:
-    """All parameters of effect ``name`` in a fitted score: defaults, then the spec's fixed, fitted and tied values."""
+def fit_theta(fit: FitResult, name: str) -> dict[str, float]:
+    """All parameters of effect ``name`` in a fit: defaults, then the spec's fixed, fitted and tied values (a tie
+    whose source the fit does not hold keeps its default)."""
     theta = dict(EFFECTS[name].defaults())
     prefix = f"{name}."
-    spec = score.fit.spec if score.fit is not None else None
-    if spec is not None:
-        theta.update({key[len(prefix) :]: v for key, v in spec.fixed if key.startswith(prefix)})
-        # the fit's own values by full key: a single effect's score names its values without the prefix (and
-        # "xi0" there is the model's p.xi0, not the effect's), so the score alone would leave the defaults
-        theta.update({key[len(prefix) :]: float(v) for key, v in score.fit.params().items() if key.startswith(prefix)})
+    theta.update({key[len(prefix) :]: v for key, v in fit.spec.fixed if key.startswith(prefix)})
+    fitted = fit.params()
+    theta.update({key[len(prefix) :]: v for key, v in fitted.items() if key.startswith(prefix)})
+    theta.update(
+        {key[len(prefix) :]: fitted[src] for key, src in fit.spec.ties if key.startswith(prefix) and src in fitted}
+    )
+    return theta
+
+
+def effect_theta(score: EffectScore, name: str) -> dict[str, float]:
+    """All parameters of effect ``name`` in a fitted score: :func:`fit_theta` of its fit, then the score's values."""
+    prefix = f"{name}."
+    if score.fit is None:
+        theta = dict(EFFECTS[name].defaults())
+        theta.update({key[len(prefix) :]: float(v) for key, v in score.params.items() if key.startswith(prefix)})
+        return theta
+    # the fit's own values by full key: a single effect's score names its values without the prefix (and "xi0"
+    # there is the model's p.xi0, not the effect's), so the score alone would leave the defaults
+    theta = fit_theta(score.fit, name)
     theta.update({key[len(prefix) :]: float(v) for key, v in score.params.items() if key.startswith(prefix)})
-    if spec is not None:
-        # a tie's source (e.g. the calibrated p.xi0 a cogging member shares) is fitted, but a score may carry
-        # only its effect's own values: read it from the fit then
-        fitted = {**score.fit.params(), **score.params}
-        theta.update({key[len(prefix) :]: float(fitted[src]) for key, src in spec.ties if key.startswith(prefix)})
+    # a tie's source (e.g. the calibrated p.xi0 a cogging member shares) is fitted, but a score may carry only
+    # its effect's own values: read it from the fit then
+    fitted = {**score.fit.params(), **score.params}
+    theta.update({key[len(prefix) :]: float(fitted[src]) for key, src in score.fit.spec.ties if key.startswith(prefix)})
     return theta
 
 
@@ -57,15 +71,8 @@ def _sat_loss(theta: dict[str, float], g_mm: np.ndarray) -> np.ndarray:
 
 
 def _end_loss(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
-    """Overhang loss [%] of the magnetic terms at position ``d`` [mm] (:class:`EndEffect`)."""
-    out = []
-    for d in d_mm * 1e-3:
-        fac = EndEffect.overhang_factor(
-            d, theta["d_edge"], theta["edge_width"], theta["edge_gain"], theta["edge_quad"], theta["edge_skew"],
-            theta["gain_skew"],
-        )  # fmt: skip
-        out.append(100.0 * (1.0 - float(fac - EndEffect.profile_loss(d, theta))))
-    return np.array(out)
+    """Overhang loss [%] of the magnetic terms at position ``d`` [mm] (:meth:`EndEffect.force_factor`)."""
+    return np.array([100.0 * (1.0 - float(EndEffect.force_factor(d, theta))) for d in d_mm * 1e-3])
 
 
 def _sat_current_text(theta: dict[str, float]) -> str:

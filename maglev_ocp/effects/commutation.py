@@ -87,14 +87,10 @@ class CommutationOffset(Effect):
         ``delta + drift d`` plus the learned spline plus the electrical harmonics."""
         learned = bspline(d, cls.KNOTS, cls.KNOT_STEP, [theta.get(n, 0.0) for n in cls.shape_names()])
         out = theta["delta"] + theta["drift"] * d + learned
-        amps = [theta.get(n, 0.0) for n in cls.harmonic_names()[:4]]
-        if any(not (isinstance(a, float) and a == 0.0) for a in amps):
-            th = math.pi * d / k.tau  # the electrical angle (seed section III)
-            grow = ca.exp(theta.get("harm_gap", 0.0) * ((_G_HARM_REF if g is None else g) - _G_HARM_REF))
-            out = out + grow * (
-                amps[0] * ca.cos(th) + amps[1] * ca.sin(th) + amps[2] * ca.cos(2 * th) + amps[3] * ca.sin(2 * th)
-            )
-        return out
+        h1c, h1s, h2c, h2s = (theta.get(n, 0.0) for n in cls.harmonic_names()[:4])
+        th = math.pi * d / k.tau  # the electrical angle (seed section III)
+        grow = ca.exp(theta.get("harm_gap", 0.0) * ((_G_HARM_REF if g is None else g) - _G_HARM_REF))
+        return out + grow * (h1c * ca.cos(th) + h1s * ca.sin(th) + h2c * ca.cos(2 * th) + h2s * ca.sin(2 * th))
 
     def currents(self, u, x, theta):
         angle = self.angle(x[2], theta, x[0])

@@ -166,16 +166,22 @@ class EndEffect(Effect):
         coefs = cumulative([theta[_knot_name(c)] for c in cls.KNOTS])
         return sum(bspline(side, cls.KNOTS, cls.KNOT_STEP, coefs) for side in (d, -d))
 
+    @classmethod
+    def force_factor(cls, d: Expr, theta: Mapping[str, Expr]) -> Expr:
+        """Fraction of the magnetic terms left at ``d`` (1 in the middle of the stroke): the overhang factor
+        (:meth:`overhang_factor`) less the free profile's loss (:meth:`profile_loss`)."""
+        fac = cls.overhang_factor(
+            d, theta["d_edge"], theta["edge_width"], theta["edge_gain"], theta["edge_quad"], theta["edge_skew"],
+            theta["gain_skew"],
+        )  # fmt: skip
+        return fac - cls.profile_loss(d, theta)
+
     def modify(self, terms, x, u, p, theta) -> None:
         d = x[2]
         a = 2 * math.pi * d / k.tau
         ripple = 1 + theta["ripple"] * ca.cos(a + theta["ripple_phase"])
         terms.scale(["a_thrust"], ripple + theta["ripple2"] * ca.cos(2 * a + theta["ripple2_phase"]))
-        fac = self.overhang_factor(
-            d, theta["d_edge"], theta["edge_width"], theta["edge_gain"], theta["edge_quad"], theta["edge_skew"],
-            theta["gain_skew"],
-        )  # fmt: skip
-        fac = fac - self.profile_loss(d, theta)
+        fac = self.force_factor(d, theta)
         # Cogging comes from the magnets over the teeth; how much of it the overhang takes is a law choice.
         cog = {"a_cogn", "a_cogx", "cog_extra_n", "cog_extra_x"}
         terms.scale(MAGNETIC_TERMS - cog, fac)

@@ -98,6 +98,7 @@ from ..library import CandidateSpec, combine, family_specs
 from ..peaks import noise_check
 from ..residuals import CHANNELS, Residual
 from ..result import NoiseFindings
+from ..shape_report import fit_theta
 from ..signatures import SIGNATURES, SignatureEvidence, evidence, locate_gap
 from ..verdict import EffectSets
 from .baseline import check_fit
@@ -490,8 +491,8 @@ def check_claims(run: Run, att: Attribution, noise: NoiseFindings) -> ClaimCheck
 def end_locality(run: Run, att: Attribution, n: int = 241) -> dict | None:
     """Test (d): how much of the fitted end effect's action lies in the middle sixth of the stroke visited.
 
-    The action at ``d`` is the force lost, ``1 - factor`` with the overhang factor and the free profile
-    (:meth:`EndEffect.overhang_factor`, :meth:`EndEffect.profile_loss`), or the onset of the end forces
+    The action at ``d`` is the force lost, ``1 - factor`` with the overhang factor less the free profile
+    (:meth:`EndEffect.force_factor`), or the onset of the end forces
     (:meth:`EndEffect.onset`) where they are fitted; the thrust ripple (everywhere) is not an overhang's.
     Returns ``inner_share`` (the largest action within ``|d| <= stroke / 6`` over the largest on the stroke,
     both ends), ``inner_mm``, ``stroke_mm`` (the 99th percentile of ``|d|`` in the runs), or ``None`` when the
@@ -500,25 +501,16 @@ def end_locality(run: Run, att: Attribution, n: int = 241) -> dict | None:
     spec, fit = att.final_spec, att.final_fit
     if spec is None or fit is None or "end_effect" not in spec.effects:
         return None
-    theta = dict(EndEffect.defaults())
-    for key, val in (*spec.fixed, *fit.params().items()):
-        if key.startswith("end_effect."):
-            theta[key.split(".", 1)[1]] = float(val)
+    theta = fit_theta(fit, "end_effect")
     d_abs = np.abs(np.concatenate([r.feat["d"] for r in (*run.split.train, *run.split.test)]))
     stroke = float(np.quantile(d_abs, 0.99)) if d_abs.size else 0.0
     if stroke <= 0:
         return None
     grid = np.linspace(-stroke, stroke, 2 * n - 1)
-    ends = abs(theta["end_force"]) > 0 or abs(theta["end_i2"]) > 0
-    act = []
-    for x in grid:
-        fac = EndEffect.overhang_factor(x, theta["d_edge"], theta["edge_width"], theta["edge_gain"],
-                                        theta["edge_quad"], theta["edge_skew"], theta["gain_skew"])  # fmt: skip
-        a = abs(1.0 - float(fac) + float(EndEffect.profile_loss(x, theta)))
-        if ends:
-            a = max(a, float(EndEffect.onset(x, theta)))
-        act.append(a)
-    act = np.asarray(act)
+    # the force lost (``1 - EndEffect.force_factor``) or, where end forces are fitted, their onset
+    act = np.array([abs(1.0 - float(EndEffect.force_factor(x, theta))) for x in grid])
+    if abs(theta["end_force"]) > 0 or abs(theta["end_i2"]) > 0:
+        act = np.maximum(act, [float(EndEffect.onset(x, theta)) for x in grid])
     peak = float(act.max())
     if peak <= 1e-6:
         return None
