@@ -11,10 +11,10 @@ import math
 
 import numpy as np
 import pytest
-import scipy.sparse as spa
+from residual_runs import feature_residual
 
 from maglev_ocp import constants as k
-from maglev_ocp.diagnosis.residuals import PreparedRun, Residual
+from maglev_ocp.diagnosis.residuals import Residual
 from maglev_ocp.diagnosis.signatures import SIGNATURES, evidence, locate_gap
 
 FLOOR = 0.02  # noise rms [m/s^2]
@@ -40,12 +40,7 @@ def _runs(force, seed: int = 0, n_runs: int = 3, n: int = 1500) -> list[Residual
             "i_q": 0.8 * np.sin(2 * math.pi * f3 * t + ph[2]),
             "i_d": 1.5 + 0.4 * np.sin(2 * math.pi * 0.37 * t + ph[3]),
         }
-        feat["di_q"] = np.gradient(feat["i_q"], t)
-        feat["di_d"] = np.gradient(feat["i_d"], t)
-        r = np.column_stack([force(feat, 0), force(feat, 1)]) + FLOOR * rng.standard_normal((n, 2))
-        run = PreparedRun(f"run{i}", (), np.array([True, True]), np.zeros((n, 8)), spa.csr_matrix((n, n)),
-                          r, np.arange(n), feat)  # fmt: skip
-        out.append(Residual(run, r, np.zeros_like(r)))
+        out.append(feature_residual(f"run{i}", feat, force, FLOOR, rng))
     return out
 
 

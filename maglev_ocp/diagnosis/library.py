@@ -145,6 +145,8 @@ _FREE: dict[str, tuple[float, float, float, float]] = {
     "friction.v_stribeck": (5e-4, 0.05, 5e-3, 5e-3),
     "friction.dir_g": (-10.0, 10.0, 0.0, 0.1),  # a guide's forward level minus its Coulomb level [N]
     "friction.dir_d": (-10.0, 10.0, 0.0, 0.1),
+    "friction.load_g": (-80.0, 80.0, 0.0, 20.0),  # the dry friction's log-change per m of gap [1/m]
+    "friction.load_d": (-80.0, 80.0, 0.0, 20.0),
     # end effect
     "end_effect.ripple": (0.0, 0.5, 0.02, 0.05),
     "end_effect.ripple_phase": _PHASE,
@@ -318,7 +320,8 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
     - ``friction``: ``stribeck``: Coulomb + viscous + the Stribeck excess and
       velocity (a hysteretic Dahl/LuGre term needs a friction state the
       equation-error residual does not carry; below the 15 Hz cut-off its
-      pre-sliding part acts like a smoothed Coulomb force);
+      pre-sliding part acts like a smoothed Coulomb force); ``load``: the
+      dry friction scaled by the guide's load as the gap changes;
     - ``saturation``: which terms it scales: ``field`` (the magnet field: its
       B^2 attraction and cogging lose twice what the B-linear PM-current and
       thrust terms lose, the reluctance term nothing), ``current terms``
@@ -363,7 +366,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       normal force, each harmonic decaying in g at a rate of its own,
       :meth:`~maglev_ocp.effects.Cogging.energy_forces`),
       ``friction`` (``spline``: an odd function of each velocity, Coulomb +
-      viscous + a non-negative spline of the speed) and
+      viscous + a non-negative spline of the speed, its load) and
       ``commutation_offset`` (``spline``: the angle a spline of d);
     - ``commutation_offset``: ``electrical harmonics``: an angle error
       periodic in the electrical angle (first and second harmonics) whose
@@ -449,16 +452,26 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
         CandidateSpec(
             "friction",
             ("friction",),
+            free=(*lib["friction"].free, *_free("friction.load_g", "friction.load_d")),
+            fixed=(("friction.stribeck_g", 0.0), ("friction.stribeck_d", 0.0), ("friction.v_reg", 1e-3)),
+            note="Coulomb + viscous per axis, the Coulomb level scaled by the guide's load: exp(load (20 mm - g))",
+            law="load",
+        ),
+        CandidateSpec(
+            "friction",
+            ("friction",),
             free=(
                 *lib["friction"].free,
                 *_free(*(f"friction.{n}" for ax in "gd" for n in Friction.shape_names(ax))),
                 *_free("friction.dir_g", "friction.dir_d"),
+                *_free("friction.load_g", "friction.load_d"),
             ),
             fixed=(("friction.stribeck_g", 0.0), ("friction.stribeck_d", 0.0), ("friction.v_reg", 1e-3)),
             note=(
                 "learned friction: Coulomb + viscous plus a non-negative cubic B-spline of the speed per axis "
                 f"(knots uniform in |v| / (|v| + {Friction.V0 * 1e3:.0f} mm/s)), an odd function of each velocity, "
-                "and a level of its own in each sliding direction (even in v, nil at rest)"
+                "a level of its own in each sliding direction (even in v, nil at rest), and the dry part following "
+                "the guide's load with the gap"
             ),
             law="spline",
             flexible=True,

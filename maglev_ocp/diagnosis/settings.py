@@ -142,6 +142,16 @@ class DiagnoseSettings(Strict):
         Test (d) of the claim guard (:mod:`.stages.claims`): an end effect stays only if its force lost as the
         array overhangs stays below this share of its largest value within the middle sixth of the stroke the
         runs visit, ``|d| <= stroke / 6`` (an overhang acts at the ends; 0: no test).
+    lock_beta : float
+        Test (e) of the claim guard (:mod:`.stages.claims`): cogging is not claimed when, in the channel where its
+        shape is largest, the shape moves along ``d`` with the currents' electrical angle by at least this
+        fraction of the current vector's angle (1: a ripple locked to the currents; significant against the
+        circular-shift null; :func:`.signatures.angle_lock`) (0: no test).
+    lock_beta_max : float
+        ... and at most this fraction (a ripple locked to the currents shifts by their angle, 1; noise biases
+        the estimate towards 0, not beyond 1: a larger shift is some other law's);
+    lock_share : float
+        ... and the shift's column explains at least this share of the shape's rms.
     gap_min_floor : float
         A located gap (a period in d that is no library period, a drift in time) is reported when it explains
         at least this rms over the channel's noise floor (0: no search).
@@ -195,6 +205,9 @@ class DiagnoseSettings(Strict):
     signature_min_floor: float = Field(0.3, ge=0.0, le=10.0)
     leftover_ratio: float = Field(1.0, ge=0.0, le=10.0)
     end_locality: float = Field(0.1, ge=0.0, le=1.0)
+    lock_beta: float = Field(0.3, ge=0.0, le=2.0)
+    lock_beta_max: float = Field(1.3, ge=0.0, le=5.0)
+    lock_share: float = Field(0.05, ge=0.0, le=1.0)
     gap_min_floor: float = Field(1.0, ge=0.0, le=100.0)
     drift_min_floor: float = Field(0.5, ge=0.0, le=100.0)
     exclude_laws: dict[str, list[str]] = Field(default_factory=dict)

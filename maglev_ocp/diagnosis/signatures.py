@@ -114,6 +114,21 @@ def end_columns(n: int = END_STEPS, middle: float = END_MIDDLE) -> list[Column]:
     return [lambda f, s=s, j=j: _end_step(f, s, j, n, middle) for s in (1, -1) for j in range(n)]
 
 
+#: Cubic B-splines in the gap of an effect's amplitude at full freedom (:attr:`Signature.own`).
+GAP_SPLINES: int = 5
+
+
+def _gap_spline(f: Feat, j: int, n: int = GAP_SPLINES) -> np.ndarray:
+    """B-spline ``j`` of ``n`` cubic ones over the 0.5..99.5 % range of the samples' gap."""
+    g = f["g"]
+    if not len(g):
+        return np.zeros_like(g)
+    lo, hi = (float(x) for x in np.percentile(g, [0.5, 99.5]))
+    if not hi > lo:
+        return np.ones_like(g) if j == 0 else np.zeros_like(g)
+    return _bsplines(g, lo, hi, n)[:, j]
+
+
 def _spring(f: Feat) -> np.ndarray:
     """A force linear in ``d`` over the whole stroke (a spring, a cable's pull): what an end effect is not."""
     return f["d"] / 0.05
@@ -149,6 +164,12 @@ class Signature:
         ``{channel: [columns]}``: laws of another kind that the basis also spans in part (the end effect's: a
         spring, a linear function of the gap and a uniform scale of the current's force over the whole stroke);
         the basis must show beyond them, as beyond the other effects' bases.
+    own : dict
+        ``{channel: [columns]}``: the effect's shape at full freedom in its own variables (cogging: its harmonics
+        times cubic B-splines in the gap), for :func:`angle_lock`.
+    angle_free : bool
+        The effect is fixed to the mover's position, not to the currents' electrical angle (cogging): a ripple of
+        its shape that moves along ``d`` with the current vector's angle is not its (:func:`angle_lock`).
     """
 
     effect: str
@@ -161,10 +182,12 @@ class Signature:
     fixed: tuple[str, ...] = ()
     dynamic: bool = False
     beyond: dict[str, list[Column]] = field(default_factory=dict)
+    own: dict[str, list[Column]] = field(default_factory=dict)
+    angle_free: bool = False
 
     def matrix(self, feat: Feat, channel: str, part: str = "basis") -> np.ndarray:
-        """The basis (``part="beyond"``: the :attr:`beyond` columns) evaluated on a run's residual samples,
-        shape ``(n, p)`` (``p = 0`` off its channels)."""
+        """The basis (``part``: ``"beyond"`` or ``"own"``, those columns) evaluated on a run's
+        residual samples, shape ``(n, p)`` (``p = 0`` off its channels)."""
         cols = getattr(self, part).get(channel, [])
         n = len(feat["t"]) if "t" in feat else 0
         if not cols or n == 0:
@@ -207,12 +230,23 @@ def _catalogue() -> dict[str, Signature]:
     # its 2nd and 3rd harmonics are k = 2, 4, 6 (the co-energy member's harmonics, Cogging.energy_forces).
     cog = [c for h in range(1, 7) for c in _sincos(2 * t1, h)]
     cog_g = cog + _times(cog, _dg)  # amplitude a smooth function of g (eq. (9): exponential in g)
+    # At full freedom in its own variables: every harmonic times cubic B-splines in g (any smooth amplitude law).
+    cog_own = [c for j in range(GAP_SPLINES) for c in _times(cog, lambda f, j=j: _gap_spline(f, j))]
     # Odd in each velocity (Coulomb, viscous). A friction's directional part (even, nil at rest: a level of its
     # own per sliding direction) is not a column: on a stroke swept back and forth it is a constant with dips at
     # the reversals, which any force at the turning points shares (a cogging residual showed as friction with
     # it); a dissipative friction has a Coulomb level at least its directional one, so the odd part shows.
-    fr_g = [lambda f: np.tanh(f["g_dot"] / _V_SIGN), lambda f: f["g_dot"]]
-    fr_d = [lambda f: np.tanh(f["d_dot"] / _V_SIGN), lambda f: f["d_dot"]]
+    # The dry level may follow the guide's load with the gap (Friction's ``load``): its sign times (g - 10 mm).
+    fr_g = [
+        lambda f: np.tanh(f["g_dot"] / _V_SIGN),
+        lambda f: f["g_dot"],
+        lambda f: np.tanh(f["g_dot"] / _V_SIGN) * _dg(f),
+    ]
+    fr_d = [
+        lambda f: np.tanh(f["d_dot"] / _V_SIGN),
+        lambda f: f["d_dot"],
+        lambda f: np.tanh(f["d_dot"] / _V_SIGN) * _dg(f),
+    ]
     ends = end_columns()
     ends_g = ends + _times(ends, _dg)  # the current-free end force and pull loss, their size smooth in g
     ripple = [c for h in (1, 2) for c in _sincos(tau, h)]
@@ -226,8 +260,10 @@ def _catalogue() -> dict[str, Signature]:
         Signature("cogging", ("d", "g"), CHANNELS, tuple(2 * t1 / h for h in range(1, 7)),
                   "periodic in d with eq. (9)'s period 2 t1 (harmonics 1-6: the slot pitch t1 and its 2nd and 3rd "
                   "harmonics among them), amplitude smooth in g",
-                  {c: cog_g for c in CHANNELS}),
-        Signature("friction", ("g_dot", "d_dot"), CHANNELS, (), "odd in each axis' velocity",
+                  {c: cog_g for c in CHANNELS},
+                  own={c: cog_own for c in CHANNELS}, angle_free=True),
+        Signature("friction", ("g_dot", "d_dot", "g"), CHANNELS, (),
+                  "odd in each axis' velocity, its dry level smooth in the guide's load (the gap)",
                   {"vertical": fr_g, "horizontal": fr_d}),
         Signature("eddy_drag", ("d_dot", "g", "d"), CHANNELS, (), "a drag odd in the horizontal velocity and a "
                   "lift even in it, both falling as the gap opens, the drag's size smooth along the stroke",
@@ -569,6 +605,81 @@ def core_evidence(
     return out
 
 
+def _current_angle(feat: Feat) -> np.ndarray:
+    """The current vector's angle in the rotor's dq frame [rad, electrical]: ``atan2(i_q, i_d)`` (MODEL.md's dq
+    convention: ``i_d`` along the magnets' field, the electrical angle ``pi d / tau``)."""
+    return np.arctan2(feat["i_q"], feat["i_d"])
+
+
+def angle_lock(
+    sig: Signature,
+    residuals: Sequence[Residual],
+    floors: dict[str, float],
+    others: Sequence[str] = (),
+    n_null: int = 60,
+    alpha: float = 0.01,
+    seed: int = 0,
+    step: float = 1e-5,
+) -> dict[str, dict[str, float]]:
+    """Does a ripple of ``sig``'s shape move along ``d`` with the currents' electrical angle?
+
+    A force fixed to the position (cogging) is ``R(d, g)``. A ripple that the inverter or the current loop makes
+    (a dead time stepping each phase current with its sign: Murai, Watanabe & Iwasaki, IEEE Trans. IA 23(5), 1987;
+    a current sensor's offset or gain) is a function of the *currents'* electrical angle ``pi d / tau + phi``,
+    ``phi = atan2(i_q, i_d)`` the current vector's angle in the dq frame: ``R(d + phi tau / pi, g) ~ R + beta phi
+    (tau / pi) dR/dd`` with ``beta = 1``. Per channel: ``y`` is the residual beyond a constant, the other named
+    effects' bases and ``sig``'s :attr:`~Signature.beyond` columns; ``R`` is its fit by ``sig``'s
+    :attr:`~Signature.own` columns (least squares), ``dR/dd`` the same columns' derivative (central differences
+    of ``step`` in ``d``) times the fitted coefficients; ``beta`` is the least-squares coefficient of the column
+    ``phi (tau / pi) dR/dd`` beyond the own columns and beyond shifts that follow the motion, ``tanh(v / 2 mm/s)
+    dR/dd`` and ``v dR/dd`` (a hysteretic or lossy tooth's pattern lags the motion by its direction or its
+    speed, as the residual filter does; in closed loop the current angle follows both), tested against the
+    ``1 - alpha`` quantile of ``|beta|`` on the remainder circularly shifted within its runs. Noise in ``phi``
+    and in the fitted slope biases ``beta`` towards 0 (errors in variables), not beyond 1. Returns ``{channel:
+    {beta, beta_null_q, lock_rms_over_floor, own_rms_over_floor, lock_share}}``, ``lock_share`` the rms the lock
+    column explains over the rms of ``R``.
+    """
+    rng = np.random.default_rng(np.random.SeedSequence([seed, len(sig.effect), 2]))
+    out: dict[str, dict[str, float]] = {}
+    for c, ch in enumerate(CHANNELS):
+        if not sig.own.get(ch):
+            continue
+        y, feat, ids = _stack(residuals, c)
+        if len(y) < 100:
+            continue
+        a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != sig.effect]
+        a.append(sig.matrix(feat, ch, "beyond"))
+        a = np.column_stack([np.ones((len(y), 1)), *(_normalized(x) for x in a if x.shape[1])])
+        own = sig.matrix(feat, ch, "own")
+        plus, minus = ({**feat, "d": feat["d"] + s_ * step} for s_ in (1.0, -1.0))
+        d_own = (sig.matrix(plus, ch, "own") - sig.matrix(minus, ch, "own")) / (2 * step)
+        xa = np.column_stack([a, own])
+        coef, *_ = np.linalg.lstsq(xa, y, rcond=None)
+        r_own = y - xa @ coef
+        shape = own @ coef[a.shape[1] :]
+        slope = d_own @ coef[a.shape[1] :]
+        lock = _current_angle(feat) * (k.tau / math.pi) * slope
+        # beyond shifts that follow the motion: a hysteretic or lossy tooth's pattern lags the motion (by its
+        # direction, by its speed), as does the residual filter's; in closed loop the current angle follows both
+        v = feat["d_dot"]
+        moves = np.column_stack([np.tanh(v / _V_SIGN) * slope, v / 0.1 * slope])
+        q = _orth(np.column_stack([xa, moves]))
+        r_own = r_own - q @ (q.T @ r_own)
+        lock = lock - q @ (q.T @ lock)
+        ll = float(lock @ lock)
+        fl = floors.get(ch, math.nan)
+        if ll <= 0 or not (np.isfinite(fl) and fl > 0):
+            continue
+        beta = float(lock @ r_own) / ll
+        null = [abs(float(lock @ _shifted(r_own, ids, rng))) / ll for _ in range(n_null)]
+        lock_rms = abs(beta) * math.sqrt(ll / len(y))
+        own_rms = float(np.sqrt(np.mean((shape - shape.mean()) ** 2)))
+        out[ch] = {"beta": beta, "beta_null_q": float(np.quantile(null, 1 - alpha)) if null else math.inf,
+                   "lock_rms_over_floor": lock_rms / fl, "own_rms_over_floor": own_rms / fl,
+                   "lock_share": lock_rms / own_rms if own_rms > 0 else math.inf}  # fmt: skip
+    return out
+
+
 def period_scan(
     residuals: Sequence[Residual], c: int, periods_m: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -663,6 +774,7 @@ __all__ = [
     "STATIC_V_SCALES",
     "Signature",
     "SignatureEvidence",
+    "angle_lock",
     "core_evidence",
     "end_columns",
     "evidence",
