@@ -60,6 +60,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         *range(8800, 8807),  # full-size trials of rigsim's eighth law set (lawsv8: one dataset per family, draws)
         *range(8900, 8907),  # full-size trials of rigsim's ninth law set (lawsv9: one dataset per family, draws)
         *range(9000, 9007),  # full-size trials of rigsim's tenth law set (lawsv10: one dataset per family, draws)
+        *range(9100, 9107),  # full-size trials of rigsim's eleventh law set (lawsv11: one dataset per family, draws)
     }
 )  # fmt: skip
 
