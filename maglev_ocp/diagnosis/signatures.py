@@ -560,6 +560,14 @@ def state_map_basis(feat: Feat, variables: Sequence[str]) -> np.ndarray:
     return np.column_stack(cols) if cols else np.zeros((len(feat["t"]), 0))
 
 
+def _other_bases(sig: Signature, feat: Feat, ch: str, others: Sequence[str]) -> list[np.ndarray]:
+    """The columns a test of ``sig`` is judged beyond in channel ``ch``: the other named effects' bases and
+    ``sig``'s :attr:`~Signature.beyond` columns, each block normalized (empty blocks left out)."""
+    a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != sig.effect]
+    a.append(sig.matrix(feat, ch, "beyond"))
+    return [_normalized(x) for x in a if x.shape[1]]
+
+
 def core_evidence(
     sig: Signature,
     residuals: Sequence[Residual],
@@ -588,9 +596,7 @@ def core_evidence(
         if len(y) < 100:
             continue
         b = _normalized(np.column_stack([np.asarray(col(feat), float) for col in cols]))
-        a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != sig.effect]
-        a.append(sig.matrix(feat, ch, "beyond"))
-        a = [np.ones((len(y), 1)), state_map_basis(feat, sig.fixed), *(_normalized(x) for x in a if x.shape[1])]
+        a = [np.ones((len(y), 1)), state_map_basis(feat, sig.fixed), *_other_bases(sig, feat, ch, others)]
         inc = _Increment(np.column_stack(a), b)
         # The test is on what the state map and the others leave (``y_a``): shifted, a large structure of the
         # state would lend the core's smooth columns a share no remainder has, and hide the core in the null.
@@ -647,9 +653,7 @@ def angle_lock(
         y, feat, ids = _stack(residuals, c)
         if len(y) < 100:
             continue
-        a = [SIGNATURES[o].matrix(feat, ch) for o in others if o in SIGNATURES and o != sig.effect]
-        a.append(sig.matrix(feat, ch, "beyond"))
-        a = np.column_stack([np.ones((len(y), 1)), *(_normalized(x) for x in a if x.shape[1])])
+        a = np.column_stack([np.ones((len(y), 1)), *_other_bases(sig, feat, ch, others)])
         own = sig.matrix(feat, ch, "own")
         plus, minus = ({**feat, "d": feat["d"] + s_ * step} for s_ in (1.0, -1.0))
         d_own = (sig.matrix(plus, ch, "own") - sig.matrix(minus, ch, "own")) / (2 * step)
