@@ -1,5 +1,5 @@
 """Test (e) of the claim guard: a ripple locked to the currents' electrical angle is told from cogging
-(:func:`maglev_ocp.diagnosis.signatures.angle_lock`).
+(:func:`maglev_ocp.diagnosis.angle_lock.angle_lock`).
 
 The residuals are built here from laws written for the test: an inverter's dead time (each phase current short by a
 fixed amount with its sign: Murai, Watanabe & Iwasaki, "Waveform distortion and correction circuit for PWM
@@ -17,9 +17,10 @@ import pytest
 from residual_runs import feature_residual
 
 from maglev_ocp import constants as k
+from maglev_ocp.diagnosis.angle_lock import angle_lock
 from maglev_ocp.diagnosis.residuals import Residual
 from maglev_ocp.diagnosis.settings import DiagnoseSettings
-from maglev_ocp.diagnosis.signatures import SIGNATURES, angle_lock
+from maglev_ocp.diagnosis.signatures import SIGNATURES
 
 FLOOR = 0.02  # noise rms [m/s^2]
 FLOORS = {"vertical": FLOOR, "horizontal": FLOOR}
@@ -74,10 +75,15 @@ def _runs(force, seed: int, n_runs: int = 3, n: int = 2000) -> list[Residual]:
     return out
 
 
+def _field_like(rec: dict) -> bool:
+    """The ripple falls with the gap as a field's of its period does (the rule's exception, default settings)."""
+    return bool(rec["decay_mm"] <= ST.lock_field_decay * rec["period_mm"] / (2 * math.pi))
+
+
 def _locked(rec: dict) -> bool:
     """The claim guard's rule of test (e) with the default settings."""
     return bool(ST.lock_beta <= rec["beta"] <= ST.lock_beta_max and rec["beta"] > rec["beta_null_q"]
-                and rec["lock_share"] >= ST.lock_share)  # fmt: skip
+                and rec["lock_share"] >= ST.lock_share and not _field_like(rec))  # fmt: skip
 
 
 @pytest.mark.parametrize("seed", [1, 2])
@@ -87,6 +93,8 @@ def test_a_dead_time_ripple_is_locked_to_the_current_angle(seed):
     share of the ripple's rms above the rule's."""
     rec = angle_lock(SIGNATURES["cogging"], _runs(dead_time, seed), FLOORS, seed=seed)["horizontal"]
     assert rec["own_rms_over_floor"] > 1.0  # the ripple is there, above the noise
+    assert rec["period_mm"] == pytest.approx(k.t1 * 1e3)  # six times the electrical angle: the slot pitch
+    assert rec["decay_mm"] > 3 * k.t1 / (2 * math.pi) * 1e3  # it does not fall with the gap as a field's ripple
     assert _locked(rec), rec
 
 
@@ -99,3 +107,6 @@ def test_cogging_under_the_same_currents_is_not_locked(seed):
         assert rec["own_rms_over_floor"] > 3.0, ch
         assert not _locked(rec), (ch, rec)
         assert abs(rec["beta"]) < 0.2, (ch, rec)
+        # its amplitude falls over 4 mm (the law's): measured within 25 % in the horizontal channel
+        if ch == "horizontal":
+            assert rec["decay_mm"] == pytest.approx(4.0, rel=0.25), rec

@@ -146,12 +146,17 @@ class DiagnoseSettings(Strict):
         Test (e) of the claim guard (:mod:`.stages.claims`): cogging is not claimed when, in the channel where its
         shape is largest, the shape moves along ``d`` with the currents' electrical angle by at least this
         fraction of the current vector's angle (1: a ripple locked to the currents; significant against the
-        circular-shift null; :func:`.signatures.angle_lock`) (0: no test).
+        circular-shift null; :func:`.angle_lock.angle_lock`) (0: no test).
     lock_beta_max : float
         ... and at most this fraction (a ripple locked to the currents shifts by their angle, 1; noise biases
         the estimate towards 0, not beyond 1: a larger shift is some other law's);
     lock_share : float
         ... and the shift's column explains at least this share of the shape's rms.
+    lock_field_decay : float
+        ... unless the shape falls as the gap opens as a field's ripple of its period ``p`` does: its decay length
+        (:func:`.angle_lock.ripple_decay`) at most this many times Laplace's ``p / (2 pi)`` in the gap (the
+        magnets' pull on the teeth; a ripple of the currents falls with the force constants, over ``tau / pi``,
+        about 18 mm; 0: no such exception).
     gap_min_floor : float
         A located gap (a period in d that is no library period, a drift in time) is reported when it explains
         at least this rms over the channel's noise floor (0: no search).
@@ -208,6 +213,7 @@ class DiagnoseSettings(Strict):
     lock_beta: float = Field(0.3, ge=0.0, le=2.0)
     lock_beta_max: float = Field(1.3, ge=0.0, le=5.0)
     lock_share: float = Field(0.05, ge=0.0, le=1.0)
+    lock_field_decay: float = Field(2.0, ge=0.0, le=10.0)
     gap_min_floor: float = Field(1.0, ge=0.0, le=100.0)
     drift_min_floor: float = Field(0.5, ge=0.0, le=100.0)
     exclude_laws: dict[str, list[str]] = Field(default_factory=dict)

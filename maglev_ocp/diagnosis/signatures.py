@@ -59,6 +59,19 @@ END_STEPS: int = 2
 END_MIDDLE: float = 0.25
 
 
+def _dg_mean(f: Feat) -> np.ndarray:
+    """The gap about the samples' mean, per 10 mm (0 for samples at one gap)."""
+    g = f["g"]
+    return (g - float(np.mean(g))) / 10e-3 if len(g) else g
+
+
+def _beyond_flat(v: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """``v (h - c)`` with ``c`` such that it is orthogonal to ``v`` over the samples: a drag whose coefficient
+    follows ``h``, without its flat part."""
+    vv = float(v @ v)
+    return v * (h - (float((v * v) @ h) / vv if vv > 0 else 0.0))
+
+
 def _smoothstep(x: np.ndarray) -> np.ndarray:
     """``0`` below 0, ``1`` above 1, ``x^3 (10 - 15 x + 6 x^2)`` between (twice continuously differentiable)."""
     x = np.clip(x, 0.0, 1.0)
@@ -247,6 +260,16 @@ def _catalogue() -> dict[str, Signature]:
         lambda f: f["d_dot"],
         lambda f: np.tanh(f["d_dot"] / _V_SIGN) * _dg(f),
     ]
+    # A guide's friction (NOTES.md: Coulomb + viscous + Stribeck) has a dry level, its sign the velocity's, and a
+    # viscous coefficient that does not follow the gap. On the gap axis a damping without a dry level is the air
+    # under the mover (a squeeze film, a cover's trapped air), not a guide: friction is judged there beyond any
+    # viscous drag, by its dry level alone. Along d a flat viscous drag stays friction's (or, at one gap, eddy
+    # drag's: the confusable pair an experiment separates, issue 27 item 3); a drag whose coefficient follows
+    # the gap (a conductor's) is not friction's, so friction is judged beyond it.
+    # The coefficient's law in the gap: a cubic in the gap (a squeeze film's 1 / g^3, a conductor's power law);
+    # along d only its part orthogonal to a flat drag (at one gap, none).
+    visc_g = [lambda f, j=j: f["g_dot"] * _dg_mean(f) ** j for j in range(4)]
+    visc_d = [lambda f, j=j: _beyond_flat(f["d_dot"], _dg_mean(f) ** j) for j in range(1, 4)]
     ends = end_columns()
     ends_g = ends + _times(ends, _dg)  # the current-free end force and pull loss, their size smooth in g
     ripple = [c for h in (1, 2) for c in _sincos(tau, h)]
@@ -263,8 +286,9 @@ def _catalogue() -> dict[str, Signature]:
                   {c: cog_g for c in CHANNELS},
                   own={c: cog_own for c in CHANNELS}, angle_free=True),
         Signature("friction", ("g_dot", "d_dot", "g"), CHANNELS, (),
-                  "odd in each axis' velocity, its dry level smooth in the guide's load (the gap)",
-                  {"vertical": fr_g, "horizontal": fr_d}),
+                  "odd in each axis' velocity, its dry level smooth in the guide's load (the gap); on the gap axis "
+                  "a dry level beyond any viscous drag, along d beyond a drag that follows the gap",
+                  {"vertical": fr_g, "horizontal": fr_d}, beyond={"vertical": visc_g, "horizontal": visc_d}),
         Signature("eddy_drag", ("d_dot", "g", "d"), CHANNELS, (), "a drag odd in the horizontal velocity and a "
                   "lift even in it, both falling as the gap opens, the drag's size smooth along the stroke",
                   {"horizontal": [lambda f: f["d_dot"], lambda f: f["d_dot"] * _dg(f),
@@ -611,79 +635,6 @@ def core_evidence(
     return out
 
 
-def _current_angle(feat: Feat) -> np.ndarray:
-    """The current vector's angle in the rotor's dq frame [rad, electrical]: ``atan2(i_q, i_d)`` (MODEL.md's dq
-    convention: ``i_d`` along the magnets' field, the electrical angle ``pi d / tau``)."""
-    return np.arctan2(feat["i_q"], feat["i_d"])
-
-
-def angle_lock(
-    sig: Signature,
-    residuals: Sequence[Residual],
-    floors: dict[str, float],
-    others: Sequence[str] = (),
-    n_null: int = 60,
-    alpha: float = 0.01,
-    seed: int = 0,
-    step: float = 1e-5,
-) -> dict[str, dict[str, float]]:
-    """Does a ripple of ``sig``'s shape move along ``d`` with the currents' electrical angle?
-
-    A force fixed to the position (cogging) is ``R(d, g)``. A ripple that the inverter or the current loop makes
-    (a dead time stepping each phase current with its sign: Murai, Watanabe & Iwasaki, IEEE Trans. IA 23(5), 1987;
-    a current sensor's offset or gain) is a function of the *currents'* electrical angle ``pi d / tau + phi``,
-    ``phi = atan2(i_q, i_d)`` the current vector's angle in the dq frame: ``R(d + phi tau / pi, g) ~ R + beta phi
-    (tau / pi) dR/dd`` with ``beta = 1``. Per channel: ``y`` is the residual beyond a constant, the other named
-    effects' bases and ``sig``'s :attr:`~Signature.beyond` columns; ``R`` is its fit by ``sig``'s
-    :attr:`~Signature.own` columns (least squares), ``dR/dd`` the same columns' derivative (central differences
-    of ``step`` in ``d``) times the fitted coefficients; ``beta`` is the least-squares coefficient of the column
-    ``phi (tau / pi) dR/dd`` beyond the own columns and beyond shifts that follow the motion, ``tanh(v / 2 mm/s)
-    dR/dd`` and ``v dR/dd`` (a hysteretic or lossy tooth's pattern lags the motion by its direction or its
-    speed, as the residual filter does; in closed loop the current angle follows both), tested against the
-    ``1 - alpha`` quantile of ``|beta|`` on the remainder circularly shifted within its runs. Noise in ``phi``
-    and in the fitted slope biases ``beta`` towards 0 (errors in variables), not beyond 1. Returns ``{channel:
-    {beta, beta_null_q, lock_rms_over_floor, own_rms_over_floor, lock_share}}``, ``lock_share`` the rms the lock
-    column explains over the rms of ``R``.
-    """
-    rng = np.random.default_rng(np.random.SeedSequence([seed, len(sig.effect), 2]))
-    out: dict[str, dict[str, float]] = {}
-    for c, ch in enumerate(CHANNELS):
-        if not sig.own.get(ch):
-            continue
-        y, feat, ids = _stack(residuals, c)
-        if len(y) < 100:
-            continue
-        a = np.column_stack([np.ones((len(y), 1)), *_other_bases(sig, feat, ch, others)])
-        own = sig.matrix(feat, ch, "own")
-        plus, minus = ({**feat, "d": feat["d"] + s_ * step} for s_ in (1.0, -1.0))
-        d_own = (sig.matrix(plus, ch, "own") - sig.matrix(minus, ch, "own")) / (2 * step)
-        xa = np.column_stack([a, own])
-        coef, *_ = np.linalg.lstsq(xa, y, rcond=None)
-        r_own = y - xa @ coef
-        shape = own @ coef[a.shape[1] :]
-        slope = d_own @ coef[a.shape[1] :]
-        lock = _current_angle(feat) * (k.tau / math.pi) * slope
-        # beyond shifts that follow the motion: a hysteretic or lossy tooth's pattern lags the motion (by its
-        # direction, by its speed), as does the residual filter's; in closed loop the current angle follows both
-        v = feat["d_dot"]
-        moves = np.column_stack([np.tanh(v / _V_SIGN) * slope, v / 0.1 * slope])
-        q = _orth(np.column_stack([xa, moves]))
-        r_own = r_own - q @ (q.T @ r_own)
-        lock = lock - q @ (q.T @ lock)
-        ll = float(lock @ lock)
-        fl = floors.get(ch, math.nan)
-        if ll <= 0 or not (np.isfinite(fl) and fl > 0):
-            continue
-        beta = float(lock @ r_own) / ll
-        null = [abs(float(lock @ _shifted(r_own, ids, rng))) / ll for _ in range(n_null)]
-        lock_rms = abs(beta) * math.sqrt(ll / len(y))
-        own_rms = float(np.sqrt(np.mean((shape - shape.mean()) ** 2)))
-        out[ch] = {"beta": beta, "beta_null_q": float(np.quantile(null, 1 - alpha)) if null else math.inf,
-                   "lock_rms_over_floor": lock_rms / fl, "own_rms_over_floor": own_rms / fl,
-                   "lock_share": lock_rms / own_rms if own_rms > 0 else math.inf}  # fmt: skip
-    return out
-
-
 def period_scan(
     residuals: Sequence[Residual], c: int, periods_m: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -778,7 +729,6 @@ __all__ = [
     "STATIC_V_SCALES",
     "Signature",
     "SignatureEvidence",
-    "angle_lock",
     "core_evidence",
     "end_columns",
     "evidence",

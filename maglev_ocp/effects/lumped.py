@@ -84,7 +84,13 @@ class EddyDrag(Effect):
     higher harmonics decay faster (the third's ``B^2`` as ``exp(-6 pi g / tau)``). ``kappa`` is bounded to
     ``[2 pi / tau, 6 pi / tau]`` (:attr:`KAPPA_BOUNDS`) and ``B(g)^2`` itself decays faster than the
     fundamental's exponential (its log-slope is ``2 pi / tau coth(pi (h_m + g) / tau)``), so no coefficient
-    of this effect is flat in ``g``: over the stroke 8-32 mm it falls by a factor 14 at least.
+    of the conductor under the array is flat in ``g``: over the stroke 8-32 mm it falls by a factor 14 at least.
+
+    A conductor beside the array (``c_side``, 0 by default: a side wall, a cable duct, a frame rail) sits in the
+    array's leakage field at its side, and the more the mover rises, the more of its side faces the conductor:
+    its drag *grows* as the gap opens, ``c_side exp(kappa_side (g - g_ref))`` with ``kappa_side`` bounded away
+    from 0 (:attr:`KAPPA_SIDE_BOUNDS`), so that it is not flat in g either (a flat coefficient is viscous friction
+    or, at one gap, either: issue 27 item 3's confusable pair).
 
     Profile along the stroke (``dprof_*``, 0 by default): the conductor under the array need not be the same
     everywhere along d: it ends with the stator (a finite plate's drag falls as the magnet nears its edge,
@@ -102,12 +108,19 @@ class EddyDrag(Effect):
     #: Bounds [1/m] of the exponential coefficient's decay rate: the fundamental's B^2 to the third harmonic's.
     KAPPA_BOUNDS: ClassVar[tuple[float, float]] = (2 * math.pi / k.tau, 6 * math.pi / k.tau)
 
+    #: Bounds [1/m] of the side conductor's growth rate with g: from a factor 1.5 over the targets' gaps 15..25 mm
+    #: (a growth that sweeps at two gaps tell from a flat coefficient) to the field's fundamental (the rate at which
+    #: the array's own field falls, as the side facing grows).
+    KAPPA_SIDE_BOUNDS: ClassVar[tuple[float, float]] = (math.log(1.5) / 0.010, 2 * math.pi / k.tau)
+
     name = "eddy_drag"
     params = (
         EffectParam("c_eddy", 20.0, 0.0, 2000.0, "N s/(m T^2)", "low-speed drag coefficient per field squared"),
         EffectParam("c_ref", 0.0, 0.0, 500.0, "N s/m", "low-speed drag coefficient of the exponential at g_ref"),
         EffectParam("kappa", 2 * math.pi / k.tau, *KAPPA_BOUNDS, "1/m", "decay rate of the exponential with g"),
         EffectParam("inv_vc", 0.0, 0.0, 50.0, "s/m", "inverse critical velocity (0: drag linear in velocity)"),
+        EffectParam("c_side", 0.0, 0.0, 500.0, "N s/m", "low-speed drag coefficient of a side conductor at g_ref"),
+        EffectParam("kappa_side", 60.0, *KAPPA_SIDE_BOUNDS, "1/m", "growth rate of the side conductor's drag with g"),
         EffectParam("lift", 0.0, 0.0, 2.0, "-", "lift over Reitz's thin-sheet lift (opens the gap)"),
         EffectParam("c_vert", 0.0, 0.0, 2.0, "-", "vertical damping over the drag's low-speed coefficient"),
         *(
@@ -128,12 +141,15 @@ class EddyDrag(Effect):
 
     @classmethod
     def coefficient(cls, g: Expr, theta: Mapping[str, Expr], d: Expr | None = None) -> Expr:
-        """Low-speed drag coefficient ``c(g)`` [N s/m] at gap ``g`` [m] (decays at least as the field squared),
+        """Low-speed drag coefficient ``c(g)`` [N s/m] at gap ``g`` [m] (decays at least as the field squared; a
+        side conductor's part grows),
         times the profile along the stroke at ``d`` [m] when given (:meth:`profile`)."""
         B = get_model().shape(g)[2]
         c = theta["c_eddy"] * B**2 + theta.get("c_ref", 0.0) * ca.exp(
             -theta.get("kappa", cls.KAPPA_BOUNDS[0]) * (g - k.g_cog_ref)
         )
+        # a conductor beside the array: its drag grows as the gap opens (the class docstring)
+        c = c + theta.get("c_side", 0.0) * ca.exp(theta.get("kappa_side", 60.0) * (g - k.g_cog_ref))
         return c if d is None else c * cls.profile(d, theta)
 
     @classmethod
