@@ -445,7 +445,7 @@ def test_every_v12_family_runs_in_the_closed_loop_and_changes_the_data(tmp_path)
     extra = {
         "half_filled_slots": {"e_p": 0.002, "e_n": 0.002},
         "tapered_stack": {"e_p": 0.004, "e_n": 0.004},
-        "lpf_flux_integrator": {"v_lo": 0.002, "v_hi": 0.01, "w_c": 0.05},
+        "lpf_flux_integrator": {"v_lo": 0.002, "v_hi": 0.01, "w_c": 0.005},
         "hunt_crossley": {"x_p": 0.0005, "x_n": 0.0005},
     }
     for name, cls in V12_LAWS.items():
