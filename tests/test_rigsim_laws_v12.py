@@ -354,7 +354,7 @@ def test_interturn_short_drags_through_the_shorted_coils_linkage():
         assert fg == pytest.approx(-c * emf * pg, rel=1e-5, abs=1e-9)
         assert fd == pytest.approx(-c * emf * pd, rel=1e-5, abs=1e-9)
         assert fg * gd + fd * dd <= 0  # dissipative
-    # the largest drag along d at 15 mm is c0, a quarter pole pitch from the coil's centre
+    # the largest drag along d at 15 mm is c0, half a pole pitch from the coil's centre
     assert -law.force(0.015, 0.0, 0.01 + k.tau / 2, 1.0)[1] == pytest.approx(3.0, rel=1e-9)
     assert law.force(0.015, 0.0, 0.01, 1.0)[1] == pytest.approx(0.0, abs=1e-12)
     assert law.force(0.015, 0.0, 0.01 + 2.6 * k.tau, 1.0)[1] == 0.0  # the array has left the coil

@@ -138,8 +138,8 @@ def _eddy(rng):
     if fam == "interturn_short":  # 1-5 N s/m at 15 mm (a few shorted turns of tens of milliohm), the coil within
         # +-30 mm of the middle
         return {"family": fam, "c0": _u(rng, 1.0, 5.0), "x_s": _u(rng, -0.03, 0.03)}
-    # 2-6 N s/m at d = 0 and 15 mm, a slope of 0.05-0.15 either way (the drag 1.6-4 times larger at one end than at
-    # the other over +-45 mm)
+    # 2-6 N s/m at d = 0 and 15 mm, a slope of 0.05-0.15 either way (the drag 1.6-4.4 times larger at one end than
+    # at the other over +-45 mm)
     return {"family": fam, "c0": _u(rng, 2.0, 6.0), "s_t": _pm(rng, 0.05, 0.15)}
 
 
