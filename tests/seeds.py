@@ -62,6 +62,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         *range(8900, 8907),  # full-size trials of rigsim's ninth law set (lawsv9: one dataset per family, draws)
         *range(9000, 9007),  # full-size trials of rigsim's tenth law set (lawsv10: one dataset per family, draws)
         *range(9100, 9107),  # full-size trials of rigsim's eleventh law set (lawsv11: one dataset per family, draws)
+        *range(9200, 9206),  # full-size trials of rigsim's twelfth law set (lawsv12: one dataset per family, draws)
     }
 )  # fmt: skip
 

@@ -9,8 +9,8 @@ can be checked on a rig they were not built from.
 * :mod:`.physics` - nominal shape functions, seed eq. (2) and the cogging of eq. (9), from MODEL.md;
 * :mod:`.laws` - effects as law families (library effects and ones outside the library);
 * :mod:`.laws_new`, :mod:`.laws_v3`, :mod:`.laws_v4`, :mod:`.laws_v5`, :mod:`.laws_v6`, :mod:`.laws_v7`,
-  :mod:`.laws_v8`, :mod:`.laws_v9`, :mod:`.laws_v10`, :mod:`.laws_v11` - a second to eleventh set of families from
-  the literature (issue 27; :mod:`.draw_v4` ... :mod:`.draw_v11` draw the fourth to eleventh);
+  :mod:`.laws_v8`, :mod:`.laws_v9`, :mod:`.laws_v10`, :mod:`.laws_v11`, :mod:`.laws_v12` - a second to twelfth set of
+  families from the literature (issue 27; :mod:`.draw_v4` ... :mod:`.draw_v12` draw the fourth to twelfth);
 * :mod:`.control` - the generator's own feedback-linearizing PID controller;
 * :mod:`.sim` - the rig (amplifier, encoders, noise, stops) and the closed loop (Dormand-Prince 5);
 * :mod:`.excite` - min-jerk moves at varied speeds plus dither over the gap band and the stroke;
@@ -34,7 +34,8 @@ from .laws_v7 import EFFECTS_V7, V7_LAWS
 from .laws_v8 import EFFECTS_V8, V8_LAWS
 from .laws_v9 import EFFECTS_V9, V9_LAWS
 from .laws_v10 import EFFECTS_V10, V10_LAWS
-from .laws_v11 import EFFECTS_V11, V11_LAWS, make_law
+from .laws_v11 import EFFECTS_V11, V11_LAWS
+from .laws_v12 import EFFECTS_V12, V12_LAWS, make_law
 from .physics import NOMINAL, Constants
 from .sim import RigSettings
 
@@ -51,6 +52,7 @@ __all__ = [
     "EFFECTS_V9",
     "EFFECTS_V10",
     "EFFECTS_V11",
+    "EFFECTS_V12",
     "LAWS",
     "LIBRARY_EFFECTS",
     "NEW_LAWS",
@@ -65,6 +67,7 @@ __all__ = [
     "V9_LAWS",
     "V10_LAWS",
     "V11_LAWS",
+    "V12_LAWS",
     "Constants",
     "RigSettings",
     "draw",

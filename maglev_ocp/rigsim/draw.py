@@ -27,6 +27,7 @@ from .draw_v8 import draw_v8
 from .draw_v9 import draw_v9
 from .draw_v10 import draw_v10
 from .draw_v11 import draw_v11
+from .draw_v12 import draw_v12
 from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
 from .laws_new import ALL_EFFECTS, ALL_LIBRARY, ALL_OUT_OF_LIBRARY, NEW_LAWS
 from .laws_v3 import EFFECTS_V3, V3_LAWS, V3_LIBRARY, V3_OUT_OF_LIBRARY
@@ -433,8 +434,9 @@ V3_DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
 #: ``v6`` (only the sixth, :mod:`.laws_v6`, drawn by :mod:`.draw_v6`), ``v7`` (only the seventh, :mod:`.laws_v7`,
 #: drawn by :mod:`.draw_v7`), ``v8`` (only the eighth, :mod:`.laws_v8`, drawn by :mod:`.draw_v8`), ``v9`` (only the
 #: ninth, :mod:`.laws_v9`, drawn by :mod:`.draw_v9`), ``v10`` (only the tenth, :mod:`.laws_v10`, drawn by
-#: :mod:`.draw_v10`) or ``v11`` (only the eleventh, :mod:`.laws_v11`, drawn by :mod:`.draw_v11`).
-LAW_SETS: tuple[str, ...] = ("all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11")
+#: :mod:`.draw_v10`), ``v11`` (only the eleventh, :mod:`.laws_v11`, drawn by :mod:`.draw_v11`) or ``v12`` (only
+#: the twelfth, :mod:`.laws_v12`, drawn by :mod:`.draw_v12`).
+LAW_SETS: tuple[str, ...] = ("all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11", "v12")
 P_NEW = 0.5
 
 #: Probability of each kind of scenario.
@@ -451,12 +453,12 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
         spawned separately).
     kind : str, optional
         Force one of :data:`KINDS` (default: drawn with their probabilities).
-    laws : {"all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11"}
+    laws : {"all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11", "v12"}
         Law families to draw from (:data:`LAW_SETS`). ``old`` reproduces the scenarios drawn before
         the new families existed; ``all`` and ``new`` draw the effects and their laws from a second
         stream of the same seed, ``v3`` from a third, ``v4`` from a fourth, ``v5`` from a fifth, ``v6`` from
         a sixth, ``v7`` from a seventh, ``v8`` from an eighth, ``v9`` from a ninth, ``v10`` from a tenth, ``v11``
-        from an eleventh. Every effect's spec carries ``new_law``.
+        from an eleventh, ``v12`` from a twelfth. Every effect's spec carries ``new_law``.
     """
     if laws not in LAW_SETS:
         raise ValueError(f"laws must be one of {list(LAW_SETS)}, got {laws!r}")
@@ -485,6 +487,8 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
         return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v10(seed, kind, n)}
     if laws == "v11":
         return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v11(seed, kind, n)}
+    if laws == "v12":
+        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v12(seed, kind, n)}
     if laws == "v3":
         rng3 = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157, 27, 3]))
         effects = draw_effects(rng3, kind, n, V3_LIBRARY, V3_OUT_OF_LIBRARY, V3_DRAWS, EFFECTS_V3, True)
