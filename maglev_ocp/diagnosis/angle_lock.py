@@ -17,7 +17,18 @@ import numpy as np
 
 from .. import constants as k
 from .residuals import CHANNELS, Residual
-from .signatures import _V_SIGN, GAP_SPLINES, Feat, Signature, _bsplines, _orth, _other_bases, _shifted, _stack
+from .signatures import (
+    _V_SIGN,
+    GAP_SPLINES,
+    Feat,
+    Signature,
+    _bsplines,
+    _orth,
+    _other_bases,
+    _shifted,
+    _stack,
+    gap_range,
+)
 
 
 def _current_angle(feat: Feat) -> np.ndarray:
@@ -111,12 +122,12 @@ def ripple_decay(sig: Signature, g: np.ndarray, coef: np.ndarray, lo_q: float = 
     if c.size != 2 * n_h * GAP_SPLINES or not len(g):
         return {"decay_mm": math.nan, "period_mm": math.nan}
     c = c.reshape(GAP_SPLINES, n_h, 2)
-    lo, hi = (float(x) for x in np.percentile(g, [0.5, 99.5]))
-    at = np.array([float(np.percentile(g, lo_q)), float(np.percentile(g, hi_q))])
-    if not hi > lo or not at[1] > at[0]:
+    rng = gap_range(g)  # the range of the splines the fit used
+    at = np.percentile(g, [lo_q, hi_q])
+    if rng is None or not at[1] > at[0]:
         return {"decay_mm": math.nan, "period_mm": math.nan}
-    amp = np.linalg.norm(np.einsum("gj,jhs->ghs", _bsplines(at, lo, hi, GAP_SPLINES), c), axis=2)  # (gap, h)
-    per_h = np.linalg.norm(np.einsum("gj,jhs->ghs", _bsplines(g, lo, hi, GAP_SPLINES), c), axis=2).mean(axis=0)
+    amp = np.linalg.norm(np.einsum("gj,jhs->ghs", _bsplines(at, *rng, GAP_SPLINES), c), axis=2)  # (gap, h)
+    per_h = np.linalg.norm(np.einsum("gj,jhs->ghs", _bsplines(g, *rng, GAP_SPLINES), c), axis=2).mean(axis=0)
     a_lo, a_hi = (float(np.linalg.norm(x)) for x in amp)
     fall = math.log(a_lo / a_hi) if a_lo > 0 and a_hi > 0 else math.nan
     decay = (at[1] - at[0]) / fall if fall > 0 else math.inf

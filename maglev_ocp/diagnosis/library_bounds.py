@@ -30,7 +30,7 @@ _TERM_WEIGHT = (0.0, 0.8, 0.05, 0.1)  # a magnetic term's share of the saturatio
 _FACTOR = (0.5, 2.0, 1.0, 0.05)  # a factor on a model term
 
 #: Every parameter a candidate fits: key -> (lo, hi, start, scale) in physical units (see :class:`Free`).
-#: One definition per key; the specs below pick theirs by key.
+#: One definition per key; the specs of :mod:`.library` pick theirs by key.
 FREE: dict[str, tuple[float, float, float, float]] = {
     # cogging: the seed's law (in p), harmonics, and the free-decay law's own amplitude, decay and shape
     "p.xi0": _COGGING_PEAK,
@@ -120,7 +120,7 @@ FREE: dict[str, tuple[float, float, float, float]] = {
     **{f"eddy_drag.{n}": (-1.0, 3.0, 0.0, 0.5) for n in EddyDrag.profile_names()},
     # a conductor beside the array: its coefficient at g_ref [N s/m] and its growth rate with the gap (never flat)
     "eddy_drag.c_side": (*_eb("eddy_drag", "c_side"), 5.0, 10.0),
-    "eddy_drag.kappa_side": (*EddyDrag.KAPPA_SIDE_BOUNDS, 60.0, 20.0),
+    "eddy_drag.kappa_side": (*EddyDrag.KAPPA_SIDE_BOUNDS, EddyDrag.KAPPA_SIDE_DEFAULT, 20.0),
     # parameter error: factors on C1..C4 (C4, a small term, may be off by more)
     "parameter_error.k_C1": _FACTOR,
     "parameter_error.k_C2": _FACTOR,

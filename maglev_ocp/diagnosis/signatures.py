@@ -131,15 +131,22 @@ def end_columns(n: int = END_STEPS, middle: float = END_MIDDLE) -> list[Column]:
 GAP_SPLINES: int = 5
 
 
-def _gap_spline(f: Feat, j: int, n: int = GAP_SPLINES) -> np.ndarray:
-    """B-spline ``j`` of ``n`` cubic ones over the 0.5..99.5 % range of the samples' gap."""
-    g = f["g"]
+def gap_range(g: np.ndarray) -> tuple[float, float] | None:
+    """The 0.5..99.5 % range of the samples' gap over which :func:`_gap_spline`'s B-splines lie (``None``: no
+    samples, or all at one gap)."""
     if not len(g):
-        return np.zeros_like(g)
+        return None
     lo, hi = (float(x) for x in np.percentile(g, [0.5, 99.5]))
-    if not hi > lo:
-        return np.ones_like(g) if j == 0 else np.zeros_like(g)
-    return _bsplines(g, lo, hi, n)[:, j]
+    return (lo, hi) if hi > lo else None
+
+
+def _gap_spline(f: Feat, j: int, n: int = GAP_SPLINES) -> np.ndarray:
+    """B-spline ``j`` of ``n`` cubic ones over the 0.5..99.5 % range of the samples' gap (:func:`gap_range`)."""
+    g = f["g"]
+    rng = gap_range(g)
+    if rng is None:
+        return np.ones_like(g) if j == 0 else np.zeros_like(g)  # empty, or every sample at one gap
+    return _bsplines(g, *rng, n)[:, j]
 
 
 def _spring(f: Feat) -> np.ndarray:
