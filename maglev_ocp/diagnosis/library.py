@@ -233,6 +233,9 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       and ``two ends, winding force``: ends of their own, with the magnets'
       end force and the winding's (a force along d quadratic in the
       currents, where the armature's inductance changes at a stator end);
+      ``two ends, winding loss``: ends of their own, the magnets' pull
+      keeping a share of its own (``edge_pm``: the winding's linkage lost at
+      the ends, the iron's pull whole);
       ``spline profile``: a loss of any
       smooth shape in ``|d|`` that never falls as the overhang grows (a cubic
       B-spline with non-negative steps, the same at both ends, so it also
@@ -592,6 +595,21 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
                 "currents (co-energy (1/2) L(d) i^2), with the loss's onset at each end"
             ),
             law="two ends, winding force",
+        ),
+        CandidateSpec(
+            "end_effect",
+            ("end_effect",),
+            free=(
+                *lib["end_effect"].free,
+                *_free("end_effect.edge_gain", "end_effect.edge_quad", "end_effect.edge_skew", "end_effect.gain_skew"),
+                *_free("end_effect.edge_pm"),
+            ),
+            note=(
+                "the two ends' overhang loss with the magnets' pull keeping a share of its own: where the "
+                "winding's linkage ends before the iron does (end coils, a double-layer winding's half-filled "
+                "end slots) the currents' terms lose and the pull does not"
+            ),
+            law="two ends, winding loss",
         ),
         CandidateSpec(
             "end_effect",

@@ -66,6 +66,7 @@ FREE: dict[str, tuple[float, float, float, float]] = {
     "end_effect.edge_gain": (0.0, 5.0, 1.0, 0.5),
     "end_effect.edge_quad": (-20.0, 20.0, 0.0, 2.0),
     "end_effect.edge_cog": (0.0, 1.0, 1.0, 0.5),
+    "end_effect.edge_pm": (0.0, 1.0, 1.0, 0.5),
     "end_effect.edge_skew": (-0.05, 0.05, 0.0, 0.005),
     "end_effect.gain_skew": (-0.9, 0.9, 0.0, 0.2),
     "end_effect.end_force": (0.0, 20.0, 0.5, 1.0),  # the end force at g = 10 mm [N]

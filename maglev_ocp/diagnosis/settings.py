@@ -142,6 +142,12 @@ class DiagnoseSettings(Strict):
         Test (d) of the claim guard (:mod:`.stages.claims`): an end effect stays only if its force lost as the
         array overhangs stays below this share of its largest value within the middle sixth of the stroke the
         runs visit, ``|d| <= stroke / 6`` (an overhang acts at the ends; 0: no test).
+    end_force_decay : float
+        Test (d) of the claim guard, the end force's origin: an end effect seen only along d (its signature not
+        in the gap channel) whose fitted loss of the magnetic terms is nil rests on its end force alone, and stays
+        only if that force falls as the gap opens as the overlap's co-energy does: its fitted decay length in the
+        gap, plus one standard error, at most this many times a pole-pitch field energy's ``tau / (2 pi)`` (a
+        contact at the stroke's end, a bumper or a stop, pushes whatever the gap; 0: no test).
     lock_beta : float
         Test (e) of the claim guard (:mod:`.stages.claims`): cogging is not claimed when, in the channel where its
         shape is largest, the shape moves along ``d`` with the currents' electrical angle by at least this
@@ -210,6 +216,7 @@ class DiagnoseSettings(Strict):
     signature_min_floor: float = Field(0.3, ge=0.0, le=10.0)
     leftover_ratio: float = Field(1.0, ge=0.0, le=10.0)
     end_locality: float = Field(0.1, ge=0.0, le=1.0)
+    end_force_decay: float = Field(2.0, ge=0.0, le=10.0)
     lock_beta: float = Field(0.3, ge=0.0, le=2.0)
     lock_beta_max: float = Field(1.3, ge=0.0, le=5.0)
     lock_share: float = Field(0.05, ge=0.0, le=1.0)

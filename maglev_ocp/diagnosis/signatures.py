@@ -127,6 +127,9 @@ def end_columns(n: int = END_STEPS, middle: float = END_MIDDLE) -> list[Column]:
     return [lambda f, s=s, j=j: _end_step(f, s, j, n, middle) for s in (1, -1) for j in range(n)]
 
 
+#: Smooth steps per end of the end-localized loss saturation's signature is judged beyond (:data:`SIGNATURES`).
+SATURATION_END_STEPS: int = 4
+
 #: Cubic B-splines in the gap of an effect's amplitude at full freedom (:attr:`Signature.own`).
 GAP_SPLINES: int = 5
 
@@ -279,6 +282,11 @@ def _catalogue() -> dict[str, Signature]:
     visc_d = [lambda f, j=j: _beyond_flat(f["d_dot"], _dg_mean(f) ** j) for j in range(1, 4)]
     ends = end_columns()
     ends_g = ends + _times(ends, _dg)  # the current-free end force and pull loss, their size smooth in g
+    # A loss at the ends of any smooth profile, which saturation (the same along the stroke) is judged beyond: the
+    # end effect's own basis keeps the circular-shift null's power with two steps per end; as columns to be
+    # judged *beyond*, four follow a profile's shape (a linear ramp over the last slots) closely enough that its
+    # misfit does not pass for saturation's loss of the current terms
+    ends_fine = end_columns(SATURATION_END_STEPS)
     ripple = [c for h in (1, 2) for c in _sincos(tau, h)]
     sat = [lambda f, ell=ell: np.exp(-(f["g"] - 8e-3) / ell) for ell in (2e-3, 5e-3)]
     one: Column = lambda f: np.ones_like(f["t"])  # noqa: E731
@@ -309,10 +317,13 @@ def _catalogue() -> dict[str, Signature]:
                    "vertical": ends_g + _times(ends, i_d)},
                   beyond={"horizontal": [_spring, _dg, i_q], "vertical": [_spring, _dg, i_d]}),
         Signature("saturation", ("g", "i_q", "i_d"), CHANNELS, (),
-                  "a loss of the magnetic terms monotone in g and in the current, in proportion to each term: at a "
-                  "fixed state it follows the currents (the thrust and the PM-current pull lose with the field)",
+                  "a loss of the magnetic terms monotone in g and in the current, in proportion to each term, the "
+                  "same along the stroke: at a fixed state it follows the currents (the thrust and the PM-current "
+                  "pull lose with the field), and not only at the stroke's ends",
                   {"vertical": sat + sat_core["vertical"], "horizontal": sat_core["horizontal"]},
-                  core=sat_core, fixed=("g", "d")),
+                  core=sat_core, fixed=("g", "d"),
+                  beyond={"vertical": ends_fine + _times(ends_fine, _dg) + _times(ends_fine, i_d),
+                          "horizontal": _times(ends_fine, i_q)}),
         Signature("commutation_offset", ("i_q", "i_d", "d"), CHANNELS, (),
                   "a rotation of the currents: i_d into the thrust, i_q into the lift, constant or drifting in d",
                   {"horizontal": [i_d, lambda f: f["i_d"] * f["d"] / 0.05],
@@ -731,6 +742,7 @@ __all__ = [
     "END_MIDDLE",
     "END_STEPS",
     "LIBRARY_PERIODS_M",
+    "SATURATION_END_STEPS",
     "SIGNATURES",
     "STATE_SPLINES",
     "STATIC_V_SCALES",

@@ -61,7 +61,11 @@ class EndEffect(Effect):
     :meth:`overhang_factor`); and
     ``edge_cog``, the share of the loss the cogging force takes (1: cogging is
     a magnetic force like the others; 0: the teeth's cogging does not see the
-    overhang).
+    overhang); ``edge_pm``, the share the magnets' pull takes (1: the field over the
+    iron is lost with the overlap; 0: only the currents' linkage is lost at the ends,
+    the iron and its pull whole: the end coils of a winding, a double-layer winding's
+    half-filled end slots, Pyrhonen, Jokinen & Hrabovcova, *Design of Rotating
+    Electrical Machines*, 2nd ed., 2014, ch. 2).
     """
 
     #: Centres [m] of the free profile's B-spline coefficients in ``|d|`` (the same shape at both ends).
@@ -80,6 +84,7 @@ class EndEffect(Effect):
         EffectParam("ripple2", 0.0, 0.0, 0.5, "-", "relative thrust ripple with period tau / 2"),
         EffectParam("ripple2_phase", 0.0, -math.pi, math.pi, "rad", "phase of the second ripple harmonic at d = 0"),
         EffectParam("edge_cog", 1.0, 0.0, 1.0, "-", "share of the overhang loss the cogging force takes"),
+        EffectParam("edge_pm", 1.0, 0.0, 1.0, "-", "share of the overhang loss the magnets' pull takes"),
         *(
             EffectParam(
                 _knot_name(c),
@@ -184,8 +189,11 @@ class EndEffect(Effect):
         fac = self.force_factor(d, theta)
         # Cogging comes from the magnets over the teeth; how much of it the overhang takes is a law choice.
         cog = {"a_cogn", "a_cogx", "cog_extra_n", "cog_extra_x"}
-        terms.scale(MAGNETIC_TERMS - cog, fac)
+        terms.scale(MAGNETIC_TERMS - cog - {"a_pm"}, fac)
         terms.scale(cog, 1 - theta["edge_cog"] * (1 - fac))
+        # The magnets' pull (B^2) is lost with the field over the iron; the currents' terms with the winding's
+        # linkage, which the ends of a winding lose on their own (edge_pm < 1: the pull keeps its share).
+        terms.scale({"a_pm"}, 1 - theta["edge_pm"] * (1 - fac))
         # The end force: the overlap's co-energy pulled along d (a magnetic force, which a saturation scales).
         terms.horizontal["end_x"] = self.end_force_x(d, x[0], theta) / _P(p)["Mh"]
         # The winding's end force: the currents' own co-energy, not the magnets' (no saturation of the field

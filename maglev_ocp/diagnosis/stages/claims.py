@@ -77,7 +77,12 @@ taken from the fullest model; significance (against the circular-shift null) doe
     already there rescales them, and one that grows from the middle is some other force that varies with
     ``|d|`` (on rigsim's ninth set, air purged through the gap under the mover's middle was taken up by end
     effects whose onset the fit put at 0-9 mm, on three of five datasets; its own end effects start 10-35 mm
-    from the middle, smoothed over 6-7 mm).
+    from the middle, smoothed over 6-7 mm). And its end force must be the magnets' (:func:`_origin_why`): an end
+    effect seen along d alone (its signature not in the gap channel) with no loss of the magnetic terms rests on
+    its end force, ``-dW/dd`` of the overlap's co-energy, which falls as the gap opens as the field's energy does
+    (over ``tau / (2 pi)``); its fitted decay length plus one standard error must be at most ``end_force_decay``
+    times that. A push at the stroke's end whatever the gap is a contact's (rigsim's twelfth set: end bumpers
+    were taken for end effects on four of six datasets).
 
 (e) **cogging is fixed to the position, not to the currents**: cogging is the magnets' pull on the stator's
     teeth, a force of the mover's position and gap (seed eq. (9)), whatever its law. Other forces have its
@@ -118,6 +123,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm import tqdm
 
+from ... import constants as k
 from ...effects import EndEffect
 from ..angle_lock import angle_lock
 from ..attribution import EffectScore, paired_z
@@ -490,7 +496,7 @@ def _judge(run: Run, att: Attribution, e: str, rest: Sequence[str], chosen: Sequ
         if not why:
             why = _own_gain_why(run, att, e, chosen, rec)
     if e == "end_effect" and not why:
-        why = _locality_why(run, att, rec)
+        why = _locality_why(run, att, rec) or _origin_why(run, att, ev, rec)
     return rec, why
 
 
@@ -588,6 +594,72 @@ def _locality_why(run: Run, att: Attribution, rec: dict) -> str:
             "growing from the middle is not an end effect's, not claimed")  # fmt: skip
 
 
+#: An end effect whose fitted loss of the magnetic terms stays below this share everywhere on the visited stroke
+#: rests on its end force alone (test (d), :func:`end_origin`).
+END_LOSS_NIL: float = 0.01
+
+
+def end_origin(run: Run, att: Attribution) -> dict | None:
+    """Test (d), the end force's origin: how the fitted end effect's end force falls as the gap opens.
+
+    Returns ``{loss_peak, end_force_n, decay_mm, decay_se_mm, field_mm}``: the largest loss of the magnetic terms
+    on the visited stroke (``1 - force_factor``), the end force at 10 mm [N], its fitted decay length in the gap
+    and standard error [mm] (``inf`` where the data do not determine it), and a pole-pitch field energy's decay
+    length ``tau / (2 pi)`` [mm]; ``None`` when the verdict's model has no end force.
+    """
+    spec, fit = att.final_spec, att.final_fit
+    if spec is None or fit is None or "end_effect" not in spec.effects:
+        return None
+    theta = fit_theta(fit, "end_effect")
+    if not theta["end_force"] > 0:
+        return None
+    keys = [f.key for f in fit.spec.free]
+    se = float(fit.stderr[keys.index("end_effect.end_ell")]) if "end_effect.end_ell" in keys else math.inf
+    d_abs = np.abs(np.concatenate([r.feat["d"] for r in (*run.split.train, *run.split.test)]))
+    stroke = float(np.quantile(d_abs, 0.99)) if d_abs.size else 0.0
+    grid = np.linspace(-stroke, stroke, 201)
+    loss = max(abs(1.0 - float(EndEffect.force_factor(x, theta))) for x in grid)
+    return {
+        "loss_peak": loss,
+        "end_force_n": float(theta["end_force"]),
+        "decay_mm": float(theta["end_ell"]) * 1e3,
+        "decay_se_mm": se * 1e3 if np.isfinite(se) else math.inf,
+        "field_mm": k.tau / (2 * math.pi) * 1e3,
+    }
+
+
+def _origin_why(run: Run, att: Attribution, ev: SignatureEvidence, rec: dict) -> str:
+    """Test (d), the end force's origin (recorded in ``rec``): why the end effect is not claimed, empty when it
+    passes.
+
+    The end force of a magnetic end effect is the overlap's co-energy pulled along d, ``-dW/dd``, and ``W``
+    follows the field's energy over the iron, ``B(g)^2``: the force falls as the gap opens (over ``tau / (2 pi)``,
+    8.7 mm, for the poles' fundamental; the same co-energy's ``-dW/dg`` is the pull's loss). A force along d at
+    the stroke's end that does not fall with the gap is not the magnets': a stop's bumper, a cable's or a
+    bellows' end pushes whatever the gap. Only an end effect seen along d alone (its signature not in the gap
+    channel) and with no loss of the magnetic terms (the thrust's and the pull's, which are magnetic by
+    themselves) rests on its end force; then the force's fitted decay length, plus one standard error, must be
+    at most ``end_force_decay`` times ``tau / (2 pi)``. (On rigsim's eighth set the end faces' force, the
+    array's exact field squared, was fitted with a decay of 8.0-9.3 mm, standard errors 0.1-7.7 mm; on the
+    twelfth set the end bumpers' with 14-21 mm, standard errors 9-23 mm.)
+    """
+    limit = run.settings.end_force_decay
+    if limit <= 0 or ev.per_channel.get("vertical", {}).get("shows"):
+        return ""
+    org = end_origin(run, att)
+    if org is None or org["loss_peak"] >= END_LOSS_NIL:
+        return ""
+    rec["origin"] = org
+    bound = limit * org["field_mm"]
+    if org["decay_mm"] + org["decay_se_mm"] <= bound:
+        return ""
+    se = f"+- {org['decay_se_mm']:.1f}" if np.isfinite(org["decay_se_mm"]) else "(undetermined)"
+    return (f"end_effect: it is seen along d alone, as an end force of {org['end_force_n']:.2f} N with no loss of "
+            f"the magnetic terms, and that force does not fall as the gap opens as the magnets' would (decay "
+            f"length {org['decay_mm']:.1f} {se} mm; at most {bound:.1f} mm): a push at the stroke's end whatever "
+            "the gap is a contact's (a stop, a bumper), not the overlap's co-energy, not claimed")  # fmt: skip
+
+
 def _angle_lock_why(run: Run, e: str, without: Sequence[Residual], floors: Mapping[str, float],
                     rest: Sequence[str], ev: SignatureEvidence, rec: dict) -> str:  # fmt: skip
     """Test (e) for an effect fixed to the position (:attr:`~..signatures.Signature.angle_free`, recorded in
@@ -665,4 +737,13 @@ def _drop(run: Run, att: Attribution, bad: Sequence[str]) -> None:
     settle_verdict(run.base, att)
 
 
-__all__ = ["ClaimChecks", "check_claims", "leftover_excess", "leftover_test", "most_flexible", "static_rivals"]
+__all__ = [
+    "END_LOSS_NIL",
+    "ClaimChecks",
+    "check_claims",
+    "end_origin",
+    "leftover_excess",
+    "leftover_test",
+    "most_flexible",
+    "static_rivals",
+]
