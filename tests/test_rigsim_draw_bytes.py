@@ -16,7 +16,8 @@ laws_v9); ``v9`` at 436d469 (its final draw ranges; branch lawsv9) on an AMD EPY
 (before laws_v10, with every other entry); ``v10`` at fc918d9 (its final draw ranges; branch lawsv10) on an AMD EPYC at
 X86_V4, found the same at c0f56bb (before laws_v11, with every other entry); ``v11`` at 84050b3 (its final draw ranges;
 branch lawsv11) on an AMD EPYC at X86_V4, found the same at a7b5b3d (before laws_v12, with every other entry); ``v12``
-at 76d83cf (its final draw ranges; branch lawsv12) on an AMD EPYC at X86_V4.
+at 76d83cf (its final draw ranges; branch lawsv12) on an AMD EPYC at X86_V4, found the same at 89fea1f (branch lawsv13,
+with every other entry); ``v13`` at 89fea1f (its final draw ranges; branch lawsv13) on an AMD EPYC at X86_V4.
 A new law set adds its entry here, recorded at the commit before it.
 """
 
@@ -47,6 +48,7 @@ DRAWS = {
     "v10": {"X86_V4": "1975abd6959b5a9dacbfead513c2d347642d2408c30f4bcdb2ee34eadfa12d7c"},
     "v11": {"X86_V4": "83da8f13f5301b4d7f9e483f2a8674c4c5c553041cbeb12d80e382720b80615e"},
     "v12": {"X86_V4": "543c537156ff1c30e7f9b2884ce5a153b7b39c37f12b7e1052bb5ea6605a9c8c"},
+    "v13": {"X86_V4": "78eb1e2529929eb7b294c8a5bb618b00c90cb9ff139f42df6b46980f961a137c"},
 }
 
 

@@ -28,6 +28,7 @@ from .draw_v9 import draw_v9
 from .draw_v10 import draw_v10
 from .draw_v11 import draw_v11
 from .draw_v12 import draw_v12
+from .draw_v13 import draw_v13
 from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
 from .laws_new import ALL_EFFECTS, ALL_LIBRARY, ALL_OUT_OF_LIBRARY, NEW_LAWS
 from .laws_v3 import EFFECTS_V3, V3_LAWS, V3_LIBRARY, V3_OUT_OF_LIBRARY
@@ -434,10 +435,24 @@ V3_DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
 #: ``v6`` (only the sixth, :mod:`.laws_v6`, drawn by :mod:`.draw_v6`), ``v7`` (only the seventh, :mod:`.laws_v7`,
 #: drawn by :mod:`.draw_v7`), ``v8`` (only the eighth, :mod:`.laws_v8`, drawn by :mod:`.draw_v8`), ``v9`` (only the
 #: ninth, :mod:`.laws_v9`, drawn by :mod:`.draw_v9`), ``v10`` (only the tenth, :mod:`.laws_v10`, drawn by
-#: :mod:`.draw_v10`), ``v11`` (only the eleventh, :mod:`.laws_v11`, drawn by :mod:`.draw_v11`) or ``v12`` (only
-#: the twelfth, :mod:`.laws_v12`, drawn by :mod:`.draw_v12`).
-LAW_SETS: tuple[str, ...] = ("all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11", "v12")
+#: :mod:`.draw_v10`), ``v11`` (only the eleventh, :mod:`.laws_v11`, drawn by :mod:`.draw_v11`), ``v12`` (only
+#: the twelfth, :mod:`.laws_v12`, drawn by :mod:`.draw_v12`) or ``v13`` (only the thirteenth, :mod:`.laws_v13`, drawn
+#: by :mod:`.draw_v13`).
+LAW_SETS: tuple[str, ...] = ("all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11", "v12", "v13")
 P_NEW = 0.5
+#: The sets with a draw module of their own (:mod:`.draw_v4` ... :mod:`.draw_v13`), by name.
+_SET_DRAWS = {
+    "v4": draw_v4,
+    "v5": draw_v5,
+    "v6": draw_v6,
+    "v7": draw_v7,
+    "v8": draw_v8,
+    "v9": draw_v9,
+    "v10": draw_v10,
+    "v11": draw_v11,
+    "v12": draw_v12,
+    "v13": draw_v13,
+}
 
 #: Probability of each kind of scenario.
 KINDS: dict[str, float] = {"none": 0.15, "single": 0.35, "pair": 0.2, "triple": 0.1, "out_of_library": 0.2}
@@ -453,12 +468,13 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
         spawned separately).
     kind : str, optional
         Force one of :data:`KINDS` (default: drawn with their probabilities).
-    laws : {"all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11", "v12"}
+    laws : {"all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11", "v12", "v13"}
         Law families to draw from (:data:`LAW_SETS`). ``old`` reproduces the scenarios drawn before
         the new families existed; ``all`` and ``new`` draw the effects and their laws from a second
         stream of the same seed, ``v3`` from a third, ``v4`` from a fourth, ``v5`` from a fifth, ``v6`` from
         a sixth, ``v7`` from a seventh, ``v8`` from an eighth, ``v9`` from a ninth, ``v10`` from a tenth, ``v11``
-        from an eleventh, ``v12`` from a twelfth. Every effect's spec carries ``new_law``.
+        from an eleventh, ``v12`` from a twelfth, ``v13`` from a thirteenth. Every effect's spec carries
+        ``new_law``.
     """
     if laws not in LAW_SETS:
         raise ValueError(f"laws must be one of {list(LAW_SETS)}, got {laws!r}")
@@ -471,24 +487,8 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
     if laws == "old":
         effects = draw_effects(rng, kind, n, LIBRARY_EFFECTS, OUT_OF_LIBRARY, DRAWS, list(LAWS), False)
         return {"kind": kind, "seed": int(seed), "laws": laws, "effects": effects}
-    if laws == "v4":
-        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v4(seed, kind, n)}
-    if laws == "v5":
-        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v5(seed, kind, n)}
-    if laws == "v6":
-        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v6(seed, kind, n)}
-    if laws == "v7":
-        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v7(seed, kind, n)}
-    if laws == "v8":
-        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v8(seed, kind, n)}
-    if laws == "v9":
-        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v9(seed, kind, n)}
-    if laws == "v10":
-        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v10(seed, kind, n)}
-    if laws == "v11":
-        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v11(seed, kind, n)}
-    if laws == "v12":
-        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": draw_v12(seed, kind, n)}
+    if laws in _SET_DRAWS:
+        return {"kind": kind, "seed": int(seed), "laws": laws, "effects": _SET_DRAWS[laws](seed, kind, n)}
     if laws == "v3":
         rng3 = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7157, 27, 3]))
         effects = draw_effects(rng3, kind, n, V3_LIBRARY, V3_OUT_OF_LIBRARY, V3_DRAWS, EFFECTS_V3, True)
