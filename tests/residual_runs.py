@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import scipy.sparse as spa
 
@@ -20,3 +22,16 @@ def feature_residual(name: str, feat: dict[str, np.ndarray], force, noise: float
     run = PreparedRun(name, (), np.array([True, True]), np.zeros((n, 8)), spa.csr_matrix((n, n)), r, np.arange(n),
                       feat)  # fmt: skip
     return Residual(run, r, np.zeros_like(r))
+
+
+def clipped_sweeps(rng: np.random.Generator, n: int, d_amp: float,
+                   freq: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """One run's time, gap and position ``(t, g, d)`` at 250 Hz: a sweep along d of amplitude ``d_amp`` and one of
+    the gap over 13..23 mm, each a sine clipped at 80 % of its amplitude (it dwells at rest at its turning
+    points), frequencies uniform in ``freq`` [Hz], phases uniform."""
+    t = np.arange(n) * 4e-3
+    f1, f2 = rng.uniform(*freq, 2)
+    ph = rng.uniform(0, 2 * math.pi, 2)
+    d = d_amp * np.clip(1.25 * np.sin(2 * math.pi * f1 * t + ph[0]), -1, 1)
+    g = 0.018 + 0.005 * np.clip(1.25 * np.sin(2 * math.pi * f2 * t + ph[1]), -1, 1)
+    return t, g, d

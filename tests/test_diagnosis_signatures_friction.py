@@ -13,11 +13,9 @@ confusable pair an experiment separates, issue 27 item 3).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-from residual_runs import feature_residual
+from residual_runs import clipped_sweeps, feature_residual
 
 from maglev_ocp.diagnosis.residuals import Residual
 from maglev_ocp.diagnosis.settings import DiagnoseSettings
@@ -61,12 +59,7 @@ def _runs(force, seed: int, n_runs: int = 3, n: int = 2500) -> list[Residual]:
     rng = np.random.default_rng(seed)
     out = []
     for i in range(n_runs):
-        t = np.arange(n) * 4e-3
-        f1, f2 = rng.uniform(0.4, 0.8, 2)
-        ph = rng.uniform(0, 2 * math.pi, 2)
-        # a sine clipped at 80 % of its amplitude dwells at rest at its turning points
-        d = 0.045 * np.clip(1.25 * np.sin(2 * math.pi * f1 * t + ph[0]), -1, 1)
-        g = 0.018 + 0.005 * np.clip(1.25 * np.sin(2 * math.pi * f2 * t + ph[1]), -1, 1)
+        t, g, d = clipped_sweeps(rng, n, 0.045, (0.4, 0.8))
         feat = {"t": t, "g": g, "d": d, "g_dot": np.gradient(g, t), "d_dot": np.gradient(d, t),
                 "i_q": np.zeros(n), "i_d": 1.0 + 150.0 * (g - 0.015)}  # fmt: skip
         out.append(feature_residual(f"run{i}", feat, force, FLOOR, rng))

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 import pytest
-from residual_runs import feature_residual
+from residual_runs import clipped_sweeps, feature_residual
 
 from maglev_ocp.diagnosis.residuals import Residual
 from maglev_ocp.diagnosis.settings import DiagnoseSettings
@@ -55,11 +55,7 @@ def _runs(force, seed: int, n_runs: int = 3, n: int = 2500) -> list[Residual]:
     rng = np.random.default_rng(seed)
     out = []
     for i in range(n_runs):
-        t = np.arange(n) * 4e-3
-        f1, f2 = rng.uniform(0.3, 0.7, 2)
-        ph = rng.uniform(0, 2 * math.pi, 2)
-        d = 0.047 * np.clip(1.25 * np.sin(2 * math.pi * f1 * t + ph[0]), -1, 1)
-        g = 0.018 + 0.005 * np.clip(1.25 * np.sin(2 * math.pi * f2 * t + ph[1]), -1, 1)
+        t, g, d = clipped_sweeps(rng, n, 0.047, (0.3, 0.7))
         d_dot, g_dot = np.gradient(d, t), np.gradient(g, t)
         dither = np.convolve(rng.standard_normal((n + 24,)), np.ones(25) / 5.0, mode="valid")[:n]
         i_q = 0.1 * np.gradient(d_dot, t) + 0.3 * dither

@@ -545,6 +545,11 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
         ),
     )
     knots = tuple(f"end_effect.{n}" for n in EndEffect.profile_names())
+    # the free profile with ends of their own: the base of the "two ends" members
+    two_ends = (
+        *lib["end_effect"].free,
+        *_free("end_effect.edge_gain", "end_effect.edge_quad", "end_effect.edge_skew", "end_effect.gain_skew"),
+    )
     out["end_effect"] += (
         CandidateSpec(
             "end_effect",
@@ -557,8 +562,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             "end_effect",
             ("end_effect",),
             free=(
-                *lib["end_effect"].free,
-                *_free("end_effect.edge_gain", "end_effect.edge_quad", "end_effect.edge_skew", "end_effect.gain_skew"),
+                *two_ends,
                 *_free("end_effect.ripple2", "end_effect.ripple2_phase"),
             ),
             note=(
@@ -571,8 +575,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             "end_effect",
             ("end_effect",),
             free=(
-                *lib["end_effect"].free,
-                *_free("end_effect.edge_gain", "end_effect.edge_quad", "end_effect.edge_skew", "end_effect.gain_skew"),
+                *two_ends,
                 *_free("end_effect.end_force", "end_effect.end_ell"),
             ),
             note=(
@@ -585,8 +588,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             "end_effect",
             ("end_effect",),
             free=(
-                *lib["end_effect"].free,
-                *_free("end_effect.edge_gain", "end_effect.edge_quad", "end_effect.edge_skew", "end_effect.gain_skew"),
+                *two_ends,
                 *_free("end_effect.end_force", "end_effect.end_ell", "end_effect.end_i2"),
             ),
             note=(
@@ -600,8 +602,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             "end_effect",
             ("end_effect",),
             free=(
-                *lib["end_effect"].free,
-                *_free("end_effect.edge_gain", "end_effect.edge_quad", "end_effect.edge_skew", "end_effect.gain_skew"),
+                *two_ends,
                 *_free("end_effect.edge_pm"),
             ),
             note=(

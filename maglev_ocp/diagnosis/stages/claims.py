@@ -549,6 +549,17 @@ def check_claims(run: Run, att: Attribution, noise: NoiseFindings) -> ClaimCheck
     return out
 
 
+def _stroke(run: Run) -> float:
+    """The stroke the runs visit: the 99th percentile of ``|d|`` over the training and held-out runs [m]."""
+    d_abs = np.abs(np.concatenate([r.feat["d"] for r in (*run.split.train, *run.split.test)]))
+    return float(np.quantile(d_abs, 0.99)) if d_abs.size else 0.0
+
+
+def _overhang_loss(grid: np.ndarray, theta: Mapping[str, float]) -> np.ndarray:
+    """The fitted end effect's loss of the magnetic terms at the positions ``grid``, ``|1 - force_factor|``."""
+    return np.array([abs(1.0 - float(EndEffect.force_factor(x, theta))) for x in grid])
+
+
 def end_locality(run: Run, att: Attribution, n: int = 241) -> dict | None:
     """Test (d): how much of the fitted end effect's action lies in the middle sixth of the stroke visited.
 
@@ -563,13 +574,12 @@ def end_locality(run: Run, att: Attribution, n: int = 241) -> dict | None:
     if spec is None or fit is None or "end_effect" not in spec.effects:
         return None
     theta = fit_theta(fit, "end_effect")
-    d_abs = np.abs(np.concatenate([r.feat["d"] for r in (*run.split.train, *run.split.test)]))
-    stroke = float(np.quantile(d_abs, 0.99)) if d_abs.size else 0.0
+    stroke = _stroke(run)
     if stroke <= 0:
         return None
     grid = np.linspace(-stroke, stroke, 2 * n - 1)
     # the force lost (``1 - EndEffect.force_factor``) or, where end forces are fitted, their onset
-    act = np.array([abs(1.0 - float(EndEffect.force_factor(x, theta))) for x in grid])
+    act = _overhang_loss(grid, theta)
     if abs(theta["end_force"]) > 0 or abs(theta["end_i2"]) > 0:
         act = np.maximum(act, [float(EndEffect.onset(x, theta)) for x in grid])
     peak = float(act.max())
@@ -615,10 +625,8 @@ def end_origin(run: Run, att: Attribution) -> dict | None:
         return None
     keys = [f.key for f in fit.spec.free]
     se = float(fit.stderr[keys.index("end_effect.end_ell")]) if "end_effect.end_ell" in keys else math.inf
-    d_abs = np.abs(np.concatenate([r.feat["d"] for r in (*run.split.train, *run.split.test)]))
-    stroke = float(np.quantile(d_abs, 0.99)) if d_abs.size else 0.0
-    grid = np.linspace(-stroke, stroke, 201)
-    loss = max(abs(1.0 - float(EndEffect.force_factor(x, theta))) for x in grid)
+    stroke = _stroke(run)
+    loss = float(_overhang_loss(np.linspace(-stroke, stroke, 201), theta).max())
     return {
         "loss_peak": loss,
         "end_force_n": float(theta["end_force"]),
@@ -634,7 +642,7 @@ def _origin_why(run: Run, att: Attribution, ev: SignatureEvidence, rec: dict) ->
 
     The end force of a magnetic end effect is the overlap's co-energy pulled along d, ``-dW/dd``, and ``W``
     follows the field's energy over the iron, ``B(g)^2``: the force falls as the gap opens (over ``tau / (2 pi)``,
-    8.7 mm, for the poles' fundamental; the same co-energy's ``-dW/dg`` is the pull's loss). A force along d at
+    9.1 mm, for the poles' fundamental; the same co-energy's ``-dW/dg`` is the pull's loss). A force along d at
     the stroke's end that does not fall with the gap is not the magnets': a stop's bumper, a cable's or a
     bellows' end pushes whatever the gap. Only an end effect seen along d alone (its signature not in the gap
     channel) and with no loss of the magnetic terms (the thrust's and the pull's, which are magnetic by
