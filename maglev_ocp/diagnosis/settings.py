@@ -163,6 +163,14 @@ class DiagnoseSettings(Strict):
         (:func:`.angle_lock.ripple_decay`) at most this many times Laplace's ``p / (2 pi)`` in the gap (the
         magnets' pull on the teeth; a ripple of the currents falls with the force constants, over ``tau / pi``,
         about 18 mm; 0: no such exception).
+    lag_channel_min : float
+        Test (f) of the claim guard (:mod:`.stages.lag_channels`): one lag of the phase currents acts on the
+        thrust and the lift alike, so in every channel where the fitted amplifier lag predicts a force error of at
+        least this many noise floors (rms on the held-out runs), the held-out residual must bear it out (0: no
+        test);
+    lag_borne_min : float
+        ... by at least this least-squares coefficient of the residual without the lag on the lag's predicted
+        error (1: in full; a lag of the gap measurement leaves the thrust channel near 0).
     gap_min_floor : float
         A located gap (a period in d that is no library period, a drift in time) is reported when it explains
         at least this rms over the channel's noise floor (0: no search).
@@ -221,6 +229,8 @@ class DiagnoseSettings(Strict):
     lock_beta_max: float = Field(1.3, ge=0.0, le=5.0)
     lock_share: float = Field(0.05, ge=0.0, le=1.0)
     lock_field_decay: float = Field(2.0, ge=0.0, le=10.0)
+    lag_channel_min: float = Field(0.5, ge=0.0, le=100.0)
+    lag_borne_min: float = Field(0.5, ge=0.0, le=2.0)
     gap_min_floor: float = Field(1.0, ge=0.0, le=100.0)
     drift_min_floor: float = Field(0.5, ge=0.0, le=100.0)
     exclude_laws: dict[str, list[str]] = Field(default_factory=dict)

@@ -292,6 +292,12 @@ def _catalogue() -> dict[str, Signature]:
     one: Column = lambda f: np.ones_like(f["t"])  # noqa: E731
     i_q: Column = lambda f: f["i_q"]  # noqa: E731
     i_d: Column = lambda f: f["i_d"]  # noqa: E731
+    # A commutation offset turns i_d into thrust and i_q into lift: at a fixed position its error still follows the
+    # currents (the levitation current changes with the gap held), where a force of the position alone (gravity
+    # on a tilted base, a cable's or a spring's pull along d) does not: its core is its basis beyond a flexible
+    # function of d.
+    com = {"horizontal": [i_d, lambda f: f["i_d"] * f["d"] / 0.05],
+           "vertical": [i_q, lambda f: f["i_q"] * f["d"] / 0.05, lambda f: f["i_q"] * f["i_d"]]}  # fmt: skip
     # saturation: the loss's gap law (``sat``, the magnets' pull) and its core, the loss of the current terms
     sat_core = _saturation_core(sat, i_q, i_d)
     sigs = [
@@ -325,9 +331,9 @@ def _catalogue() -> dict[str, Signature]:
                   beyond={"vertical": ends_fine + _times(ends_fine, _dg) + _times(ends_fine, i_d),
                           "horizontal": _times(ends_fine, i_q)}),
         Signature("commutation_offset", ("i_q", "i_d", "d"), CHANNELS, (),
-                  "a rotation of the currents: i_d into the thrust, i_q into the lift, constant or drifting in d",
-                  {"horizontal": [i_d, lambda f: f["i_d"] * f["d"] / 0.05],
-                   "vertical": [i_q, lambda f: f["i_q"] * f["d"] / 0.05, lambda f: f["i_q"] * f["i_d"]]}),
+                  "a rotation of the currents: i_d into the thrust, i_q into the lift, constant or drifting in d; "
+                  "at a fixed position it follows the currents (i_d changes with the gap held)",
+                  com, core=com, fixed=("d",)),
         Signature("amplifier_lag", ("di_q", "di_d"), CHANNELS, (),
                   "proportional to the current rates at a fixed state (no static map of state and currents)",
                   {"horizontal": [lambda f: f["di_q"], lambda f: f["di_q"] * f["i_d"]],

@@ -108,6 +108,10 @@ taken from the fullest model; significance (against the circular-shift null) doe
     currents only as the force constants do (over ``tau / pi``, 18 mm). (On the tenth and eleventh sets: seven
     true coggings 3.0-4.7 mm, five dead times 6.4-13.5 mm, against 6.1 mm for the slot pitch.)
 
+(f) **a lag of the currents acts on both axes**: the phase current loops make ``i_q`` and ``i_d`` together, so the
+    fitted amplifier lag's predicted force error must be borne out in every channel where it is visible
+    (:mod:`.lag_channels`); a lag of the gap reading closes the gap channel alone.
+
 Effects failing any of them are dropped, with the reasons in the verdict and the evidence in :class:`ClaimChecks`
 (this stage's own record). What the final model leaves is then scanned for structure that no library
 signature has (:func:`..signatures.locate_gap`: a period in ``d`` that is no library period, a drift in time);
@@ -137,6 +141,7 @@ from ..signatures import SIGNATURES, SignatureEvidence, evidence, locate_gap
 from ..verdict import EffectSets
 from .baseline import check_fit
 from .joint import joint_model, shares
+from .lag_channels import lag_channels_why
 from .models import Attribution, Run, fit_and_score, joint_spec, settle_verdict
 
 #: Features a static map of the state and the currents depends on (keys of
@@ -497,6 +502,8 @@ def _judge(run: Run, att: Attribution, e: str, rest: Sequence[str], chosen: Sequ
             why = _own_gain_why(run, att, e, chosen, rec)
     if e == "end_effect" and not why:
         why = _locality_why(run, att, rec) or _origin_why(run, att, ev, rec)
+    if e == "amplifier_lag" and not why:
+        why = lag_channels_why(run, att, [*rest, e], floors, rec)
     return rec, why
 
 
