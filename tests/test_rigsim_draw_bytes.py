@@ -17,7 +17,9 @@ laws_v9); ``v9`` at 436d469 (its final draw ranges; branch lawsv9) on an AMD EPY
 X86_V4, found the same at c0f56bb (before laws_v11, with every other entry); ``v11`` at 84050b3 (its final draw ranges;
 branch lawsv11) on an AMD EPYC at X86_V4, found the same at a7b5b3d (before laws_v12, with every other entry); ``v12``
 at 76d83cf (its final draw ranges; branch lawsv12) on an AMD EPYC at X86_V4, found the same at 89fea1f (branch lawsv13,
-with every other entry); ``v13`` at 89fea1f (its final draw ranges; branch lawsv13) on an AMD EPYC at X86_V4.
+with every other entry); ``v13`` at 89fea1f (its final draw ranges; branch lawsv13) on an AMD EPYC at X86_V4, found
+the same (by its CPU-independent digest, with every other entry) at 4eee964 on an AMD EPYC at X86_V3; ``v14`` at
+4eee964 (its final draw ranges; branch lawsv14) on an AMD EPYC at X86_V3.
 A new law set adds its entry here, recorded at the commit before it.
 """
 
@@ -49,6 +51,7 @@ DRAWS = {
     "v11": {"X86_V4": "83da8f13f5301b4d7f9e483f2a8674c4c5c553041cbeb12d80e382720b80615e"},
     "v12": {"X86_V4": "543c537156ff1c30e7f9b2884ce5a153b7b39c37f12b7e1052bb5ea6605a9c8c"},
     "v13": {"X86_V4": "78eb1e2529929eb7b294c8a5bb618b00c90cb9ff139f42df6b46980f961a137c"},
+    "v14": {"X86_V3": "ba2ee8ccaf2283653b478f5b346eea63c70f4499d2baca0be05cb82fc8998552"},
 }
 
 

@@ -9,9 +9,9 @@ can be checked on a rig they were not built from.
 * :mod:`.physics` - nominal shape functions, seed eq. (2) and the cogging of eq. (9), from MODEL.md;
 * :mod:`.laws` - effects as law families (library effects and ones outside the library);
 * :mod:`.laws_new`, :mod:`.laws_v3`, :mod:`.laws_v4`, :mod:`.laws_v5`, :mod:`.laws_v6`, :mod:`.laws_v7`,
-  :mod:`.laws_v8`, :mod:`.laws_v9`, :mod:`.laws_v10`, :mod:`.laws_v11`, :mod:`.laws_v12`, :mod:`.laws_v13` - a second to
-  thirteenth set of families from the literature (issue 27; :mod:`.draw_v4` ... :mod:`.draw_v13` draw the fourth to
-  thirteenth);
+  :mod:`.laws_v8`, :mod:`.laws_v9`, :mod:`.laws_v10`, :mod:`.laws_v11`, :mod:`.laws_v12`, :mod:`.laws_v13`,
+  :mod:`.laws_v14` - a second to fourteenth set of families from the literature (issue 27; :mod:`.draw_v4` ...
+  :mod:`.draw_v14` draw the fourth to fourteenth);
 * :mod:`.control` - the generator's own feedback-linearizing PID controller;
 * :mod:`.sim` - the rig (amplifier, encoders, noise, stops) and the closed loop (Dormand-Prince 5);
 * :mod:`.excite` - min-jerk moves at varied speeds plus dither over the gap band and the stroke;
@@ -37,7 +37,8 @@ from .laws_v9 import EFFECTS_V9, V9_LAWS
 from .laws_v10 import EFFECTS_V10, V10_LAWS
 from .laws_v11 import EFFECTS_V11, V11_LAWS
 from .laws_v12 import EFFECTS_V12, V12_LAWS
-from .laws_v13 import EFFECTS_V13, V13_LAWS, make_law
+from .laws_v13 import EFFECTS_V13, V13_LAWS
+from .laws_v14 import EFFECTS_V14, V14_LAWS, make_law
 from .physics import NOMINAL, Constants
 from .sim import RigSettings
 
@@ -56,6 +57,7 @@ __all__ = [
     "EFFECTS_V11",
     "EFFECTS_V12",
     "EFFECTS_V13",
+    "EFFECTS_V14",
     "LAWS",
     "LIBRARY_EFFECTS",
     "NEW_LAWS",
@@ -72,6 +74,7 @@ __all__ = [
     "V11_LAWS",
     "V12_LAWS",
     "V13_LAWS",
+    "V14_LAWS",
     "Constants",
     "RigSettings",
     "draw",
