@@ -35,3 +35,20 @@ def clipped_sweeps(rng: np.random.Generator, n: int, d_amp: float,
     d = d_amp * np.clip(1.25 * np.sin(2 * math.pi * f1 * t + ph[0]), -1, 1)
     g = 0.018 + 0.005 * np.clip(1.25 * np.sin(2 * math.pi * f2 * t + ph[1]), -1, 1)
     return t, g, d
+
+
+def swept_runs(force, seed: int, floor: float, n_runs: int = 3, n: int = 2500) -> list[Residual]:
+    """Held-out-like runs of ``force`` plus white noise of rms ``floor``: sweeps along d (+-47 mm) and of the gap
+    (13..23 mm) dwelling at their turning points (:func:`clipped_sweeps`); the levitation current follows the gap,
+    the thrust current the acceleration, each with a dither of its own, as a closed loop's do."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for i in range(n_runs):
+        t, g, d = clipped_sweeps(rng, n, 0.047, (0.3, 0.7))
+        d_dot, g_dot = np.gradient(d, t), np.gradient(g, t)
+        dither = np.convolve(rng.standard_normal((n + 24,)), np.ones(25) / 5.0, mode="valid")[:n]
+        i_q = 0.1 * np.gradient(d_dot, t) + 0.3 * dither
+        i_d = 1.0 + 150.0 * (g - 0.015) + 0.3 * np.roll(dither, n // 3)
+        feat = {"t": t, "g": g, "d": d, "g_dot": g_dot, "d_dot": d_dot, "i_q": i_q, "i_d": i_d}
+        out.append(feature_residual(f"run{i}", feat, force, floor, rng))
+    return out

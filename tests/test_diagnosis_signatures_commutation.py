@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 import pytest
-from residual_runs import clipped_sweeps, feature_residual
+from residual_runs import swept_runs
 
 from maglev_ocp.diagnosis.residuals import Residual
 from maglev_ocp.diagnosis.settings import DiagnoseSettings
@@ -46,20 +46,9 @@ def cable(feat, c):
     return np.zeros_like(feat["d"]) if c == 0 else -20.0 * (feat["d"] - 0.01) / MH
 
 
-def _runs(force, seed: int, n_runs: int = 3, n: int = 2500) -> list[Residual]:
-    """Held-out-like runs: sweeps along d (+-47 mm) and of the gap (13..23 mm) dwelling at their turning points;
-    the levitation current follows the gap, the thrust current the acceleration, each with a dither."""
-    rng = np.random.default_rng(seed)
-    out = []
-    for i in range(n_runs):
-        t, g, d = clipped_sweeps(rng, n, 0.047, (0.3, 0.7))
-        d_dot, g_dot = np.gradient(d, t), np.gradient(g, t)
-        dither = np.convolve(rng.standard_normal((n + 24,)), np.ones(25) / 5.0, mode="valid")[:n]
-        i_q = 0.1 * np.gradient(d_dot, t) + 0.3 * dither
-        i_d = 1.0 + 150.0 * (g - 0.015) + 0.3 * np.roll(dither, n // 3)
-        feat = {"t": t, "g": g, "d": d, "g_dot": g_dot, "d_dot": d_dot, "i_q": i_q, "i_d": i_d}
-        out.append(feature_residual(f"run{i}", feat, force, FLOOR, rng))
-    return out
+def _runs(force, seed: int) -> list[Residual]:
+    """Held-out-like runs (:func:`residual_runs.swept_runs`) at this test's noise floor."""
+    return swept_runs(force, seed, FLOOR)
 
 
 def _ev(force, seed: int):

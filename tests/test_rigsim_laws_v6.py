@@ -375,6 +375,7 @@ def test_every_drawn_v6_law_is_finite_and_bounded_and_every_family_is_drawn():
     assert seen == {(n, f) for n, c in V6_LAWS.items() for f in c.families}
 
 
+@pytest.mark.long  # an earlier set's regression: `make check-long` (CI runs the latest set's)
 def test_v5_datasets_are_the_same_bytes_as_before(tmp_path):
     # whole folders (runs, dataset.yaml, truth.json) recorded at commit ac59446 with the same call on an AMD EPYC
     # (numpy 2.4.6 at X86_V3); on another SIMD level the unquantized call against data/rig_digests.json ("v6_*",
