@@ -494,6 +494,7 @@ def test_v11_datasets_are_the_same_bytes_as_before(tmp_path):
     assert_same_datasets(tmp_path, cases, "v12")
 
 
+@pytest.mark.long  # an earlier set's regression: `make check-long` (CI runs the latest set's)
 def test_v12_generation_is_deterministic_and_records_sizes(tmp_path):
     effects = {
         "cogging": {"family": "warm_magnets"},

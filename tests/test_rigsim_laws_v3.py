@@ -328,6 +328,7 @@ def test_old_law_dataset_is_the_same_bytes_as_before(tmp_path):
     assert_same_dataset(make, fingerprints, "v3_old_law", fingerprint=_runs_fingerprint)
 
 
+@pytest.mark.long  # an earlier set's regression: `make check-long` (CI runs the latest set's)
 def test_v3_generation_is_deterministic_and_stable(tmp_path):
     effects = {
         "amplifier_lag": {"family": "pi_backemf"},

@@ -409,6 +409,7 @@ def test_v3_and_resonance_datasets_are_the_same_bytes_as_before(tmp_path):
     assert_same_datasets(tmp_path, cases, "v4")
 
 
+@pytest.mark.long  # an earlier set's regression: `make check-long` (CI runs the latest set's)
 def test_v4_generation_is_deterministic_and_records_sizes(tmp_path):
     effects = {
         "amplifier_lag": {"family": "eddy_diffusion"},
