@@ -638,7 +638,7 @@ def test_a_drop_one_model_is_refitted_from_the_full_models_values_when_that_fits
     from maglev_ocp.diagnosis.stages import joint as dg
     from maglev_ocp.diagnosis.stages.models import Attribution, Run
 
-    spec = SimpleNamespace(name="end_effect", keys=("p.C1", "end_effect.ripple"), note="")
+    spec = SimpleNamespace(name="end_effect", keys=("p.C1", "end_effect.ripple"), note="", lag=False)
     full_fit = SimpleNamespace(params=lambda: {"p.C1": 14.1, "end_effect.ripple": 0.05, "commutation_offset.delta": 0})
     warm_seen = []
 
@@ -663,6 +663,86 @@ def test_a_drop_one_model_is_refitted_from_the_full_models_values_when_that_fits
     got, _, att = run(110.0)
     assert got[2].name == "old" and [s.name for s in att.scores] == ["old"]
     assert len(warm_seen) == 2  # once per set
+
+
+def test_a_drop_one_model_with_a_lag_starts_its_delay_search_at_the_full_models_delay():
+    """A drop-one model that keeps the amplifier lag is refitted from the full model's values with the lag's
+    search coordinates (delay, share, damping) among them: the search is centred there (fit.fit_candidate), not
+    run over the whole range again; a model without the lag takes none of them."""
+    from types import SimpleNamespace
+
+    from maglev_ocp.diagnosis.stages import joint as dg
+
+    full = SimpleNamespace(
+        params=lambda: {
+            "p.C1": 14.1,
+            "amplifier_lag.gain": 1.0,
+            "cogging.xi": 2.0,
+            "effective_delay_s": 6.1e-4,
+            "lag_share": 0.4,
+            "zeta": 0.7,
+            "bandwidth_hz": 900.0,
+        }
+    )
+    lagged = SimpleNamespace(name="amplifier_lag", keys=("p.C1", "amplifier_lag.gain"), note="", lag=True)
+    job = dg._rewarm_job(lagged, (None, full, None))
+    assert job.warm == {"p.C1": 14.1, "amplifier_lag.gain": 1.0, "effective_delay_s": 6.1e-4, "lag_share": 0.4,
+                        "zeta": 0.7}  # fmt: skip
+    static = SimpleNamespace(name="cogging", keys=("p.C1", "cogging.xi"), note="", lag=False)
+    assert dg._rewarm_job(static, (None, full, None)).warm == {"p.C1": 14.1, "cogging.xi": 2.0}
+
+
+def test_another_effects_laws_are_tried_beside_a_held_lag_and_the_chosen_ones_lag_searched_again(monkeypatch):
+    """Choosing cogging's law again in a model with an amplifier lag: every member's trial holds the lag's
+    delay (one solve each, as the forward steps' trials), and the model of the member chosen is refitted with the
+    delay searched again, kept when it fits no worse; the lag's own laws are searched in every trial."""
+    from types import SimpleNamespace
+
+    from maglev_ocp.diagnosis.stages import joint as dg
+    from maglev_ocp.diagnosis.stages.models import Attribution, Run
+
+    calls = []
+
+    def spec_of(name, law, lag):
+        return SimpleNamespace(name=name, law=law, lag=lag, note="", keys=(), with_free=lambda free: None)
+
+    def combine(a, b):
+        return SimpleNamespace(name=f"{a.name}+{b.name}", law=f"{a.law}+{b.law}", lag=a.lag or b.lag, note="")
+
+    def fake_fit(run_, name, spec_, note, pair, warm=None, hold_lag=False, alt=None):
+        calls.append((spec_.law, hold_lag))
+        sse = 50.0 if "own" in spec_.law else 120.0
+        sse -= 0.0 if hold_lag else 1.0  # the delay searched again fits a little better
+        fit = SimpleNamespace(success=True, sse=sse, params=lambda: {"effective_delay_s": 5e-4})
+        return fit, SimpleNamespace(name=name, e_after=None)
+
+    monkeypatch.setattr(dg, "fit_and_score", fake_fit)
+    monkeypatch.setattr(dg, "combine", combine)
+    monkeypatch.setattr(dg, "joint_spec", lambda mem, base: mem)
+    monkeypatch.setattr(dg, "prefetch", lambda *a, **k: None)
+    monkeypatch.setattr(dg, "delta_bic", lambda f, ref, infl: f.sse - ref.sse)
+    monkeypatch.setattr(dg, "paired_z", lambda a, b: 1.0)
+    cog = [spec_of("cogging", "default", False), spec_of("cogging", "own decay", False)]
+    amp = [spec_of("amplifier_lag", "default", True), spec_of("amplifier_lag", "second", True)]
+    members = {"cogging": cog, "amplifier_lag": amp}
+    st = SimpleNamespace(rules=lambda: SimpleNamespace(bic_margin=6.0), families=lambda: members)
+    base = SimpleNamespace(noise_infl=1.0)
+    run = Run(None, base, st)
+    att = Attribution.__new__(Attribution)
+    att.specs = {"cogging": members["cogging"][0], "amplifier_lag": members["amplifier_lag"][0]}
+    att.fits = {"cogging": SimpleNamespace(params=dict), "amplifier_lag": SimpleNamespace(params=dict)}
+    att.models, att.rewarmed, att.verdict = {}, set(), SimpleNamespace(reasons=[])
+    att.scores = [SimpleNamespace(name="cogging"), SimpleNamespace(name="amplifier_lag")]
+    cur_spec = combine(att.specs["cogging"], att.specs["amplifier_lag"])
+    current = (cur_spec, SimpleNamespace(success=True, sse=100.0, params=dict), SimpleNamespace(e_after=None))
+    new = dg.rechoose_law(run, att, ["cogging", "amplifier_lag"], "cogging", current)
+    assert calls[0] == ("own decay+default", True)  # the trial: the lag held
+    assert calls[1] == ("own decay+default", False)  # the chosen member's model: its delay searched again
+    assert new is not None and new[1].sse == 49.0  # the search fitted better: kept
+    calls.clear()
+    att.specs = {"cogging": members["cogging"][0], "amplifier_lag": members["amplifier_lag"][0]}
+    dg.rechoose_law(run, att, ["cogging", "amplifier_lag"], "amplifier_lag", current)
+    assert calls and all(not held for _, held in calls)  # the lag's own members: searched in every trial
 
 
 def test_the_polyphase_filters_two_sums_agree_to_the_last_bit():

@@ -86,6 +86,7 @@ def test_kinds_cycle_through_blocks_of_twenty():
         assert {k: blk.count(k) for k in BLOCK} == BLOCK
 
 
+@pytest.mark.long  # the library self-check in small (`make check-long`); CI has each verdict kind's own test
 def test_small_independent_rig_check():
     """Three seeded datasets of the independent rig (3 runs of 6 s; laws other than the library's, constants
     off nominal, the rig's own integrator and controller): `none` without effects, an effect outside the library

@@ -111,6 +111,8 @@ def test_starved_fixed_budget_misses_the_bound():
         qp = qp_of(rec.fns, c)
         ex = solve_exact(qp)
         errs.append(np.max(np.abs(c[4] - (qp.ubar[:NU] + ex.v[:NU]))))
+        if errs[-1] > 0.1:  # one step off the bound is the finding; the rest of the exact solves add nothing
+            break
     assert max(errs) > 0.1
 
 

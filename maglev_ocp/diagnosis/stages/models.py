@@ -46,10 +46,11 @@ class FitJob(NamedTuple):
 
     def key(self) -> tuple:
         """What determines the fit: the start values ``warm`` gives ``spec`` (:func:`..fit.fit_candidate` reads
-        only those and the lag's delay), not the other entries of ``warm``."""
+        only those and the lag's search coordinates: its delay, share and damping), not the other entries of
+        ``warm``."""
         w = self.warm or {}
         starts = tuple(float(w.get(f.key, f.start)) for f in self.spec.free)
-        delay = w.get("effective_delay_s") if w else None
+        delay = tuple(w.get(k_) for k_ in ("effective_delay_s", "lag_share", "zeta")) if w else None
         alt = None if self.alt is None else tuple(float(self.alt.get(f.key, f.start)) for f in self.spec.free)
         return (self.name, self.spec, self.note, self.pair, self.hold_lag, starts, delay, alt)
 
