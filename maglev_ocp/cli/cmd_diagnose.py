@@ -168,7 +168,24 @@ def _register_selftest(modes) -> None:
     q.add_argument("--keep-reports", action="store_true", help="write every dataset's report")
     q.add_argument(
         "--laws",
-        choices=("all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11", "v12", "v13", "v14"),
+        choices=(
+            "all",
+            "old",
+            "new",
+            "v3",
+            "v4",
+            "v5",
+            "v6",
+            "v7",
+            "v8",
+            "v9",
+            "v10",
+            "v11",
+            "v12",
+            "v13",
+            "v14",
+            "v15",
+        ),
         default="all",
         help="--generator independent: the rig's law set the effects are drawn from (all: the first families "
         "and issue 27's; v3: the third set, maglev_ocp.rigsim.laws_v3; v4: the fourth, maglev_ocp.rigsim.laws_v4; "
@@ -176,7 +193,7 @@ def _register_selftest(modes) -> None:
         "maglev_ocp.rigsim.laws_v7; v8: the eighth, maglev_ocp.rigsim.laws_v8; v9: the ninth, "
         "maglev_ocp.rigsim.laws_v9; v10: the tenth, maglev_ocp.rigsim.laws_v10; v11: the eleventh, "
         "maglev_ocp.rigsim.laws_v11; v12: the twelfth, rigsim.laws_v12; v13: the thirteenth, rigsim.laws_v13; "
-        "v14: the fourteenth, rigsim.laws_v14; "
+        "v14: the fourteenth, rigsim.laws_v14; v15: the fifteenth, rigsim.laws_v15; "
         "default all)",
     )
     q.add_argument(

@@ -9,7 +9,7 @@ import time
 
 from .draw import LAW_SETS, draw
 from .generate import generate
-from .laws_v14 import EFFECTS_V14 as LAWS
+from .laws_v15 import EFFECTS_V15 as LAWS
 from .sim import RigSettings
 
 
@@ -26,7 +26,8 @@ def main(argv: list[str] | None = None) -> int:
         default="all",
         help="with --draw: law families to draw from (old: the first ones; new: issue 27's; v3: the third set; "
         "v4: the fourth; v5: the fifth; v6: the sixth; v7: the seventh; v8: the eighth; v9: the ninth; v10: the tenth; "
-        "v11: the eleventh; v12: the twelfth; v13: the thirteenth; v14: the fourteenth; default all)",
+        "v11: the eleventh; v12: the twelfth; v13: the thirteenth; v14: the fourteenth; v15: the fifteenth; "
+        "default all)",
     )
     ap.add_argument("--runs", type=int, default=6, help="number of runs (default 6)")
     ap.add_argument("--duration", type=float, default=10.0, help="length of each run [s] (default 10)")
