@@ -217,9 +217,14 @@ def _fmt(v: float | None, scale: float = 1.0, nd: int = 3) -> str:
 
 
 def summary_markdown(
-    results: dict[str, dict[str, Any]], bounds: dict[str, Any] | None, out: Path, wall_s: float
+    results: dict[str, dict[str, Any]],
+    bounds: dict[str, Any] | None,
+    out: Path,
+    wall_s: float,
+    calibrated: bool = True,
 ) -> str:
-    """The ``summary.md`` text (tables with units, links to the figures, the commands)."""
+    """The ``summary.md`` text (tables with units, links to the figures, the commands); ``calibrated``: the
+    calibration task ran (else the summary says it was skipped instead of linking its folder)."""
     lines = [
         "# Headline results",
         "",
@@ -330,7 +335,7 @@ def summary_markdown(
     lines += [
         "",
         "Calibration on a simulated seed-calibration dataset (the seed's section V, `maglev calibrate`): "
-        "[calibration/README.md](calibration/README.md).",
+        + ("[calibration/README.md](calibration/README.md)." if calibrated else "not run (`--no-calibration`)."),
         "",
     ]
     lines += [
@@ -452,7 +457,7 @@ def _main(argv: list[str] | None) -> int:
 
     print(summary_table([(n, _R(r["metrics"]) if r.get("ok") else None, r.get("error")) for n, r in ordered.items()]))
     wall = time.perf_counter() - t0
-    atomic_write_text(out / "summary.md", summary_markdown(ordered, bounds, out, wall))
+    atomic_write_text(out / "summary.md", summary_markdown(ordered, bounds, out, wall, calib is not None))
     atomic_write_text(
         out / "summary.json",
         json.dumps(

@@ -72,6 +72,7 @@ def true_effective_delay(family: str, p: dict) -> float:
     return delay
 
 
+@pytest.mark.long  # CI: `none` on a clean dataset (test_diagnosis.py) and the calibration acceptance
 def test_a_rig_without_effects_gives_its_constants(tmp_path):
     """No effect: the verdict is `none`, and the calibrated constants are the generator's true ones."""
     truth, d = _dataset(tmp_path, "rig_truth_none", None)

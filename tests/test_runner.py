@@ -327,14 +327,18 @@ def test_scenario_path_and_dict_inputs(tmp_path):
 
 
 def test_main_job_writes_results(tmp_path):
-    """The headline job on one scenario: model table, plant simulation, the scenario's folder and summary.md."""
+    """The headline job on one scenario: model table, plant simulation, the scenario's folder and summary.md
+    (the calibration task, 50 s, in :func:`test_main_job_calibrates_on_the_seed_experiments`, long tier; the
+    calibration itself is `test_calibration`'s)."""
     from maglev_ocp.main_job import HEADLINE, SCENARIO_DIR, main
 
     for n in HEADLINE:
         assert (SCENARIO_DIR / f"{n}.yaml").is_file()
     out = tmp_path / "results"
-    rc = main(["--out", str(out), "--scenarios", "gap_steps_fl", "--no-min-time", "--jobs", "1"])
+    rc = main(["--out", str(out), "--scenarios", "gap_steps_fl", "--no-min-time", "--no-calibration", "--jobs", "1"])
     assert rc == 0
+    assert "not run (`--no-calibration`)" in (out / "summary.md").read_text()
+    assert not (out / "calibration").exists()
     for f in (
         "model_table.txt",
         "model_table.json",
@@ -350,3 +354,15 @@ def test_main_job_writes_results(tmp_path):
     text = (out / "summary.md").read_text()
     assert "gap_steps_fl" in text and "PASS" in text
     assert main(["--out", str(out), "--scenarios", "no_such_scenario"]) == 2
+
+
+@pytest.mark.long  # the main job's calibration task end to end (`make run` runs it; 50 s)
+def test_main_job_calibrates_on_the_seed_experiments(tmp_path):
+    """The main job's calibration task: the seed's calibration experiments simulated, `maglev calibrate` on them,
+    its folder written and linked from summary.md, and the job's exit code 0 only with it."""
+    from maglev_ocp.main_job import main
+
+    out = tmp_path / "results"
+    assert main(["--out", str(out), "--scenarios", "gap_steps_fl", "--no-min-time", "--jobs", "1"]) == 0
+    assert (out / "calibration" / "README.md").is_file()
+    assert "[calibration/README.md](calibration/README.md)" in (out / "summary.md").read_text()
