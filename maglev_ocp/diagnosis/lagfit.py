@@ -41,6 +41,9 @@ TF_LAWS: dict[str, tuple[int, int]] = {"fractional": (1, 2), "second": (2, 3)}
 ZETA_RANGE: tuple[float, float] = (0.3, 1.5)
 #: Start of the search's shape: the lag's share of the effective delay and the damping.
 SHAPE_START: tuple[float, float] = (0.5, 0.7)
+#: A fit's values that start (centre) a lag's search when given as a warm start: the effective delay, and the
+#: transfer-function members' share and damping (:func:`fit_lag_tf`; :func:`.fit.fit_candidate` reads the delay).
+LAG_START_KEYS: tuple[str, ...] = ("effective_delay_s", "lag_share", "zeta")
 
 
 #: Grids of the shape's first pass: the lag's share of the effective delay, and the damping.
@@ -214,4 +217,4 @@ def fit_lag_tf(
     return result(kb, se_t)
 
 
-__all__ = ["RHO_GRID", "SHAPE_START", "TF_LAWS", "ZETA_GRID", "ZETA_RANGE", "fit_lag_tf", "tf_theta"]
+__all__ = ["LAG_START_KEYS", "RHO_GRID", "SHAPE_START", "TF_LAWS", "ZETA_GRID", "ZETA_RANGE", "fit_lag_tf", "tf_theta"]

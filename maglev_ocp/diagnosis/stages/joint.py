@@ -15,6 +15,7 @@ from tqdm import tqdm
 
 from ..attribution import EffectScore, delta_bic, paired_z, resolved_delta_bic, resolved_paired_z
 from ..fit import FitResult
+from ..lagfit import LAG_START_KEYS
 from ..library import CandidateSpec, combine
 from ..verdict import EffectSets, Verdict
 from .baseline import check_fit
@@ -39,7 +40,7 @@ def _rewarm_job(spec: CandidateSpec, full: tuple[CandidateSpec, FitResult, Effec
     """The fit :func:`rewarmed` makes: ``spec`` started from the full model's values (a lag's search centred on
     the full model's delay and shape, as a warm start centres it, :func:`..fit.fit_candidate`: not over the whole
     range again, which the model on record has searched)."""
-    lag = ("effective_delay_s", "lag_share", "zeta") if spec.lag else ()
+    lag = LAG_START_KEYS if spec.lag else ()
     warm = {k_: v for k_, v in full[1].params().items() if k_ in spec.keys or k_ in lag}
     return FitJob(spec.name, spec, spec.note, True, warm)
 

@@ -25,6 +25,7 @@ from tqdm import tqdm
 from ...parallel import available_cpus, fork_pool
 from ..attribution import EffectScore, score
 from ..fit import FitResult, fit_candidate, residuals_with
+from ..lagfit import LAG_START_KEYS
 from ..library import CandidateSpec
 from ..localize import ChannelFloor
 from ..settings import DiagnoseSettings, VerdictRules
@@ -50,7 +51,7 @@ class FitJob(NamedTuple):
         ``warm``."""
         w = self.warm or {}
         starts = tuple(float(w.get(f.key, f.start)) for f in self.spec.free)
-        delay = tuple(w.get(k_) for k_ in ("effective_delay_s", "lag_share", "zeta")) if w else None
+        delay = tuple(w.get(k_) for k_ in LAG_START_KEYS) if w else None
         alt = None if self.alt is None else tuple(float(self.alt.get(f.key, f.start)) for f in self.spec.free)
         return (self.name, self.spec, self.note, self.pair, self.hold_lag, starts, delay, alt)
 
