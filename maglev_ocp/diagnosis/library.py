@@ -254,6 +254,10 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       a smooth profile along the stroke (:meth:`~maglev_ocp.effects.EddyDrag.profile`);
       ``side``: a conductor beside the array, its drag growing as the gap
       opens (never flat in g: a flat coefficient is viscous friction's);
+      ``two conductors``: both, the sum of a drag falling and one growing with g
+      (a conductor under the array and one above or beside it);
+      ``normal``: a conductor damping the gap's own motion, its coefficient
+      falling with g (never flat: a flat damping of the gap is the air's);
     - learned shapes (flexible) of ``cogging`` (``co-energy 3``, ``co-energy 6``:
       a co-energy periodic in d whose gradient is both the tangential and the
       normal force, each harmonic decaying in g at a rate of its own,
@@ -440,6 +444,31 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
                 "that would be viscous friction): 2 parameters"
             ),
             law="side",
+        ),
+        CandidateSpec(
+            "eddy_drag",
+            ("eddy_drag",),
+            free=_free("eddy_drag.c_eddy", "eddy_drag.c_side", "eddy_drag.kappa_side"),
+            note=(
+                "two conductors on either side of the mover: one under the array, its drag of B(g)^2 falling as "
+                "the gap opens, and one above or beside it, its drag growing, c_side exp(kappa_side (g - g_ref)) "
+                "(a cover over the stage, a side rail): the sum falls, grows or has a valley over the gaps: "
+                "3 parameters"
+            ),
+            law="two conductors",
+        ),
+        CandidateSpec(
+            "eddy_drag",
+            ("eddy_drag",),
+            free=_free("eddy_drag.c_gap", "eddy_drag.kappa_gap"),
+            fixed=(("eddy_drag.c_eddy", 0.0),),
+            note=(
+                "a conductor damping the gap's own motion (the flux through it changes as the gap does: the "
+                "stator's sheet, the mover's solid back iron), c_gap exp(-kappa_gap (g - g_ref)) g_dot on the gap "
+                "axis, none along d; kappa_gap 41 /m (a factor 1.5 over 15..25 mm) to 6 pi / tau (never flat in "
+                "g: a flat damping of the gap is not a conductor's): 2 parameters"
+            ),
+            law="normal",
         ),
     )
     sat = lib["saturation"].free

@@ -121,8 +121,14 @@ def _cogging_n(theta: dict[str, float], d_mm: np.ndarray) -> np.ndarray:
 
 
 def _eddy_coef(theta: dict[str, float], g_mm: np.ndarray) -> np.ndarray:
-    """Low-speed eddy-drag coefficient [N s/m] at gap ``g`` [mm] (:meth:`EddyDrag.coefficient`)."""
-    return np.array([float(EddyDrag.coefficient(g * 1e-3, theta)) for g in g_mm])
+    """Low-speed eddy-drag coefficients [N s/m] at gap ``g`` [mm]: columns the drag along d
+    (:meth:`EddyDrag.coefficient`) and the damping of the gap's motion (``c_vert`` times it, plus
+    :meth:`EddyDrag.gap_coefficient`)."""
+    out = []
+    for g in g_mm * 1e-3:
+        c = float(EddyDrag.coefficient(g, theta))
+        out.append((c, theta.get("c_vert", 0.0) * c + float(EddyDrag.gap_coefficient(g, theta))))
+    return np.array(out)
 
 
 def _eddy_n(theta: dict[str, float], v: float, g_mm: float = k.g_cog_ref * 1e3) -> tuple[float, float]:
@@ -205,14 +211,15 @@ SHAPES: dict[str, Shape] = {
         ),
     ),
     "eddy_drag": Shape(
-        "gap g [mm]",
-        "low-speed drag coefficient [N s/m]",
+        "gap g [mm] (drag along d, damping of the gap)",
+        "low-speed coefficient [N s/m]",
         _G_MM,
         _eddy_coef,
         lambda th: (
-            "low-speed drag coefficient {:.3f} N s/m at g = 8 mm, {:.3f} N s/m at g = 20 mm; at g = 10 mm and "
+            "low-speed drag coefficient along d {:.3f} N s/m at g = 8 mm, {:.3f} N s/m at g = 20 mm; damping of "
+            "the gap {:.3f} N s/m at g = 8 mm, {:.3f} N s/m at g = 20 mm; at g = 10 mm and "
             "0.1 m/s drag {:.3f} N, lift {:.3f} N (critical velocity {})".format(
-                *_eddy_coef(th, np.array([8.0, 20.0])),
+                *_eddy_coef(th, np.array([8.0, 20.0])).T.ravel(),
                 *_eddy_n(th, 0.1),
                 f"{1 / th['inv_vc']:.3f} m/s" if th.get("inv_vc", 0.0) > 0 else "none: linear in velocity",
             )

@@ -6,7 +6,7 @@ library (issue 27). Each library effect is described here by its **signature** (
 variables it depends on (gap ``g``, position ``d``, velocities, currents, current rates), its period in ``d``
 (harmonics of seed eq. (9)'s ``2 t1`` for cogging, the slot pitch ``t1`` among them; the pole pitch ``tau``
 for the end effect's ripple, MODEL.md), its
-symmetry (friction odd in each velocity, eddy drag odd in the horizontal velocity and its lift even in it, the
+symmetry (friction odd in each velocity, eddy drag odd in each velocity and its lift even in the horizontal one, the
 end effect localized at each end of the stroke, :func:`end_columns`), its monotonicity (saturation: a smooth
 monotone loss in ``g``) and the channels it acts on. A signature is turned into a small
 linear basis of the residual samples' features (:attr:`~.residuals.PreparedRun.feat`), a local linearization of
@@ -280,6 +280,9 @@ def _catalogue() -> dict[str, Signature]:
     # along d only its part orthogonal to a flat drag (at one gap, none).
     visc_g = [lambda f, j=j: f["g_dot"] * _dg_mean(f) ** j for j in range(4)]
     visc_d = [lambda f, j=j: _beyond_flat(f["d_dot"], _dg_mean(f) ** j) for j in range(1, 4)]
+    # A conductor's damping of the gap's own motion (EddyDrag's c_gap): its coefficient follows the gap (the flux's
+    # change through the conductor), a flat one is the air's: judged beyond a flat g_dot (the signature's beyond).
+    eddy_gap = [lambda f, j=j: f["g_dot"] * _dg_mean(f) ** j for j in (1, 2)]
     ends = end_columns()
     ends_g = ends + _times(ends, _dg)  # the current-free end force and pull loss, their size smooth in g
     # A loss at the ends of any smooth profile, which saturation (the same along the stroke) is judged beyond: the
@@ -310,11 +313,14 @@ def _catalogue() -> dict[str, Signature]:
                   "odd in each axis' velocity, its dry level smooth in the guide's load (the gap); on the gap axis "
                   "a dry level beyond any viscous drag, along d beyond a drag that follows the gap",
                   {"vertical": fr_g, "horizontal": fr_d}, beyond={"vertical": visc_g, "horizontal": visc_d}),
-        Signature("eddy_drag", ("d_dot", "g", "d"), CHANNELS, (), "a drag odd in the horizontal velocity and a "
-                  "lift even in it, both falling as the gap opens, the drag's size smooth along the stroke",
+        Signature("eddy_drag", ("d_dot", "g_dot", "g", "d"), CHANNELS, (), "a drag odd in the horizontal velocity "
+                  "and a lift even in it, both falling as the gap opens, the drag's size smooth along the stroke; "
+                  "on the gap axis a damping of the gap's motion whose coefficient follows the gap (beyond a flat "
+                  "one: the air's)",
                   {"horizontal": [lambda f: f["d_dot"], lambda f: f["d_dot"] * _dg(f),
                                   lambda f: f["d_dot"] * f["d"] / 0.05, lambda f: f["d_dot"] * (f["d"] / 0.05) ** 2],
-                   "vertical": [lambda f: f["d_dot"] ** 2, lambda f: f["d_dot"] ** 2 * _dg(f)]}),
+                   "vertical": [lambda f: f["d_dot"] ** 2, lambda f: f["d_dot"] ** 2 * _dg(f), *eddy_gap]},
+                  beyond={"vertical": [lambda f: f["g_dot"]]}),
         Signature("end_effect", ("d", "g", "i_q", "i_d"), CHANNELS, (tau, tau / 2),
                   "forces localized at each end of the stroke, nil in its middle and growing with each end's "
                   "overhang (the end forces of the magnets and of the winding, the thrust and pull losses), and a "

@@ -98,6 +98,17 @@ class EddyDrag(Effect):
     close differently at each position. The coefficient is then ``c(g) (1 + p(d))`` with ``p`` a cubic B-spline
     in d (:data:`_EDDY_D_KNOTS`, coefficients >= -1, so the drag never changes sign): still falling with the
     gap as the field does, so still not viscous friction, whose coefficient depends on neither.
+
+    Damping normal to the conductor (``c_gap``, 0 by default): when the gap changes, the flux of the magnets
+    through a conductor facing them (the stator's sheet, the mover's own solid back iron) changes and its eddy
+    currents oppose the change (Lenz's law), a force ``-c_n(g) g_dot`` on the gap axis whatever the motion
+    along d (a magnet approaching a conducting plate is repelled in proportion to its speed: Saslow 1992, sec.
+    V; Stoll, *The Analysis of Eddy Currents*, Clarendon 1974, ch. 1; solid-core suspension magnets: Sinha,
+    *Electromagnetic Suspension*, IEE 1987, ch. 3). Its coefficient need not follow the drag along d (the
+    conductor's extent, thickness and where its currents close differ for the two motions), so it has its own
+    size and decay, ``c_n(g) = c_gap exp(-kappa_gap (g - g_ref))``, falling with the gap as the flux's change
+    does, ``kappa_gap`` bounded away from 0 (:attr:`KAPPA_GAP_BOUNDS`): a flat damping of the gap is not a
+    conductor's (the air under a cover, a cable's loss), and stays out of the library.
     """
 
     #: Centres [m] of the profile's B-spline along d.
@@ -114,6 +125,9 @@ class EddyDrag(Effect):
     KAPPA_SIDE_BOUNDS: ClassVar[tuple[float, float]] = (math.log(1.5) / 0.010, 2 * math.pi / k.tau)
     #: Its default [1/m] (a factor 1.8 over 15..25 mm), where a fit starts.
     KAPPA_SIDE_DEFAULT: ClassVar[float] = 60.0
+    #: Bounds [1/m] of the normal damping's decay rate with g: from a factor 1.5 over the targets' gaps 15..25 mm
+    #: (what sweeps of the gap tell from a flat damping) to the field's third harmonic squared.
+    KAPPA_GAP_BOUNDS: ClassVar[tuple[float, float]] = (math.log(1.5) / 0.010, 6 * math.pi / k.tau)
 
     name = "eddy_drag"
     params = (
@@ -124,6 +138,10 @@ class EddyDrag(Effect):
         EffectParam("c_side", 0.0, 0.0, 500.0, "N s/m", "low-speed drag coefficient of a side conductor at g_ref"),
         EffectParam(
             "kappa_side", KAPPA_SIDE_DEFAULT, *KAPPA_SIDE_BOUNDS, "1/m", "growth rate of a side conductor's drag with g"
+        ),
+        EffectParam("c_gap", 0.0, 0.0, 500.0, "N s/m", "damping coefficient of the gap's motion at g_ref"),
+        EffectParam(
+            "kappa_gap", 2 * math.pi / k.tau, *KAPPA_GAP_BOUNDS, "1/m", "decay rate of the gap's damping with g"
         ),
         EffectParam("lift", 0.0, 0.0, 2.0, "-", "lift over Reitz's thin-sheet lift (opens the gap)"),
         EffectParam("c_vert", 0.0, 0.0, 2.0, "-", "vertical damping over the drag's low-speed coefficient"),
@@ -157,6 +175,11 @@ class EddyDrag(Effect):
         return c if d is None else c * cls.profile(d, theta)
 
     @classmethod
+    def gap_coefficient(cls, g: Expr, theta: Mapping[str, Expr]) -> Expr:
+        """Damping coefficient ``c_n(g)`` [N s/m] of the gap's own motion at gap ``g`` [m] (the class docstring)."""
+        return theta.get("c_gap", 0.0) * ca.exp(-theta.get("kappa_gap", cls.KAPPA_GAP_BOUNDS[0]) * (g - k.g_cog_ref))
+
+    @classmethod
     def forces(
         cls, g: Expr, v: Expr, theta: Mapping[str, Expr], g_dot: Expr = 0.0, d: Expr | None = None
     ) -> tuple[Expr, Expr]:
@@ -173,6 +196,8 @@ class EddyDrag(Effect):
         c, s = cls.coefficient(g, theta, d), theta.get("inv_vc", 0.0)
         den = 1 + (s * v) ** 2
         f_g = theta.get("lift", 0.0) * c * s * v**2 / den - theta.get("c_vert", 0.0) * c * g_dot
+        # the conductor's damping of the gap's own motion, its coefficient of its own (the class docstring)
+        f_g = f_g - cls.gap_coefficient(g, theta) * g_dot
         return f_g, -c * v / den
 
     def modify(self, terms, x, u, p, theta) -> None:
