@@ -70,6 +70,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         *range(9300, 9306),  # full-size trials of rigsim's thirteenth law set (lawsv13: one dataset per family, draws)
         *range(9400, 9406),  # full-size trials of rigsim's fourteenth law set (lawsv14: one dataset per family, draws)
         *range(9500, 9506),  # full-size trials of rigsim's fifteenth law set (lawsv15: one dataset per family, draws)
+        *range(9600, 9606),  # full-size trials of rigsim's sixteenth law set (lawsv16: one dataset per family, draws)
     }
 )  # fmt: skip
 

@@ -20,7 +20,9 @@ at 76d83cf (its final draw ranges; branch lawsv12) on an AMD EPYC at X86_V4, fou
 with every other entry); ``v13`` at 89fea1f (its final draw ranges; branch lawsv13) on an AMD EPYC at X86_V4, found
 the same (by its CPU-independent digest, with every other entry) at 4eee964 on an AMD EPYC at X86_V3; ``v14`` at
 4eee964 (its final draw ranges; branch lawsv14) on an AMD EPYC at X86_V3, found the same at 585200d (branch lawsv15,
-with every other entry); ``v15`` at 585200d (its final draw ranges; branch lawsv15) on an AMD EPYC at X86_V3.
+with every other entry); ``v15`` at 585200d (its final draw ranges; branch lawsv15) on an AMD EPYC at X86_V3, found
+the same at c887e4f (branch lawsv16, with every other entry); ``v16`` at c887e4f (its final draw ranges; branch
+lawsv16) on an AMD EPYC at X86_V3.
 A new law set adds its entry here, recorded at the commit before it.
 """
 
@@ -54,6 +56,7 @@ DRAWS = {
     "v13": {"X86_V4": "78eb1e2529929eb7b294c8a5bb618b00c90cb9ff139f42df6b46980f961a137c"},
     "v14": {"X86_V3": "ba2ee8ccaf2283653b478f5b346eea63c70f4499d2baca0be05cb82fc8998552"},
     "v15": {"X86_V3": "772ae9ec5ed9e3e2a780f9fca3fd99ba608754eaa447d0fdde51d4836415821e"},
+    "v16": {"X86_V3": "1a45f5ef4fe8cc470702e2a6855843bb5a227d086b3dcf53f152ea2df61fcbd8"},
 }
 
 

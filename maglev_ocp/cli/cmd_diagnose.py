@@ -185,6 +185,7 @@ def _register_selftest(modes) -> None:
             "v13",
             "v14",
             "v15",
+            "v16",
         ),
         default="all",
         help="--generator independent: the rig's law set the effects are drawn from (all: the first families "
@@ -193,7 +194,8 @@ def _register_selftest(modes) -> None:
         "maglev_ocp.rigsim.laws_v7; v8: the eighth, maglev_ocp.rigsim.laws_v8; v9: the ninth, "
         "maglev_ocp.rigsim.laws_v9; v10: the tenth, maglev_ocp.rigsim.laws_v10; v11: the eleventh, "
         "maglev_ocp.rigsim.laws_v11; v12: the twelfth, rigsim.laws_v12; v13: the thirteenth, rigsim.laws_v13; "
-        "v14: the fourteenth, rigsim.laws_v14; v15: the fifteenth, rigsim.laws_v15; "
+        "v14: the fourteenth, rigsim.laws_v14; v15: the fifteenth, rigsim.laws_v15; v16: the sixteenth, "
+        "rigsim.laws_v16; "
         "default all)",
     )
     q.add_argument(

@@ -9,7 +9,7 @@ import time
 
 from .draw import LAW_SETS, draw
 from .generate import generate
-from .laws_v15 import EFFECTS_V15 as LAWS
+from .laws_v16 import EFFECTS_V16 as LAWS
 from .sim import RigSettings
 
 
@@ -27,6 +27,7 @@ def main(argv: list[str] | None = None) -> int:
         help="with --draw: law families to draw from (old: the first ones; new: issue 27's; v3: the third set; "
         "v4: the fourth; v5: the fifth; v6: the sixth; v7: the seventh; v8: the eighth; v9: the ninth; v10: the tenth; "
         "v11: the eleventh; v12: the twelfth; v13: the thirteenth; v14: the fourteenth; v15: the fifteenth; "
+        "v16: the sixteenth; "
         "default all)",
     )
     ap.add_argument("--runs", type=int, default=6, help="number of runs (default 6)")

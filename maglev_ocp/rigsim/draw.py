@@ -31,6 +31,7 @@ from .draw_v12 import draw_v12
 from .draw_v13 import draw_v13
 from .draw_v14 import draw_v14
 from .draw_v15 import draw_v15
+from .draw_v16 import draw_v16
 from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
 from .laws_new import ALL_EFFECTS, ALL_LIBRARY, ALL_OUT_OF_LIBRARY, NEW_LAWS
 from .laws_v3 import EFFECTS_V3, V3_LAWS, V3_LIBRARY, V3_OUT_OF_LIBRARY
@@ -439,8 +440,9 @@ V3_DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
 #: ninth, :mod:`.laws_v9`, drawn by :mod:`.draw_v9`), ``v10`` (only the tenth, :mod:`.laws_v10`, drawn by
 #: :mod:`.draw_v10`), ``v11`` (only the eleventh, :mod:`.laws_v11`, drawn by :mod:`.draw_v11`), ``v12`` (only
 #: the twelfth, :mod:`.laws_v12`, drawn by :mod:`.draw_v12`), ``v13`` (only the thirteenth, :mod:`.laws_v13`, drawn
-#: by :mod:`.draw_v13`), ``v14`` (only the fourteenth, :mod:`.laws_v14`, drawn by :mod:`.draw_v14`) or ``v15`` (only
-#: the fifteenth, :mod:`.laws_v15`, drawn by :mod:`.draw_v15`).
+#: by :mod:`.draw_v13`), ``v14`` (only the fourteenth, :mod:`.laws_v14`, drawn by :mod:`.draw_v14`), ``v15`` (only
+#: the fifteenth, :mod:`.laws_v15`, drawn by :mod:`.draw_v15`) or ``v16`` (only the sixteenth, :mod:`.laws_v16`, drawn
+#: by :mod:`.draw_v16`).
 LAW_SETS: tuple[str, ...] = (
     "all",
     "old",
@@ -458,9 +460,10 @@ LAW_SETS: tuple[str, ...] = (
     "v13",
     "v14",
     "v15",
+    "v16",
 )
 P_NEW = 0.5
-#: The sets with a draw module of their own (:mod:`.draw_v4` ... :mod:`.draw_v15`), by name.
+#: The sets with a draw module of their own (:mod:`.draw_v4` ... :mod:`.draw_v16`), by name.
 _SET_DRAWS = {
     "v4": draw_v4,
     "v5": draw_v5,
@@ -474,6 +477,7 @@ _SET_DRAWS = {
     "v13": draw_v13,
     "v14": draw_v14,
     "v15": draw_v15,
+    "v16": draw_v16,
 }
 
 #: Probability of each kind of scenario.
@@ -490,13 +494,14 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
         spawned separately).
     kind : str, optional
         Force one of :data:`KINDS` (default: drawn with their probabilities).
-    laws : {"all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11", "v12", "v13", "v14", "v15"}
+    laws : {"all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11", "v12", "v13", "v14", "v15",
+        "v16"}
         Law families to draw from (:data:`LAW_SETS`). ``old`` reproduces the scenarios drawn before
         the new families existed; ``all`` and ``new`` draw the effects and their laws from a second
         stream of the same seed, ``v3`` from a third, ``v4`` from a fourth, ``v5`` from a fifth, ``v6`` from
         a sixth, ``v7`` from a seventh, ``v8`` from an eighth, ``v9`` from a ninth, ``v10`` from a tenth, ``v11``
         from an eleventh, ``v12`` from a twelfth, ``v13`` from a thirteenth, ``v14`` from a fourteenth, ``v15`` from
-        a fifteenth. Every effect's spec carries ``new_law``.
+        a fifteenth, ``v16`` from a sixteenth. Every effect's spec carries ``new_law``.
     """
     if laws not in LAW_SETS:
         raise ValueError(f"laws must be one of {list(LAW_SETS)}, got {laws!r}")

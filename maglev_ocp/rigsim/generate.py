@@ -27,7 +27,7 @@ from ..riglog import RunLog, write_dataset
 from .excite import references
 from .laws import Law
 from .laws_new import AmplifierNew
-from .laws_v15 import EFFECTS_V15, make_law
+from .laws_v16 import EFFECTS_V16, make_law
 from .physics import NOMINAL, Constants
 from .sim import Rig, RigSettings, Trajectory, simulate
 
@@ -46,7 +46,7 @@ def build_laws(effects: EffectsArg) -> list[Law]:
     names = [law.name for law in laws]
     if len(set(names)) != len(names):
         raise ValueError(f"each effect at most once, got {names}")
-    order = list(EFFECTS_V15)
+    order = list(EFFECTS_V16)
     return sorted(laws, key=lambda law: order.index(law.name))
 
 
@@ -172,7 +172,7 @@ def effect_size(law: Law, rig: Rig, traj: Trajectory) -> dict[str, Any]:
     F0 = _forces(base, X, u, 1.0)
     out: dict[str, Any] = {}
     recorded: dict[str, Any] = {}
-    if hasattr(law, "recorded"):  # a state the trajectory does not hold (laws_v4 ... v15): the law's own record
+    if hasattr(law, "recorded"):  # a state the trajectory does not hold (laws_v4 ... v16): the law's own record
         recorded = law.recorded()
         out.update(recorded)
         F1 = F0
