@@ -25,6 +25,17 @@ def test_an_unknown_law_set_is_refused():
     assert SelftestSettings(laws="v4").laws == "v4"
 
 
+def test_an_unknown_law_set_is_refused_on_the_command_line(capsys):
+    """``--laws`` takes the rig's registered sets (``rigsim.draw.LAW_SETS``, no list of its own): anything else is
+    one line naming what is allowed, exit 2, before any dataset is drawn."""
+    from maglev_ocp.rigsim.draw import LAW_SETS
+
+    rc = main(["diagnose", "selftest", "2", "--generator", "independent", "--laws", "v999"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2
+    assert len(err) == 1 and "v999" in err[0] and all(s in err[0] for s in LAW_SETS), err
+
+
 def test_the_library_generator_refuses_a_law_set(capsys):
     rc = main(["diagnose", "selftest", "2", "--laws", "v3"])
     err = capsys.readouterr().err.strip().splitlines()

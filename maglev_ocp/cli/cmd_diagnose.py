@@ -168,34 +168,10 @@ def _register_selftest(modes) -> None:
     q.add_argument("--keep-reports", action="store_true", help="write every dataset's report")
     q.add_argument(
         "--laws",
-        choices=(
-            "all",
-            "old",
-            "new",
-            "v3",
-            "v4",
-            "v5",
-            "v6",
-            "v7",
-            "v8",
-            "v9",
-            "v10",
-            "v11",
-            "v12",
-            "v13",
-            "v14",
-            "v15",
-            "v16",
-        ),
+        metavar="SET",
         default="all",
-        help="--generator independent: the rig's law set the effects are drawn from (all: the first families "
-        "and issue 27's; v3: the third set, maglev_ocp.rigsim.laws_v3; v4: the fourth, maglev_ocp.rigsim.laws_v4; "
-        "v5: the fifth, maglev_ocp.rigsim.laws_v5; v6: the sixth, maglev_ocp.rigsim.laws_v6; v7: the seventh, "
-        "maglev_ocp.rigsim.laws_v7; v8: the eighth, maglev_ocp.rigsim.laws_v8; v9: the ninth, "
-        "maglev_ocp.rigsim.laws_v9; v10: the tenth, maglev_ocp.rigsim.laws_v10; v11: the eleventh, "
-        "maglev_ocp.rigsim.laws_v11; v12: the twelfth, rigsim.laws_v12; v13: the thirteenth, rigsim.laws_v13; "
-        "v14: the fourteenth, rigsim.laws_v14; v15: the fifteenth, rigsim.laws_v15; v16: the sixteenth, "
-        "rigsim.laws_v16; "
+        help="--generator independent: the rig's law set the effects are drawn from (maglev_ocp.rigsim.draw.LAW_SETS: "
+        "all: the first families and issue 27's; old, new; v3, v4, ...: one set alone, maglev_ocp.rigsim.laws_vN; "
         "default all)",
     )
     q.add_argument(
@@ -520,7 +496,10 @@ def _selftest_independent(args) -> int:
     """``selftest N --generator independent``: the blind self-check on datasets of the independent rig."""
     from ..diagnosis.selftest import SelftestSettings
     from ..diagnosis.selftest_rig import run_rig_selftest
+    from ..rigsim.draw import LAW_SETS
 
+    if args.laws not in LAW_SETS:
+        raise UserError(f"--laws: unknown law set {args.laws!r}; choose from {', '.join(LAW_SETS)}")
     if args.truths:
         raise UserError("--truths: the independent generator draws its own truths (none, 1-3 effects, out of library)")
     if args.baseline != "calibrated":

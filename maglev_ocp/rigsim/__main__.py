@@ -24,11 +24,8 @@ def main(argv: list[str] | None = None) -> int:
         "--laws",
         choices=LAW_SETS,
         default="all",
-        help="with --draw: law families to draw from (old: the first ones; new: issue 27's; v3: the third set; "
-        "v4: the fourth; v5: the fifth; v6: the sixth; v7: the seventh; v8: the eighth; v9: the ninth; v10: the tenth; "
-        "v11: the eleventh; v12: the twelfth; v13: the thirteenth; v14: the fourteenth; v15: the fifteenth; "
-        "v16: the sixteenth; "
-        "default all)",
+        help="with --draw: law families to draw from (old: the first ones; new: issue 27's; all: both; v3, v4, ...: "
+        "one later set alone, maglev_ocp.rigsim.laws_vN; default all)",
     )
     ap.add_argument("--runs", type=int, default=6, help="number of runs (default 6)")
     ap.add_argument("--duration", type=float, default=10.0, help="length of each run [s] (default 10)")

@@ -431,39 +431,7 @@ V3_DRAWS: dict[str, Callable[[np.random.Generator], Spec]] = {
     "gap_sensor_drift": _gap_sensor,
 }
 
-#: Which laws :func:`draw` may use: ``old`` (the first families: same scenario per seed as before
-#: issue 27), ``new`` (only the new families and effects), ``all`` (each drawn effect new with
-#: probability :data:`P_NEW`), ``v3`` (only the third set, :mod:`.laws_v3`), ``v4`` (only the fourth,
-#: :mod:`.laws_v4`, drawn by :mod:`.draw_v4`), ``v5`` (only the fifth, :mod:`.laws_v5`, drawn by :mod:`.draw_v5`),
-#: ``v6`` (only the sixth, :mod:`.laws_v6`, drawn by :mod:`.draw_v6`), ``v7`` (only the seventh, :mod:`.laws_v7`,
-#: drawn by :mod:`.draw_v7`), ``v8`` (only the eighth, :mod:`.laws_v8`, drawn by :mod:`.draw_v8`), ``v9`` (only the
-#: ninth, :mod:`.laws_v9`, drawn by :mod:`.draw_v9`), ``v10`` (only the tenth, :mod:`.laws_v10`, drawn by
-#: :mod:`.draw_v10`), ``v11`` (only the eleventh, :mod:`.laws_v11`, drawn by :mod:`.draw_v11`), ``v12`` (only
-#: the twelfth, :mod:`.laws_v12`, drawn by :mod:`.draw_v12`), ``v13`` (only the thirteenth, :mod:`.laws_v13`, drawn
-#: by :mod:`.draw_v13`), ``v14`` (only the fourteenth, :mod:`.laws_v14`, drawn by :mod:`.draw_v14`), ``v15`` (only
-#: the fifteenth, :mod:`.laws_v15`, drawn by :mod:`.draw_v15`) or ``v16`` (only the sixteenth, :mod:`.laws_v16`, drawn
-#: by :mod:`.draw_v16`).
-LAW_SETS: tuple[str, ...] = (
-    "all",
-    "old",
-    "new",
-    "v3",
-    "v4",
-    "v5",
-    "v6",
-    "v7",
-    "v8",
-    "v9",
-    "v10",
-    "v11",
-    "v12",
-    "v13",
-    "v14",
-    "v15",
-    "v16",
-)
-P_NEW = 0.5
-#: The sets with a draw module of their own (:mod:`.draw_v4` ... :mod:`.draw_v16`), by name.
+#: The sets with a draw module of their own, by name (``vN``: :mod:`.laws_vN` drawn by :mod:`.draw_vN`, v4 onwards).
 _SET_DRAWS = {
     "v4": draw_v4,
     "v5": draw_v5,
@@ -480,6 +448,13 @@ _SET_DRAWS = {
     "v16": draw_v16,
 }
 
+#: Which laws :func:`draw` may use: ``old`` (the first families: same scenario per seed as before
+#: issue 27), ``new`` (only the new families and effects), ``all`` (each drawn effect new with
+#: probability :data:`P_NEW`), ``v3`` (only the third set, :mod:`.laws_v3`) and each later set ``vN`` alone
+#: (:data:`_SET_DRAWS`). A new set is registered there only; the self-check's ``--laws`` reads this tuple.
+LAW_SETS: tuple[str, ...] = ("all", "old", "new", "v3", *_SET_DRAWS)
+P_NEW = 0.5
+
 #: Probability of each kind of scenario.
 KINDS: dict[str, float] = {"none": 0.15, "single": 0.35, "pair": 0.2, "triple": 0.1, "out_of_library": 0.2}
 
@@ -494,14 +469,11 @@ def draw(seed: int, kind: str | None = None, laws: str = "all") -> dict[str, Any
         spawned separately).
     kind : str, optional
         Force one of :data:`KINDS` (default: drawn with their probabilities).
-    laws : {"all", "old", "new", "v3", "v4", "v5", "v6", "v7", "v8", "v9", "v10", "v11", "v12", "v13", "v14", "v15",
-        "v16"}
-        Law families to draw from (:data:`LAW_SETS`). ``old`` reproduces the scenarios drawn before
+    laws : str
+        Law families to draw from, one of :data:`LAW_SETS`. ``old`` reproduces the scenarios drawn before
         the new families existed; ``all`` and ``new`` draw the effects and their laws from a second
-        stream of the same seed, ``v3`` from a third, ``v4`` from a fourth, ``v5`` from a fifth, ``v6`` from
-        a sixth, ``v7`` from a seventh, ``v8`` from an eighth, ``v9`` from a ninth, ``v10`` from a tenth, ``v11``
-        from an eleventh, ``v12`` from a twelfth, ``v13`` from a thirteenth, ``v14`` from a fourteenth, ``v15`` from
-        a fifteenth, ``v16`` from a sixteenth. Every effect's spec carries ``new_law``.
+        stream of the same seed, ``v3`` from a third, each later set ``vN`` from a stream of its own
+        (its draw module's). Every effect's spec carries ``new_law``.
     """
     if laws not in LAW_SETS:
         raise ValueError(f"laws must be one of {list(LAW_SETS)}, got {laws!r}")
