@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from residual_runs import clipped_sweeps, feature_residual
+from residual_runs import still_current_runs
 
 from maglev_ocp.diagnosis.residuals import Residual
 from maglev_ocp.diagnosis.settings import DiagnoseSettings
@@ -53,17 +53,9 @@ def flat_drag(feat, c):
     return np.zeros_like(feat["t"]) if c == 0 else -5.0 * feat["d_dot"] / MH
 
 
-def _runs(force, seed: int, n_runs: int = 3, n: int = 2500) -> list[Residual]:
-    """Held-out-like runs: sweeps along d (up to +-0.2 m/s) and of the gap (13..23 mm, up to +-30 mm/s) with
-    dwells at rest, residual ``force(feat) + noise``."""
-    rng = np.random.default_rng(seed)
-    out = []
-    for i in range(n_runs):
-        t, g, d = clipped_sweeps(rng, n, 0.045, (0.4, 0.8))
-        feat = {"t": t, "g": g, "d": d, "g_dot": np.gradient(g, t), "d_dot": np.gradient(d, t),
-                "i_q": np.zeros(n), "i_d": 1.0 + 150.0 * (g - 0.015)}  # fmt: skip
-        out.append(feature_residual(f"run{i}", feat, force, FLOOR, rng))
-    return out
+def _runs(force, seed: int) -> list[Residual]:
+    """Held-out-like runs: sweeps along d and of the gap, residual ``force(feat) + noise``."""
+    return still_current_runs(force, seed, FLOOR)
 
 
 def _shows(effect: str, force, seed: int):
