@@ -58,7 +58,7 @@ def lineless(effect: str) -> bool:
     resonance the model does not predict is that resonance absorbed through the currents the controller moves
     with it (a lightly damped frame mode named ``saturation``, issue 27)."""
     sig = SIGNATURES.get(effect)
-    return sig is not None and not sig.periods_m and set(sig.variables) <= {"g", "d", "i_q", "i_d"}
+    return sig is not None and not sig.periods_m and set(sig.variables) <= {"g", "d", "d_dot", "i_q", "i_d"}
 
 
 def lag_guards(split: Split, base: Baseline, att: Attribution, noise: NoiseFindings) -> dict[str, ResonanceGuard]:
