@@ -401,8 +401,9 @@ def test_at_a_single_frequency_a_lag_is_a_damping_and_no_lag_evidence(seed):
 
 
 def test_the_static_rivals_of_the_lag_are_the_velocity_laws():
-    """The static families a closed loop lets imitate a lag are those whose signature has a velocity: friction and
-    eddy drag; a static effect has none (its fixed-state test is not the lag's)."""
+    """The static families a closed loop lets imitate a lag are the force laws of a velocity: friction and eddy
+    drag; a static effect has none (its fixed-state test is not the lag's), and the commutation offset's latency,
+    a rotation of the currents that follows the speed, is judged by its own signature."""
     from maglev_ocp.diagnosis.library import family_specs
     from maglev_ocp.diagnosis.stages.claims import static_rivals
 

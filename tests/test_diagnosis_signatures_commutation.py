@@ -71,3 +71,34 @@ def test_a_force_of_the_position_alone_is_not_a_commutation_offset(force, seed):
     ev = _ev(force, seed)
     assert not ev.shows, ev.per_channel
     assert not any(r.get("core_shows") for r in ev.per_channel.values()), ev.per_channel
+
+
+def shielded_heads(feat, c):
+    """Heads that read the array through a conducting plate: the field reaches them delayed by the sheet's time
+    constant (3 ms), so the angle lags by the phase of a thin sheet's transmission ``1 / (1 + j w tau_s)`` at the
+    electrical frequency ``w = pi v / tau`` (Stoll, *The Analysis of Eddy Currents*, 1974, ch. 3): ``delta =
+    -atan(pi v tau_s / tau)``, odd in the speed and saturating; its rotation of the currents [m/s^2]."""
+    s = np.sin(-np.arctan(math.pi * feat["d_dot"] * 3e-3 / 0.05715))
+    return -C3 * s * feat["i_q"] / MV if c == 0 else C1 * s * feat["i_d"] / MH
+
+
+@pytest.mark.parametrize("seed", [48, 49])
+def test_an_angle_lagging_with_the_speed_is_a_commutation_offset(seed):
+    """A rotation that follows the speed (a shield's or a sensor's delay) shows as the commutation offset's, at a
+    fixed position too (its thrust error follows i_d times the speed)."""
+    ev = _ev(shielded_heads, seed)
+    assert ev.shows and ev.per_channel["horizontal"]["core_shows"], ev.per_channel
+
+
+def test_the_latency_turns_the_angle_by_the_electrical_angle_travelled():
+    """``CommutationOffset.angle``: a latency ``t`` lags the angle by ``(pi / tau) t v`` (seed section III's
+    electrical angle ``pi d / tau``); without a speed, or with the default latency, nothing changes."""
+    from maglev_ocp import constants as k
+    from maglev_ocp.effects import CommutationOffset
+
+    th = {**CommutationOffset.defaults(), "delta": 0.02, "latency": 2e-3}
+    got = float(CommutationOffset.angle(0.0, th, 0.02, 0.15))
+    assert got == pytest.approx(0.02 - math.pi / k.tau * 2e-3 * 0.15, rel=1e-12)
+    assert float(CommutationOffset.angle(0.0, th, 0.02)) == pytest.approx(0.02, rel=1e-12)
+    base = CommutationOffset.defaults()
+    assert float(CommutationOffset.angle(0.01, base, 0.02, 0.3)) == float(CommutationOffset.angle(0.01, base, 0.02))

@@ -267,7 +267,8 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
       ``commutation_offset`` (``spline``: the angle a spline of d);
     - ``commutation_offset``: ``electrical harmonics``: an angle error
       periodic in the electrical angle (first and second harmonics) whose
-      amplitude grows or falls with the gap at a fitted rate.
+      amplitude grows or falls with the gap at a fitted rate; ``latency``: the
+      angle lags with the speed (a sensor's, a filter's or a shield's delay).
     """
     lib = library_specs()
     out = {n: (s,) for n, s in lib.items()}
@@ -571,6 +572,17 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
                 "growing or falling with the gap at a fitted rate (Hall sensors' offsets and stray fields)"
             ),
             law="electrical harmonics",
+        ),
+        CandidateSpec(
+            "commutation_offset",
+            ("commutation_offset",),
+            free=_free("commutation_offset.delta", "commutation_offset.latency"),
+            note=(
+                "an offset plus a latency: the angle lags by the electrical angle travelled while it is read, "
+                "filtered or shielded, delta - (pi / tau) latency d_dot (a rotation that follows the speed): "
+                "2 parameters"
+            ),
+            law="latency",
         ),
     )
     knots = tuple(f"end_effect.{n}" for n in EndEffect.profile_names())

@@ -105,6 +105,8 @@ FREE: dict[str, tuple[float, float, float, float]] = {
     # fundamental falls by pi / tau = 55 /m; a sensor's error grows as the field it reads weakens)
     **{f"commutation_offset.{n}": (-0.35, 0.35, 0.0, 0.02) for n in CommutationOffset.harmonic_names()[:4]},
     "commutation_offset.harm_gap": (-300.0, 300.0, 0.0, 50.0),
+    # the angle's latency [s]: it lags by the electrical angle travelled meanwhile (a sensor's, a shield's delay)
+    "commutation_offset.latency": (*_eb("commutation_offset", "latency"), 0.0, 1e-3),
     # one-parameter effects (the effect's own bounds)
     "commutation_offset.delta": (*_eb("commutation_offset", "delta"), 0.0, 0.05),
     "commutation_offset.drift": (*_eb("commutation_offset", "drift"), 0.0, 1.0),

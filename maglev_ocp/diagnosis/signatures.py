@@ -299,8 +299,10 @@ def _catalogue() -> dict[str, Signature]:
     # currents (the levitation current changes with the gap held), where a force of the position alone (gravity
     # on a tilted base, a cable's or a spring's pull along d) does not: its core is its basis beyond a flexible
     # function of d.
-    com = {"horizontal": [i_d, lambda f: f["i_d"] * f["d"] / 0.05],
-           "vertical": [i_q, lambda f: f["i_q"] * f["d"] / 0.05, lambda f: f["i_q"] * f["i_d"]]}  # fmt: skip
+    # A latency turns the angle with the speed: i_d d_dot into the thrust, i_q d_dot into the lift.
+    com = {"horizontal": [i_d, lambda f: f["i_d"] * f["d"] / 0.05, lambda f: f["i_d"] * f["d_dot"] / 0.1],
+           "vertical": [i_q, lambda f: f["i_q"] * f["d"] / 0.05, lambda f: f["i_q"] * f["i_d"],
+                        lambda f: f["i_q"] * f["d_dot"] / 0.1]}  # fmt: skip
     # saturation: the loss's gap law (``sat``, the magnets' pull) and its core, the loss of the current terms
     sat_core = _saturation_core(sat, i_q, i_d)
     sigs = [
@@ -336,9 +338,10 @@ def _catalogue() -> dict[str, Signature]:
                   core=sat_core, fixed=("g", "d"),
                   beyond={"vertical": ends_fine + _times(ends_fine, _dg) + _times(ends_fine, i_d),
                           "horizontal": _times(ends_fine, i_q)}),
-        Signature("commutation_offset", ("i_q", "i_d", "d"), CHANNELS, (),
-                  "a rotation of the currents: i_d into the thrust, i_q into the lift, constant or drifting in d; "
-                  "at a fixed position it follows the currents (i_d changes with the gap held)",
+        Signature("commutation_offset", ("i_q", "i_d", "d", "d_dot"), CHANNELS, (),
+                  "a rotation of the currents: i_d into the thrust, i_q into the lift, constant or drifting in d or "
+                  "lagging with the speed; at a fixed position it follows the currents (i_d changes with the gap "
+                  "held)",
                   com, core=com, fixed=("d",)),
         Signature("amplifier_lag", ("di_q", "di_d"), CHANNELS, (),
                   "proportional to the current rates at a fixed state (no static map of state and currents)",

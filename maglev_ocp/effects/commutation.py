@@ -49,6 +49,14 @@ class CommutationOffset(Effect):
     Sensors*, 2nd ed., 2006, ch. 4; Lenz & Edelstein, IEEE Sensors J. 6(3), 2006), and the error grows where
     the field it reads is weaker, at a gap-dependent rate (``harm_gap``; the array's fundamental weakens by
     ``pi / tau`` per metre of gap, MODEL.md).
+
+    Latency (``latency`` [s], 0 by default): an angle read some time before the currents are applied lags the
+    magnets by the electrical angle travelled meanwhile, ``-(pi / tau) latency d_dot`` (seed section III's
+    electrical angle ``pi d / tau``): a sensor's or a filter's delay, the field read through a conducting shield or
+    cooling plate (a thin sheet's transmission ``1 / (1 + j w tau_s)`` delays the field by ``tau_s`` at low
+    frequency: Stoll, *The Analysis of Eddy Currents*, Clarendon 1974, ch. 3), a commutation computed a sample
+    before it acts. The rotation then follows the speed: a drag or push ``C1 i_d sin(delta)`` along d that grows
+    with the levitation current (with the gap), where an eddy drag falls with the gap as the field does.
     """
 
     #: Centres [m] of the learned offset's B-spline in d.
@@ -69,6 +77,7 @@ class CommutationOffset(Effect):
         EffectParam("harm2_c", 0.0, -0.35, 0.35, "rad", "cos(2 theta_e) amplitude of the angle error at g = 20 mm"),
         EffectParam("harm2_s", 0.0, -0.35, 0.35, "rad", "sin(2 theta_e) amplitude of the angle error at g = 20 mm"),
         EffectParam("harm_gap", 0.0, -300.0, 300.0, "1/m", "growth rate of the harmonics' amplitude with the gap"),
+        EffectParam("latency", 0.0, -0.01, 0.01, "s", "age of the angle when the currents act (lags with the speed)"),
     )
 
     @classmethod
@@ -82,17 +91,20 @@ class CommutationOffset(Effect):
         return ("harm1_c", "harm1_s", "harm2_c", "harm2_s", "harm_gap")
 
     @classmethod
-    def angle(cls, d: Expr, theta: Mapping[str, Expr], g: Expr | None = None) -> Expr:
-        """Electrical offset angle [rad] at position ``d`` [m] and gap ``g`` [m] (20 mm if not given):
-        ``delta + drift d`` plus the learned spline plus the electrical harmonics."""
+    def angle(cls, d: Expr, theta: Mapping[str, Expr], g: Expr | None = None, v: Expr | None = None) -> Expr:
+        """Electrical offset angle [rad] at position ``d`` [m], gap ``g`` [m] (20 mm if not given) and speed ``v``
+        [m/s] (0 if not given): ``delta + drift d`` plus the learned spline plus the electrical harmonics, less
+        the latency's lag ``(pi / tau) latency v``."""
         learned = bspline(d, cls.KNOTS, cls.KNOT_STEP, [theta.get(n, 0.0) for n in cls.shape_names()])
         out = theta["delta"] + theta["drift"] * d + learned
+        if v is not None:  # the electrical angle travelled during the latency (the class docstring)
+            out = out - (math.pi / k.tau) * theta.get("latency", 0.0) * v
         h1c, h1s, h2c, h2s = (theta.get(n, 0.0) for n in cls.harmonic_names()[:4])
         th = math.pi * d / k.tau  # the electrical angle (seed section III)
         grow = ca.exp(theta.get("harm_gap", 0.0) * ((_G_HARM_REF if g is None else g) - _G_HARM_REF))
         return out + grow * (h1c * ca.cos(th) + h1s * ca.sin(th) + h2c * ca.cos(2 * th) + h2s * ca.sin(2 * th))
 
     def currents(self, u, x, theta):
-        angle = self.angle(x[2], theta, x[0])
+        angle = self.angle(x[2], theta, x[0], x[3])
         c, s = ca.cos(angle), ca.sin(angle)
         return ca.vertcat(c * u[0] - s * u[1], s * u[0] + c * u[1])

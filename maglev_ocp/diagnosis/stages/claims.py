@@ -352,11 +352,13 @@ def _fixed_state_only(ev: SignatureEvidence) -> bool:
 
 def static_rivals(effect: str, families: Mapping[str, tuple[CandidateSpec, ...]]) -> list[str]:
     """The library's static families that a closed loop lets imitate a dynamic ``effect``: those whose
-    signature depends on a velocity. At one frequency a lag's force error ``-t dF/dt`` is a (negative) damping
-    ``t M w^2 v`` (module docstring), which a friction law's viscous and Stribeck terms or an eddy drag take up."""
+    signature is a force law of a velocity (a velocity among its variables, no current). At one frequency a lag's
+    force error ``-t dF/dt`` is a (negative) damping ``t M w^2 v`` (module docstring), which a friction law's
+    viscous and Stribeck terms or an eddy drag take up; a commutation offset's latency (a rotation of the currents
+    that follows the speed) scales the currents' force and is judged by its own signature."""
     vel = {"g_dot", "d_dot"}
     return [f for f in families if f != effect and f in SIGNATURES and nested_in_static(f)
-            and vel & set(SIGNATURES[f].variables)]  # fmt: skip
+            and vel & set(SIGNATURES[f].variables) and not {"i_q", "i_d"} & set(SIGNATURES[f].variables)]  # fmt: skip
 
 
 def _static_rivals(run: Run, att: Attribution, e: str, rest: Sequence[str]) -> dict[str, dict]:

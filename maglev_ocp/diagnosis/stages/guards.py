@@ -51,14 +51,14 @@ def _own(att: Attribution) -> Attribution:
 
 def lineless(effect: str) -> bool:
     """Whether ``effect`` can leave no spectral line of its own: its signature has no period in ``d`` and reads
-    only the gap, the position and the currents (:data:`..signatures.SIGNATURES`: saturation, the commutation
-    offset, a parameter error). Such a law scales or rotates the model's own terms, so whatever line it makes
-    is at a frequency of the motion, where the model predicts most of the measured power (a forced line,
-    :func:`..peaks.forced_peaks`, which the resonance guard leaves out); an improvement that lies in a
-    resonance the model does not predict is that resonance absorbed through the currents the controller moves
-    with it (a lightly damped frame mode named ``saturation``, issue 27)."""
+    only the gap, the position, the speed along d and the currents (:data:`..signatures.SIGNATURES`: saturation,
+    the commutation offset and its latency, a parameter error). Such a law scales or rotates the model's own
+    terms, so whatever line it makes is at a frequency of the motion, where the model predicts most of the
+    measured power (a forced line, :func:`..peaks.forced_peaks`, which the resonance guard leaves out); an
+    improvement that lies in a resonance the model does not predict is that resonance absorbed through the
+    currents the controller moves with it (a lightly damped frame mode named ``saturation``, issue 27)."""
     sig = SIGNATURES.get(effect)
-    return sig is not None and not sig.periods_m and set(sig.variables) <= {"g", "d", "i_q", "i_d"}
+    return sig is not None and not sig.periods_m and set(sig.variables) <= {"g", "d", "d_dot", "i_q", "i_d"}
 
 
 def lag_guards(split: Split, base: Baseline, att: Attribution, noise: NoiseFindings) -> dict[str, ResonanceGuard]:
