@@ -127,7 +127,7 @@ FREE: dict[str, tuple[float, float, float, float]] = {
     # a conductor's damping of the gap's own motion: its coefficient at g_ref [N s/m] and its decay rate with the
     # gap (never flat: a flat damping of the gap is not a conductor's)
     "eddy_drag.c_gap": (*_eb("eddy_drag", "c_gap"), 20.0, 20.0),
-    "eddy_drag.kappa_gap": (*EddyDrag.KAPPA_GAP_BOUNDS, 2 * math.pi / k.tau, 30.0),
+    "eddy_drag.kappa_gap": (*EddyDrag.KAPPA_GAP_BOUNDS, EddyDrag.KAPPA_GAP_DEFAULT, 30.0),
     # parameter error: factors on C1..C4 (C4, a small term, may be off by more)
     "parameter_error.k_C1": _FACTOR,
     "parameter_error.k_C2": _FACTOR,

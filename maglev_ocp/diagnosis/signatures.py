@@ -281,8 +281,9 @@ def _catalogue() -> dict[str, Signature]:
     visc_g = [lambda f, j=j: f["g_dot"] * _dg_mean(f) ** j for j in range(4)]
     visc_d = [lambda f, j=j: _beyond_flat(f["d_dot"], _dg_mean(f) ** j) for j in range(1, 4)]
     # A conductor's damping of the gap's own motion (EddyDrag's c_gap): its coefficient follows the gap (the flux's
-    # change through the conductor), a flat one is the air's: judged beyond a flat g_dot (the signature's beyond).
-    eddy_gap = [lambda f, j=j: f["g_dot"] * _dg_mean(f) ** j for j in (1, 2)]
+    # change through the conductor: visc_g's linear and quadratic terms), a flat one is the air's: judged beyond a
+    # flat g_dot (visc_g's first column, the signature's beyond).
+    eddy_gap, flat_gap = visc_g[1:3], visc_g[:1]
     ends = end_columns()
     ends_g = ends + _times(ends, _dg)  # the current-free end force and pull loss, their size smooth in g
     # A loss at the ends of any smooth profile, which saturation (the same along the stroke) is judged beyond: the
@@ -322,7 +323,7 @@ def _catalogue() -> dict[str, Signature]:
                   {"horizontal": [lambda f: f["d_dot"], lambda f: f["d_dot"] * _dg(f),
                                   lambda f: f["d_dot"] * f["d"] / 0.05, lambda f: f["d_dot"] * (f["d"] / 0.05) ** 2],
                    "vertical": [lambda f: f["d_dot"] ** 2, lambda f: f["d_dot"] ** 2 * _dg(f), *eddy_gap]},
-                  beyond={"vertical": [lambda f: f["g_dot"]]}),
+                  beyond={"vertical": flat_gap}),
         Signature("end_effect", ("d", "g", "i_q", "i_d"), CHANNELS, (tau, tau / 2),
                   "forces localized at each end of the stroke, nil in its middle and growing with each end's "
                   "overhang (the end forces of the magnets and of the winding, the thrust and pull losses), and a "

@@ -128,6 +128,8 @@ class EddyDrag(Effect):
     #: Bounds [1/m] of the normal damping's decay rate with g: from a factor 1.5 over the targets' gaps 15..25 mm
     #: (what sweeps of the gap tell from a flat damping) to the field's third harmonic squared.
     KAPPA_GAP_BOUNDS: ClassVar[tuple[float, float]] = (math.log(1.5) / 0.010, 6 * math.pi / k.tau)
+    #: Its default [1/m] (the field's fundamental squared), where a fit starts.
+    KAPPA_GAP_DEFAULT: ClassVar[float] = 2 * math.pi / k.tau
 
     name = "eddy_drag"
     params = (
@@ -140,9 +142,7 @@ class EddyDrag(Effect):
             "kappa_side", KAPPA_SIDE_DEFAULT, *KAPPA_SIDE_BOUNDS, "1/m", "growth rate of a side conductor's drag with g"
         ),
         EffectParam("c_gap", 0.0, 0.0, 500.0, "N s/m", "damping coefficient of the gap's motion at g_ref"),
-        EffectParam(
-            "kappa_gap", 2 * math.pi / k.tau, *KAPPA_GAP_BOUNDS, "1/m", "decay rate of the gap's damping with g"
-        ),
+        EffectParam("kappa_gap", KAPPA_GAP_DEFAULT, *KAPPA_GAP_BOUNDS, "1/m", "decay rate of the gap's damping with g"),
         EffectParam("lift", 0.0, 0.0, 2.0, "-", "lift over Reitz's thin-sheet lift (opens the gap)"),
         EffectParam("c_vert", 0.0, 0.0, 2.0, "-", "vertical damping over the drag's low-speed coefficient"),
         *(
@@ -177,7 +177,7 @@ class EddyDrag(Effect):
     @classmethod
     def gap_coefficient(cls, g: Expr, theta: Mapping[str, Expr]) -> Expr:
         """Damping coefficient ``c_n(g)`` [N s/m] of the gap's own motion at gap ``g`` [m] (the class docstring)."""
-        return theta.get("c_gap", 0.0) * ca.exp(-theta.get("kappa_gap", cls.KAPPA_GAP_BOUNDS[0]) * (g - k.g_cog_ref))
+        return theta.get("c_gap", 0.0) * ca.exp(-theta.get("kappa_gap", cls.KAPPA_GAP_DEFAULT) * (g - k.g_cog_ref))
 
     @classmethod
     def forces(
