@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from ..effects import Cogging, CommutationOffset, EddyDrag, EndEffect, Friction, Saturation
-from ..effects.cogging import ENERGY_DECAY_RANGE, ENERGY_PERIOD, G_ENERGY_REF
+from ..effects.cogging import ENERGY_DECAY_RANGE, ENERGY_PERIOD, G_ENERGY_REF, POLE_PERIOD
 from ..params import Params
 from .library_bounds import FREE as _FREE
 
@@ -261,7 +261,9 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
     - learned shapes (flexible) of ``cogging`` (``co-energy 3``, ``co-energy 6``:
       a co-energy periodic in d whose gradient is both the tangential and the
       normal force, each harmonic decaying in g at a rate of its own,
-      :meth:`~maglev_ocp.effects.Cogging.energy_forces`),
+      :meth:`~maglev_ocp.effects.Cogging.energy_forces`; ``pole pair``: the
+      same with harmonics of the array's period ``2 tau``, a stator that is
+      not uniform),
       ``friction`` (``spline``: an odd function of each velocity, Coulomb +
       viscous + a non-negative spline of the speed, its load) and
       ``commutation_offset`` (``spline``: the angle a spline of d);
@@ -325,6 +327,28 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             flexible=True,
         )
         for n_h in ENERGY_HARMONICS
+    )
+    # The pole-pair co-energy (flexible): a stator that is not uniform pulls on each pole in turn, a cogging with
+    # the array's period 2 tau (Cogging's docstring), with the slot co-energy's first three harmonics.
+    out["cogging"] += (
+        CandidateSpec(
+            "cogging",
+            ("cogging",),
+            free=_free(
+                *(f"cogging.{n}" for n in Cogging.pole_names()),
+                *(f"cogging.{n}" for n in Cogging.energy_names(ENERGY_HARMONICS[0])),
+                "cogging.e_curv",
+            ),
+            fixed=(("cogging.xi0", 0.0),),
+            note=(
+                f"learned cogging of a stator that is not uniform (unequal teeth, a tooth's remanence: Gasparin et "
+                f"al. 2009): one co-energy W(d, g) with harmonics 1, 2 of the array's period "
+                f"{POLE_PERIOD * 1e3:.1f} mm (2 tau) and 1..{ENERGY_HARMONICS[0]} of {ENERGY_PERIOD * 1e3:.2f} mm "
+                "(2 t1), tangential and normal forces linked, each harmonic's decay its own; no velocity, no current"
+            ),
+            law="pole pair",
+            flexible=True,
+        ),
     )
     stribeck = _free("friction.stribeck_g", "friction.stribeck_d", "friction.v_stribeck")
     out["friction"] += (

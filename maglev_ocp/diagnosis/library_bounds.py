@@ -100,6 +100,8 @@ FREE: dict[str, tuple[float, float, float, float]] = {
     **{f"cogging.{n}": (-20.0, 20.0, 0.0, 0.5) for n in Cogging.energy_names() if n[2] in "cs"},
     **{f"cogging.{n}": (*ENERGY_DECAY_RANGE, 1.0, 0.5) for n in Cogging.energy_names() if n[2] == "r"},
     "cogging.e_curv": (-4.0, 1.0, 0.0, 1.0),
+    **{f"cogging.{n}": (-20.0, 20.0, 0.0, 0.5) for n in Cogging.pole_names() if n[3] in "cs"},
+    **{f"cogging.{n}": (*ENERGY_DECAY_RANGE, 1.0, 0.5) for n in Cogging.pole_names() if n[3] == "r"},
     **{f"commutation_offset.{n}": (-0.35, 0.35, 0.0, 0.05) for n in CommutationOffset.shape_names()},
     # the commutation offset's electrical harmonics [rad] and their growth rate with the gap [1/m] (the array's
     # fundamental falls by pi / tau = 55 /m; a sensor's error grows as the field it reads weakens)

@@ -131,7 +131,8 @@ class DiagnoseSettings(Strict):
     signature_alpha : float
         The signature must explain more than the null's ``1 - signature_alpha`` quantile.
     signature_min_floor : float
-        ... and at least this rms over the channel's noise floor.
+        ... and at least this rms over the channel's noise floor where its share is just above that quantile
+        (beyond twice the quantile lower, to half of it at eight times: :func:`.signatures.material_bar`).
     leftover_ratio : float
         Test (c) of the claim guard (:mod:`.stages.claims`): an effect named beside others whose signature is a
         static map of the state and the currents stays only if, in some channel where its signature shows, the

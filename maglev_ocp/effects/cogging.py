@@ -17,6 +17,12 @@ ENERGY_PERIOD: float = 2 * k.t1
 #: Harmonics of the co-energy shape (periods ``2 t1 / k``, k = 1..6: the slot pitch ``t1`` and its 2nd and 3rd
 #: harmonics are k = 2, 4, 6).
 _ENERGY_K = 6
+#: Period of the pole-pair co-energy [m]: the magnet array's own period ``2 tau`` (a pole pair, MODEL.md Table I),
+#: so that its harmonics ``k = 1, 2`` have periods ``2 tau`` and ``tau`` (the 3rd, ``2 tau / 3 = 2 t1``, is the
+#: slot co-energy's fundamental and is left to it).
+POLE_PERIOD: float = 2 * k.tau
+#: Harmonics of the pole-pair co-energy.
+_POLE_K = 2
 #: Gap at which the co-energy shape's amplitudes are referred [m]: the centre of the tracking envelope (MODEL.md),
 #: inside the gaps a rig visits, so that a fast-decaying harmonic is not extrapolated far to be referred.
 G_ENERGY_REF: float = 0.5 * (k.g_envelope[0] + k.g_envelope[1])
@@ -67,6 +73,19 @@ class Cogging(Effect):
     no velocity enters it, so it can take up neither friction (odd in the velocities) nor an end effect (not
     periodic) nor a change of the magnetic forces' gap law. The seed's own law (eq. (9), ``xi0``, ``ell`` in
     ``p``) stays in the model; zero coefficients (the default) add nothing.
+
+    Pole-pair co-energy (in :meth:`energy_forces`): the same co-energy at the magnet array's own period ``2 tau``
+    (harmonics 1 and 2: periods ``2 tau`` and ``tau``), each harmonic decaying with the gap at a rate of its own
+    within :data:`ENERGY_DECAY_RANGE` times its wavenumber (the array's fundamental decays as ``exp(-pi g /
+    tau)``). A stator whose slots are all alike pulls on every magnet alike and its cogging has the slot pitch's
+    period; a stator that is not uniform (slots or teeth of unequal width, a tooth's remanent magnetization, a
+    lamination stack's joint) pulls on each pole of the array in turn, so its cogging has the array's period
+    (Gasparin, Cernigoj, Fiser & Zhu, "Additional cogging torque components in permanent-magnet motors due to
+    manufacturing imperfections", IEEE Trans. Magn. 45(3), 2009: stator imperfections add cogging harmonics at
+    multiples of the pole number, magnet imperfections at multiples of the slot number). Over a stroke shorter
+    than ``2 tau`` it is a smooth detent along ``d`` (a pull towards a position) with its normal part, still one
+    co-energy: the tangential and normal parts are linked as above, so a spring, a cable or a tilt (no normal
+    part that goes with them) are not its.
     """
 
     #: Number of harmonics of the co-energy shape.
@@ -94,6 +113,15 @@ class Cogging(Effect):
                 EffectParam(f"e_r{j}", 1.0, *ENERGY_DECAY_RANGE, "-", f"co-energy shape: harmonic {j}'s decay / q_{j}"),
             )
         ),
+        *(
+            p
+            for j in range(1, _POLE_K + 1)
+            for p in (
+                EffectParam(f"e_pc{j}", 0.0, -20.0, 20.0, "N", f"pole-pair co-energy: cos({j} pi d / tau), N at g_e"),
+                EffectParam(f"e_ps{j}", 0.0, -20.0, 20.0, "N", f"pole-pair co-energy: sin({j} pi d / tau), N at g_e"),
+                EffectParam(f"e_pr{j}", 1.0, *ENERGY_DECAY_RANGE, "-", f"pole-pair co-energy: harmonic {j}'s decay"),
+            )
+        ),
     )
 
     @classmethod
@@ -103,17 +131,27 @@ class Cogging(Effect):
         return tuple(f"e_{q}{j}" for j in range(1, n + 1) for q in ("c", "s", "r"))
 
     @classmethod
+    def pole_names(cls) -> tuple[str, ...]:
+        """Names of the pole-pair co-energy's coefficients ``c_k, s_k, rho_k`` (harmonics of ``2 tau``)."""
+        return tuple(f"e_p{q}{j}" for j in range(1, _POLE_K + 1) for q in ("c", "s", "r"))
+
+    @classmethod
     def energy_forces(cls, g: Expr, d: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
         """The co-energy shape's tangential and normal forces ``(Fx, Fn)`` [N], ``-dW/dd`` and ``dW/dg`` (class
-        docstring; 0 with the default coefficients, and for a ``theta`` written before the shape existed)."""
+        docstring; 0 with the default coefficients, and for a ``theta`` written before the shape existed): the
+        slot co-energy's harmonics of ``2 t1`` and the pole-pair co-energy's of ``2 tau``."""
         z = g - G_ENERGY_REF
         curv = theta.get("e_curv", 0.0)
         fx: Expr = 0.0
         fn: Expr = 0.0
-        for j in range(1, cls.HARMONICS + 1):
-            c, s = theta.get(f"e_c{j}", 0.0), theta.get(f"e_s{j}", 0.0)
-            q = 2 * math.pi * j / ENERGY_PERIOD
-            rate = theta.get(f"e_r{j}", 1.0) * q
+        waves = [(f"e_c{j}", f"e_s{j}", f"e_r{j}", j / ENERGY_PERIOD) for j in range(1, cls.HARMONICS + 1)]
+        waves += [(f"e_pc{j}", f"e_ps{j}", f"e_pr{j}", j / POLE_PERIOD) for j in range(1, _POLE_K + 1)]
+        for kc, ks, kr, per in waves:
+            c, s = theta.get(kc, 0.0), theta.get(ks, 0.0)
+            if isinstance(c, float) and isinstance(s, float) and c == 0.0 and s == 0.0:
+                continue  # a harmonic the theta does not have (numeric zeros): nothing to add
+            q = 2 * math.pi * per
+            rate = theta.get(kr, 1.0) * q
             amp = ca.exp(-rate * z - curv * (z / G_ENERGY_REF) ** 2)
             dlog = -rate - 2 * curv * z / G_ENERGY_REF**2  # d ln A_k / dg
             cq, sq = ca.cos(q * d), ca.sin(q * d)
