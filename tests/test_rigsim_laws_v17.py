@@ -411,7 +411,8 @@ def test_every_drawn_v17_law_is_finite_and_bounded_and_every_family_is_drawn():
             if name == "amplifier_lag":
                 A, B, C = law.ss(0)
                 assert C @ np.linalg.solve(-A, B[:, 0]) == pytest.approx(1.0, abs=1e-9)
-                assert np.all(np.linalg.eigvals(A).real < 0) and law.group_delay(1e-3) < 2.5e-3
+                # (3 ms: the doublet's largest by construction is 0.3 + 0.4 * 4 + 1 sample = 2.9 ms)
+                assert np.all(np.linalg.eigvals(A).real < 0) and law.group_delay(1e-3) < 3e-3
     assert seen == {(n, f) for n, c in V17_LAWS.items() for f in c.families}
 
 
