@@ -9,7 +9,7 @@ import time
 
 from .draw import LAW_SETS, draw
 from .generate import generate
-from .laws_v16 import EFFECTS_V16 as LAWS
+from .laws_v17 import EFFECTS_V17 as LAWS
 from .sim import RigSettings
 
 
