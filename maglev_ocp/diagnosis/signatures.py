@@ -152,11 +152,6 @@ def _gap_spline(f: Feat, j: int, n: int = GAP_SPLINES) -> np.ndarray:
     return _bsplines(g, *rng, n)[:, j]
 
 
-def _odd(v: str) -> tuple[Column, Column]:
-    """A velocity's sign (smoothed at :data:`_V_SIGN`) and the velocity itself: a Coulomb and a viscous force."""
-    return (lambda f: np.tanh(f[v] / _V_SIGN), lambda f: f[v])
-
-
 def _spring(f: Feat) -> np.ndarray:
     """A force linear in ``d`` over the whole stroke (a spring, a cable's pull): what an end effect is not."""
     return f["d"] / 0.05
@@ -261,9 +256,10 @@ def _catalogue() -> dict[str, Signature]:
     # A stator that is not uniform: harmonics 1, 2 of the array's period 2 tau (Cogging's pole-pair co-energy;
     # the 3rd is 2 t1's fundamental). Over the stroke they are smooth in d: judged beyond a spring and a linear
     # function of the gap (a cable, a tilt), which they would otherwise take, and beyond the axis' velocity's sign
-    # and size (a force of the position is no friction: on a stroke swept a few times, smooth columns of d share
-    # some of a Coulomb force's square wave). Not in ``own`` nor in the periods
-    # (the angle lock's ripple and the gap locator's library periods: 2 tau is twice the end effect's tau).
+    # and size (friction's Coulomb and viscous columns, ``fr_g[:2]``, ``fr_d[:2]``: a force of the position is no
+    # friction; on a stroke swept a few times, smooth columns of d share some of a Coulomb force's square wave).
+    # Not in ``own`` nor in the periods (the angle lock's ripple and the gap locator's library periods: 2 tau is
+    # twice the end effect's tau).
     pole = [c for h in (1, 2) for c in _sincos(2 * tau, h)]
     cog_g += pole + _times(pole, _dg)
     # At full freedom in its own variables: every harmonic times cubic B-splines in g (any smooth amplitude law).
@@ -326,7 +322,7 @@ def _catalogue() -> dict[str, Signature]:
                   "(harmonics 1, 2, beyond a spring), amplitude smooth in g",
                   {c: cog_g for c in CHANNELS},
                   own={c: cog_own for c in CHANNELS}, angle_free=True,
-                  beyond={"horizontal": [_spring, _dg, *_odd("d_dot")], "vertical": [_spring, _dg, *_odd("g_dot")]}),
+                  beyond={"horizontal": [_spring, _dg, *fr_d[:2]], "vertical": [_spring, _dg, *fr_g[:2]]}),
         Signature("friction", ("g_dot", "d_dot", "g"), CHANNELS, (),
                   "odd in each axis' velocity, its dry level smooth in the guide's load (the gap); on the gap axis "
                   "a dry level beyond any viscous drag, along d beyond a drag that follows the gap",

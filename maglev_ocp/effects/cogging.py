@@ -124,16 +124,21 @@ class Cogging(Effect):
         ),
     )
 
+    @staticmethod
+    def _waves(prefix: str, n: int, period: float) -> list[tuple[str, str, str, float]]:
+        """Per harmonic ``k = 1..n`` of ``period``: the names of its ``c_k, s_k, rho_k`` and ``k / period`` [1/m]."""
+        return [(f"{prefix}c{j}", f"{prefix}s{j}", f"{prefix}r{j}", j / period) for j in range(1, n + 1)]
+
     @classmethod
     def energy_names(cls, harmonics: int | None = None) -> tuple[str, ...]:
         """Names of the co-energy shape's coefficients ``c_k, s_k, rho_k`` of harmonics ``1..harmonics``."""
         n = cls.HARMONICS if harmonics is None else harmonics
-        return tuple(f"e_{q}{j}" for j in range(1, n + 1) for q in ("c", "s", "r"))
+        return tuple(name for w in cls._waves("e_", n, ENERGY_PERIOD) for name in w[:3])
 
     @classmethod
     def pole_names(cls) -> tuple[str, ...]:
         """Names of the pole-pair co-energy's coefficients ``c_k, s_k, rho_k`` (harmonics of ``2 tau``)."""
-        return tuple(f"e_p{q}{j}" for j in range(1, _POLE_K + 1) for q in ("c", "s", "r"))
+        return tuple(name for w in cls._waves("e_p", _POLE_K, POLE_PERIOD) for name in w[:3])
 
     @classmethod
     def energy_forces(cls, g: Expr, d: Expr, theta: Mapping[str, Expr]) -> tuple[Expr, Expr]:
@@ -144,12 +149,11 @@ class Cogging(Effect):
         curv = theta.get("e_curv", 0.0)
         fx: Expr = 0.0
         fn: Expr = 0.0
-        waves = [(f"e_c{j}", f"e_s{j}", f"e_r{j}", j / ENERGY_PERIOD) for j in range(1, cls.HARMONICS + 1)]
-        waves += [(f"e_pc{j}", f"e_ps{j}", f"e_pr{j}", j / POLE_PERIOD) for j in range(1, _POLE_K + 1)]
+        waves = cls._waves("e_", cls.HARMONICS, ENERGY_PERIOD) + cls._waves("e_p", _POLE_K, POLE_PERIOD)
         for kc, ks, kr, per in waves:
             c, s = theta.get(kc, 0.0), theta.get(ks, 0.0)
             if isinstance(c, float) and isinstance(s, float) and c == 0.0 and s == 0.0:
-                continue  # a harmonic the theta does not have (numeric zeros): nothing to add
+                continue  # numeric zeros (a member that does not free this harmonic): a term of exactly 0, not built
             q = 2 * math.pi * per
             rate = theta.get(kr, 1.0) * q
             amp = ca.exp(-rate * z - curv * (z / G_ENERGY_REF) ** 2)
