@@ -253,13 +253,10 @@ def _catalogue() -> dict[str, Signature]:
     # its 2nd and 3rd harmonics are k = 2, 4, 6 (the co-energy member's harmonics, Cogging.energy_forces).
     cog = [c for h in range(1, 7) for c in _sincos(2 * t1, h)]
     cog_g = cog + _times(cog, _dg)  # amplitude a smooth function of g (eq. (9): exponential in g)
-    # A stator that is not uniform: harmonics 1, 2 of the array's period 2 tau (Cogging's pole-pair co-energy;
-    # the 3rd is 2 t1's fundamental). Over the stroke they are smooth in d: judged beyond a spring and a linear
-    # function of the gap (a cable, a tilt), which they would otherwise take, and beyond the axis' velocity's sign
-    # and size (friction's Coulomb and viscous columns, ``fr_g[:2]``, ``fr_d[:2]``: a force of the position is no
-    # friction; on a stroke swept a few times, smooth columns of d share some of a Coulomb force's square wave).
-    # Not in ``own`` nor in the periods (the angle lock's ripple and the gap locator's library periods: 2 tau is
-    # twice the end effect's tau).
+    # A stator that is not uniform: harmonics 1, 2 of the array's period 2 tau (Cogging's pole-pair co-energy),
+    # smooth in d over the stroke: judged beyond a spring, a linear gap law (a cable, a tilt) and friction's
+    # Coulomb and viscous columns (smooth columns of d share some of a Coulomb force's square wave). Not in
+    # ``own`` nor in the periods (the angle lock's ripple; the gap locator counts 2 tau as twice tau).
     pole = [c for h in (1, 2) for c in _sincos(2 * tau, h)]
     cog_g += pole + _times(pole, _dg)
     # At full freedom in its own variables: every harmonic times cubic B-splines in g (any smooth amplitude law).
