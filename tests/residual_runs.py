@@ -54,14 +54,17 @@ def swept_runs(force, seed: int, floor: float, n_runs: int = 3, n: int = 2500) -
     return out
 
 
-def still_current_runs(force, seed: int, floor: float, n_runs: int = 3, n: int = 2500) -> list[Residual]:
-    """Held-out-like runs of ``force`` plus white noise of rms ``floor``: sweeps along d (+-45 mm) and of the gap
-    (13..23 mm) dwelling at their turning points (:func:`clipped_sweeps`), no thrust current and a levitation
-    current that follows the gap alone (laws of the velocities and the gap, without the currents' dither)."""
+def still_current_runs(
+    force, seed: int, floor: float, n_runs: int = 3, n: int = 2500, d_amp: float = 0.045
+) -> list[Residual]:
+    """Held-out-like runs of ``force`` plus white noise of rms ``floor``: sweeps along d (+-``d_amp``, by default
+    the rig's +-45 mm) and of the gap (13..23 mm) dwelling at their turning points (:func:`clipped_sweeps`), no
+    thrust current and a levitation current that follows the gap alone (laws of the velocities and the gap,
+    without the currents' dither)."""
     rng = np.random.default_rng(seed)
     out = []
     for i in range(n_runs):
-        t, g, d = clipped_sweeps(rng, n, 0.045, (0.4, 0.8))
+        t, g, d = clipped_sweeps(rng, n, d_amp, (0.4, 0.8))
         feat = {"t": t, "g": g, "d": d, "g_dot": np.gradient(g, t), "d_dot": np.gradient(d, t),
                 "i_q": np.zeros(n), "i_d": 1.0 + 150.0 * (g - 0.015)}  # fmt: skip
         out.append(feature_residual(f"run{i}", feat, force, floor, rng))

@@ -1,5 +1,7 @@
 """Cogging at the array's period: a stator that is not uniform pulls on each pole of the array in turn, and its
-detent shows as cogging; a spring, a cable's pull or a tilt does not (:func:`maglev_ocp.diagnosis.signatures.evidence`).
+detent shows as cogging where the data span two of its periods; a spring, a cable's pull or a tilt does not, nor,
+over the rig's stroke (shorter than 2 tau), a smooth pull towards the stator's ends
+(:func:`maglev_ocp.diagnosis.signatures.evidence`, :func:`maglev_ocp.diagnosis.library.offered`).
 
 The residuals are built here from laws written for the test, not the library's (whose pole-pair member is a
 co-energy of two free harmonics of ``2 tau``, :meth:`maglev_ocp.effects.Cogging.energy_forces`):
@@ -14,8 +16,11 @@ co-energy of two free harmonics of ``2 tau``, :meth:`maglev_ocp.effects.Cogging.
   array's field is ``-(1/2) P_t B^2`` (Zhu & Howe, 1992: the co-energy of the permeance): with ``B^2`` the square
   wave's even harmonics, the narrow tooth's detent has the pole pitch's period ``tau``.
 
-Not cogging: a cable's pull (a constant plus a spring along d, nothing on the gap), and a tilted base with a spring
-on the gap (a constant along d and a force linear in the gap).
+Not cogging: a cable's pull (a constant plus a spring along d, nothing on the gap), a tilted base with a spring
+on the gap (a constant along d and a force linear in the gap), and iron end plates beyond the stroke pulling the
+array's end poles (each the image pole of a pole near a permeable plane, ``F = m^2 / (4 pi mu0 (2 s)^2)``: Furlani
+2001, ch. 3): a bend over the stroke that a cosine of ``2 tau`` takes as well as an end force, so the array's
+period is not tested on a stroke shorter than two of it.
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ import pytest
 from residual_runs import still_current_runs
 
 from maglev_ocp import constants as k
-from maglev_ocp.diagnosis.library import family_specs
+from maglev_ocp.diagnosis.library import MIN_PERIODS, family_specs, offered
 from maglev_ocp.diagnosis.settings import DiagnoseSettings
 from maglev_ocp.diagnosis.signatures import evidence
 from maglev_ocp.effects import Cogging
@@ -87,20 +92,57 @@ def tilt_and_spring(feat, c):
     return -150.0 * (feat["g"] - 0.018) / MV
 
 
-def _shows(effect: str, force, seed: int):
-    runs = still_current_runs(force, seed, FLOOR)
+def end_plates(feat, c, x_e=0.075, size=0.5):
+    """Iron plates ``x_e`` beyond the stroke's middle at both ends pull the array's end poles [m/s^2]: the image
+    force ``A / (2 s)^2`` at a pole's distance ``s = x_e -+ d`` from each plate, ``size`` [N] the net pull along d
+    at 45 mm; on the gap the pull's normal part, ``0.4`` of it, falling with the gap over 10 mm."""
+    a = size / (1 / (2 * (x_e - 0.045)) ** 2 - 1 / (2 * (x_e + 0.045)) ** 2)
+    near, far = a / (2 * (x_e - feat["d"])) ** 2, a / (2 * (x_e + feat["d"])) ** 2
+    if c == 1:
+        return (near - far) / MH
+    return -0.4 * (near + far) * np.exp(-(feat["g"] - 0.015) / 0.01) / MV
+
+
+def _shows(effect: str, force, seed: int, d_amp: float = 0.045):
+    runs = still_current_runs(force, seed, FLOOR, d_amp=d_amp)
     return evidence(effect, runs, dict(FLOORS), n_null=ST.signature_null, alpha=ST.signature_alpha,
                     min_over_floor=ST.signature_min_floor, seed=seed)  # fmt: skip
 
 
+#: Sweeps of +-120 mm along d: the data span two of the array's periods (2 x 2 tau = 228.6 mm, Table I).
+LONG_STROKE = 0.12
+
+
 @pytest.mark.parametrize(("force", "seed"), [(remanent_tooth, 41), (remanent_tooth, 42), (narrow_tooth, 43)])
 def test_a_stators_detent_at_the_arrays_period_is_cogging(force, seed):
-    """A detent of the array's period (a remanent tooth: ``2 tau``; a narrow tooth: ``tau``) shows cogging's
-    signature in both channels, and friction's (odd in the velocities) does not."""
-    ev = _shows("cogging", force, seed)
+    """A detent of the array's period (a remanent tooth: ``2 tau``; a narrow tooth: ``tau``) over a stroke that
+    spans two of ``2 tau`` shows cogging's signature in both channels, and friction's (odd in the velocities) does
+    not."""
+    ev = _shows("cogging", force, seed, LONG_STROKE)
     assert ev.shows, ev.per_channel
     assert ev.per_channel["horizontal"]["shows"], ev.per_channel
-    assert not _shows("friction", force, seed).shows
+    assert not _shows("friction", force, seed, LONG_STROKE).shows
+
+
+@pytest.mark.parametrize("seed", [46, 47])
+def test_end_plates_pull_over_the_rigs_stroke_is_not_cogging(seed):
+    """Iron end plates' pull on the array's end poles, a smooth bend over the rig's +-45 mm (its rms several
+    times the noise floor), does not show cogging's signature: the array's period is not tested there."""
+    runs = still_current_runs(end_plates, seed, FLOOR)
+    assert math.sqrt(np.mean(np.concatenate([r.r[:, 1] for r in runs]) ** 2)) > 3 * FLOOR
+    ev = _shows("cogging", end_plates, seed)
+    assert not ev.shows, ev.per_channel
+
+
+def test_a_periodic_shape_is_offered_where_the_data_span_two_periods():
+    """The learned periodic members are offered only where the data span two of their longest period: the pole
+    pair (2 tau = 114.3 mm) from 228.6 mm, the slot co-energy (2 t1 = 38.1 mm) from 76.2 mm (Table I)."""
+    assert MIN_PERIODS == 2
+    laws = {span: {m.law for m in offered(family_specs(), span)["cogging"]} for span in (0.07, 0.1, 0.23)}
+    assert "pole pair" in laws[0.23] and "co-energy 3" in laws[0.23]
+    assert "pole pair" not in laws[0.1] and {"co-energy 3", "co-energy 6"} <= laws[0.1]
+    assert not laws[0.07] & {"pole pair", "co-energy 3", "co-energy 6"}
+    assert {"default", "free decay", "own decay"} <= laws[0.07]  # closed-form laws: no period claimed
 
 
 @pytest.mark.parametrize(("force", "seed"), [(cable, 44), (tilt_and_spring, 45)])

@@ -78,6 +78,10 @@ class CandidateSpec:
         verdict by beating the refitted other effects on held-out runs (the
         no-false-claim guard), and the closed-form members are the
         parsimonious alternatives it must beat.
+    period_m : float
+        The longest period in ``d`` [m] of a learned periodic shape (0: none). A periodic shape is a claim
+        that the force repeats; data that do not span :data:`MIN_PERIODS` of its period cannot test it, and
+        the member is not offered there (:func:`offered`).
     """
 
     name: str
@@ -89,6 +93,7 @@ class CandidateSpec:
     note: str = ""
     law: str = "default"
     flexible: bool = False
+    period_m: float = 0.0
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -104,6 +109,23 @@ class CandidateSpec:
     def renamed(self, name: str) -> CandidateSpec:
         """Copy under another name."""
         return replace(self, name=name)
+
+
+#: Periods a learned periodic shape's data must span along ``d`` before it is offered: over less, the shape is
+#: one smooth bend of the stroke (a cosine of the array's period 2 tau = 114 mm over a 100 mm stroke is a bowl),
+#: which an end effect's pull, a cable's or a spring's takes as well; the fit cannot tell it repeats.
+MIN_PERIODS: float = 2.0
+
+
+def offered(fam: Mapping[str, tuple[CandidateSpec, ...]], span_m: float) -> dict[str, tuple[CandidateSpec, ...]]:
+    """The members of ``fam`` that data spanning ``span_m`` [m] along ``d`` can test: a learned periodic shape
+    only where the data cover :data:`MIN_PERIODS` of its longest period (:attr:`CandidateSpec.period_m`)."""
+    out = {}
+    for effect, members in fam.items():
+        kept = tuple(m for m in members if m.period_m <= 0 or span_m >= MIN_PERIODS * m.period_m)
+        if kept:
+            out[effect] = kept
+    return out
 
 
 #: Numbers of harmonics of the cogging co-energy members (the complexity the selection chooses between).
@@ -197,80 +219,58 @@ def library_specs() -> dict[str, CandidateSpec]:
 def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
     """Law families: for each library effect, its members, the library's law (the nested one) first.
 
-    A rig's effects rarely follow the library's law exactly; each family nests
-    the library's law in a more general one, so that an effect whose law
-    differs is still named (the member is chosen by held-out score and the
+    A rig's effects rarely follow the library's law exactly; each family nests the library's law in a more general
+    one, so that an effect whose law differs is still named (the member is chosen by held-out score and the
     information criterion, see :func:`maglev_ocp.diagnosis.diagnose.diagnose`):
 
-    - ``cogging``: ``free decay``: the decay as a free smooth function of g
-      (exponential, power law and a curvature of the log-decay,
-      :class:`~maglev_ocp.effects.Cogging`), the normal-to-tangential ratio
-      and the 2nd/3rd harmonics free;
-    - ``friction``: ``stribeck``: Coulomb + viscous + the Stribeck excess and
-      velocity (a hysteretic Dahl/LuGre term needs a friction state the
-      equation-error residual does not carry; below the 15 Hz cut-off its
-      pre-sliding part acts like a smoothed Coulomb force); ``load``: the
-      dry friction scaled by the guide's load as the gap changes;
-    - ``saturation``: which terms it scales: ``field`` (the magnet field: its
-      B^2 attraction and cogging lose twice what the B-linear PM-current and
-      thrust terms lose, the reluctance term nothing), ``current terms``
-      (the field of the currents: the current-linear PM-current and thrust
-      terms lose L, the reluctance term, quadratic in it, twice that, the
-      magnets' attraction nothing) and
-      ``per term`` (a free share for each); and the loss's profile in g:
-      ``knee`` (and ``field``, ``current terms``) a logistic step whose knee is
-      free, nesting the exponential at ``knee = 0``; ``shape`` and ``shape
-      current terms`` (flexible): a learned loss of any shape that never falls
-      as the gap closes (a cubic B-spline in g with non-negative steps,
-      :meth:`~maglev_ocp.effects.Saturation.shape_loss`), on every magnetic
-      term or on the current terms; ``current loss`` (flexible): a loss of the
-      current terms non-decreasing in the current magnitude, whatever the gap
+    - ``cogging``: ``free decay``: the decay as a free smooth function of g (exponential, power law and a curvature
+      of the log-decay, :class:`~maglev_ocp.effects.Cogging`), the normal-to-tangential ratio and the 2nd/3rd
+      harmonics free;
+    - ``friction``: ``stribeck``: Coulomb + viscous + the Stribeck excess and velocity (a hysteretic Dahl/LuGre term
+      needs a friction state the equation-error residual does not carry; below the 15 Hz cut-off its pre-sliding
+      part acts like a smoothed Coulomb force); ``load``: the dry friction scaled by the guide's load as the gap
+      changes;
+    - ``saturation``: which terms it scales: ``field`` (the magnet field: its B^2 attraction and cogging lose twice
+      what the B-linear PM-current and thrust terms lose, the reluctance term nothing), ``current terms`` (the field
+      of the currents: the current-linear PM-current and thrust terms lose L, the reluctance term, quadratic in it,
+      twice that, the magnets' attraction nothing) and ``per term`` (a free share for each); and the loss's profile
+      in g: ``knee`` (and ``field``, ``current terms``) a logistic step whose knee is free, nesting the exponential
+      at ``knee = 0``; ``shape`` and ``shape current terms`` (flexible): a learned loss of any shape that never
+      falls as the gap closes (a cubic B-spline in g with non-negative steps,
+      :meth:`~maglev_ocp.effects.Saturation.shape_loss`), on every magnetic term or on the current terms; ``current
+      loss`` (flexible): a loss of the current terms non-decreasing in the current magnitude, whatever the gap
       (:meth:`~maglev_ocp.effects.Saturation.current_loss`);
-    - ``commutation_offset``: ``drift``: the offset grows linearly along the
-      stroke (a commutation encoder scale off the position encoder's);
-    - ``end_effect``: ``free profile``: the overhang loss scaled and bent
-      (``edge_gain``, ``edge_quad``); ``two ends``, ``two ends, end force``
-      and ``two ends, winding force``: ends of their own, with the magnets'
-      end force and the winding's (a force along d quadratic in the
-      currents, where the armature's inductance changes at a stator end);
-      ``two ends, winding loss``: ends of their own, the magnets' pull
-      keeping a share of its own (``edge_pm``: the winding's linkage lost at
-      the ends, the iron's pull whole);
-      ``spline profile``: a loss of any
-      smooth shape in ``|d|`` that never falls as the overhang grows (a cubic
-      B-spline with non-negative steps, the same at both ends, so it also
-      takes a loss that levels off), and the cogging's share of the loss;
-    - ``amplifier_lag``: the library's member searches a continuous effective
-      delay (whole samples plus a lag, which act alike below the cut-off);
-      ``fractional``: a first-order lag and a transport delay of any length;
-      ``second``: a second-order response (natural frequency, damping) and a
-      fractional delay (:mod:`.lagfit`: the search over the group delay,
-      the lag's share of it and the damping);
-      ``eddy_drag``: ``reitz``: a drag shaped in velocity (linear at low
-      speed, falling above a critical velocity) with a lift that opens the
-      gap (Reitz 1970), its coefficient decaying with g at a rate bounded
-      by the field's harmonics (:class:`~maglev_ocp.effects.EddyDrag`);
-      ``two_axis``: the drag on both velocities; ``d profile``: the drag times
-      a smooth profile along the stroke (:meth:`~maglev_ocp.effects.EddyDrag.profile`);
-      ``side``: a conductor beside the array, its drag growing as the gap
-      opens (never flat in g: a flat coefficient is viscous friction's);
-      ``two conductors``: both, the sum of a drag falling and one growing with g
-      (a conductor under the array and one above or beside it);
-      ``normal``: a conductor damping the gap's own motion, its coefficient
+    - ``commutation_offset``: ``drift``: the offset grows linearly along the stroke (a commutation encoder scale off
+      the position encoder's);
+    - ``end_effect``: ``free profile``: the overhang loss scaled and bent (``edge_gain``, ``edge_quad``); ``two
+      ends``, ``two ends, end force`` and ``two ends, winding force``: ends of their own, with the magnets' end
+      force and the winding's (a force along d quadratic in the currents, where the armature's inductance changes at
+      a stator end); ``two ends, winding loss``: ends of their own, the magnets' pull keeping a share of its own
+      (``edge_pm``: the winding's linkage lost at the ends, the iron's pull whole); ``spline profile``: a loss of
+      any smooth shape in ``|d|`` that never falls as the overhang grows (a cubic B-spline with non-negative steps,
+      the same at both ends, so it also takes a loss that levels off), and the cogging's share of the loss;
+    - ``amplifier_lag``: the library's member searches a continuous effective delay (whole samples plus a lag, which
+      act alike below the cut-off); ``fractional``: a first-order lag and a transport delay of any length;
+      ``second``: a second-order response (natural frequency, damping) and a fractional delay (:mod:`.lagfit`: the
+      search over the group delay, the lag's share of it and the damping);
+    - ``eddy_drag``: ``reitz``: a drag shaped in velocity (linear at low speed, falling above a critical velocity)
+      with a lift that opens the gap (Reitz 1970), its coefficient decaying with g at a rate bounded by the field's
+      harmonics (:class:`~maglev_ocp.effects.EddyDrag`); ``two_axis``: the drag on both velocities; ``d profile``:
+      the drag times a smooth profile along the stroke (:meth:`~maglev_ocp.effects.EddyDrag.profile`); ``side``: a
+      conductor beside the array, its drag growing as the gap opens (never flat in g: a flat coefficient is viscous
+      friction's); ``two conductors``: both, the sum of a drag falling and one growing with g (a conductor under the
+      array and one above or beside it); ``normal``: a conductor damping the gap's own motion, its coefficient
       falling with g (never flat: a flat damping of the gap is the air's);
-    - learned shapes (flexible) of ``cogging`` (``co-energy 3``, ``co-energy 6``:
-      a co-energy periodic in d whose gradient is both the tangential and the
-      normal force, each harmonic decaying in g at a rate of its own,
-      :meth:`~maglev_ocp.effects.Cogging.energy_forces`; ``pole pair``: the
-      same with harmonics of the array's period ``2 tau``, a stator that is
-      not uniform),
-      ``friction`` (``spline``: an odd function of each velocity, Coulomb +
-      viscous + a non-negative spline of the speed, its load) and
-      ``commutation_offset`` (``spline``: the angle a spline of d);
-    - ``commutation_offset``: ``electrical harmonics``: an angle error
-      periodic in the electrical angle (first and second harmonics) whose
-      amplitude grows or falls with the gap at a fitted rate; ``latency``: the
-      angle lags with the speed (a sensor's, a filter's or a shield's delay).
+    - learned shapes (flexible) of ``cogging`` (``co-energy 3``, ``co-energy 6``: a co-energy periodic in d whose
+      gradient is both the tangential and the normal force, each harmonic decaying in g at a rate of its own,
+      :meth:`~maglev_ocp.effects.Cogging.energy_forces`; ``pole pair``: the same with harmonics of the array's
+      period ``2 tau``, a stator that is not uniform; each offered only where the data span :data:`MIN_PERIODS` of
+      its period, :func:`offered`), ``friction`` (``spline``: an odd function of each velocity, Coulomb + viscous +
+      a non-negative spline of the speed, its load) and ``commutation_offset`` (``spline``: the angle a spline of
+      d);
+    - ``commutation_offset``: ``electrical harmonics``: an angle error periodic in the electrical angle (first and
+      second harmonics) whose amplitude grows or falls with the gap at a fitted rate; ``latency``: the angle lags
+      with the speed (a sensor's, a filter's or a shield's delay).
     """
     lib = library_specs()
     out = {n: (s,) for n, s in lib.items()}
@@ -325,6 +325,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             ),
             law=f"co-energy {n_h}",
             flexible=True,
+            period_m=ENERGY_PERIOD,
         )
         for n_h in ENERGY_HARMONICS
     )
@@ -348,6 +349,7 @@ def family_specs() -> dict[str, tuple[CandidateSpec, ...]]:
             ),
             law="pole pair",
             flexible=True,
+            period_m=POLE_PERIOD,
         ),
     )
     stribeck = _free("friction.stribeck_g", "friction.stribeck_d", "friction.v_stribeck")
@@ -784,4 +786,13 @@ def combine(a: CandidateSpec, b: CandidateSpec) -> CandidateSpec:
     )
 
 
-__all__ = ["PRIOR_SD", "CandidateSpec", "Free", "calibration_free", "combine", "family_specs", "library_specs"]
+__all__ = [
+    "PRIOR_SD",
+    "CandidateSpec",
+    "Free",
+    "calibration_free",
+    "combine",
+    "family_specs",
+    "library_specs",
+    "offered",
+]

@@ -30,6 +30,7 @@ import numpy as np
 from scipy.interpolate import BSpline
 
 from .. import constants as k
+from .library import MIN_PERIODS
 from .residuals import CHANNELS, Residual
 
 Feat = dict[str, np.ndarray]
@@ -43,6 +44,10 @@ _V_SIGN = 2e-3  # velocity scale of the smoothed sign of a friction force [m/s]
 def _sincos(period: float, harmonic: int, var: str = "d") -> list[Column]:
     w = 2 * math.pi * harmonic / period
     return [lambda f, w=w: np.sin(w * f[var]), lambda f, w=w: np.cos(w * f[var])]
+
+
+def _spanned(col: Column, period: float) -> Column:  # nil where the samples span < MIN_PERIODS of the period
+    return lambda f: col(f) if np.ptp(f["d"]) >= MIN_PERIODS * period else np.zeros(len(f["d"]))
 
 
 def _times(cols: Sequence[Column], by: Column) -> list[Column]:
@@ -253,11 +258,12 @@ def _catalogue() -> dict[str, Signature]:
     # its 2nd and 3rd harmonics are k = 2, 4, 6 (the co-energy member's harmonics, Cogging.energy_forces).
     cog = [c for h in range(1, 7) for c in _sincos(2 * t1, h)]
     cog_g = cog + _times(cog, _dg)  # amplitude a smooth function of g (eq. (9): exponential in g)
-    # A stator that is not uniform: harmonics 1, 2 of the array's period 2 tau (Cogging's pole-pair co-energy),
-    # smooth in d over the stroke: judged beyond a spring, a linear gap law (a cable, a tilt) and friction's
-    # Coulomb and viscous columns (smooth columns of d share some of a Coulomb force's square wave). Not in
-    # ``own`` nor in the periods (the angle lock's ripple; the gap locator counts 2 tau as twice tau).
-    pole = [c for h in (1, 2) for c in _sincos(2 * tau, h)]
+    # A stator that is not uniform: harmonics 1, 2 of the array's period 2 tau (the pole-pair co-energy), judged
+    # beyond a spring, a linear gap law and friction's Coulomb and viscous columns; not in ``own`` nor the periods
+    # (angle lock; gap locator). Nil where the data span less than MIN_PERIODS of it (a bend: library.offered).
+    # Periodic: judged beyond a bend of the stroke (a spring, its square and cube: an end pull, a cable's sag).
+    bend = [_spring, lambda f: _spring(f) ** 2, lambda f: _spring(f) ** 3]
+    pole = [_spanned(c, 2 * tau) for h in (1, 2) for c in _sincos(2 * tau, h)]
     cog_g += pole + _times(pole, _dg)
     # At full freedom in its own variables: every harmonic times cubic B-splines in g (any smooth amplitude law).
     cog_own = [c for j in range(GAP_SPLINES) for c in _times(cog, lambda f, j=j: _gap_spline(f, j))]
@@ -292,10 +298,8 @@ def _catalogue() -> dict[str, Signature]:
     eddy_gap, flat_gap = visc_g[1:3], visc_g[:1]
     ends = end_columns()
     ends_g = ends + _times(ends, _dg)  # the current-free end force and pull loss, their size smooth in g
-    # A loss at the ends of any smooth profile, which saturation (the same along the stroke) is judged beyond: the
-    # end effect's own basis keeps the circular-shift null's power with two steps per end; as columns to be
-    # judged *beyond*, four follow a profile's shape (a linear ramp over the last slots) closely enough that its
-    # misfit does not pass for saturation's loss of the current terms
+    # A loss at the ends of any smooth profile, which saturation is judged beyond: two steps per end in the end
+    # effect's own basis (the null's power); four as *beyond* columns, to follow a ramp over the last slots.
     ends_fine = end_columns(SATURATION_END_STEPS)
     ripple = [c for h in (1, 2) for c in _sincos(tau, h)]
     sat = [lambda f, ell=ell: np.exp(-(f["g"] - 8e-3) / ell) for ell in (2e-3, 5e-3)]
@@ -303,10 +307,8 @@ def _catalogue() -> dict[str, Signature]:
     i_q: Column = lambda f: f["i_q"]  # noqa: E731
     i_d: Column = lambda f: f["i_d"]  # noqa: E731
     # A commutation offset turns i_d into thrust and i_q into lift: at a fixed position its error still follows the
-    # currents (the levitation current changes with the gap held), where a force of the position alone (gravity
-    # on a tilted base, a cable's or a spring's pull along d) does not: its core is its basis beyond a flexible
-    # function of d.
-    # A latency turns the angle with the speed: i_d d_dot into the thrust, i_q d_dot into the lift.
+    # currents, where a force of the position alone (a tilt, a cable, a spring) does not: its core is its basis
+    # beyond a flexible function of d. A latency turns the angle with the speed: i_d d_dot, i_q d_dot.
     com = {"horizontal": [i_d, lambda f: f["i_d"] * f["d"] / 0.05, lambda f: f["i_d"] * f["d_dot"] / 0.1],
            "vertical": [i_q, lambda f: f["i_q"] * f["d"] / 0.05, lambda f: f["i_q"] * f["i_d"],
                         lambda f: f["i_q"] * f["d_dot"] / 0.1]}  # fmt: skip
@@ -316,10 +318,10 @@ def _catalogue() -> dict[str, Signature]:
         Signature("cogging", ("d", "g"), CHANNELS, tuple(2 * t1 / h for h in range(1, 7)),
                   "periodic in d with eq. (9)'s period 2 t1 (harmonics 1-6: the slot pitch t1 and its 2nd and 3rd "
                   "harmonics among them) or, from a stator that is not uniform, with the array's period 2 tau "
-                  "(harmonics 1, 2, beyond a spring), amplitude smooth in g",
+                  "(harmonics 1, 2, beyond a spring, where the data span two of its periods), amplitude smooth in g",
                   {c: cog_g for c in CHANNELS},
                   own={c: cog_own for c in CHANNELS}, angle_free=True,
-                  beyond={"horizontal": [_spring, _dg, *fr_d[:2]], "vertical": [_spring, _dg, *fr_g[:2]]}),
+                  beyond={"horizontal": [*bend, _dg, *fr_d[:2]], "vertical": [*bend, _dg, *fr_g[:2]]}),
         Signature("friction", ("g_dot", "d_dot", "g"), CHANNELS, (),
                   "odd in each axis' velocity, its dry level smooth in the guide's load (the gap); on the gap axis "
                   "a dry level beyond any viscous drag, along d beyond a drag that follows the gap",

@@ -373,7 +373,7 @@ def _static_rivals(run: Run, att: Attribution, e: str, rest: Sequence[str]) -> d
     model on the held-out runs both ways (:func:`_two_sided`). ``{family: {law, z_region, z_all, k_verdict,
     k_flexible, winner, keeps}}``; empty when there is no rival or a fit failed (then nothing is concluded).
     """
-    fams = run.settings.families()
+    fams = run.families()
     names = [*rest, e]
     _, vfit, vsc = joint_model(run, att, names)
     if not vfit.success:
@@ -424,7 +424,7 @@ def _own_gain(run: Run, att: Attribution, e: str, names: Sequence[str]) -> dict:
     """Test (b): the effect's held-out gain over the others refitted with their full freedom."""
     rules = run.rules
     others = [n for n in names if n != e]
-    fams = run.settings.families()
+    fams = run.families()
     flex = {o: joint_spec(most_flexible(o, att.specs[o], fams), run.base) for o in others}
     reuse = all(flex[o].law == att.specs[o].law for o in others)
     if reuse:

@@ -360,7 +360,7 @@ def rechoose_law(
     the model of ``names`` (the new one). Returns the new joint model, or None when the member stays.
     """
     base, st, warnings = run.base, run.settings, run.warnings
-    rules, fam = st.rules(), st.families()
+    rules, fam = st.rules(), run.families()
     names = list(names)
     spec, fit, cur = current
     old = att.specs[e]

@@ -26,7 +26,7 @@ from ...parallel import available_cpus, fork_pool
 from ..attribution import EffectScore, score
 from ..fit import FitResult, fit_candidate, residuals_with
 from ..lagfit import LAG_START_KEYS
-from ..library import CandidateSpec
+from ..library import CandidateSpec, offered
 from ..localize import ChannelFloor
 from ..settings import DiagnoseSettings, VerdictRules
 from ..verdict import Verdict
@@ -104,6 +104,13 @@ class Run:
     def rules(self) -> VerdictRules:
         """The verdict's thresholds."""
         return self.settings.rules()
+
+    def families(self) -> dict[str, tuple[CandidateSpec, ...]]:
+        """The library the selection tries on these data: the settings' (less ``exclude_laws``) less the learned
+        periodic shapes whose period the runs do not span twice (:func:`..library.offered`)."""
+        runs = [r.feat["d"] for r in (*self.split.train, *self.split.test) if len(r.feat.get("d", ()))]
+        span = max(map(np.max, runs)) - min(map(np.min, runs)) if runs else 0.0
+        return offered(self.settings.families(), float(span))
 
     @property
     def n_workers(self) -> int:

@@ -32,7 +32,7 @@ def attribute(run: Run, loc: Localization) -> Attribution:
     ones), scored on the held-out runs; the single-effect verdict."""
     base, st, warnings = run.base, run.settings, run.warnings
     rules = st.rules()
-    fam = st.families()  # the library less the settings' exclude_laws
+    fam = run.families()  # the library less the settings' exclude_laws and what the data cannot test
     names = [n for n in (st.candidates or library_names()) if n in fam]
     if not base.given:
         names = [n for n in names if n != "parameter_error"]
@@ -74,7 +74,7 @@ def _choose_laws(run: Run, att: Attribution) -> None:
     significantly worse than the best member's (paired z below ``confusable_z``)."""
     base, st, warnings = run.base, run.settings, run.warnings
     rules = st.rules()
-    fam = st.families()  # the library less the settings' exclude_laws
+    fam = run.families()  # the library less the settings' exclude_laws and what the data cannot test
     # The training data's information criterion ranks them (a law that differs can leave the default member's
     # held-out gain small while the data clearly favour the effect).
     promising = [
