@@ -24,7 +24,7 @@ with every other entry); ``v15`` at 585200d (its final draw ranges; branch lawsv
 the same at c887e4f (branch lawsv16, with every other entry); ``v16`` at c887e4f (its final draw ranges; branch
 lawsv16) on an AMD EPYC at X86_V3, found the same at 78bac6e (branch lawsv17, with every other entry); ``v17`` at
 78bac6e (its final draw ranges; branch lawsv17) on an AMD EPYC at X86_V3, found the same at branch lawsv18 (with every
-other entry); ``v18`` on branch lawsv18 (its final draw ranges, the commit after 0eab841) on an AMD EPYC at X86_V3.
+other entry); ``v18`` at 08ae060 (its final draw ranges; branch lawsv18) on an AMD EPYC at X86_V3.
 A new law set adds its entry here, recorded at the commit before it.
 """
 
