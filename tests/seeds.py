@@ -74,6 +74,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         *range(9500, 9506),  # full-size trials of rigsim's fifteenth law set (lawsv15: one dataset per family, draws)
         *range(9600, 9606),  # full-size trials of rigsim's sixteenth law set (lawsv16: one dataset per family, draws)
         *range(9700, 9706),  # full-size trials of rigsim's seventeenth law set (lawsv17: one dataset per family, draws)
+        *range(9800, 9806),  # full-size trials of rigsim's eighteenth law set (lawsv18: one dataset per family, draws)
     }
 )  # fmt: skip
 

@@ -23,7 +23,8 @@ the same (by its CPU-independent digest, with every other entry) at 4eee964 on a
 with every other entry); ``v15`` at 585200d (its final draw ranges; branch lawsv15) on an AMD EPYC at X86_V3, found
 the same at c887e4f (branch lawsv16, with every other entry); ``v16`` at c887e4f (its final draw ranges; branch
 lawsv16) on an AMD EPYC at X86_V3, found the same at 78bac6e (branch lawsv17, with every other entry); ``v17`` at
-78bac6e (its final draw ranges; branch lawsv17) on an AMD EPYC at X86_V3.
+78bac6e (its final draw ranges; branch lawsv17) on an AMD EPYC at X86_V3, found the same at branch lawsv18 (with every
+other entry); ``v18`` at 08ae060 (its final draw ranges; branch lawsv18) on an AMD EPYC at X86_V3.
 A new law set adds its entry here, recorded at the commit before it.
 """
 
@@ -59,6 +60,7 @@ DRAWS = {
     "v15": {"X86_V3": "772ae9ec5ed9e3e2a780f9fca3fd99ba608754eaa447d0fdde51d4836415821e"},
     "v16": {"X86_V3": "1a45f5ef4fe8cc470702e2a6855843bb5a227d086b3dcf53f152ea2df61fcbd8"},
     "v17": {"X86_V3": "50773220ef52f65405f1a8ca1da68380106c40ea7ad5b30912152fc0e7413bba"},
+    "v18": {"X86_V3": "33021d9ee1313cdd8b6869ae0112135bd632175fd6f066ad1afd3c58b04ae08b"},
 }
 
 

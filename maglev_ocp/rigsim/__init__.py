@@ -10,8 +10,8 @@ can be checked on a rig they were not built from.
 * :mod:`.laws` - effects as law families (library effects and ones outside the library);
 * :mod:`.laws_new`, :mod:`.laws_v3`, :mod:`.laws_v4`, :mod:`.laws_v5`, :mod:`.laws_v6`, :mod:`.laws_v7`,
   :mod:`.laws_v8`, :mod:`.laws_v9`, :mod:`.laws_v10`, :mod:`.laws_v11`, :mod:`.laws_v12`, :mod:`.laws_v13`,
-  :mod:`.laws_v14`, :mod:`.laws_v15`, :mod:`.laws_v16`, :mod:`.laws_v17` - a second to seventeenth set of families from
-  the literature (issue 27; :mod:`.draw_v4` ... :mod:`.draw_v17` draw the fourth to seventeenth);
+  :mod:`.laws_v14`, :mod:`.laws_v15`, :mod:`.laws_v16`, :mod:`.laws_v17`, :mod:`.laws_v18` - a second to eighteenth set
+  of families from the literature (issue 27; :mod:`.draw_v4` ... :mod:`.draw_v18` draw the fourth to eighteenth);
 * :mod:`.control` - the generator's own feedback-linearizing PID controller;
 * :mod:`.sim` - the rig (amplifier, encoders, noise, stops) and the closed loop (Dormand-Prince 5);
 * :mod:`.excite` - min-jerk moves at varied speeds plus dither over the gap band and the stroke;
@@ -41,7 +41,8 @@ from .laws_v13 import EFFECTS_V13, V13_LAWS
 from .laws_v14 import EFFECTS_V14, V14_LAWS
 from .laws_v15 import EFFECTS_V15, V15_LAWS
 from .laws_v16 import EFFECTS_V16, V16_LAWS
-from .laws_v17 import EFFECTS_V17, V17_LAWS, make_law
+from .laws_v17 import EFFECTS_V17, V17_LAWS
+from .laws_v18 import EFFECTS_V18, V18_LAWS, make_law
 from .physics import NOMINAL, Constants
 from .sim import RigSettings
 
@@ -64,6 +65,7 @@ __all__ = [
     "EFFECTS_V15",
     "EFFECTS_V16",
     "EFFECTS_V17",
+    "EFFECTS_V18",
     "LAWS",
     "LIBRARY_EFFECTS",
     "NEW_LAWS",
@@ -84,6 +86,7 @@ __all__ = [
     "V15_LAWS",
     "V16_LAWS",
     "V17_LAWS",
+    "V18_LAWS",
     "Constants",
     "RigSettings",
     "draw",

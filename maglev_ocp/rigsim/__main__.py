@@ -9,7 +9,7 @@ import time
 
 from .draw import LAW_SETS, draw
 from .generate import generate
-from .laws_v17 import EFFECTS_V17 as LAWS
+from .laws_v18 import EFFECTS_V18 as LAWS
 from .sim import RigSettings
 
 

@@ -33,6 +33,7 @@ from .draw_v14 import draw_v14
 from .draw_v15 import draw_v15
 from .draw_v16 import draw_v16
 from .draw_v17 import draw_v17
+from .draw_v18 import draw_v18
 from .laws import LAWS, LIBRARY_EFFECTS, OUT_OF_LIBRARY
 from .laws_new import ALL_EFFECTS, ALL_LIBRARY, ALL_OUT_OF_LIBRARY, NEW_LAWS
 from .laws_v3 import EFFECTS_V3, V3_LAWS, V3_LIBRARY, V3_OUT_OF_LIBRARY
@@ -448,6 +449,7 @@ _SET_DRAWS = {
     "v15": draw_v15,
     "v16": draw_v16,
     "v17": draw_v17,
+    "v18": draw_v18,
 }
 
 #: Which laws :func:`draw` may use: ``old`` (the first families: same scenario per seed as before

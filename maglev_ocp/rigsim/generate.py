@@ -27,7 +27,7 @@ from ..riglog import RunLog, write_dataset
 from .excite import references
 from .laws import Law
 from .laws_new import AmplifierNew
-from .laws_v17 import EFFECTS_V17, make_law
+from .laws_v18 import EFFECTS_V18, make_law
 from .physics import NOMINAL, Constants
 from .sim import Rig, RigSettings, Trajectory, simulate
 
@@ -46,7 +46,7 @@ def build_laws(effects: EffectsArg) -> list[Law]:
     names = [law.name for law in laws]
     if len(set(names)) != len(names):
         raise ValueError(f"each effect at most once, got {names}")
-    order = list(EFFECTS_V17)
+    order = list(EFFECTS_V18)
     return sorted(laws, key=lambda law: order.index(law.name))
 
 
