@@ -63,6 +63,7 @@ DEVELOPMENT_SEEDS: frozenset[int] = frozenset(
         951370378,  # issue 27's pre-registered blind check on rigsim's fifteenth law set (26th session): spent
         155560277,  # issue 27's pre-registered blind check on rigsim's sixteenth law set (27th session): spent
         1474961241,  # issue 27's pre-registered blind check on rigsim's seventeenth law set (28th session): spent
+        1257113811,  # issue 27's pre-registered blind check on rigsim's eighteenth law set (29th session): spent
         2232377194,  # case 8 of the sixth set's blind check (seed 1049996647): test_diagnosis_thrust's cogging rig
         *range(8800, 8807),  # full-size trials of rigsim's eighth law set (lawsv8: one dataset per family, draws)
         *range(8900, 8907),  # full-size trials of rigsim's ninth law set (lawsv9: one dataset per family, draws)
