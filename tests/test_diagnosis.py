@@ -704,7 +704,7 @@ def test_another_effects_laws_are_tried_beside_a_held_lag_and_the_chosen_ones_la
     calls = []
 
     def spec_of(name, law, lag):
-        return SimpleNamespace(name=name, law=law, lag=lag, note="", keys=(), with_free=lambda free: None)
+        return SimpleNamespace(name=name, law=law, lag=lag, note="", keys=(), with_free=lambda free: None, period_m=0.0)
 
     def combine(a, b):
         return SimpleNamespace(name=f"{a.name}+{b.name}", law=f"{a.law}+{b.law}", lag=a.lag or b.lag, note="")
@@ -727,7 +727,7 @@ def test_another_effects_laws_are_tried_beside_a_held_lag_and_the_chosen_ones_la
     members = {"cogging": cog, "amplifier_lag": amp}
     st = SimpleNamespace(rules=lambda: SimpleNamespace(bic_margin=6.0), families=lambda: members)
     base = SimpleNamespace(noise_infl=1.0)
-    run = Run(None, base, st)
+    run = Run(SimpleNamespace(train=[], test=[]), base, st)  # no runs: every member without a period is offered
     att = Attribution.__new__(Attribution)
     att.specs = {"cogging": members["cogging"][0], "amplifier_lag": members["amplifier_lag"][0]}
     att.fits = {"cogging": SimpleNamespace(params=dict), "amplifier_lag": SimpleNamespace(params=dict)}
